@@ -1,0 +1,225 @@
+"""Structure read off circuits: moments, Pauli generators, Hamming-weight preservation.
+
+Builders never keep a parallel list of layers; everything structural is derived here from the
+gates themselves (DESIGN.md, "Structure is derived, not duplicated").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from qiskit.circuit import CircuitInstruction, Parameter, ParameterExpression, QuantumCircuit
+from qiskit.quantum_info import SparsePauliOp
+
+__all__ = [
+    "moments",
+    "depth_of_gates",
+    "instruction_generator",
+    "parameter_of",
+    "is_hamming_weight_preserving",
+    "HW_PRESERVING_GATES",
+]
+
+#: Names of gates that preserve Hamming weight (used by :func:`is_hamming_weight_preserving`).
+HW_PRESERVING_GATES = frozenset(
+    {"rbs", "fbs", "rz", "z", "s", "sdg", "t", "tdg", "p", "cz", "cp", "rzz", "swap",
+     "iswap", "xx_plus_yy", "id", "barrier", "measure", "delay"}
+)
+
+_SKIP = frozenset({"barrier", "measure", "delay"})
+
+
+def moments(
+    circuit: QuantumCircuit, *, include_unparameterised: bool = True
+) -> list[list[CircuitInstruction]]:
+    """Parallel layers (moments) of a circuit, as soon as possible.
+
+    Each instruction is placed in the earliest layer after every earlier instruction that
+    shares a qubit with it. Barriers synchronise the qubits they span but occupy no layer;
+    measurements and delays are skipped.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Any circuit.
+    include_unparameterised : bool, optional
+        If False, only instructions with at least one free parameter are layered (the
+        trainable structure, as used by the paper's layer-by-layer decompositions).
+
+    Returns
+    -------
+    list of list of CircuitInstruction
+        ``moments[m]`` holds the instructions of layer ``m`` in circuit order; within a layer
+        no two instructions share a qubit.
+
+    Examples
+    --------
+    >>> from qdensity.ansatze import round_robin
+    >>> len(moments(round_robin(6)))
+    5
+    """
+    if not isinstance(circuit, QuantumCircuit):
+        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
+    front: dict[int, int] = {}
+    layers: list[list[CircuitInstruction]] = []
+    for inst in circuit.data:
+        qubits = [circuit.find_bit(q).index for q in inst.qubits]
+        name = inst.operation.name
+        if name == "barrier":
+            level = max((front.get(q, 0) for q in qubits), default=0)
+            for q in qubits:
+                front[q] = level
+            continue
+        if name in _SKIP:
+            continue
+        if not include_unparameterised and not _has_free_parameter(inst):
+            continue
+        level = max((front.get(q, 0) for q in qubits), default=0)
+        while len(layers) <= level:
+            layers.append([])
+        layers[level].append(inst)
+        for q in qubits:
+            front[q] = level + 1
+    return layers
+
+
+def depth_of_gates(circuit: QuantumCircuit, names: Sequence[str]) -> int:
+    """Depth counting only gates whose name is in ``names`` (e.g. ``["rbs"]`` for RBS depth).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+    names : sequence of str
+        Gate names that count.
+
+    Returns
+    -------
+    int
+    """
+    wanted = set(names)
+    return circuit.depth(filter_function=lambda inst: inst.operation.name in wanted)
+
+
+def _has_free_parameter(inst: CircuitInstruction) -> bool:
+    return any(isinstance(p, ParameterExpression) and p.parameters for p in inst.operation.params)
+
+
+def parameter_of(inst: CircuitInstruction) -> tuple[Parameter, float] | None:
+    """The single free parameter of a one-parameter gate and its linear coefficient.
+
+    Parameters
+    ----------
+    inst : CircuitInstruction
+
+    Returns
+    -------
+    (Parameter, float) or None
+        ``(p, a)`` when the gate's angle is ``a * p`` (plus a constant); None for gates with
+        no free parameter.
+
+    Raises
+    ------
+    ValueError
+        If the angle depends on more than one parameter or non-linearly on one.
+    """
+    exprs = [p for p in inst.operation.params if isinstance(p, ParameterExpression)]
+    exprs = [e for e in exprs if e.parameters]
+    if not exprs:
+        return None
+    if len(exprs) > 1:
+        raise ValueError(f"gate {inst.operation.name!r} has several parameterised angles")
+    expr = exprs[0]
+    if len(expr.parameters) != 1:
+        raise ValueError(
+            f"gate {inst.operation.name!r} angle {expr} depends on several parameters; "
+            "one parameter per gate is allowed"
+        )
+    (param,) = expr.parameters
+    coeff = expr.gradient(param)
+    if isinstance(coeff, ParameterExpression):
+        if coeff.parameters:
+            raise ValueError(f"gate angle {expr} is not linear in {param}")
+        coeff = complex(coeff).real
+    return param, float(coeff)
+
+
+def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> SparsePauliOp:
+    """Hermitian generator ``G`` with ``gate(angle) = exp(-i angle G)`` on the whole register.
+
+    Supported: ``rx, ry, rz`` (``G = P/2``), ``rxx, ryy, rzz, rzx`` (``G = P P / 2``),
+    ``rbs`` (``G = Q = (X_i Y_j - Y_i X_j)/2`` in qubit-indexed notation, eigenvalues
+    ``{-1, 0, 0, 1}``; paper eq. 8) and ``PauliEvolutionGate`` (``G = H``).
+
+    Parameters
+    ----------
+    inst : CircuitInstruction
+        One instruction of ``circuit``.
+    circuit : QuantumCircuit
+        The circuit, for qubit indices and width.
+
+    Returns
+    -------
+    SparsePauliOp
+        On ``circuit.num_qubits`` qubits, with respect to the gate's angle argument.
+
+    Raises
+    ------
+    ValueError
+        For a gate whose generator is not a known Pauli form.
+    """
+    n = circuit.num_qubits
+    q = [circuit.find_bit(b).index for b in inst.qubits]
+    name = inst.operation.name
+    if name in ("rx", "ry", "rz"):
+        return SparsePauliOp.from_sparse_list([(name[1].upper(), q, 0.5)], n)
+    if name in ("rxx", "ryy", "rzz"):
+        p = name[1].upper()
+        return SparsePauliOp.from_sparse_list([(p + p, q, 0.5)], n)
+    if name == "rzx":
+        return SparsePauliOp.from_sparse_list([("ZX", q, 0.5)], n)
+    if name == "rbs":
+        return SparsePauliOp.from_sparse_list(
+            [("XY", q, 0.5), ("YX", q, -0.5)], n
+        )
+    if name == "PauliEvolution":
+        op = inst.operation.operator
+        if isinstance(op, list):
+            raise ValueError("PauliEvolutionGate with a list of operators is not supported")
+        return SparsePauliOp(op).apply_layout(q, n)
+    raise ValueError(
+        f"no Pauli generator known for gate {name!r}; supported: rx, ry, rz, rxx, ryy, rzz, "
+        "rzx, rbs, PauliEvolution"
+    )
+
+
+def is_hamming_weight_preserving(circuit: QuantumCircuit) -> bool:
+    """Whether every gate of ``circuit`` preserves Hamming weight, read off the gate names.
+
+    Unknown gates are judged by their matrix (diagonal-block check) when they have one.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+
+    Returns
+    -------
+    bool
+    """
+    for inst in circuit.data:
+        name = inst.operation.name
+        if name in HW_PRESERVING_GATES:
+            continue
+        op = inst.operation
+        if getattr(op, "definition", None) is not None and op.definition is not None:
+            if is_hamming_weight_preserving(op.definition):
+                continue
+        try:
+            mat = np.asarray(op.to_matrix())
+        except Exception:
+            return False
+        weights = np.array([bin(i).count("1") for i in range(mat.shape[0])])
+        mask = weights[:, None] != weights[None, :]
+        if np.any(np.abs(mat[mask]) > 1e-12):
+            return False
+    return True

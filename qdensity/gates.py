@@ -1,0 +1,184 @@
+"""Hamming-weight-preserving two-mode gates: RBS and FBS (paper eq. 8, Supp. E eq. 24-25).
+
+Both are real ``Gate`` subclasses with an exact matrix, a gate-level ``_define`` in standard
+gates, and an ``inverse``; any transpiler unrolls them.
+
+Conventions (see DESIGN.md):
+
+* ``qc.append(RBSGate(theta), [i, j])`` has, in Qiskit's operator convention (basis index
+  ``q_i + 2 q_j``), the paper's matrix ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]``. On unary
+  amplitudes it rotates the ``(i, j)`` plane by ``+theta``:
+  ``y_i -> c y_i - s y_j``, ``y_j -> s y_i + c y_j``. ``RBS(theta) = exp(-i theta Q)``,
+  ``Q = (Y (x) X - X (x) Y) / 2`` with ``Y`` on qubit ``i``.
+* ``FBSGate(theta, m)`` acts on ``m`` contiguous qubits ``[i, ..., j]`` as ``RBS((-1)^p theta)``
+  on ``(i, j)``, where ``p`` is the parity of the qubits strictly between them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from qiskit.circuit import Gate, QuantumCircuit, QuantumRegister
+from qiskit.circuit.parameterexpression import ParameterValueType
+
+__all__ = ["RBSGate", "FBSGate", "rbs_matrix", "fbs_matrix"]
+
+
+def rbs_matrix(theta: float) -> np.ndarray:
+    """The 4 x 4 RBS matrix (paper eq. 8) in Qiskit's little-endian convention.
+
+    Parameters
+    ----------
+    theta : float
+        Rotation angle.
+
+    Returns
+    -------
+    numpy.ndarray, shape (4, 4)
+        ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]`` with ``c = cos(theta)``,
+        ``s = sin(theta)``, basis index ``q_0 + 2 q_1``.
+    """
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array(
+        [[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], dtype=complex
+    )
+
+
+def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
+    """The ``2^m x 2^m`` FBS matrix on ``m`` contiguous qubits (Supp. E.2, eq. 24).
+
+    Parameters
+    ----------
+    theta : float
+        Rotation angle.
+    num_qubits : int
+        Width ``m >= 2`` of the block; the gate couples its first and last qubit.
+
+    Returns
+    -------
+    numpy.ndarray, shape (2**m, 2**m)
+        Acts as ``RBS((-1)^p theta)`` on qubits ``(0, m-1)``, ``p`` the parity of qubits
+        ``1 .. m-2``; basis index ``sum_q b_q 2^q``.
+    """
+    m = _check_width(num_qubits)
+    dim = 2**m
+    out = np.eye(dim, dtype=complex)
+    last = m - 1
+    for b in range(dim):
+        lo, hi = b & 1, (b >> last) & 1
+        if lo == 1 and hi == 0:  # |1 on first, 0 on last>  -> pair (b, partner)
+            partner = b ^ 1 ^ (1 << last)
+            inner = (b >> 1) & ((1 << (m - 2)) - 1) if m > 2 else 0
+            sign = -1.0 if bin(inner).count("1") % 2 else 1.0
+            c, s = math.cos(sign * theta), math.sin(sign * theta)
+            out[b, b] = c
+            out[partner, partner] = c
+            out[partner, b] = s
+            out[b, partner] = -s
+    return out
+
+
+def _check_width(num_qubits: int) -> int:
+    if isinstance(num_qubits, bool) or not isinstance(num_qubits, (int, np.integer)):
+        raise TypeError(f"num_qubits must be an int >= 2, got {num_qubits!r}")
+    if num_qubits < 2:
+        raise ValueError(f"num_qubits must be >= 2 (the FBS block spans its pair), got {num_qubits}")
+    return int(num_qubits)
+
+
+class RBSGate(Gate):
+    r"""Reconfigurable beam splitter ``RBS(theta) = exp(-i theta (Y X - X Y)/2)`` (paper eq. 8).
+
+    A Givens rotation on the Hamming-weight-1 subspace of two qubits. On unary amplitudes of
+    qubits ``(i, j)``: ``y_i -> cos(theta) y_i - sin(theta) y_j``,
+    ``y_j -> sin(theta) y_i + cos(theta) y_j``. Equal to ``XXPlusYYGate(2 theta, pi/2)``.
+
+    Its definition uses two CZ gates (the minimum):
+    ``(H (x) H) CZ (RY(theta) (x) RY(-theta)) CZ (H (x) H)``.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity import RBSGate
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.append(RBSGate(0.3), [0, 1])
+    """
+
+    def __init__(self, theta: ParameterValueType, label: str | None = None):
+        super().__init__("rbs", 2, [theta], label=label)
+
+    def _define(self) -> None:
+        (theta,) = self.params
+        q = QuantumRegister(2, "q")
+        qc = QuantumCircuit(q, name=self.name)
+        qc.h([0, 1])
+        qc.cz(0, 1)
+        qc.ry(theta, 0)
+        qc.ry(-theta, 1)
+        qc.cz(0, 1)
+        qc.h([0, 1])
+        self.definition = qc
+
+    def inverse(self, annotated: bool = False) -> RBSGate:
+        """Return ``RBS(-theta)``."""
+        return RBSGate(-self.params[0])
+
+    def __array__(self, dtype=None, copy=None):
+        if copy is False:
+            raise ValueError("unable to avoid copy while creating an array as requested")
+        mat = rbs_matrix(float(self.params[0]))
+        return mat.astype(dtype) if dtype is not None else mat
+
+
+class FBSGate(Gate):
+    r"""Fermionic beam splitter on a contiguous block of ``num_qubits`` qubits (Supp. E.2).
+
+    Couples the block's first and last qubit ``(i, j)``: acts as ``RBS((-1)^p theta)`` on them,
+    where ``p`` is the parity of the ``num_qubits - 2`` qubits strictly between. It equals RBS
+    on adjacent qubits and on every unary input; a circuit of FBS gates acts on the
+    Hamming-weight-k subspace as the k-th compound of the orthogonal matrix of the same circuit
+    with RBS gates.
+
+    Defined as in eq. 25: the parity of the inner qubits is computed onto qubit ``i + 1`` with
+    CNOTs, a CZ from it conjugates the RBS (``Z RBS(theta) Z = RBS(-theta)``), and the parity is
+    uncomputed.
+
+    Parameters
+    ----------
+    theta : float or Parameter
+        Rotation angle.
+    num_qubits : int
+        Width of the contiguous block, ``>= 2``.
+    """
+
+    def __init__(self, theta: ParameterValueType, num_qubits: int, label: str | None = None):
+        super().__init__("fbs", _check_width(num_qubits), [theta], label=label)
+
+    def _define(self) -> None:
+        (theta,) = self.params
+        m = self.num_qubits
+        qc = QuantumCircuit(QuantumRegister(m, "q"), name=self.name)
+        last = m - 1
+        if m == 2:
+            qc.append(RBSGate(theta), [0, last])
+        else:
+            parity = 1
+            for k in range(2, last):
+                qc.cx(k, parity)
+            qc.cz(parity, 0)
+            qc.append(RBSGate(theta), [0, last])
+            qc.cz(parity, 0)
+            for k in reversed(range(2, last)):
+                qc.cx(k, parity)
+        self.definition = qc
+
+    def inverse(self, annotated: bool = False) -> FBSGate:
+        """Return ``FBS(-theta)`` on the same block."""
+        return FBSGate(-self.params[0], self.num_qubits)
+
+    def __array__(self, dtype=None, copy=None):
+        if copy is False:
+            raise ValueError("unable to avoid copy while creating an array as requested")
+        mat = fbs_matrix(float(self.params[0]), self.num_qubits)
+        return mat.astype(dtype) if dtype is not None else mat

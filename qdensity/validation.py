@@ -1,0 +1,169 @@
+"""Input checks shared by every module: one place for the error messages users see.
+
+Every check raises ``ValueError`` or ``TypeError`` naming the argument, the value it got and
+what is allowed. Nothing is renormalised or clipped silently.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+
+__all__ = [
+    "as_rng",
+    "seed_int",
+    "check_real_vector",
+    "check_nonzero_vector",
+    "check_distribution",
+    "check_parameter_values",
+    "check_positive_int",
+    "check_circuit",
+]
+
+SeedLike = int | np.random.Generator | None
+
+
+def as_rng(seed: SeedLike) -> np.random.Generator:
+    """A ``numpy.random.Generator`` from an int, a Generator (returned as is) or None.
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None
+
+    Returns
+    -------
+    numpy.random.Generator
+    """
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if seed is None or (isinstance(seed, numbers.Integral) and not isinstance(seed, bool)):
+        return np.random.default_rng(seed)
+    raise TypeError(f"seed must be an int, a numpy.random.Generator or None, got {seed!r}")
+
+
+def seed_int(seed: SeedLike) -> int | None:
+    """An integer seed for libraries that need one (Aer's ``seed_simulator``, transpiler).
+
+    Draws from the generator when given one, so a Generator still yields reproducible runs.
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None
+
+    Returns
+    -------
+    int or None
+    """
+    if seed is None:
+        return None
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, 2**31 - 1))
+    as_rng(seed)  # type check
+    return int(seed)
+
+
+def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
+    """A finite real 1-d float array, or a ``ValueError`` naming ``name``.
+
+    Parameters
+    ----------
+    x : array_like, shape (d,)
+    name : str
+        Argument name for the error message.
+    min_length : int
+        Smallest allowed ``d``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (d,), float64
+    """
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be a real vector, got {x!r}") from exc
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be 1-dimensional, got shape {arr.shape}")
+    if arr.size < min_length:
+        raise ValueError(f"{name} must have length >= {min_length}, got length {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf), got {arr}")
+    return arr
+
+
+def check_nonzero_vector(x, name: str, *, min_length: int = 2) -> np.ndarray:
+    """Like :func:`check_real_vector` and also refuses the zero vector (it has no direction)."""
+    arr = check_real_vector(x, name, min_length=min_length)
+    if not np.any(arr):
+        raise ValueError(f"{name} must not be the zero vector (it cannot be normalised)")
+    return arr
+
+
+def check_distribution(alpha, name: str = "alpha", *, atol: float = 1e-9) -> np.ndarray:
+    """A probability vector: finite, non-negative, summing to 1 within ``atol``.
+
+    Parameters
+    ----------
+    alpha : array_like, shape (K,)
+    name : str
+    atol : float
+        Tolerance on ``|sum(alpha) - 1|``. The vector is never renormalised.
+
+    Returns
+    -------
+    numpy.ndarray, shape (K,)
+    """
+    arr = check_real_vector(alpha, name, min_length=1)
+    if np.any(arr < 0):
+        raise ValueError(f"{name} must be non-negative, got {arr}")
+    total = float(arr.sum())
+    if abs(total - 1.0) > atol:
+        raise ValueError(
+            f"{name} must sum to 1 within {atol:g} (it is not renormalised), got sum {total!r}"
+        )
+    return arr
+
+
+def check_parameter_values(values, num_parameters: int, name: str = "values") -> np.ndarray:
+    """Parameter rows for a circuit with ``num_parameters`` parameters.
+
+    Parameters
+    ----------
+    values : array_like, shape (P,) or (B, P)
+    num_parameters : int
+    name : str
+
+    Returns
+    -------
+    numpy.ndarray, shape (P,) or (B, P)
+        Same number of dimensions as given.
+    """
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be real numbers, got {values!r}") from exc
+    if arr.ndim not in (1, 2) or arr.shape[-1] != num_parameters:
+        raise ValueError(
+            f"{name} must have shape ({num_parameters},) or (rows, {num_parameters}) "
+            f"(one value per circuit parameter, in circuit.parameters order), got {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got non-finite entries")
+    return arr
+
+
+def check_positive_int(value, name: str, *, minimum: int = 1) -> int:
+    """An int ``>= minimum`` (bools refused)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an int, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:
+    """A ``QuantumCircuit`` or a ``TypeError`` naming ``name``."""
+    if not isinstance(circuit, QuantumCircuit):
+        raise TypeError(f"{name} must be a qiskit QuantumCircuit, got {type(circuit).__name__}")
+    return circuit
