@@ -18,6 +18,7 @@ __all__ = [
     "check_nonzero_vector",
     "check_distribution",
     "check_parameter_values",
+    "as_parameter_rows",
     "check_positive_int",
     "check_circuit",
 ]
@@ -151,6 +152,28 @@ def check_parameter_values(values, num_parameters: int, name: str = "values") ->
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got non-finite entries")
     return arr
+
+
+def as_parameter_rows(values, num_parameters: int, name: str = "values") -> np.ndarray:
+    """Parameter rows as a 2-d array ``(rows, P)``; ``(P,)`` becomes one row.
+
+    For a circuit without parameters, ``None`` or an empty array gives one empty row.
+
+    Parameters
+    ----------
+    values : array_like, shape (P,) or (rows, P), or None when P == 0
+    num_parameters : int
+    name : str
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows, P)
+    """
+    if num_parameters == 0 and (values is None or np.size(values) == 0):
+        rows = 1 if values is None or np.ndim(values) < 2 else max(np.shape(values)[0], 1)
+        return np.zeros((rows, 0))
+    arr = check_parameter_values(values, num_parameters, name)
+    return arr[None, :] if arr.ndim == 1 else arr
 
 
 def check_positive_int(value, name: str, *, minimum: int = 1) -> int:
