@@ -1,0 +1,207 @@
+"""Parameter-shift gradients as plans (paper Supp. E, eq. 23).
+
+* Pauli rotations ``exp(-i t r P)`` (rx/ry/rz: r = 1/2; Pauli evolutions: r = |c|): the
+  two-term rule ``df/dt = r [f(t + pi/(4r)) - f(t - pi/(4r))]``.
+* RBS and FBS (generator eigenvalues {-1, 0, 1}): the four-term rule of eq. 23,
+  ``df/dt = [f(t + pi/4) - f(t - pi/4)] - (sqrt(2) - 1)/2 [f(t + pi/2) - f(t - pi/2)]``,
+  exact for every input and observable. ``rbs_rule="two_term"`` gives the pi/4 two-term rule,
+  exact only when no later gate touches the gate's qubits and the observable is diagonal
+  (DESIGN.md); it is offered to show that fact, not for use.
+
+A parameter shared by several gates is differentiated occurrence by occurrence: the circuit is
+rewritten with one fresh parameter per occurrence, and all shifted rows of that one template go
+into one job (one PUB). The circuit count of a gradient is read off its plan.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
+from qiskit.quantum_info import SparsePauliOp
+
+from ..analysis import instruction_generator, parameter_of
+from ..plans import Estimate, Plan, expectation_plan, probabilities_plan
+from ..validation import as_parameter_rows, check_circuit
+
+__all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "expand_occurrences"]
+
+_FOUR_TERM = (
+    (math.pi / 4, 1.0),
+    (-math.pi / 4, -1.0),
+    (math.pi / 2, -(math.sqrt(2) - 1) / 2),
+    (-math.pi / 2, (math.sqrt(2) - 1) / 2),
+)
+
+
+@dataclass(frozen=True)
+class ShiftRule:
+    """``df/dt = sum_i coeffs[i] f(t + shifts[i])`` for one gate angle ``t``."""
+
+    shifts: tuple[float, ...]
+    coeffs: tuple[float, ...]
+
+    @property
+    def num_terms(self) -> int:
+        return len(self.shifts)
+
+
+def _rule_for(inst, circuit: QuantumCircuit, rbs_rule: str) -> ShiftRule:
+    name = inst.operation.name
+    if name in ("rbs", "fbs"):
+        if rbs_rule == "four_term":
+            return ShiftRule(*zip(*_FOUR_TERM, strict=True))
+        if rbs_rule == "two_term":
+            return ShiftRule((math.pi / 4, -math.pi / 4), (1.0, -1.0))
+        raise ValueError(f"rbs_rule must be 'four_term' or 'two_term', got {rbs_rule!r}")
+    gen = instruction_generator(inst, circuit).simplify()
+    if len(gen) != 1:
+        raise ValueError(
+            f"gate {name!r} has a generator with {len(gen)} Pauli terms; the two-term rule "
+            "needs a single Pauli string (use RBS/FBS for the four-term rule)"
+        )
+    r = abs(complex(gen.coeffs[0]))
+    return ShiftRule((math.pi / (4 * r), -math.pi / (4 * r)), (r, -r))
+
+
+def expand_occurrences(
+    circuit: QuantumCircuit, parameters=None
+) -> tuple[QuantumCircuit, list[tuple[Parameter, Parameter, float, object]]]:
+    """Rewrite ``circuit`` with a fresh parameter for every gate occurrence of ``parameters``.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+    parameters : sequence of Parameter, optional
+        Those to differentiate (default: all).
+
+    Returns
+    -------
+    (QuantumCircuit, list)
+        The expanded circuit and, per occurrence, ``(original parameter, fresh parameter,
+        coefficient a, instruction)`` where the gate angle is ``a * p + b``.
+    """
+    wanted = set(circuit.parameters if parameters is None else parameters)
+    occurrences = []
+    out = circuit.copy_empty_like()
+    fresh = ParameterVector("_occ", sum(
+        1 for inst in circuit.data
+        if (po := parameter_of(inst)) is not None and po[0] in wanted))
+    for inst in circuit.data:
+        po = parameter_of(inst)
+        if po is None or po[0] not in wanted:
+            out.append(inst)
+            continue
+        p, a = po
+        q = fresh[len(occurrences)]
+        new_params = [e.subs({p: q}) if hasattr(e, "parameters") and p in getattr(
+            e, "parameters", ()) else e for e in inst.operation.params]
+        op = inst.operation.copy()
+        op.params = new_params
+        out.append(inst.replace(operation=op))
+        occurrences.append((p, q, a, inst))
+    return out, occurrences
+
+
+def shift_rules(circuit: QuantumCircuit, parameters=None, *, rbs_rule: str = "four_term"):
+    """The shift rule of every occurrence of ``parameters`` in ``circuit``, in circuit order."""
+    _, occ = expand_occurrences(circuit, parameters)
+    return [(p, a, _rule_for(inst, circuit, rbs_rule)) for p, _, a, inst in occ]
+
+
+def parameter_shift_plan(
+    circuit: QuantumCircuit,
+    observable: SparsePauliOp | None,
+    values,
+    *,
+    parameters=None,
+    shots: int | None = None,
+    rbs_rule: str = "four_term",
+    label: str = "shift",
+) -> Plan:
+    """Plan for the gradient of ``<O>`` (or of all outcome probabilities) by parameter shift.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unmeasured circuit with ``P`` free parameters.
+    observable : SparsePauliOp or None
+        ``O``; None differentiates the computational-basis probabilities instead.
+    values : array_like, shape (B, P) or (P,)
+        Parameter rows in ``circuit.parameters`` order.
+    parameters : sequence of Parameter, optional
+        Which to differentiate (default: all); the output columns follow this order.
+    shots : int, optional
+        Shots per shifted circuit; exact when None.
+    rbs_rule : {"four_term", "two_term"}
+
+    Returns
+    -------
+    Plan
+        ``num_circuits = B * (sum of rule terms over occurrences) * (measurement groups)``.
+        Post-processing returns an :class:`~qdensity.plans.Estimate` whose ``value`` has shape
+        (B, len(parameters)) for an observable, (B, 2**n, len(parameters)) for probabilities.
+    """
+    check_circuit(circuit)
+    vals = as_parameter_rows(values, circuit.num_parameters)
+    params = list(circuit.parameters) if parameters is None else list(parameters)
+    unknown = [p for p in params if p not in set(circuit.parameters)]
+    if unknown:
+        raise ValueError(f"parameters {[p.name for p in unknown]} are not in the circuit")
+    col = {p: i for i, p in enumerate(params)}
+    expanded, occ = expand_occurrences(circuit, params)
+    rules = [_rule_for(inst, circuit, rbs_rule) for _, _, _, inst in occ]
+    # base values of the expanded circuit: originals copied into each occurrence's fresh param
+    src = {p: i for i, p in enumerate(circuit.parameters)}
+    fresh_of = {q: p for p, q, _, _ in occ}
+    exp_params = list(expanded.parameters)
+    base = np.stack(
+        [vals[:, src[fresh_of.get(p, p)]] for p in exp_params], axis=1
+    ) if exp_params else np.zeros((vals.shape[0], 0))
+    exp_index = {p: i for i, p in enumerate(exp_params)}
+    blocks, weights = [], []  # weights[(row block)] -> (occurrence index, coefficient)
+    for o, ((_p, q, a, _), rule) in enumerate(zip(occ, rules, strict=True)):
+        if a == 0:
+            raise ValueError(f"parameter {_p.name} enters a gate with coefficient 0")
+        for s, c in zip(rule.shifts, rule.coeffs, strict=True):
+            shifted = base.copy()
+            shifted[:, exp_index[q]] += s / a  # the gate angle a*p + b moves by s
+            blocks.append(shifted)
+            weights.append((o, c))
+    B = vals.shape[0]
+    rows = np.concatenate(blocks, axis=0) if blocks else np.zeros((0, len(exp_params)))
+    if observable is not None:
+        inner = expectation_plan(expanded, observable, rows, shots=shots, label=label)
+    else:
+        inner = probabilities_plan(expanded, rows, shots=shots, label=label)
+
+    def post(results):
+        raw = inner.postprocess(results)
+        if observable is not None:
+            f, se = raw.value, raw.standard_error
+            out = np.zeros((B, len(params)))
+            var = np.zeros((B, len(params)))
+        else:
+            f = raw.probabilities
+            se = (np.sqrt(f * (1 - f) / raw.shots) if raw.shots is not None
+                  else np.zeros_like(f))
+            out = np.zeros((B, f.shape[1], len(params)))
+            var = np.zeros_like(out)
+        for blk, (o, c) in enumerate(weights):
+            p, _q, a, _ = occ[o]
+            seg = slice(blk * B, (blk + 1) * B)
+            w = a * c
+            if observable is not None:
+                out[:, col[p]] += w * f[seg]
+                var[:, col[p]] += (w * se[seg]) ** 2
+            else:
+                out[:, :, col[p]] += w * f[seg]
+                var[:, :, col[p]] += (w * se[seg]) ** 2
+        return Estimate(out, np.sqrt(var))
+
+    plan = Plan(inner.jobs, post, f"parameter shift ({rbs_rule}) of {circuit.name}: "
+                f"{len(occ)} occurrences, {rows.shape[0]} shifted rows")
+    plan.meta["occurrences"] = len(occ)
+    return plan
