@@ -14,6 +14,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 __all__ = [
     "moments",
+    "moment_indices",
     "depth_of_gates",
     "instruction_generator",
     "parameter_of",
@@ -28,6 +29,39 @@ HW_PRESERVING_GATES = frozenset(
 )
 
 _SKIP = frozenset({"barrier", "measure", "delay"})
+
+
+def moment_indices(
+    circuit: QuantumCircuit, *, include_unparameterised: bool = True
+) -> list[list[int]]:
+    """Like :func:`moments`, but each layer lists positions in ``circuit.data``.
+
+    Positions are stable identifiers (Qiskit builds new ``CircuitInstruction`` objects on each
+    access, so object identity is not).
+    """
+    if not isinstance(circuit, QuantumCircuit):
+        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
+    front: dict[int, int] = {}
+    layers: list[list[int]] = []
+    for pos, inst in enumerate(circuit.data):
+        qubits = [circuit.find_bit(q).index for q in inst.qubits]
+        name = inst.operation.name
+        if name == "barrier":
+            level = max((front.get(q, 0) for q in qubits), default=0)
+            for q in qubits:
+                front[q] = level
+            continue
+        if name in _SKIP:
+            continue
+        if not include_unparameterised and not _has_free_parameter(inst):
+            continue
+        level = max((front.get(q, 0) for q in qubits), default=0)
+        while len(layers) <= level:
+            layers.append([])
+        layers[level].append(pos)
+        for q in qubits:
+            front[q] = level + 1
+    return layers
 
 
 def moments(
@@ -59,29 +93,9 @@ def moments(
     >>> len(moments(round_robin(6)))
     5
     """
-    if not isinstance(circuit, QuantumCircuit):
-        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
-    front: dict[int, int] = {}
-    layers: list[list[CircuitInstruction]] = []
-    for inst in circuit.data:
-        qubits = [circuit.find_bit(q).index for q in inst.qubits]
-        name = inst.operation.name
-        if name == "barrier":
-            level = max((front.get(q, 0) for q in qubits), default=0)
-            for q in qubits:
-                front[q] = level
-            continue
-        if name in _SKIP:
-            continue
-        if not include_unparameterised and not _has_free_parameter(inst):
-            continue
-        level = max((front.get(q, 0) for q in qubits), default=0)
-        while len(layers) <= level:
-            layers.append([])
-        layers[level].append(inst)
-        for q in qubits:
-            front[q] = level + 1
-    return layers
+    data = circuit.data if isinstance(circuit, QuantumCircuit) else None
+    layers = moment_indices(circuit, include_unparameterised=include_unparameterised)
+    return [[data[i] for i in layer] for layer in layers]
 
 
 def depth_of_gates(circuit: QuantumCircuit, names: Sequence[str]) -> int:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from .analysis import moments
+from .analysis import moment_indices, moments
 from .validation import check_circuit, check_positive_int
 
 __all__ = [
@@ -93,9 +93,9 @@ def _groups_to_circuits(circuit: QuantumCircuit, group_of: dict[int, int], count
     the latest parameterised gate on one of their qubits (group 0 before any)."""
     parts = [circuit.copy_empty_like(name=f"{name}_{k}") for k in range(count)]
     last_group: dict[int, int] = {}
-    for inst in circuit.data:
+    for pos, inst in enumerate(circuit.data):
         qubits = [circuit.find_bit(q).index for q in inst.qubits]
-        g = group_of.get(id(inst))
+        g = group_of.get(pos)
         if g is None:
             g = max((last_group.get(q, 0) for q in qubits), default=0)
         else:
@@ -106,8 +106,8 @@ def _groups_to_circuits(circuit: QuantumCircuit, group_of: dict[int, int], count
 
 
 def _moment_index(circuit: QuantumCircuit) -> tuple[dict[int, int], int]:
-    layers = moments(circuit, include_unparameterised=False)
-    return {id(inst): m for m, layer in enumerate(layers) for inst in layer}, len(layers)
+    layers = moment_indices(circuit, include_unparameterised=False)
+    return {pos: m for m, layer in enumerate(layers) for pos in layer}, len(layers)
 
 
 def by_moments(circuit: QuantumCircuit, depth: int = 1, *, name: str | None = None) -> Decomposition:

@@ -1,0 +1,247 @@
+"""Gradients of density QNNs (paper Prop. 1, Cor. 1, Cor. 2; Supp. B.1).
+
+For ``f(x) = sum_k alpha_k(x) f_k(x)``:
+
+* ``d f / d theta_p = sum_k alpha_k d f_k / d theta_p``: each sub-unitary contributes the
+  gradient of its own circuit w.r.t. its own parameters. Independent parameters (Cor. 1) mean
+  each parameter has one contributing k; shared parameters (Prop. 1) are summed over every k
+  that uses them. The circuits are the sum over k of each sub-unitary's gradient circuits.
+* ``d f / d alpha_k = f_k`` (forward values), chained through the mixture (softmax logits or
+  the mixture-of-experts gate) by :meth:`qdensity.mixtures.Mixture.vjp`.
+
+Each sub-unitary's Jacobian is a plan: ``"shift"`` (parameter shift, Supp. E), ``"commuting"``
+(one measured circuit per commuting block with a diagonalising layer, Prop. 1 of Bowles et
+al., Supp. F.3), or ``"auto"`` (commuting when the sub-unitary allows it, else shift).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.quantum_info import SparsePauliOp
+
+from ..decompositions import trainable_parameters
+from ..plans import CircuitJob, Estimate, Plan, expectation_plan, probabilities_plan
+from .commuting import commuting_gradient
+from .shift import parameter_shift_plan
+
+__all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan", "METHODS"]
+
+METHODS = ("auto", "shift", "commuting")
+
+
+@dataclass
+class DensityGradient:
+    """Everything the chain rule needs for one batch.
+
+    Attributes
+    ----------
+    outputs : numpy.ndarray, shape (B, K, m)
+        ``f_k`` per data row (m = 1 for an observable, n for unary probabilities).
+    jacobians : list of numpy.ndarray, each (B, m, P_k)
+        ``d f_k / d theta_k`` in sub-unitary k's parameter order.
+    output_errors, jacobian_errors : standard errors, same shapes (zeros when exact).
+    """
+
+    outputs: np.ndarray
+    output_errors: np.ndarray
+    jacobians: list[np.ndarray]
+    jacobian_errors: list[np.ndarray]
+
+
+def _readout_observables(model) -> list[SparsePauliOp]:
+    n = model.num_qubits
+    if model.readout == "observable":
+        return [model.observable]
+    # unary probability p_j = <(I - Z_j)/2> on Hamming-weight-1 states
+    return [SparsePauliOp.from_sparse_list([("", [], 0.5), ("Z", [j], -0.5)], n)
+            for j in range(n)]
+
+
+def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
+                             shots: int | None = None) -> Plan:
+    """Plan for ``d f_k / d theta_k`` over the rows of ``X``.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    k : int
+        Sub-unitary index.
+    X : array_like, shape (B, d), optional
+    method : {"auto", "shift", "commuting"}
+    shots : int, optional
+        Shots per circuit; exact when None.
+
+    Returns
+    -------
+    Plan
+        Post-processing returns an :class:`~qdensity.plans.Estimate` of shape (B, m, P_k).
+        ``plan.meta["method"]`` says which method was used.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if model.readout == "unary_amplitudes":
+        raise ValueError("gradients on hardware need a probability or observable readout; "
+                         "unary_amplitudes are trained on the unary engine")
+    circ = model.circuit(k)
+    params = trainable_parameters(model.sub_unitaries[k])
+    rows = model.rows(k, X)
+    if method in ("auto", "commuting"):
+        try:
+            plan = _commuting_plan(model, circ, params, rows, shots, k)
+            plan.meta["method"] = "commuting"
+            return plan
+        except ValueError:
+            if method == "commuting":
+                raise
+    n = model.num_qubits
+    if model.readout == "observable":
+        inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
+                                     label=f"shift_k{k}")
+
+        def post(results):
+            est = inner.postprocess(results)
+            return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
+    else:
+        inner = parameter_shift_plan(circ, None, rows, parameters=params, shots=shots,
+                                     label=f"shift_k{k}")
+        unary = 1 << np.arange(n)
+
+        def post(results):
+            est = inner.postprocess(results)
+            return Estimate(est.value[:, unary, :], est.standard_error[:, unary, :])
+
+    plan = Plan(inner.jobs, post, inner.description, {"method": "shift"})
+    return plan
+
+
+def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
+    observables = _readout_observables(model)
+    if len(observables) == 1:
+        grads = [commuting_gradient(circ, observables[0], params)]
+        shared = grads[0]
+    else:
+        total = SparsePauliOp.from_sparse_list(
+            [("Z", [j], 1.0) for j in range(model.num_qubits)], model.num_qubits)
+        shared = commuting_gradient(circ, total, params)
+        grads = [commuting_gradient(circ, obs, params) for obs in observables]
+        same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
+                      and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
+        if not same_layer:
+            raise ValueError("unary readout outputs need different diagonalising circuits")
+    jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
+            for i, c in enumerate(shared.circuits)]
+
+    def post(results):
+        probs = [r.probabilities for r in results]
+        if len(grads) == 1:
+            val = grads[0].gradient_from_probabilities(probs)[:, None, :]
+            err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
+                   else np.zeros_like(val))
+            return Estimate(val, err)
+        # one RBS(pi/4) layer on every pair serves every output j: the per-output estimators
+        # only read the bits of their own pair, whose distribution the shared circuit reproduces
+        val = np.stack([g.gradient_from_probabilities(probs) for g in grads], axis=1)
+        err = (np.stack([g.standard_error(probs, shots) for g in grads], axis=1)
+               if shots is not None else np.zeros_like(val))
+        return Estimate(val, err)
+
+    return Plan(jobs, post, f"commuting gradient of sub-unitary {k}",
+                {"gradient": shared})
+
+
+def _forward_plan(model, k: int, X, shots) -> Plan:
+    rows = model.rows(k, X)
+    if model.readout == "observable":
+        inner = expectation_plan(model.circuit(k), model.observable, rows, shots=shots,
+                                 label=f"forward_k{k}")
+
+        def post(results):
+            est = inner.postprocess(results)
+            return Estimate(est.value[:, None], est.standard_error[:, None])
+        return Plan(inner.jobs, post, inner.description)
+    inner = probabilities_plan(model.circuit(k), rows, shots=shots, label=f"forward_k{k}")
+    unary = 1 << np.arange(model.num_qubits)
+
+    def post_p(results):
+        res = inner.postprocess(results)
+        p = res.probabilities[:, unary]
+        se = np.sqrt(p * (1 - p) / res.shots) if res.shots else np.zeros_like(p)
+        return Estimate(p, se)
+    return Plan(inner.jobs, post_p, inner.description)
+
+
+def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | None = None,
+                          forward: bool = True) -> Plan:
+    """Plan for the outputs and Jacobians of every sub-unitary (Cor. 1 / Prop. 1).
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d), optional
+    method : {"auto", "shift", "commuting"}
+    shots : int, optional
+        Shots per circuit row; exact when None.
+    forward : bool
+        Include the forward circuits (``f_k``, needed for ``d f / d alpha``).
+
+    Returns
+    -------
+    Plan
+        Post-processing returns a :class:`DensityGradient`.
+        ``plan.meta["gradient_circuits"]`` is the number of gradient circuits per data point
+        (forward excluded), summed over sub-unitaries.
+    """
+    K = model.num_subunitaries
+    jac_plans = [subunitary_jacobian_plan(model, k, X, method=method, shots=shots)
+                 for k in range(K)]
+    fwd_plans = [_forward_plan(model, k, X, shots) for k in range(K)] if forward else []
+    combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
+    B = model.rows(0, X).shape[0]
+
+    def post(results):
+        parts = combined.postprocess(results)
+        jacs, fwds = parts[:K], parts[K:]
+        if fwds:
+            outputs = np.stack([f.value for f in fwds], axis=1)
+            errors = np.stack([f.standard_error for f in fwds], axis=1)
+        else:
+            outputs = errors = np.full((B, K, jacs[0].value.shape[1]), np.nan)
+        return DensityGradient(outputs, errors, [j.value for j in jacs],
+                               [j.standard_error for j in jacs])
+
+    per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
+    return Plan(combined.jobs, post, "density gradient",
+                {"gradient_circuits": per_point,
+                 "methods": [p.meta.get("method") for p in jac_plans]})
+
+
+def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
+    """Parameter gradients of a loss from ``dL/df`` (Prop. 1 plus the mixture's vjp).
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d) or None
+    grad : DensityGradient
+    upstream : numpy.ndarray, shape (B, m)
+        ``dL / d f`` per data row and output.
+
+    Returns
+    -------
+    (numpy.ndarray (P,), numpy.ndarray (M,))
+        Gradients w.r.t. :attr:`DensityQNN.theta` and the mixture parameters (summed over B).
+    """
+    upstream = np.atleast_2d(upstream)
+    alpha = model.alpha(X)
+    if alpha.shape[0] != upstream.shape[0]:
+        alpha = np.broadcast_to(alpha, (upstream.shape[0], alpha.shape[1]))
+    g_theta = np.zeros(model.num_parameters)
+    for k, jac in enumerate(grad.jacobians):
+        idx = model.subunitary_parameter_indices(k)
+        contrib = np.einsum("bm,bmp->p", upstream * alpha[:, k:k + 1], jac)
+        np.add.at(g_theta, idx, contrib)
+    grad_alpha = np.einsum("bm,bkm->bk", upstream, grad.outputs)
+    g_mix = model.mixture.vjp(X, grad_alpha)
+    return g_theta, g_mix
