@@ -1,0 +1,27 @@
+"""Gradients: parameter shift (Supp. E), commuting-generator circuits (Prop. 1, Cor. 2,
+Supp. F.3) and density-QNN gradients (Cor. 1, Prop. 1, chain rule through mixtures)."""
+
+from .commuting import (
+    CommutingBlockGradient,
+    CommutingGradient,
+    commuting_block_gradient,
+    commuting_blocks,
+    commuting_gradient,
+)
+from .density import DensityGradient, chain_rule, density_gradient_plan, subunitary_jacobian_plan
+from .shift import expand_occurrences, parameter_shift_plan, shift_rules
+
+__all__ = [
+    "parameter_shift_plan",
+    "shift_rules",
+    "expand_occurrences",
+    "commuting_gradient",
+    "commuting_block_gradient",
+    "commuting_blocks",
+    "CommutingGradient",
+    "CommutingBlockGradient",
+    "density_gradient_plan",
+    "subunitary_jacobian_plan",
+    "chain_rule",
+    "DensityGradient",
+]
