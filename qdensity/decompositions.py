@@ -110,7 +110,8 @@ def _moment_index(circuit: QuantumCircuit) -> tuple[dict[int, int], int]:
     return {pos: m for m, layer in enumerate(layers) for pos in layer}, len(layers)
 
 
-def by_moments(circuit: QuantumCircuit, depth: int = 1, *, name: str | None = None) -> Decomposition:
+def by_moments(circuit: QuantumCircuit, depth: int = 1, *,
+               name: str | None = None) -> Decomposition:
     """D consecutive parameterised moments per sub-unitary (paper Fig. 3 left, Fig. 6 shallow).
 
     Gates without free parameters (e.g. a hardware-efficient layer's CNOT ladder) stay with the
@@ -223,7 +224,8 @@ def odd_even(circuit: QuantumCircuit) -> Decomposition:
     return Decomposition(f"{circuit.name}_odd_even", [even, odd], circuit, independent=True)
 
 
-def _fresh_parameters(circuits: Sequence[QuantumCircuit], prefix: str = "θ") -> list[QuantumCircuit]:
+def _fresh_parameters(circuits: Sequence[QuantumCircuit],
+                      prefix: str = "θ") -> list[QuantumCircuit]:
     out = []
     for k, qc in enumerate(circuits):
         params = trainable_parameters(qc)

@@ -22,7 +22,7 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
 from .plans import CircuitJob, JobResult
-from .validation import SeedLike, seed_int
+from .validation import SeedLike, check_positive_int, seed_int
 
 __all__ = ["ExactEngine", "SamplerEngine", "ShotLedger", "LedgerEntry", "bitarray_to_probabilities"]
 
@@ -188,20 +188,24 @@ class ExactEngine:
         return results
 
 
-def bitarray_to_probabilities(bitarray, rows: int) -> np.ndarray:
-    """Empirical outcome frequencies from a ``BitArray`` of shape ``(rows,)``.
+def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
 
     Parameters
     ----------
     bitarray : qiskit.primitives.BitArray
-        Shape ``(rows,)``, ``num_shots`` each.
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
     rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
 
     Returns
     -------
     numpy.ndarray, shape (rows, 2**num_bits)
     """
-    arr = np.asarray(bitarray.array).reshape(rows, bitarray.num_shots, -1).astype(np.int64)
+    shots = bitarray.num_shots if shots is None else int(shots)
+    arr = np.asarray(bitarray.array).reshape(rows, shots, -1).astype(np.int64)
     nbytes = arr.shape[-1]
     ints = np.zeros(arr.shape[:2], dtype=np.int64)
     for b in range(nbytes):
@@ -209,7 +213,7 @@ def bitarray_to_probabilities(bitarray, rows: int) -> np.ndarray:
     dim = 2**bitarray.num_bits
     flat = ints + (np.arange(rows, dtype=np.int64) * dim)[:, None]
     counts = np.bincount(flat.ravel(), minlength=rows * dim).reshape(rows, dim)
-    return counts / bitarray.num_shots
+    return counts / shots
 
 
 class SamplerEngine:
@@ -276,7 +280,7 @@ class SamplerEngine:
                                      seed_transpiler=seed)
         self._cache = _TranspileCache(transpiler)
         self.ledger = ledger if ledger is not None else ShotLedger()
-        self.default_shots = int(default_shots)
+        self.default_shots = check_positive_int(default_shots, "default_shots")
 
     @property
     def transpile_count(self) -> int:
@@ -290,8 +294,12 @@ class SamplerEngine:
             compiled = self._cache(job.circuit)
             cols = _columns_for(job.circuit, compiled)
             shots = job.shots if job.shots is not None else self.default_shots
-            # shape (rows, P') even when P' = 0, so every row is sampled with its own shots
-            pubs.append((compiled, job.values[:, cols], shots))
+            if compiled.num_parameters:
+                pubs.append((compiled, job.values[:, cols], shots))
+            else:
+                # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
+                # sample rows * shots at once and split them into rows below.
+                pubs.append((compiled, None, shots * job.rows))
             metas.append((job, shots))
         if not pubs:
             return []
@@ -299,7 +307,7 @@ class SamplerEngine:
         results = []
         for (job, shots), pub_result in zip(metas, raw, strict=True):
             bits = pub_result.join_data()
-            probs = bitarray_to_probabilities(bits, job.rows)
+            probs = bitarray_to_probabilities(bits, job.rows, shots)
             self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
             results.append(JobResult(probs, shots, job))
         return results

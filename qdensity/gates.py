@@ -9,7 +9,7 @@ Conventions (see DESIGN.md):
   ``q_i + 2 q_j``), the paper's matrix ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]``. On unary
   amplitudes it rotates the ``(i, j)`` plane by ``+theta``:
   ``y_i -> c y_i - s y_j``, ``y_j -> s y_i + c y_j``. ``RBS(theta) = exp(-i theta Q)``,
-  ``Q = (Y (x) X - X (x) Y) / 2`` with ``Y`` on qubit ``i``.
+  ``Q = (X_i Y_j - Y_i X_j) / 2`` (the paper's ``(Y (x) X - X (x) Y)/2`` read big-endian).
 * ``FBSGate(theta, m)`` acts on ``m`` contiguous qubits ``[i, ..., j]`` as ``RBS((-1)^p theta)``
   on ``(i, j)``, where ``p`` is the parity of the qubits strictly between them.
 """
@@ -83,12 +83,13 @@ def _check_width(num_qubits: int) -> int:
     if isinstance(num_qubits, bool) or not isinstance(num_qubits, (int, np.integer)):
         raise TypeError(f"num_qubits must be an int >= 2, got {num_qubits!r}")
     if num_qubits < 2:
-        raise ValueError(f"num_qubits must be >= 2 (the FBS block spans its pair), got {num_qubits}")
+        raise ValueError(f"num_qubits must be >= 2 (the FBS block spans its pair), "
+                         f"got {num_qubits}")
     return int(num_qubits)
 
 
 class RBSGate(Gate):
-    r"""Reconfigurable beam splitter ``RBS(theta) = exp(-i theta (Y X - X Y)/2)`` (paper eq. 8).
+    r"""Reconfigurable beam splitter ``RBS(theta) = exp(-i theta Q)`` (paper eq. 8).
 
     A Givens rotation on the Hamming-weight-1 subspace of two qubits. On unary amplitudes of
     qubits ``(i, j)``: ``y_i -> cos(theta) y_i - sin(theta) y_j``,

@@ -152,7 +152,7 @@ class Plan:
         return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
 
     def run(self, engine) -> Any:
-        """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``) and post-process."""
+        """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
         results = engine.run(self.jobs)
         return self.postprocess(results)
 

@@ -31,6 +31,10 @@ from .validation import as_rng, check_positive_int
 __all__ = ["QuantumLayer", "History", "QNNClassifier", "QNNRegressor"]
 
 
+class BudgetExhausted(RuntimeError):
+    """Raised before a step whose circuits would exceed the shot budget."""
+
+
 class QuantumLayer:
     """A :class:`DensityQNN` as a layer: ``forward(Z) -> F`` and ``backward(dL/dF) -> dL/dZ``.
 
@@ -54,6 +58,7 @@ class QuantumLayer:
         self._cache = None
         self.circuits = 0
         self.shots_spent = 0
+        self.max_shots: int | None = None
         if isinstance(engine, SamplerEngine):
             if shots is None:
                 raise ValueError("a sampler engine needs shots (per circuit)")
@@ -81,6 +86,11 @@ class QuantumLayer:
                 return out[:, None] if out.ndim == 1 else out
         plan = density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)
         engine = ExactEngine() if self.engine == "exact" else self.engine
+        cost = plan.total_shots
+        if self.max_shots is not None and cost is not None and (
+                self.shots_spent + cost > self.max_shots):
+            left = self.max_shots - self.shots_spent
+            raise BudgetExhausted(f"the next step needs {cost} shots; {left} remain")
         before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
         grad = plan.run(engine)
         if isinstance(engine, SamplerEngine):
@@ -92,7 +102,7 @@ class QuantumLayer:
                          grad.outputs)
 
     def backward(self, grad_F: np.ndarray) -> np.ndarray | None:
-        """Store ``grads["theta"]``, ``grads["mixture"]``; return ``dL/dZ`` (None if unavailable)."""
+        """Store ``grads["theta"]`` and ``grads["mixture"]``; return ``dL/dZ`` or None."""
         if self._cache is None:
             raise RuntimeError("backward called before forward")
         kind = self._cache[0]
@@ -183,7 +193,8 @@ class _QNNEstimator:
     def __init__(self, model: DensityQNN, *, pre=None, post=None, optimizer: str = "adam",
                  learning_rate: float = 0.01, epochs: int = 10, batch_size: int = 32,
                  engine="exact", shots: int | None = None, gradient: str = "auto",
-                 seed=None, verbose: bool = True, max_steps: int | None = None):
+                 seed=None, verbose: bool = True, max_steps: int | None = None,
+                 max_shots: int | None = None, callback=None):
         if not isinstance(model, DensityQNN):
             raise TypeError(f"model must be a DensityQNN, got {type(model).__name__}")
         if optimizer not in ("adam", "sgd"):
@@ -201,6 +212,8 @@ class _QNNEstimator:
         self.seed = seed
         self.verbose = verbose
         self.max_steps = max_steps
+        self.max_shots = max_shots
+        self.callback = callback
 
     # parameters as one flat vector: [pre..., theta, mixture, post...]
     def _parts(self):
@@ -263,16 +276,24 @@ class _QNNEstimator:
             raise ValueError(f"X has {X.shape[0]} rows but y has {target.shape[0]}")
         rng = as_rng(self.seed)
         self.layer_ = QuantumLayer(self.model, self.engine, self.shots, self.gradient)
+        self.layer_.max_shots = self.max_shots
+        self.stopped_by_budget_ = False
         opt = (Adam(lr=self.learning_rate) if self.optimizer == "adam"
                else SGD(lr=self.learning_rate, momentum=0.9))
         self.history_ = History()
         params = self._get()
         step = 0
+        if self.callback is not None:
+            self.callback(self, 0)
         for epoch in range(self.epochs):
             order = rng.permutation(X.shape[0])
             for start in range(0, X.shape[0], self.batch_size):
                 idx = order[start:start + self.batch_size]
-                out = self._forward(X[idx])
+                try:
+                    out = self._forward(X[idx])
+                except BudgetExhausted:
+                    self.stopped_by_budget_ = True
+                    break
                 loss, grad_out = self._loss(out, target[idx])
                 self._backward(grad_out.reshape(out.shape))
                 params = opt.step(params, self._grads())
@@ -285,13 +306,20 @@ class _QNNEstimator:
                 if self.verbose:
                     print(f"\r  epoch {epoch + 1}/{self.epochs} step {step} loss {loss:.4f}",
                           end="", file=sys.stderr, flush=True)
-                if self.max_steps is not None and step >= self.max_steps:
+                if self.callback is not None:
+                    self.callback(self, step)
+                if self._done(step):
                     break
-            if self.max_steps is not None and step >= self.max_steps:
+            if self._done(step):
                 break
         if self.verbose:
             print(file=sys.stderr)
         return self
+
+    def _done(self, step: int) -> bool:
+        if self.stopped_by_budget_:
+            return True
+        return self.max_steps is not None and step >= self.max_steps
 
     def decision_function(self, X) -> np.ndarray:
         """Exact outputs of the trained pipeline (no shots), shape (N, m)."""

@@ -49,12 +49,12 @@ from qiskit.circuit import (
     ClassicalRegister,
     Parameter,
     ParameterExpression,
-    ParameterVectorElement,
     QuantumCircuit,
 )
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
 from ..analysis import instruction_generator, parameter_of
+from ..decompositions import trainable_parameters
 from ..gates import rbs_matrix
 from ..pauli import (
     conjugate_two_qubit,
@@ -94,26 +94,6 @@ class _Trainable:
     parameter: Parameter
     coeff: float
     generator: SparsePauliOp
-
-
-def trainable_parameters(circuit: QuantumCircuit) -> list[Parameter]:
-    """Default trainable parameters: every circuit parameter not in a vector named ``"x"``.
-
-    Parameters
-    ----------
-    circuit : QuantumCircuit
-
-    Returns
-    -------
-    list of Parameter
-        In ``circuit.parameters`` order.
-    """
-    check_circuit(circuit)
-    return [
-        p
-        for p in circuit.parameters
-        if not (isinstance(p, ParameterVectorElement) and p.vector.name == "x")
-    ]
 
 
 def _check_parameters(circuit: QuantumCircuit, parameters) -> list[Parameter]:
