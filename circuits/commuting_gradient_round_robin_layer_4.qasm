@@ -61,7 +61,6 @@ ry(-pi/4) q[3];
 cz q[0],q[3];
 h q[0];
 h q[3];
-barrier q[0],q[1],q[2],q[3];
 measure q[0] -> meas[0];
 measure q[1] -> meas[1];
 measure q[2] -> meas[2];

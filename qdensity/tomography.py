@@ -40,9 +40,10 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from qiskit.circuit import ClassicalRegister, QuantumCircuit
+from qiskit.circuit import QuantumCircuit
 
 from .gates import RBSGate
+from .plans import measured
 from .validation import check_circuit, check_positive_int
 
 __all__ = [
@@ -83,10 +84,7 @@ def _measured(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]], name: s
     out = circuit.copy(name=name)
     for a, b in pairs:
         out.append(RBSGate(math.pi / 4), [a, b])
-    creg = ClassicalRegister(circuit.num_qubits, _REGISTER)
-    out.add_register(creg)
-    out.measure(out.qubits, creg)
-    return out
+    return measured(out, _REGISTER)
 
 
 def tomography_circuits(circuit: QuantumCircuit) -> list[QuantumCircuit]:

@@ -176,6 +176,17 @@ def as_parameter_rows(values, num_parameters: int, name: str = "values") -> np.n
     return arr[None, :] if arr.ndim == 1 else arr
 
 
+def check_nonnegative_float(value, name: str) -> float:
+    """A finite real number ``>= 0`` (e.g. a noise standard deviation)."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be a real number, got {value!r}") from exc
+    if not np.isfinite(out) or out < 0:
+        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+    return out
+
+
 def check_positive_int(value, name: str, *, minimum: int = 1) -> int:
     """An int ``>= minimum`` (bools refused)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):

@@ -50,7 +50,8 @@ def test_pipeline_gradient_matches_finite_differences():
     est._backward(g)
     grad = est._grads()
     h = 1e-6
-    fd = np.array([(loss_at(flat + e) - loss_at(flat - e)) / (2 * h) for e in np.eye(flat.size) * h])
+    steps = np.eye(flat.size) * h
+    fd = np.array([(loss_at(flat + e) - loss_at(flat - e)) / (2 * h) for e in steps])
     est._set(flat)
     np.testing.assert_allclose(grad, fd, atol=1e-6)
 

@@ -28,7 +28,7 @@ from qiskit.circuit import ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
-from ..validation import SeedLike, as_rng, check_positive_int
+from ..validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
 
 __all__ = [
     "translation_classes",
@@ -329,12 +329,7 @@ def bars_and_dots(
     """
     num = check_positive_int(num_samples, "num_samples", minimum=1)
     d = check_positive_int(num_qubits, "num_qubits", minimum=4)
-    try:
-        sigma = float(noise_std)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"noise_std must be a real number, got {noise_std!r}") from exc
-    if not np.isfinite(sigma) or sigma < 0:
-        raise ValueError(f"noise_std must be finite and >= 0, got {noise_std!r}")
+    sigma = check_nonnegative_float(noise_std, "noise_std")
     rng = as_rng(seed)
     length = d // 2
     is_bar = rng.random(num) < 0.5

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from ..validation import SeedLike, as_rng, check_positive_int
+from ..validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
 
 __all__ = ["reuploading", "chebyshev_dataset", "ENCODINGS"]
 
@@ -125,12 +125,7 @@ def chebyshev_dataset(
     """
     num = check_positive_int(num_samples, "num_samples", minimum=1)
     deg = check_positive_int(degree, "degree", minimum=0)
-    try:
-        sigma = float(noise_std)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"noise_std must be a real number, got {noise_std!r}") from exc
-    if not np.isfinite(sigma) or sigma < 0:
-        raise ValueError(f"noise_std must be finite and >= 0, got {noise_std!r}")
+    sigma = check_nonnegative_float(noise_std, "noise_std")
     rng = as_rng(seed)
     x = rng.uniform(-1.0, 1.0, size=num)
     prev, cur = np.ones_like(x), x.copy()

@@ -46,7 +46,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from qiskit.circuit import (
     CircuitInstruction,
-    ClassicalRegister,
     Parameter,
     ParameterExpression,
     QuantumCircuit,
@@ -63,6 +62,7 @@ from ..pauli import (
     rbs_diagonalising_layer,
     z_string_values,
 )
+from ..plans import measured
 from ..validation import check_circuit
 
 __all__ = [
@@ -369,11 +369,7 @@ def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCi
     if tail is not None and tail.size():
         out.barrier()
         out.compose(tail, qubits=range(tail.num_qubits), inplace=True)
-    creg = ClassicalRegister(out.num_qubits, "meas")
-    out.add_register(creg)
-    out.barrier()
-    out.measure(range(out.num_qubits), creg)
-    return out
+    return measured(out)
 
 
 # --------------------------------------------------------------------------------------------
