@@ -165,10 +165,7 @@ def _cmd_run(args) -> int:
 
     from .ansatze import round_robin
     from .decompositions import by_moments
-    from .engines import SamplerEngine, ShotLedger
     from .models import DensityQNN, Encoding
-    from .plans import CircuitJob, measured
-    from .schedulers import neyman, per_shot, proportional
     from .targets import get_target
 
     n = args.size
@@ -178,42 +175,20 @@ def _cmd_run(args) -> int:
     obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], n)
     model = DensityQNN(dec.sub_unitaries, alpha, encoding=Encoding.unary(n), observable=obs,
                        seed=args.seed)
-    x = _vector(n, args.seed)[None, :] if args.x is None else np.array([args.x], dtype=float)
-    if x.shape[1] != n:
-        raise ValueError(f"--x must have {n} values, got {x.shape[1]}")
+    x = _vector(n, args.seed) if args.x is None else np.array(args.x, dtype=float)
+    if x.shape[0] != n:
+        raise ValueError(f"--x must have {n} values, got {x.shape[0]}")
     target = get_target(args.target, n, seed=args.seed)
-    ledger = ShotLedger()
-    circuits = [measured(model.circuit(k)) for k in range(K)]
-    rows = [model.rows(k, x) for k in range(K)]
-
-    def source(shots_per_k, rng):
-        jobs = [CircuitJob(circuits[k], rows[k], int(s), f"randomised_k{k}")
-                for k, s in enumerate(shots_per_k) if s > 0]
-        # a fresh sampler seeded from the scheduler's generator on every call, so a pilot and
-        # a main phase draw independent shots; one ledger for the whole run
-        engine = SamplerEngine(target=target, seed=rng, ledger=ledger)
-        results = iter(engine.run(jobs))
-        out = []
-        for s in shots_per_k:
-            if s == 0:
-                out.append(np.zeros(0))
-                continue
-            probs = next(results).probabilities[0]
-            counts = np.rint(probs * s).astype(int)
-            outcomes = np.repeat(np.arange(probs.size), counts)
-            out.append(1.0 - 2.0 * (outcomes & 1))  # eigenvalue of Z_0
-        return out
-
-    run = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}[args.scheduler]
     if args.shots < K and args.scheduler != "per_shot":
         raise ValueError(f"--shots {args.shots} is smaller than the {K} sub-unitary circuits")
-    result = run(alpha, args.shots, source, seed=args.seed)
-    exact = float(model.eval().predict(x)[0])
+    result = model.train().sample(x, args.shots, scheduler=args.scheduler, target=target,
+                                  seed=args.seed)
+    exact = float(model.eval().predict(x[None, :])[0])
     out = {"model": f"round_robin_{n} by layers (K={K})", "target": target.label,
            "scheduler": args.scheduler, "budget": args.shots,
            "allocation": np.asarray(result.allocation).tolist(),
            "estimate": float(result.estimate), "standard_error": float(result.standard_error),
-           "exact_noiseless": exact, "shots_spent": ledger.total_shots}
+           "exact_noiseless": exact, "shots_spent": int(result.shots_used)}
     if args.json:
         print(json.dumps(out, indent=2))
     else:

@@ -395,6 +395,105 @@ class DensityQNN:
             return (alpha * outs).sum(axis=1)
         return np.einsum("bk,bkn->bn", alpha, outs)
 
+    # ------------------------------------------------------------------ sampling (Fig. 1, Supp. I)
+    def sample(self, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
+               seed=None):
+        """Estimate ``f(x)`` from shots, as the current mode prescribes (Supp. I).
+
+        ``train()`` mode: the randomised density QNN (Fig. 1c): the shot budget is split over the
+        sub-unitaries by ``scheduler`` and each shot runs one ``V(x)`` + ``U_k`` circuit.
+        ``eval()`` mode: the deterministic state (Fig. 1b) measured with all ``budget`` shots
+        (the observable is read on the ``data`` register; the ``mix`` register is ignored, which
+        traces it out).
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            One data point.
+        budget : int
+            Total shots.
+        scheduler : {"per_shot", "proportional", "neyman"}
+            Used in train mode.
+        engine : SamplerEngine, optional
+            Used as is for every call (note: a fixed-seed Aer sampler repeats its shots).
+        target : qdensity.targets.HardwareTarget, optional
+            Without ``engine``: sample on this target's (noisy) simulator, a fresh sampler per
+            call seeded from ``seed`` so a pilot and a main phase are independent. Default:
+            noiseless Aer.
+        seed : int or Generator, optional
+
+        Returns
+        -------
+        qdensity.schedulers.ScheduleResult
+            Estimate, standard error, allocation and shots used (``allocation`` is ``[budget]``
+            in eval mode).
+        """
+        from .engines import SamplerEngine
+        from .plans import CircuitJob, diagonal_values, measured
+        from .schedulers import ScheduleResult, neyman, per_shot, proportional
+        from .validation import check_positive_int
+
+        budget = check_positive_int(budget, "budget")
+        if self.readout != "observable" or np.any(self.observable.paulis.x):
+            raise ValueError("sample() needs a diagonal (Z-type) observable readout")
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        if x.shape[0] != 1:
+            raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
+        rng = as_rng(seed)
+        n = self.num_qubits
+        values = diagonal_values(self.observable.paulis, np.real(self.observable.coeffs), n)
+        lo, hi = float(values.min()), float(values.max())
+        ledger = engine.ledger if engine is not None else None
+
+        def engine_for_call():
+            nonlocal ledger
+            if engine is not None:
+                return engine
+            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger)
+            ledger = fresh.ledger
+            return fresh
+
+        if not self.training:
+            from .preparation import deterministic_circuit
+
+            alpha = self.alpha(x)[0]
+            subs = [c.assign_parameters(dict(zip(trainable_parameters(c), self._sub_theta(k, None),
+                                                 strict=True)))
+                    for k, c in enumerate(self.sub_unitaries)]
+            loader = (self.encoding.circuit.assign_parameters(self.encoding.values(x)[0])
+                      if self.encoding is not None else None)
+            circ = measured(deterministic_circuit(subs, alpha, loader=loader))
+            res = engine_for_call().run([CircuitJob(circ, None, budget, "deterministic")])[0]
+            K = self.num_subunitaries
+            probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
+            mean = float(probs @ values)
+            var = float(probs @ values**2) - mean**2
+            return ScheduleResult(name="deterministic", estimate=mean,
+                                  standard_error=float(np.sqrt(max(var, 0.0) / budget)),
+                                  allocation=np.array([budget]), per_subunitary=np.array([mean]),
+                                  shots_used=budget, pilot_allocation=None, info={})
+        circuits = [measured(self.circuit(k)) for k in range(self.num_subunitaries)]
+        rows = [self.rows(k, x) for k in range(self.num_subunitaries)]
+
+        def source(shots_per_k, rng_inner):
+            jobs = [CircuitJob(circuits[k], rows[k], int(s), f"randomised_k{k}")
+                    for k, s in enumerate(shots_per_k) if s > 0]
+            results = iter(engine_for_call().run(jobs))
+            out = []
+            for s in shots_per_k:
+                if s == 0:
+                    out.append(np.zeros(0))
+                    continue
+                counts = np.rint(next(results).probabilities[0] * s).astype(int)
+                out.append(values[np.repeat(np.arange(counts.size), counts)])
+            return out
+
+        runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
+        if scheduler not in runners:
+            raise ValueError(f"scheduler must be one of {sorted(runners)}, got {scheduler!r}")
+        alpha = self.alpha(x)[0]
+        return runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
+
     # ------------------------------------------------------------------ parameters I/O
     def get_params(self) -> dict[str, np.ndarray]:
         """``{"theta": ..., "mixture": ...}`` as plain arrays."""

@@ -35,6 +35,7 @@ __all__ = [
     "expectation_plan",
     "probabilities_plan",
     "check_observable",
+    "postselect_hamming_weight",
 ]
 
 
@@ -365,3 +366,39 @@ def probabilities_plan(
     job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
                      label)
     return Plan([job], lambda results: results[0], f"P(b) of {circuit.name}")
+
+
+def postselect_hamming_weight(probabilities, weight: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Keep only outcomes of a given Hamming weight and renormalise them (documented here).
+
+    For unary circuits every ideal outcome has weight 1; noise leaks weight elsewhere. The
+    post-selected distribution is ``p(b) / kept`` on weight-``weight`` outcomes.
+
+    Parameters
+    ----------
+    probabilities : numpy.ndarray, shape (rows, 2**m)
+    weight : int
+
+    Returns
+    -------
+    (numpy.ndarray (rows, 2**m), numpy.ndarray (rows,))
+        The post-selected distributions (zero elsewhere) and the kept fraction per row.
+
+    Raises
+    ------
+    ValueError
+        If a row keeps nothing.
+    """
+    probs = np.atleast_2d(np.asarray(probabilities, dtype=float))
+    m = int(round(np.log2(probs.shape[1])))
+    if 2**m != probs.shape[1]:
+        raise ValueError(f"probabilities must have 2**m columns, got {probs.shape[1]}")
+    outcomes = np.arange(2**m)
+    popcount = np.array([bin(b).count("1") for b in outcomes])
+    mask = popcount == weight
+    kept = probs[:, mask].sum(axis=1)
+    if np.any(kept <= 0):
+        raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
+                         f"Hamming weight {weight}")
+    out = np.where(mask[None, :], probs, 0.0) / kept[:, None]
+    return out, kept

@@ -217,3 +217,36 @@ def test_bad_model_input(kwargs, match):
 def test_gated_mixture_wrong_shape():
     with pytest.raises(ValueError, match=r"\(3, 4\)"):
         GatedMixture(4, 3, weights=np.zeros((4, 3)))
+
+
+@pytest.mark.parametrize("scheduler", ["per_shot", "proportional", "neyman"])
+def test_train_mode_samples_subunitaries_unbiased(scheduler):
+    n = 4
+    dec = by_moments(round_robin(n))
+    model = DensityQNN(dec.sub_unitaries, [0.5, 0.3, 0.2], encoding=Encoding.unary(n), seed=8)
+    x = RNG.normal(size=n)
+    exact = model.predict(x[None, :])[0]
+    res = model.train().sample(x, 6000, scheduler=scheduler, seed=4)
+    assert res.shots_used <= 6000
+    assert abs(res.estimate - exact) < 4 * res.standard_error + 1e-9
+
+
+def test_eval_mode_samples_the_deterministic_state():
+    n = 3
+    dec = by_moments(round_robin(n))
+    model = DensityQNN(dec.sub_unitaries, [0.6, 0.3, 0.1], encoding=Encoding.unary(n), seed=9)
+    x = RNG.normal(size=n)
+    exact = np.real(np.trace(model.observable.to_matrix() @ _rho(model, x)))
+    res = model.eval().sample(x, 8000, seed=2)
+    assert res.name == "deterministic" and res.shots_used == 8000
+    assert abs(res.estimate - exact) < 4 * res.standard_error
+
+
+def test_sample_refuses_bad_input():
+    model = DensityQNN([round_robin(3)], encoding=Encoding.unary(3),
+                       observable=SparsePauliOp("XII"))
+    with pytest.raises(ValueError, match="diagonal"):
+        model.sample(np.ones(3), 100)
+    model = DensityQNN([round_robin(3)], encoding=Encoding.unary(3))
+    with pytest.raises(ValueError, match="scheduler"):
+        model.sample(np.ones(3), 100, scheduler="magic")

@@ -367,3 +367,30 @@ def test_plan_with_shots_and_combine():
     np.testing.assert_allclose(
         res.probabilities[1], Statevector(qc.assign_parameters(rows[1])).probabilities(),
         atol=1e-12)
+
+
+def test_postselect_hamming_weight_on_noisy_unary_circuit():
+    """Readout noise leaks weight out of the unary subspace; post-selection reports the kept
+    fraction and recovers the unary distribution closely."""
+    from qiskit import transpile
+    from qiskit_aer import AerSimulator
+    from qiskit_aer.noise import NoiseModel, ReadoutError
+    from qiskit_aer.primitives import SamplerV2
+
+    from qdensity.loaders import unary_loader
+    from qdensity.plans import postselect_hamming_weight, probabilities_plan
+
+    x = np.array([0.5, -0.3, 0.8, 0.1])
+    circ = unary_loader(x)
+    nm = NoiseModel()
+    nm.add_all_qubit_readout_error(ReadoutError([[0.97, 0.03], [0.03, 0.97]]))
+    engine = SamplerEngine(SamplerV2(seed=5, options={"backend_options": {"noise_model": nm}}),
+                           transpiler=lambda c: transpile(c, AerSimulator()))
+    res = probabilities_plan(circ, None, shots=20000).run(engine)
+    post, kept = postselect_hamming_weight(res.probabilities)
+    # P(no flip on all 4 qubits) plus small two-flip terms: kept fraction ~ 0.97**4
+    assert 0.86 < kept[0] < 0.91
+    want = (x / np.linalg.norm(x)) ** 2
+    np.testing.assert_allclose(post[0, 1 << np.arange(4)], want, atol=0.02)
+    with pytest.raises(ValueError, match="keep no outcome"):
+        postselect_hamming_weight(np.array([[1.0, 0, 0, 0]]))
