@@ -79,21 +79,36 @@ class ShotLedger:
         return "\n".join(lines)
 
 
+def circuit_fingerprint(circuit: QuantumCircuit) -> tuple:
+    """A hashable description of a template's structure (gates, qubits, clbits, parameter
+    expressions), so an identical template rebuilt later is recognised and not transpiled again."""
+    data = tuple(
+        (inst.operation.name,
+         tuple(circuit.find_bit(q).index for q in inst.qubits),
+         tuple(circuit.find_bit(c).index for c in inst.clbits),
+         tuple(str(p) for p in inst.operation.params))
+        for inst in circuit.data
+    )
+    return (circuit.num_qubits, circuit.num_clbits, tuple(p.name for p in circuit.parameters),
+            data)
+
+
 class _TranspileCache:
-    """Transpile each template once; keyed by object identity (the template is kept alive)."""
+    """Transpile each distinct template once, recognised by :func:`circuit_fingerprint`."""
 
     def __init__(self, transpiler: Callable[[QuantumCircuit], QuantumCircuit]):
         self._transpiler = transpiler
-        self._store: dict[int, tuple[QuantumCircuit, QuantumCircuit]] = {}
+        self._store: dict[tuple, QuantumCircuit] = {}
         self.misses = 0
 
     def __call__(self, circuit: QuantumCircuit) -> QuantumCircuit:
-        hit = self._store.get(id(circuit))
-        if hit is not None and hit[0] is circuit:
-            return hit[1]
+        key = circuit_fingerprint(circuit)
+        hit = self._store.get(key)
+        if hit is not None:
+            return hit
         self.misses += 1
         out = self._transpiler(circuit)
-        self._store[id(circuit)] = (circuit, out)
+        self._store[key] = out
         return out
 
 

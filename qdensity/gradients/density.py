@@ -116,20 +116,40 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     return plan
 
 
+def _commuting_analysis(model, circ, params, k):
+    """Gradient observables and diagonalising circuits of sub-unitary ``k``.
+
+    They depend only on the circuits and the readout, not on data or angles, so they are
+    derived once per model and kept (failures too, so ``method="auto"`` decides once).
+    """
+    cache = model.__dict__.setdefault("_commuting_cache", {})
+    if k not in cache:
+        try:
+            observables = _readout_observables(model)
+            if len(observables) == 1:
+                grads = [commuting_gradient(circ, observables[0], params)]
+                shared = grads[0]
+            else:
+                total = SparsePauliOp.from_sparse_list(
+                    [("Z", [j], 1.0) for j in range(model.num_qubits)], model.num_qubits)
+                shared = commuting_gradient(circ, total, params)
+                grads = [commuting_gradient(circ, obs, params) for obs in observables]
+                same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
+                              and all(g.diagonaliser == "rbs" and len(g.circuits) == 1
+                                      for g in grads))
+                if not same_layer:
+                    raise ValueError("unary readout outputs need different diagonalising "
+                                     "circuits")
+            cache[k] = (shared, grads)
+        except ValueError as exc:
+            cache[k] = exc
+    if isinstance(cache[k], ValueError):
+        raise cache[k]
+    return cache[k]
+
+
 def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
-    observables = _readout_observables(model)
-    if len(observables) == 1:
-        grads = [commuting_gradient(circ, observables[0], params)]
-        shared = grads[0]
-    else:
-        total = SparsePauliOp.from_sparse_list(
-            [("Z", [j], 1.0) for j in range(model.num_qubits)], model.num_qubits)
-        shared = commuting_gradient(circ, total, params)
-        grads = [commuting_gradient(circ, obs, params) for obs in observables]
-        same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
-                      and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
-        if not same_layer:
-            raise ValueError("unary readout outputs need different diagonalising circuits")
+    shared, grads = _commuting_analysis(model, circ, params, k)
     jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
             for i, c in enumerate(shared.circuits)]
 
