@@ -62,7 +62,7 @@ from ..pauli import (
     rbs_diagonalising_layer,
     z_string_values,
 )
-from ..plans import measured
+from ..plans import check_observable, measured
 from ..validation import check_circuit
 
 __all__ = [
@@ -118,18 +118,22 @@ def _check_parameters(circuit: QuantumCircuit, parameters) -> list[Parameter]:
     return params
 
 
-def _check_observable(observable, num_qubits: int) -> SparsePauliOp:
+def _check_inputs(circuit, observable, parameters, diagonaliser):
+    """Shared checks of the commuting-gradient builders: (params, observable)."""
+    check_circuit(circuit)
+    if circuit.num_clbits:
+        raise ValueError(
+            f"circuit must have no classical bits (it is measured here), got {circuit.num_clbits}"
+        )
+    if diagonaliser not in ("auto", "rbs", "clifford"):
+        raise ValueError(
+            f"diagonaliser must be 'auto', 'rbs' or 'clifford', got {diagonaliser!r}"
+        )
+    params = _check_parameters(circuit, parameters)
     if not isinstance(observable, SparsePauliOp):
         raise TypeError(f"observable must be a SparsePauliOp, got {type(observable).__name__}")
-    if observable.num_qubits != num_qubits:
-        raise ValueError(
-            f"observable acts on {observable.num_qubits} qubits but the circuit has "
-            f"{num_qubits}; they must match"
-        )
-    op = observable.simplify(atol=_ATOL)
-    if np.any(np.abs(op.coeffs.imag) > 1e-10):
-        raise ValueError(f"observable must be Hermitian (real Pauli coefficients), got {op}")
-    return SparsePauliOp(op.paulis, op.coeffs.real.astype(complex))
+    op = check_observable(observable, circuit.num_qubits).simplify(atol=_ATOL)
+    return params, SparsePauliOp(op.paulis, op.coeffs.real.astype(complex))
 
 
 def _qubits(inst: CircuitInstruction, circuit: QuantumCircuit) -> list[int]:
@@ -726,17 +730,7 @@ def commuting_gradient(
     >>> grad.num_gradient_circuits, grad.diagonaliser
     (1, 'rbs')
     """
-    check_circuit(circuit)
-    if circuit.num_clbits:
-        raise ValueError(
-            f"circuit must have no classical bits (it is measured here), got {circuit.num_clbits}"
-        )
-    if diagonaliser not in ("auto", "rbs", "clifford"):
-        raise ValueError(
-            f"diagonaliser must be 'auto', 'rbs' or 'clifford', got {diagonaliser!r}"
-        )
-    params = _check_parameters(circuit, parameters)
-    obs = _check_observable(observable, circuit.num_qubits)
+    params, obs = _check_inputs(circuit, observable, parameters, diagonaliser)
     pset = set(params)
     first = next(
         (i for i, inst in enumerate(circuit.data) if _is_trainable(inst, pset)), None
@@ -902,18 +896,8 @@ def commuting_block_gradient(
     >>> g.num_gradient_circuits, len(g.blocks)
     (3, 3)
     """
-    check_circuit(circuit)
-    if circuit.num_clbits:
-        raise ValueError(
-            f"circuit must have no classical bits (it is measured here), got {circuit.num_clbits}"
-        )
-    if diagonaliser not in ("auto", "rbs", "clifford"):
-        raise ValueError(
-            f"diagonaliser must be 'auto', 'rbs' or 'clifford', got {diagonaliser!r}"
-        )
-    params = _check_parameters(circuit, parameters)
+    params, obs = _check_inputs(circuit, observable, parameters, diagonaliser)
     pset = set(params)
-    obs = _check_observable(observable, circuit.num_qubits)
     n = circuit.num_qubits
     if blocks is None:
         blocks = commuting_blocks(circuit, params)
