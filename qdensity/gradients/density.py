@@ -22,7 +22,7 @@ import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
 from ..decompositions import trainable_parameters
-from ..plans import CircuitJob, Estimate, Plan, expectation_plan, probabilities_plan
+from ..plans import CircuitJob, Estimate, Plan, probabilities_plan
 from .commuting import commuting_gradient
 from .shift import parameter_shift_plan
 
@@ -172,16 +172,15 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
 
 
 def _forward_plan(model, k: int, X, shots) -> Plan:
-    rows = model.rows(k, X)
     if model.readout == "observable":
-        inner = expectation_plan(model.circuit(k), model.observable, rows, shots=shots,
-                                 label=f"forward_k{k}")
+        inner = model.expectation_plan(k, X, shots=shots)
 
         def post(results):
             est = inner.postprocess(results)
             return Estimate(est.value[:, None], est.standard_error[:, None])
         return Plan(inner.jobs, post, inner.description)
-    inner = probabilities_plan(model.circuit(k), rows, shots=shots, label=f"forward_k{k}")
+    inner = probabilities_plan(model.circuit(k), model.rows(k, X), shots=shots,
+                               label=f"forward_k{k}")
     unary = 1 << np.arange(model.num_qubits)
 
     def post_p(results):
