@@ -270,41 +270,69 @@ def test_other_input_errors():
 # ------------------------------------------------------------------------------ multi-block
 
 
+def _per_block(method: str) -> int:
+    """Circuits per earlier block and Pauli term: two observable shifts, or one Hadamard test."""
+    return 2 if method == "shift" else 1
+
+
+@pytest.mark.parametrize("method", ["shift", "hadamard"])
 @pytest.mark.parametrize("coeffs", [[1.0, 0, 0, 0], [1.0, 0, -0.5, 0.3]])
-def test_pyramid_multi_block(coeffs):
+def test_pyramid_multi_block(coeffs, method):
     n = 4
     qc = _unary_loader(n).compose(pyramid(n))
     obs = _z_sum(n, coeffs)
     blocks = commuting_blocks(qc)
-    grad = commuting_block_gradient(qc, obs)
+    grad = commuting_block_gradient(qc, obs, method=method)
     terms = sum(1 for c in coeffs if c)
-    assert grad.blocks == blocks and len(blocks) == 2 * n - 3
-    assert grad.num_gradient_circuits == len(grad.circuits) == terms * (len(blocks) - 1) + 1
-    assert sum("Hadamard" in r for r in grad.roles) == terms * (len(blocks) - 1)
+    assert grad.blocks == blocks and len(blocks) == 2 * n - 3 and grad.method == method
+    earlier = _per_block(method) * terms * (len(blocks) - 1)
+    assert grad.num_gradient_circuits == len(grad.circuits) == earlier + 1
+    tag = "observable shift" if method == "shift" else "Hadamard"
+    assert sum(tag in r for r in grad.roles) == earlier
+    width = n if method == "shift" else n + 1
+    assert all(c.num_qubits == width for c, r in zip(grad.circuits, grad.roles, strict=True)
+               if tag in r)
     _check_against_fd(grad, qc, obs, np.random.default_rng(2), rows=2)
-    hadamard_circ = grad.circuits[0]
-    bound = _bind(hadamard_circ, _random_values(hadamard_circ, np.random.default_rng(0)))
+    block_circ = grad.circuits[0]
+    bound = _bind(block_circ, _random_values(block_circ, np.random.default_rng(0)))
     for basis in BASES:
         tq = transpile(bound, basis_gates=basis, optimization_level=1, seed_transpiler=1)
         assert set(tq.count_ops()) <= set(basis) | {"measure", "barrier"}
 
 
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_cor2_count_for_a_pauli_observable(n):
+    """Paper Cor. 2: B commuting blocks and a Pauli observable need 2B - 1 circuits, no ancilla."""
+    qc = _unary_loader(n).compose(pyramid(n))
+    obs = SparsePauliOp.from_sparse_list([("Z", [n - 1], 1.0)], n)
+    grad = commuting_block_gradient(qc, obs)
+    num_blocks = len(grad.blocks)
+    assert num_blocks == 2 * n - 3
+    assert grad.num_gradient_circuits == 2 * num_blocks - 1
+    assert all(c.num_qubits == n for c in grad.circuits)
+    assert commuting_block_gradient(qc, obs, method="hadamard").num_gradient_circuits == num_blocks
+    if n == 3:
+        _check_against_fd(grad, qc, obs, np.random.default_rng(7), rows=2)
+
+
+@pytest.mark.parametrize("method", ["shift", "hadamard"])
 @pytest.mark.parametrize("trailing_data_gate", [False, True])
-def test_multi_block_general_pauli_observable(trailing_data_gate):
+def test_multi_block_general_pauli_observable(trailing_data_gate, method):
     n = 3
     qc = _unary_loader(n).compose(pyramid(n))
-    if trailing_data_gate:  # a fixed non-Clifford gate after the last block: Hadamard tests
+    if trailing_data_gate:  # a fixed non-Clifford gate after the last block: measured through W
         qc.ry(next(p for p in qc.parameters if p.name.startswith("x")), 1)
     obs = SparsePauliOp(["XYZ", "YYI", "ZIX"], [0.5, -1.0, 0.3])
-    grad = commuting_block_gradient(qc, obs)
-    hadamard = sum("Hadamard" in r for r in grad.roles)
-    assert hadamard == (9 if trailing_data_gate else 6)
-    assert all(c.num_qubits == n + 1 for c, r in zip(grad.circuits, grad.roles, strict=True)
-               if "Hadamard" in r)
+    grad = commuting_block_gradient(qc, obs, method=method)
+    through_w = sum("direct" not in r for r in grad.roles)
+    assert through_w == _per_block(method) * 3 * (3 if trailing_data_gate else 2)
     _check_against_fd(grad, qc, obs, np.random.default_rng(3), rows=2)
 
 
-def test_two_hwe_layers_and_reuploading():
+@pytest.mark.parametrize("method", ["shift", "hadamard"])
+def test_two_hwe_layers_and_reuploading(method):
+    """The fixed Clifford gates closing the circuit (CZ ladder, SWAP) are absorbed into the
+    Pauli string, not run forwards and backwards; finite differences check the absorption."""
     n = 3
     x = ParameterVector("x", n)
     a, b = ParameterVector("a", n), ParameterVector("b", n)
@@ -321,9 +349,13 @@ def test_two_hwe_layers_and_reuploading():
         qc.rx(b[i], i)
     for i in range(n - 1):
         qc.cz(i, i + 1)
+    qc.swap(0, 2)
     obs = SparsePauliOp.from_sparse_list([("ZZ", [0, 2], 1.0), ("X", [1], 0.5)], n)
-    grad = commuting_block_gradient(qc, obs)
+    grad = commuting_block_gradient(qc, obs, method=method)
     assert len(grad.blocks) == 2
+    through_w = [c for c, r in zip(grad.circuits, grad.roles, strict=True) if "direct" not in r]
+    assert len(through_w) == _per_block(method) * 2  # block 0, two Pauli terms
+    assert all("swap" not in c.count_ops() for c in through_w)  # absorbed into P_t
     _check_against_fd(grad, qc, obs, np.random.default_rng(4), rows=2)
     for circ in grad.circuits:
         bound = _bind(circ, _random_values(circ, np.random.default_rng(1)))
@@ -332,7 +364,8 @@ def test_two_hwe_layers_and_reuploading():
             assert set(tq.count_ops()) <= set(basis) | {"measure", "barrier"}
 
 
-def test_explicit_blocks_and_shared_parameter():
+@pytest.mark.parametrize("method", ["shift", "hadamard"])
+def test_explicit_blocks_and_shared_parameter(method):
     n = 3
     t = ParameterVector("θ", 2)
     qc = _unary_loader(n)
@@ -342,8 +375,8 @@ def test_explicit_blocks_and_shared_parameter():
     obs = _z_sum(n, [1.0, 0.0, 0.0])
     start = len(_unary_loader(n).data)
     blocks = [(start, start + 1), (start + 1, start + 2), (start + 2, start + 3)]
-    grad = commuting_block_gradient(qc, obs, blocks=blocks)
-    assert grad.blocks == blocks and grad.num_gradient_circuits == 3
+    grad = commuting_block_gradient(qc, obs, blocks=blocks, method=method)
+    assert grad.blocks == blocks and grad.num_gradient_circuits == (5 if method == "shift" else 3)
     _check_against_fd(grad, qc, obs, np.random.default_rng(6))
     with pytest.raises(ValueError, match="lies in no block"):
         commuting_block_gradient(qc, obs, blocks=blocks[:2])
@@ -367,16 +400,23 @@ def _sampled_probs(circuit: QuantumCircuit, rows: np.ndarray, shots: int, seed: 
     return out
 
 
-@pytest.mark.parametrize("case", ["round_robin", "hwe"])
+@pytest.mark.parametrize("case", ["round_robin", "hwe", "pyramid_blocks"])
 def test_sampled_gradients_within_standard_errors(case):
     n = 4
     if case == "round_robin":
         qc = _unary_loader(n).compose(pairs_circuit(n, [round_robin_pairs(n)[1]]))
         obs = _z_sum(n, [1.0, -0.5, 0.25, 0.8])
-    else:
+    elif case == "hwe":
         qc = _hwe_layer(n)
         obs = SparsePauliOp.from_sparse_list([("ZZ", [0, 1], 1.0), ("Z", [3], 0.7)], n)
-    grad = commuting_gradient(qc, obs)
+    else:  # five commuting blocks, observable shifts (Cor. 2): 2B - 1 = 9 circuits
+        qc = _unary_loader(n).compose(pyramid(n))
+        obs = _z_sum(n, [0.0, 0.0, 0.0, 1.0])
+    if case == "pyramid_blocks":
+        grad = commuting_block_gradient(qc, obs)
+        assert grad.num_gradient_circuits == 9
+    else:
+        grad = commuting_gradient(qc, obs)
     rng = np.random.default_rng(21)
     rows = rng.uniform(-1.5, 1.5, size=(4, qc.num_parameters))
     shots = 4000

@@ -10,8 +10,13 @@ For ``f(x) = sum_k alpha_k(x) f_k(x)``:
   the mixture-of-experts gate) by :meth:`qdensity.mixtures.Mixture.vjp`.
 
 Each sub-unitary's Jacobian is a plan: ``"shift"`` (parameter shift, Supp. E), ``"commuting"``
-(one measured circuit per commuting block with a diagonalising layer, Prop. 1 of Bowles et
-al., Supp. F.3), or ``"auto"`` (commuting when the sub-unitary allows it, else shift).
+or ``"auto"``. ``"commuting"`` measures a sub-unitary made of one commuting block with one
+circuit and a diagonalising layer (Bowles et al.'s Thm. 1, Supp. F.3); a sub-unitary of
+``B_k`` commuting blocks read out by one observable with :func:`commuting_block_gradient`'s
+observable shifts, ``2 B_k - 1`` circuits for a Pauli observable, so the whole model needs
+``sum_k (2 B_k - 1) = 2 sum_k B_k - K`` (Cor. 2). ``"auto"`` takes the one-block circuit when
+it applies, the block circuits when they are fewer than the parameter-shift circuits, and
+parameter shift otherwise.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from ..decompositions import trainable_parameters
 from ..plans import CircuitJob, Estimate, Plan, probabilities_plan
-from .commuting import commuting_gradient
+from .commuting import CommutingBlockGradient, commuting_block_gradient, commuting_gradient
 from .shift import parameter_shift_plan
 
 __all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan", "METHODS"]
@@ -90,11 +95,15 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     if method in ("auto", "commuting"):
         try:
             plan = _commuting_plan(model, circ, params, rows, shots, k)
-            plan.meta["method"] = "commuting"
-            return plan
         except ValueError:
             if method == "commuting":
                 raise
+        else:
+            gradient = plan.meta["gradient"]
+            if (method == "commuting" or not isinstance(gradient, CommutingBlockGradient)
+                    or gradient.num_gradient_circuits <= _shift_count(model, circ, params)):
+                plan.meta["method"] = "commuting"
+                return plan
     n = model.num_qubits
     if model.readout == "observable":
         inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
@@ -127,7 +136,13 @@ def _commuting_analysis(model, circ, params, k):
         try:
             observables = _readout_observables(model)
             if len(observables) == 1:
-                grads = [commuting_gradient(circ, observables[0], params)]
+                try:
+                    grads = [commuting_gradient(circ, observables[0], params)]
+                except ValueError as one_block:
+                    try:  # several commuting blocks: observable shifts (Cor. 2)
+                        grads = [commuting_block_gradient(circ, observables[0], None, params)]
+                    except ValueError:
+                        raise one_block from None
                 shared = grads[0]
             else:
                 total = SparsePauliOp.from_sparse_list(
@@ -146,6 +161,12 @@ def _commuting_analysis(model, circ, params, k):
     if isinstance(cache[k], ValueError):
         raise cache[k]
     return cache[k]
+
+
+def _shift_count(model, circ, params) -> int:
+    """Parameter-shift circuits per data point for sub-unitary circuit ``circ``."""
+    row = np.zeros((1, circ.num_parameters))
+    return parameter_shift_plan(circ, model.observable, row, parameters=params).num_circuits
 
 
 def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
