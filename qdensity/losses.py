@@ -18,6 +18,8 @@ import numbers
 
 import numpy as np
 
+from .validation import check_rows_sum_to_one
+
 __all__ = [
     "mse",
     "binary_cross_entropy",
@@ -205,13 +207,7 @@ def cross_entropy(probs, labels, *, atol: float = 1e-6) -> tuple[float, np.ndarr
     y = _labels(labels, B, C)
     if np.any(P < 0) or np.any(P > 1):
         raise ValueError(f"probs must lie in [0, 1], got range [{P.min()!r}, {P.max()!r}]")
-    sums = P.sum(axis=1)
-    off = np.flatnonzero(np.abs(sums - 1.0) > atol)
-    if off.size:
-        raise ValueError(
-            f"probs rows must sum to 1 within {atol:g} (they are not renormalised); rows "
-            f"{off[:10].tolist()} sum to {sums[off[:10]].tolist()}"
-        )
+    check_rows_sum_to_one(P, "probs", atol=atol)
     picked = P[np.arange(B), y]
     if np.any(picked <= 0):
         rows = np.flatnonzero(picked <= 0)

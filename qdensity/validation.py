@@ -17,6 +17,7 @@ __all__ = [
     "check_real_vector",
     "check_nonzero_vector",
     "check_distribution",
+    "check_rows_sum_to_one",
     "check_parameter_values",
     "as_parameter_rows",
     "check_positive_int",
@@ -124,6 +125,27 @@ def check_distribution(alpha, name: str = "alpha", *, atol: float = 1e-9) -> np.
             f"{name} must sum to 1 within {atol:g} (it is not renormalised), got sum {total!r}"
         )
     return arr
+
+
+def check_rows_sum_to_one(probs: np.ndarray, name: str = "probs", *, atol: float = 1e-6) -> None:
+    """Refuse probability rows (last axis) that are negative or do not sum to 1 within ``atol``.
+
+    Parameters
+    ----------
+    probs : numpy.ndarray, shape (..., D)
+        Finite floats. Never renormalised.
+    name : str
+    atol : float
+    """
+    if np.any(probs < 0):
+        raise ValueError(f"{name} must be non-negative, got minimum {probs.min()!r}")
+    sums = np.atleast_1d(probs.sum(axis=-1)).ravel()
+    off = np.flatnonzero(np.abs(sums - 1.0) > atol)
+    if off.size:
+        raise ValueError(
+            f"{name} rows must sum to 1 within {atol:g} (they are not renormalised); rows "
+            f"{off[:10].tolist()} sum to {sums[off[:10]].tolist()}"
+        )
 
 
 def check_parameter_values(values, num_parameters: int, name: str = "values") -> np.ndarray:

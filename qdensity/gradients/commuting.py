@@ -73,7 +73,7 @@ from ..pauli import (
     z_string_values,
 )
 from ..plans import check_observable, measured
-from ..validation import check_circuit
+from ..validation import check_circuit, check_rows_sum_to_one
 
 __all__ = [
     "BLOCK_METHODS",
@@ -358,13 +358,9 @@ def _check_probs(probs, dim: int, name: str = "probs") -> np.ndarray:
             f"{name} must have shape ({dim},) or (rows, {dim}) (one probability per measured "
             f"bitstring, index = integer with clbit j as bit j), got {arr.shape}"
         )
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError(f"{name} must be finite and non-negative")
-    sums = arr.sum(axis=-1)
-    if np.any(np.abs(sums - 1.0) > 1e-6):
-        raise ValueError(
-            f"{name} rows must sum to 1 (they are not renormalised), got sums {sums}"
-        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    check_rows_sum_to_one(arr, name)
     return arr
 
 
