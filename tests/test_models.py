@@ -178,6 +178,14 @@ def test_commuting_block_subunitaries_cor2():
         lo = model.predict(X, th - e).reshape(2, 1)
         fd.append(float(((hi - lo) * up).sum()) / 2e-6)
     np.testing.assert_allclose(g_theta, fd, atol=1e-7)
+    # sum_i Z_i: 2 T (B - 1) + 1 circuits; pyramid 2*4*4 + 1 = 33 > 24 by shift, round-robin
+    # 2*4*2 + 1 = 17 < 24: "auto" takes the fewer, "commuting" insists
+    sum_z = DensityQNN(subs, encoding=Encoding.unary(n),
+                       observable=SparsePauliOp(["ZIII", "IZII", "IIZI", "IIIZ"]))
+    auto = density_gradient_plan(sum_z, X, method="auto")
+    assert auto.meta["methods"] == ["shift", "commuting"]
+    assert auto.meta["gradient_circuits"] == 24 + 17
+    assert density_gradient_plan(sum_z, X, method="commuting").meta["gradient_circuits"] == 33 + 17
     sampled_plan = density_gradient_plan(model, X, method="commuting", shots=4000)
     engine = SamplerEngine(seed=5)
     sampled = sampled_plan.run(engine)

@@ -99,9 +99,8 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
             if method == "commuting":
                 raise
         else:
-            gradient = plan.meta["gradient"]
-            if (method == "commuting" or not isinstance(gradient, CommutingBlockGradient)
-                    or gradient.num_gradient_circuits <= _shift_count(model, circ, params)):
+            if method == "commuting" or _auto_prefers_commuting(model, circ, params, k,
+                                                                plan.meta["gradient"]):
                 plan.meta["method"] = "commuting"
                 return plan
     n = model.num_qubits
@@ -163,10 +162,18 @@ def _commuting_analysis(model, circ, params, k):
     return cache[k]
 
 
-def _shift_count(model, circ, params) -> int:
-    """Parameter-shift circuits per data point for sub-unitary circuit ``circ``."""
-    row = np.zeros((1, circ.num_parameters))
-    return parameter_shift_plan(circ, model.observable, row, parameters=params).num_circuits
+def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
+    """``method="auto"``: one-block circuits always; block circuits when they are no more than
+    the parameter-shift circuits per data point (decided once per model and sub-unitary)."""
+    if not isinstance(gradient, CommutingBlockGradient):
+        return True
+    cache = model.__dict__.setdefault("_commuting_cache", {})
+    key = ("auto", k)
+    if key not in cache:
+        row = np.zeros((1, circ.num_parameters))
+        shift = parameter_shift_plan(circ, model.observable, row, parameters=params)
+        cache[key] = gradient.num_gradient_circuits <= shift.num_circuits
+    return cache[key]
 
 
 def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
