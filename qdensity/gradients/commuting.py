@@ -787,9 +787,9 @@ def _subcircuit(circuit: QuantumCircuit, start: int, stop: int) -> QuantumCircui
     return out
 
 
-def _rest_of_circuit(circuit: QuantumCircuit, stop: int, label: str):
-    """``(W', P', s)`` with ``W^dagger P W = s W'^dagger P' W'``: the fixed Clifford gates at the
-    end of ``W = data[stop:]`` are absorbed into the Pauli string ``P`` (``s = +-1``)."""
+def _rest_of_circuit(circuit: QuantumCircuit, stop: int) -> tuple[QuantumCircuit, Clifford | None]:
+    """``(W', C)`` with ``W = C W'`` for ``W = data[stop:]``: ``C`` collects the fixed Clifford
+    gates at the end of ``W`` (None when there are none), to be absorbed into each Pauli."""
     size = len(circuit.data)
     cut = size
     while cut > stop and (
@@ -797,14 +797,20 @@ def _rest_of_circuit(circuit: QuantumCircuit, stop: int, label: str):
         is not None
     ):
         cut -= 1
+    suffix = Clifford(_subcircuit(circuit, cut, size)) if cut < size else None
+    return _subcircuit(circuit, stop, cut), suffix
+
+
+def _absorbed(label: str, suffix: Clifford | None) -> tuple[Pauli, float]:
+    """``(P', s)`` with ``C^dagger P C = s P'`` (``s = +-1``), ``C`` the absorbed Cliffords."""
     pauli = Pauli(label)
-    if cut < size:
-        pauli = pauli.evolve(Clifford(_subcircuit(circuit, cut, size)), frame="h")
+    if suffix is not None:
+        pauli = pauli.evolve(suffix, frame="h")
     sign = complex((-1j) ** pauli.phase)
     if abs(sign.imag) > 1e-12:  # conjugation keeps a Hermitian Pauli Hermitian
         raise RuntimeError(f"Clifford conjugation of {label} gave a non-Hermitian {pauli}")
     pauli.phase = 0
-    return _subcircuit(circuit, stop, cut), pauli, sign.real
+    return pauli, sign.real
 
 
 def _support(pauli: Pauli) -> list[int]:
@@ -812,20 +818,19 @@ def _support(pauli: Pauli) -> list[int]:
 
 
 def _block_circuit(
-    circuit: QuantumCircuit,
-    stop: int,
+    head: QuantumCircuit,
     rest: QuantumCircuit,
     pauli: Pauli,
     diag_circ: QuantumCircuit,
     method: str,
     direction: int = 0,
 ) -> QuantumCircuit:
-    """``prep + blocks<=b; W'; middle; W'^dag; C_b`` (measured). ``middle`` is
+    """``head (prep + blocks<=b); W'; middle; W'^dag; C_b`` (measured). ``middle`` is
     ``exp(direction i pi/4 P)`` (shift) or ``H(anc)...controlled-P...Y-measure`` (Hadamard)."""
-    n = circuit.num_qubits
+    n = head.num_qubits
     width = n + 1 if method == "hadamard" else n
-    out = QuantumCircuit(width, name=f"{circuit.name}_{method}")
-    out.compose(_subcircuit(circuit, 0, stop), qubits=range(n), inplace=True)
+    out = QuantumCircuit(width, name=f"{head.name}_{method}")
+    out.compose(head, qubits=range(n), inplace=True)
     if method == "hadamard":
         out.h(n)
     out.compose(rest, qubits=range(n), inplace=True)
@@ -1010,10 +1015,13 @@ def commuting_block_gradient(
         cliff = Clifford(diag_circ)
         diag_gens = [_evolve(t.generator, cliff, list(range(n))) for t in trainables]
         sys_vals = _block_values(trainables, diag_gens, params, n)
+        head = _subcircuit(circuit, 0, stop)
+        head.name = circuit.name
+        rest, suffix = _rest_of_circuit(circuit, stop)
         for label, h in terms:
-            rest, pauli, sign = _rest_of_circuit(circuit, stop, label)
+            pauli, sign = _absorbed(label, suffix)
             if method == "hadamard":
-                circuits.append(_block_circuit(circuit, stop, rest, pauli, diag_circ, method))
+                circuits.append(_block_circuit(head, rest, pauli, diag_circ, method))
                 roles.append(f"block {b}, term {label} (Hadamard test)")
                 y = np.array([1.0, -1.0])  # ancilla bit 0 -> Y = +1
                 vals = -2.0 * h * sign * (y[:, None, None] * sys_vals[None, :, :])
@@ -1021,7 +1029,7 @@ def commuting_block_gradient(
                 continue
             for direction in (1, -1):
                 circuits.append(
-                    _block_circuit(circuit, stop, rest, pauli, diag_circ, method, direction)
+                    _block_circuit(head, rest, pauli, diag_circ, method, direction)
                 )
                 roles.append(
                     f"block {b}, term {label} (observable shift {'+' if direction > 0 else '-'})"
