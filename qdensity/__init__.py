@@ -10,23 +10,32 @@ The spine is ``circuits -> models -> plans -> engines -> training / experiments 
 * hardware: :mod:`qdensity.targets`, :mod:`qdensity.noise`, :mod:`qdensity.resources`.
 """
 
-from .analysis import is_hamming_weight_preserving, moments
-from .decompositions import Decomposition, by_moments, copies, cyclic_moments, odd_even
-from .engines import ExactEngine, SamplerEngine, ShotLedger
-from .gates import FBSGate, RBSGate
-from .loaders import (
+from qdensity import _aliases
+from qdensity.analysis.structure import is_hamming_weight_preserving, moments
+from qdensity.circuits.gates import FBSGate, RBSGate
+from qdensity.circuits.loaders import (
     distribution_loader,
     loader_angles,
     matrix_loader,
     unary_loader,
     unary_loader_template,
 )
-from .mixtures import FixedMixture, GatedMixture, SoftmaxMixture
-from .models import DensityQNN, Encoding
-from .plans import Plan, expectation_plan, probabilities_plan
-from .resources import compare_reports, resource_report
-from .targets import get_target, known_targets
-from .training import QNNClassifier, QNNRegressor
+from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
+from qdensity.execution.resources import compare_reports, resource_report
+from qdensity.execution.targets import get_target, known_targets
+from qdensity.learning.training import QNNClassifier, QNNRegressor
+from qdensity.models.decompositions import (
+    Decomposition,
+    by_moments,
+    copies,
+    cyclic_moments,
+    odd_even,
+)
+from qdensity.models.density import DensityQNN, Encoding
+from qdensity.models.mixtures import FixedMixture, GatedMixture, SoftmaxMixture
+
+_aliases.install()
 
 __version__ = "0.1.0"
 
@@ -64,3 +73,13 @@ __all__ = [
     "QNNRegressor",
     "__version__",
 ]
+
+
+def __getattr__(name: str):
+    """``qdensity.ansatze`` and the other short module paths resolve without an explicit import."""
+    real = _aliases.resolve(f"qdensity.{name}")
+    if real is None:
+        raise AttributeError(f"module 'qdensity' has no attribute {name!r}")
+    import importlib
+
+    return importlib.import_module(f"qdensity.{name}")

@@ -1,15 +1,20 @@
 """Gradients: parameter shift (Supp. E), commuting-generator circuits (Prop. 1, Cor. 2,
 Supp. F.3) and density-QNN gradients (Cor. 1, Prop. 1, chain rule through mixtures)."""
 
-from .commuting import (
+from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     CommutingGradient,
     commuting_block_gradient,
     commuting_blocks,
     commuting_gradient,
 )
-from .density import DensityGradient, chain_rule, density_gradient_plan, subunitary_jacobian_plan
-from .shift import expand_occurrences, parameter_shift_plan, shift_rules
+from qdensity.gradients.density import (
+    DensityGradient,
+    chain_rule,
+    density_gradient_plan,
+    subunitary_jacobian_plan,
+)
+from qdensity.gradients.shift import expand_occurrences, parameter_shift_plan, shift_rules
 
 __all__ = [
     "parameter_shift_plan",

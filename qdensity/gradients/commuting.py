@@ -62,18 +62,18 @@ from qiskit.circuit import (
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, Pauli, PauliList, SparsePauliOp
 
-from ..analysis import instruction_generator, parameter_of
-from ..decompositions import trainable_parameters
-from ..gates import rbs_matrix
-from ..pauli import (
+from qdensity.analysis.pauli import (
     conjugate_two_qubit,
     diagonalising_clifford,
     first_noncommuting_pair,
-    rbs_diagonalising_layer,
     z_string_values,
 )
-from ..plans import check_observable, measured
-from ..validation import check_circuit, check_rows_sum_to_one
+from qdensity.analysis.structure import instruction_generator, parameter_of
+from qdensity.circuits.gates import rbs_matrix
+from qdensity.execution.plans import check_observable, measured
+from qdensity.gradients.diagonalising import rbs_diagonalising_layer
+from qdensity.models.decompositions import trainable_parameters
+from qdensity.validation import check_circuit, check_rows_sum_to_one
 
 __all__ = [
     "BLOCK_METHODS",

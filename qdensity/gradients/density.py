@@ -26,10 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
-from ..decompositions import trainable_parameters
-from ..plans import CircuitJob, Estimate, Plan, probabilities_plan
-from .commuting import CommutingBlockGradient, commuting_block_gradient, commuting_gradient
-from .shift import parameter_shift_plan
+from qdensity.execution.plans import CircuitJob, Estimate, Plan, probabilities_plan
+from qdensity.gradients.commuting import (
+    CommutingBlockGradient,
+    commuting_block_gradient,
+    commuting_gradient,
+)
+from qdensity.gradients.shift import parameter_shift_plan
+from qdensity.models.decompositions import trainable_parameters
 
 __all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan", "METHODS"]
 

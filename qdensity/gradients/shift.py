@@ -22,9 +22,9 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
-from ..analysis import instruction_generator, parameter_of
-from ..plans import Estimate, Plan, expectation_plan, probabilities_plan
-from ..validation import as_parameter_rows, check_circuit
+from qdensity.analysis.structure import instruction_generator, parameter_of
+from qdensity.execution.plans import Estimate, Plan, expectation_plan, probabilities_plan
+from qdensity.validation import as_parameter_rows, check_circuit
 
 __all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "expand_occurrences"]
 

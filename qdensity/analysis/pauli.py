@@ -1,0 +1,338 @@
+"""Pauli and Clifford utilities in the binary symplectic picture (paper Methods, Supp. F.2-F.3).
+
+Commuting-generator gradients (Methods, "Commuting-block quantum neural networks") measure a set
+of mutually commuting gradient observables from one circuit by appending a *diagonalising
+circuit*. This module builds such circuits:
+
+* :func:`diagonalising_clifford` -- a Clifford circuit (``h``, ``s``, ``cx``, ``cz``) that maps
+  every operator of a commuting set of Pauli strings to a diagonal ``Z``/``I`` string, by symplectic
+  Gaussian elimination;
+* :func:`~qdensity.gradients.diagonalising.rbs_diagonalising_layer` (in ``gradients``, as it
+  builds RBS gates) -- a layer of ``RBS(pi/4)`` gates (Supp. F.3), which maps
+  ``X_i X_j + Y_i Y_j`` to ``Z_j - Z_i`` on each pair.
+
+A Pauli operator on ``n`` qubits is a pair of bit vectors ``(x, z)`` (qubit ``q`` carries
+``X^x_q Z^z_q`` up to phase). Two Pauli operators commute iff ``x . z' + z . x' = 0 (mod 2)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
+
+__all__ = [
+    "as_pauli_list",
+    "commutation_matrix",
+    "paulis_commute_pairwise",
+    "first_noncommuting_pair",
+    "diagonalising_clifford",
+    "z_string_values",
+    "conjugate_two_qubit",
+]
+
+
+def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
+    """A ``PauliList`` from a ``PauliList``, a sequence of ``Pauli``/labels, or a ``Pauli``.
+
+    Parameters
+    ----------
+    paulis : PauliList, Pauli, str or sequence of Pauli / str
+    name : str
+        Argument name for the error message.
+
+    Returns
+    -------
+    PauliList
+    """
+    if isinstance(paulis, PauliList):
+        return paulis
+    if isinstance(paulis, (Pauli, str)):
+        return PauliList([paulis])
+    if isinstance(paulis, SparsePauliOp):
+        raise TypeError(f"{name} must be Pauli strings, not a SparsePauliOp; pass op.paulis")
+    try:
+        items = list(paulis)
+    except TypeError as exc:
+        raise TypeError(
+            f"{name} must be a PauliList or a sequence of Pauli / labels, got {paulis!r}"
+        ) from exc
+    if not items:
+        raise ValueError(f"{name} must contain at least one Pauli operator, got an empty list")
+    try:
+        return PauliList(items)
+    except Exception as exc:  # qiskit raises QiskitError for bad labels / mixed widths
+        raise ValueError(f"{name} could not be read as Pauli operators: {exc}") from exc
+
+
+def commutation_matrix(paulis) -> np.ndarray:
+    """Symplectic inner products of every pair of Pauli operators.
+
+    Parameters
+    ----------
+    paulis : PauliList or sequence of Pauli / str, length m
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, m), dtype bool
+        Entry ``[s, t]`` is True iff ``P_s`` and ``P_t`` anticommute.
+    """
+    pl = as_pauli_list(paulis)
+    x = pl.x.astype(np.int64)
+    z = pl.z.astype(np.int64)
+    return ((x @ z.T + z @ x.T) % 2).astype(bool)
+
+
+def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
+    """Indices ``(s, t)``, ``s < t``, of the first anticommuting pair, or None if all commute.
+
+    Parameters
+    ----------
+    paulis : PauliList or sequence of Pauli / str
+
+    Returns
+    -------
+    (int, int) or None
+        Lexicographically first pair (row-major over ``s < t``).
+    """
+    anti = np.triu(commutation_matrix(paulis), k=1)
+    hits = np.argwhere(anti)
+    if hits.size == 0:
+        return None
+    s, t = hits[0]
+    return int(s), int(t)
+
+
+def paulis_commute_pairwise(paulis) -> bool:
+    """Whether every pair of the given Pauli operators commutes.
+
+    Parameters
+    ----------
+    paulis : PauliList or sequence of Pauli / str
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> paulis_commute_pairwise(["XX", "YY", "ZZ"])
+    True
+    >>> paulis_commute_pairwise(["XI", "ZI"])
+    False
+    """
+    return first_noncommuting_pair(paulis) is None
+
+
+def _apply(pl: PauliList, gate: str, qubits: Sequence[int], circ: QuantumCircuit) -> PauliList:
+    """Append ``gate`` to ``circ`` and conjugate the Pauli list by it (Schrödinger frame)."""
+    getattr(circ, gate)(*qubits)
+    step = QuantumCircuit(circ.num_qubits)
+    getattr(step, gate)(*qubits)
+    return pl.evolve(step, frame="s")
+
+
+def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
+    """Clifford circuit ``C`` that maps each of a commuting set of Paulis to a ``Z``/``I`` string.
+
+    Symplectic Gaussian elimination (paper Methods, "Commuting-block quantum neural networks";
+    Bowles et al. 2023, Thm. 1: commuting gradient observables are measured from one circuit
+    after a diagonalising unitary). An independent generating set of the commuting group is
+    taken one generator at a time; each is first stripped of ``Z`` factors on the pivot qubits
+    of earlier generators (multiplying by them), then reduced with ``s``, ``cx``, ``cz`` and
+    ``h`` acting only on non-pivot qubits to a single ``Z`` on a fresh pivot qubit. Earlier
+    generators, already single ``Z``'s on their pivots, are untouched. Every operator of the
+    set is (up to phase) a product of generators, so it ends up a product of ``Z``'s.
+
+    Parameters
+    ----------
+    paulis : PauliList or sequence of Pauli / str, length m
+        Mutually commuting Pauli operators on ``n`` qubits (any phase).
+
+    Returns
+    -------
+    circuit : QuantumCircuit
+        ``n`` qubits, gates ``h``, ``s``, ``cx``, ``cz`` only, at most ``O(n^2)`` of them.
+    z_paulis : PauliList, length m
+        ``z_paulis[t] = C P_t C^dagger``: no ``X`` part, the phase of ``P_t`` carried along
+        (``+-1`` for Hermitian input).
+
+    Raises
+    ------
+    ValueError
+        If two operators anticommute (names the first such pair).
+
+    Examples
+    --------
+    >>> circ, z = diagonalising_clifford(["XX", "YY"])
+    >>> bool(z.x.any())
+    False
+    """
+    pl = as_pauli_list(paulis)
+    n = pl.num_qubits
+    pair = first_noncommuting_pair(pl)
+    if pair is not None:
+        s, t = pair
+        raise ValueError(
+            f"paulis must commute pairwise; paulis[{s}] = {pl[s].to_label()} and "
+            f"paulis[{t}] = {pl[t].to_label()} anticommute"
+        )
+    circ = QuantumCircuit(n, name="diagonalise")
+    gens = _independent_rows(pl)
+    pivots: list[int] = []
+    for r in range(len(gens)):
+        # Strip Z factors on earlier pivots (the generator has no X there: it commutes with Z_q).
+        for s, q in enumerate(pivots):
+            if gens.z[r, q]:
+                gens[r] = gens[r].compose(gens[s])
+        g_x = gens.x[r].copy()
+        g_z = gens.z[r].copy()
+        free = [q for q in range(n) if q not in pivots]
+        if g_x[free].any():
+            for q in free:
+                if g_x[q] and g_z[q]:  # Y -> X (S Y S^dag = -X)
+                    gens = _apply(gens, "s", [q], circ)
+            g_x, g_z = gens.x[r].copy(), gens.z[r].copy()
+            piv = next(q for q in free if g_x[q])
+            for q in free:
+                if q == piv:
+                    continue
+                if g_x[q]:
+                    gens = _apply(gens, "cx", [piv, q], circ)
+                elif g_z[q]:
+                    gens = _apply(gens, "cz", [piv, q], circ)
+            gens = _apply(gens, "h", [piv], circ)
+        else:
+            piv = next(q for q in free if g_z[q])
+            for q in free:
+                if q != piv and g_z[q]:
+                    gens = _apply(gens, "cx", [q, piv], circ)
+        pivots.append(piv)
+    z_paulis = pl.evolve(circ, frame="s") if circ.size() else pl.copy()
+    if z_paulis.x.any():  # a guard on the algebra above, never expected to fire
+        raise RuntimeError("diagonalisation left an X component; please report this input")
+    return circ, z_paulis
+
+
+def _independent_rows(pl: PauliList) -> PauliList:
+    """A maximal GF(2)-independent subset of the rows (phases dropped)."""
+    n = pl.num_qubits
+    mat = np.concatenate([pl.x, pl.z], axis=1).astype(np.uint8)
+    basis: list[np.ndarray] = []
+    pivcols: list[int] = []
+    keep: list[int] = []
+    for idx, row in enumerate(mat):
+        v = row.copy()
+        for b, c in zip(basis, pivcols, strict=True):
+            if v[c]:
+                v ^= b
+        nz = np.flatnonzero(v)
+        if nz.size:
+            basis.append(v)
+            pivcols.append(int(nz[0]))
+            keep.append(idx)
+    if not keep:
+        return PauliList.from_symplectic(np.zeros((0, n), bool), np.zeros((0, n), bool))
+    return PauliList.from_symplectic(pl.z[keep], pl.x[keep])
+
+
+def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:
+    """Eigenvalue of each diagonal Pauli string on each computational basis state.
+
+    Parameters
+    ----------
+    z_paulis : PauliList or sequence of Pauli / str, length m
+        Diagonal strings (``Z``/``I`` only), any phase.
+    num_qubits : int, optional
+        Checked against the width of ``z_paulis`` when given.
+
+    Returns
+    -------
+    numpy.ndarray, shape (2**n, m), complex if any phase is ``+-i`` else float
+        Entry ``[b, t]`` is ``<b| P_t |b>`` for the basis state whose integer is ``b``
+        (qubit ``q`` is bit ``q``).
+
+    Raises
+    ------
+    ValueError
+        If a string has an ``X`` or ``Y`` factor.
+    """
+    pl = as_pauli_list(z_paulis, "z_paulis")
+    n = pl.num_qubits
+    if num_qubits is not None and num_qubits != n:
+        raise ValueError(f"z_paulis act on {n} qubits, expected num_qubits = {num_qubits}")
+    if pl.x.any():
+        bad = int(np.flatnonzero(pl.x.any(axis=1))[0])
+        raise ValueError(f"z_paulis must be diagonal (Z/I only), got {pl[bad].to_label()}")
+    idx = np.arange(2**n, dtype=np.int64)
+    bits = ((idx[:, None] >> np.arange(n)[None, :]) & 1).astype(np.int64)  # (2**n, n)
+    parity = (bits @ pl.z.T.astype(np.int64)) % 2  # (2**n, m)
+    vals = 1.0 - 2.0 * parity
+    phase = (-1j) ** pl.phase  # qiskit stores P = (-i)^phase * X^x Z^z
+    if np.all(np.isin(pl.phase, (0, 2))):
+        return vals * phase.real[None, :]
+    return vals * phase[None, :]
+
+
+_PAULI_1Q = {
+    "I": np.eye(2, dtype=complex),
+    "X": np.array([[0, 1], [1, 0]], dtype=complex),
+    "Y": np.array([[0, -1j], [1j, 0]], dtype=complex),
+    "Z": np.array([[1, 0], [0, -1]], dtype=complex),
+}
+_LABELS_2Q = [a + b for a in "IXYZ" for b in "IXYZ"]  # label "ab": a on the first qubit
+
+
+def _transfer_matrix(unitary: np.ndarray) -> np.ndarray:
+    """``T[a, b] = Tr(s_a U s_b U^dag) / 4`` over two-qubit Paulis ``s`` (first qubit = low bit)."""
+    mats = [np.kron(_PAULI_1Q[lab[1]], _PAULI_1Q[lab[0]]) for lab in _LABELS_2Q]
+    out = np.empty((16, 16), dtype=complex)
+    for b, mb in enumerate(mats):
+        conj = unitary @ mb @ unitary.conj().T
+        for a, ma in enumerate(mats):
+            out[a, b] = np.trace(ma.conj().T @ conj) / 4
+    return out
+
+
+def conjugate_two_qubit(
+    op: SparsePauliOp, unitary, qubits: tuple[int, int], *, atol: float = 1e-12
+) -> SparsePauliOp:
+    """``U op U^dagger`` for a two-qubit unitary ``U`` on ``qubits``, in the Pauli basis.
+
+    Works term by term (a 16 x 16 transfer matrix on the pair), so it costs ``O(terms)`` rather
+    than a dense ``2^n`` matrix.
+
+    Parameters
+    ----------
+    op : SparsePauliOp
+        On ``n`` qubits.
+    unitary : array_like, shape (4, 4) or Gate
+        In Qiskit's convention (basis index ``q_0 + 2 q_1`` for ``qubits = (q_0, q_1)``).
+    qubits : (int, int)
+    atol : float
+        Coefficients below ``atol`` are dropped by ``simplify``.
+
+    Returns
+    -------
+    SparsePauliOp
+    """
+    mat = Operator(unitary).data
+    if mat.shape != (4, 4):
+        raise ValueError(f"unitary must be 4 x 4 (two qubits), got shape {mat.shape}")
+    q0, q1 = (int(q) for q in qubits)
+    tm = _transfer_matrix(mat)
+    labels: list[str] = []
+    coeffs: list[complex] = []
+    for label, coeff in op.to_list():
+        chars = list(label[::-1])  # chars[q] is the Pauli on qubit q
+        b = _LABELS_2Q.index(chars[q0] + chars[q1])
+        for a in np.flatnonzero(np.abs(tm[:, b]) > atol):
+            new = chars.copy()
+            new[q0], new[q1] = _LABELS_2Q[a][0], _LABELS_2Q[a][1]
+            labels.append("".join(new[::-1]))
+            coeffs.append(coeff * tm[a, b])
+    if not labels:
+        return SparsePauliOp(["I" * op.num_qubits], [0.0])
+    return SparsePauliOp(labels, coeffs).simplify(atol=atol)

@@ -1,0 +1,232 @@
+"""Hamming-weight-preserving (orthogonal) ansätze of RBS gates (paper Fig. 9, Methods).
+
+Each builder returns a plain ``QuantumCircuit`` whose parameters are one ``ParameterVector``;
+``circuit.parameters`` order is gate order. Structure (moments, depth) is read off the circuit
+by :func:`qdensity.moments`, never stored beside it.
+
+=============  ===========================  =========================  ====================
+builder        RBS gates                    RBS depth (moments)        qubits
+=============  ===========================  =========================  ====================
+pyramid        n (n - 1) / 2                2 n - 3                    n >= 2
+x_circuit      2 n - 3 (even), 2 n - 2 (odd)  n - 1 (even), n + 1 (odd)  n >= 2
+butterfly      (n / 2) log2 n               log2 n                     n a power of two
+round_robin    n (n - 1) / 2                n - 1 (even n), n (odd n)  n >= 2
+=============  ===========================  =========================  ====================
+
+The paper's Fig. 9 caption quotes depth ``2n - 1`` for the pyramid; that counts the two
+loader layers around it. The pyramid alone has ``2n - 3`` moments.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from qiskit.circuit import ParameterVector, QuantumCircuit
+
+from qdensity.circuits.gates import FBSGate, RBSGate
+
+__all__ = ["pyramid", "x_circuit", "butterfly", "round_robin", "pairs_circuit"]
+
+
+def _check_n(n: int, minimum: int = 2) -> int:
+    if isinstance(n, bool) or not isinstance(n, int):
+        raise TypeError(f"num_qubits must be an int, got {type(n).__name__}")
+    if n < minimum:
+        raise ValueError(f"num_qubits must be >= {minimum}, got {n}")
+    return n
+
+
+def pairs_circuit(
+    num_qubits: int,
+    layers: Iterable[Iterable[tuple[int, int]]],
+    *,
+    gate: str = "rbs",
+    parameter_prefix: str = "θ",
+    name: str = "hw_circuit",
+    insert_barriers: bool = False,
+) -> QuantumCircuit:
+    """Circuit of one parameterised two-mode gate per pair, layer by layer.
+
+    Parameters
+    ----------
+    num_qubits : int
+        Register width.
+    layers : iterable of iterable of (int, int)
+        Pairs ``(i, j)``, ``i != j``; each becomes a gate on qubits ``(min, max)``.
+    gate : {"rbs", "fbs"}
+        ``"fbs"`` appends :class:`FBSGate` on the contiguous block ``min .. max`` (a compound
+        circuit, Supp. E.2); identical to RBS for adjacent pairs.
+    parameter_prefix : str
+        Name of the ``ParameterVector``.
+    name : str
+        Circuit name.
+    insert_barriers : bool
+        Put a barrier between layers (for drawing; moments are unaffected).
+
+    Returns
+    -------
+    QuantumCircuit
+        ``num_qubits`` qubits, one parameter per pair, in the given order.
+    """
+    if gate not in ("rbs", "fbs"):
+        raise ValueError(f"gate must be 'rbs' or 'fbs', got {gate!r}")
+    layers = [[(min(p), max(p)) for p in layer] for layer in layers]
+    count = sum(len(layer) for layer in layers)
+    theta = ParameterVector(parameter_prefix, count)
+    qc = QuantumCircuit(num_qubits, name=name)
+    k = 0
+    for li, layer in enumerate(layers):
+        for i, j in layer:
+            if i == j or not (0 <= i < num_qubits and 0 <= j < num_qubits):
+                raise ValueError(f"invalid pair {(i, j)} for {num_qubits} qubits")
+            if gate == "rbs" or j == i + 1:
+                qc.append(RBSGate(theta[k]), [i, j])
+            else:
+                qc.append(FBSGate(theta[k], j - i + 1), list(range(i, j + 1)))
+            k += 1
+        if insert_barriers and li < len(layers) - 1:
+            qc.barrier()
+    return qc
+
+
+def pyramid(num_qubits: int, **kwargs) -> QuantumCircuit:
+    """Pyramid ansatz (Landman et al.; paper Fig. 9a): nearest-neighbour RBS gates.
+
+    Layer ``t = 0 .. 2n - 4`` holds the pairs ``(i, i + 1)`` with ``i = t (mod 2)``,
+    ``i <= t`` and ``i <= 2 (n - 2) - t``. It parameterises all of ``SO(n)`` on unary states.
+
+    Parameters
+    ----------
+    num_qubits : int
+        ``n >= 2``.
+    **kwargs
+        ``parameter_prefix``, ``insert_barriers``, ``gate`` as in :func:`pairs_circuit`.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``n (n - 1) / 2`` RBS gates, RBS depth ``2 n - 3``.
+
+    Examples
+    --------
+    >>> qc = pyramid(4)
+    >>> qc.num_parameters, qc.depth()
+    (6, 5)
+    """
+    n = _check_n(num_qubits)
+    layers = [
+        [(i, i + 1) for i in range(n - 1) if (i - t) % 2 == 0 and i <= t and i <= 2 * (n - 2) - t]
+        for t in range(2 * n - 3)
+    ]
+    return pairs_circuit(n, layers, name=f"pyramid_{n}", **kwargs)
+
+
+def x_circuit(num_qubits: int, **kwargs) -> QuantumCircuit:
+    """X ansatz (Cherrat et al.; paper Fig. 9b): two nearest-neighbour diagonals that cross.
+
+    Step ``t = 0 .. n - 2`` adds ``(t, t + 1)`` and its mirror ``(n - 2 - t, n - 1 - t)``
+    (once when they coincide).
+
+    Parameters
+    ----------
+    num_qubits : int
+        ``n >= 2``.
+    **kwargs
+        As in :func:`pairs_circuit`.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``2 n - 3`` RBS gates and depth ``n - 1`` for even ``n``; ``2 n - 2`` gates and depth
+        ``n + 1`` for odd ``n`` (the diagonals meet on a shared qubit for two steps).
+    """
+    n = _check_n(num_qubits)
+    layers = []
+    for t in range(n - 1):
+        a, b = (t, t + 1), (n - 2 - t, n - 1 - t)
+        layers.append([a] if a == b else [a, b])
+    return pairs_circuit(n, layers, name=f"x_{n}", **kwargs)
+
+
+def butterfly(num_qubits: int, **kwargs) -> QuantumCircuit:
+    """Butterfly ansatz (Cherrat et al.; paper Fig. 9c), FFT-like connectivity.
+
+    Layer ``l = 0 .. log2(n) - 1`` pairs qubit ``i`` with ``i + n / 2^(l+1)`` for every ``i``
+    whose bit ``log2(n) - 1 - l`` is zero.
+
+    Parameters
+    ----------
+    num_qubits : int
+        A power of two, ``>= 2``.
+    **kwargs
+        As in :func:`pairs_circuit` (``gate="fbs"`` gives the compound butterfly).
+
+    Returns
+    -------
+    QuantumCircuit
+        ``(n / 2) log2 n`` gates, depth ``log2 n``.
+
+    Raises
+    ------
+    ValueError
+        If ``n`` is not a power of two.
+    """
+    n = _check_n(num_qubits)
+    if n & (n - 1):
+        raise ValueError(f"butterfly needs num_qubits a power of two (2, 4, 8, ...), got {n}")
+    layers = []
+    stride = n // 2
+    while stride >= 1:
+        layers.append([(i, i + stride) for i in range(n) if not i & stride])
+        stride //= 2
+    return pairs_circuit(n, layers, name=f"butterfly_{n}", **kwargs)
+
+
+def round_robin_pairs(num_qubits: int) -> list[list[tuple[int, int]]]:
+    """Rounds of the circle method: every pair of ``n`` players meets exactly once.
+
+    Parameters
+    ----------
+    num_qubits : int
+
+    Returns
+    -------
+    list of list of (int, int)
+        ``n - 1`` rounds of ``n / 2`` disjoint pairs (even ``n``); ``n`` rounds of
+        ``(n - 1) / 2`` pairs (odd ``n``, one qubit rests each round).
+    """
+    n = _check_n(num_qubits)
+    players = list(range(n)) + ([None] if n % 2 else [])
+    m = len(players)
+    rounds = []
+    for _ in range(m - 1):
+        pairs = []
+        for k in range(m // 2):
+            a, b = players[k], players[m - 1 - k]
+            if a is not None and b is not None:
+                pairs.append((min(a, b), max(a, b)))
+        rounds.append(sorted(pairs))
+        players = [players[0], players[-1], *players[1:-1]]
+    return rounds
+
+
+def round_robin(num_qubits: int, **kwargs) -> QuantumCircuit:
+    """Round-robin ansatz (Hamze et al.; paper Fig. 9d, Fig. 6).
+
+    Layers of disjoint RBS gates from the circle method; across the layers every pair of
+    qubits meets exactly once.
+
+    Parameters
+    ----------
+    num_qubits : int
+        ``n >= 2``.
+    **kwargs
+        As in :func:`pairs_circuit`.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``n (n - 1) / 2`` gates in ``n - 1`` layers (even ``n``) or ``n`` layers (odd ``n``).
+    """
+    n = _check_n(num_qubits)
+    return pairs_circuit(n, round_robin_pairs(n), name=f"round_robin_{n}", **kwargs)

@@ -1,0 +1,36 @@
+"""Measuring a circuit the house way: qubit ``j`` into clbit ``j`` of one classical register,
+so an outcome is the integer ``sum_j b_j 2^j`` (DESIGN.md, unary encoding)."""
+
+from __future__ import annotations
+
+from qiskit.circuit import ClassicalRegister, QuantumCircuit
+
+__all__ = ["measured"]
+
+
+def measured(circuit: QuantumCircuit, name: str = "meas") -> QuantumCircuit:
+    """A copy of ``circuit`` measuring qubit ``j`` into clbit ``j`` of a new register.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unmeasured circuit.
+    name : str
+        Classical register name.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``circuit.num_qubits`` qubits and as many clbits.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> measured(QuantumCircuit(3)).count_ops()["measure"]
+    3
+    """
+    out = circuit.copy()
+    creg = ClassicalRegister(circuit.num_qubits, name)
+    out.add_register(creg)
+    out.measure(out.qubits, creg)
+    return out

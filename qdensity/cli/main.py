@@ -1,0 +1,305 @@
+"""The ``qdensity`` command: build, transpile, run, table1, export, demo.
+
+Every sub-command has ``--help``. Bad input (an unknown builder or target, a budget smaller
+than the circuits) prints a clear message and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+from qiskit import QuantumCircuit
+
+__all__ = ["main", "BUILDERS", "build_circuit"]
+
+
+def _vector(n: int, seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).normal(size=n)
+
+
+def _loader(layout: str) -> Callable[[int], QuantumCircuit]:
+    def make(n: int) -> QuantumCircuit:
+        from qdensity.circuits.loaders import unary_loader
+
+        return unary_loader(_vector(n), layout=layout)
+    return make
+
+
+def _ansatz(name: str) -> Callable[[int], QuantumCircuit]:
+    def make(n: int) -> QuantumCircuit:
+        from qdensity.circuits import ansatze
+
+        if name == "hardware_efficient":
+            return ansatze.hardware_efficient(n, 2)
+        if name == "equivariant_xx":
+            return ansatze.equivariant_commuting(n, "X")
+        if name == "equivariant_yy":
+            return ansatze.equivariant_commuting(n, "Y")
+        if name == "equivariant_noncommuting":
+            return ansatze.equivariant_noncommuting(n, 2)
+        if name == "reuploading":
+            return ansatze.reuploading(n)
+        return getattr(ansatze, name)(n)
+    return make
+
+
+def _density(kind: str) -> Callable[[int], QuantumCircuit]:
+    def make(n: int) -> QuantumCircuit:
+        from qdensity.circuits.ansatze import round_robin
+        from qdensity.circuits.loaders import unary_loader
+        from qdensity.circuits.preparation import deterministic_circuit, lcu_circuit
+        from qdensity.models.decompositions import by_moments
+
+        subs = by_moments(round_robin(n)).sub_unitaries
+        alpha = np.full(len(subs), 1.0 / len(subs))
+        build = deterministic_circuit if kind == "deterministic" else lcu_circuit
+        return build(subs, alpha, loader=unary_loader(_vector(n)))
+    return make
+
+
+def _gradient(n: int) -> QuantumCircuit:
+    from qiskit.quantum_info import SparsePauliOp
+
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.circuits.loaders import unary_loader
+    from qdensity.gradients import commuting_gradient
+    from qdensity.models.decompositions import by_moments
+
+    layer = by_moments(round_robin(n)).sub_unitaries[0]
+    circ = unary_loader(_vector(n)).compose(layer)
+    obs = SparsePauliOp.from_sparse_list([("Z", [q], 1.0) for q in range(n)], n)
+    return commuting_gradient(circ, obs).circuits[0]
+
+
+def _tomography(index: int) -> Callable[[int], QuantumCircuit]:
+    def make(n: int) -> QuantumCircuit:
+        from qdensity.circuits.ansatze import pyramid
+        from qdensity.circuits.loaders import unary_loader
+        from qdensity.circuits.tomography import tomography_circuits
+
+        return tomography_circuits(unary_loader(_vector(n)).compose(pyramid(n)))[index]
+    return make
+
+
+#: Named circuit builders for ``build`` and ``transpile``: name -> f(num_qubits).
+BUILDERS: dict[str, Callable[[int], QuantumCircuit]] = {
+    "loader_parallel": _loader("parallel"),
+    "loader_diagonal": _loader("diagonal"),
+    "loader_semi_diagonal": _loader("semi_diagonal"),
+    "pyramid": _ansatz("pyramid"),
+    "x_circuit": _ansatz("x_circuit"),
+    "butterfly": _ansatz("butterfly"),
+    "round_robin": _ansatz("round_robin"),
+    "hardware_efficient": _ansatz("hardware_efficient"),
+    "equivariant_xx": _ansatz("equivariant_xx"),
+    "equivariant_yy": _ansatz("equivariant_yy"),
+    "equivariant_noncommuting": _ansatz("equivariant_noncommuting"),
+    "qcnn": _ansatz("qcnn"),
+    "reuploading": _ansatz("reuploading"),
+    "deterministic": _density("deterministic"),
+    "lcu": _density("lcu"),
+    "commuting_gradient": _gradient,
+    "tomography_0": _tomography(0),
+    "tomography_1": _tomography(1),
+    "tomography_2": _tomography(2),
+}
+
+
+def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> QuantumCircuit:
+    """Build a named circuit (see :data:`BUILDERS`), its parameters bound with seeded values.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (the message lists the known ones).
+    """
+    if name not in BUILDERS:
+        raise ValueError(f"unknown builder {name!r}; known builders: {', '.join(BUILDERS)}")
+    qc = BUILDERS[name](num_qubits)
+    if bind_seed is not None and qc.num_parameters:
+        qc = qc.assign_parameters(
+            np.random.default_rng(bind_seed).uniform(-np.pi, np.pi, qc.num_parameters))
+    return qc
+
+
+def _cmd_build(args) -> int:
+    qc = build_circuit(args.name, args.size, bind_seed=None if args.unbound else args.seed)
+    if args.qasm:
+        from qiskit import qasm2, transpile
+
+        from qdensity.cli.export import QASM2_BASIS
+
+        text = qasm2.dumps(transpile(qc, basis_gates=list(QASM2_BASIS), optimization_level=0))
+        if args.qasm == "-":
+            print(text)
+        else:
+            with open(args.qasm, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            print(f"wrote {args.qasm}")
+    if args.draw or not args.qasm:
+        print(qc.draw(output="text", fold=args.fold))
+    print(f"{args.name}: {qc.num_qubits} qubits, {qc.size()} gates, depth {qc.depth()}, "
+          f"{qc.num_parameters} free parameters", file=sys.stderr)
+    return 0
+
+
+def _cmd_transpile(args) -> int:
+    from qdensity.execution.resources import resource_report
+    from qdensity.execution.targets import get_target
+
+    qc = build_circuit(args.name, args.size, bind_seed=args.seed)
+    target = get_target(args.target, qc.num_qubits, seed=args.seed, noise=False)
+    report = resource_report(qc, target, optimization_level=args.optimization_level,
+                             seed=args.seed)
+    print(json.dumps(report.as_dict(), indent=2) if args.json else report.table())
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from qiskit.quantum_info import SparsePauliOp
+
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.execution.targets import get_target
+    from qdensity.models.decompositions import by_moments
+    from qdensity.models.density import DensityQNN, Encoding
+
+    n = args.size
+    dec = by_moments(round_robin(n))
+    K = dec.num_subunitaries
+    alpha = np.full(K, 1.0 / K) if args.alpha is None else np.array(args.alpha, dtype=float)
+    obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], n)
+    model = DensityQNN(dec.sub_unitaries, alpha, encoding=Encoding.unary(n), observable=obs,
+                       seed=args.seed)
+    x = _vector(n, args.seed) if args.x is None else np.array(args.x, dtype=float)
+    if x.shape[0] != n:
+        raise ValueError(f"--x must have {n} values, got {x.shape[0]}")
+    target = get_target(args.target, n, seed=args.seed)
+    if args.shots < K and args.scheduler != "per_shot":
+        raise ValueError(f"--shots {args.shots} is smaller than the {K} sub-unitary circuits")
+    result = model.train().sample(x, args.shots, scheduler=args.scheduler, target=target,
+                                  seed=args.seed)
+    exact = float(model.eval().predict(x[None, :])[0])
+    out = {"model": f"round_robin_{n} by layers (K={K})", "target": target.label,
+           "scheduler": args.scheduler, "budget": args.shots,
+           "allocation": np.asarray(result.allocation).tolist(),
+           "estimate": float(result.estimate), "standard_error": float(result.standard_error),
+           "exact_noiseless": exact, "shots_spent": int(result.shots_used)}
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        for key, val in out.items():
+            print(f"{key:>16}: {val}")
+    return 0
+
+
+def _cmd_table1(args) -> int:
+    from qdensity.experiments.table1 import ANSATZE, format_table1, table1
+
+    unknown = [a for a in args.ansatz if a not in ANSATZE]
+    if unknown:
+        raise ValueError(f"unknown ansatz {unknown}; known: {', '.join(ANSATZE)}")
+    rows = table1(args.n, args.ansatz or ANSATZE, layers=args.layers, copies_k=args.copies)
+    print(json.dumps(rows, indent=2) if args.json else format_table1(rows))
+    return 0
+
+
+def _cmd_export(args) -> int:
+    from qdensity.cli.export import main as export_main
+
+    return export_main([args.directory] + (["--check"] if args.check else []))
+
+
+def _cmd_demo(args) -> int:
+    from qdensity.experiments.demo import DemoConfig, run_demo
+
+    cfg = DemoConfig(seed=args.seed)
+    if args.budget is not None:
+        cfg.budget = args.budget
+    if args.shots is not None:
+        cfg.shots = args.shots
+    run_demo(cfg, output_dir=args.output, plot=not args.no_plot)
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    from qdensity.execution.targets import known_targets
+
+    p = argparse.ArgumentParser(prog="qdensity", description="Density quantum neural networks "
+                                "on Qiskit and qiskit-aer.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    b = sub.add_parser("build", help="print, draw or export a named circuit")
+    b.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
+    b.add_argument("--size", type=int, default=4, help="number of (data) qubits")
+    b.add_argument("--draw", action="store_true", help="draw the circuit (default if no --qasm)")
+    b.add_argument("--qasm", metavar="FILE", help="write OpenQASM 2 to FILE ('-' for stdout)")
+    b.add_argument("--unbound", action="store_true", help="keep parameters free")
+    b.add_argument("--seed", type=int, default=0, help="seed of the bound parameter values")
+    b.add_argument("--fold", type=int, default=120, help="drawing width")
+    b.set_defaults(func=_cmd_build)
+
+    t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
+    t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
+    t.add_argument("--size", type=int, default=4)
+    t.add_argument("--target", default="ideal", help=f"one of: {', '.join(known_targets())}")
+    t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3])
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--json", action="store_true", help="print the report as JSON")
+    t.set_defaults(func=_cmd_transpile)
+
+    r = sub.add_parser("run", help="estimate a density model's output on a noisy target "
+                                   "under a shot budget")
+    r.add_argument("--size", type=int, default=6, help="qubits of the round-robin model")
+    r.add_argument("--target", default="heavy_hex", help=f"one of: {', '.join(known_targets())}")
+    r.add_argument("--shots", type=int, default=2000, help="total shot budget")
+    r.add_argument("--scheduler", default="proportional",
+                   choices=["per_shot", "proportional", "neyman"])
+    r.add_argument("--alpha", type=float, nargs="+", help="mixture (default uniform)")
+    r.add_argument("--x", type=float, nargs="+", help="input vector (default seeded random)")
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--json", action="store_true")
+    r.set_defaults(func=_cmd_run)
+
+    tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
+    tb.add_argument("--n", type=int, nargs="+", default=[4, 8], help="qubit counts")
+    tb.add_argument("--ansatz", nargs="+", default=[], help="subset of ansätze")
+    tb.add_argument("--layers", type=int, default=3, help="hardware-efficient depth D")
+    tb.add_argument("--copies", type=int, default=2, help="K for the equivariant density model")
+    tb.add_argument("--json", action="store_true", help="print a JSON list of rows")
+    tb.set_defaults(func=_cmd_table1)
+
+    e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
+    e.add_argument("directory", nargs="?", default="circuits")
+    e.add_argument("--check", action="store_true", help="only check the files are current")
+    e.set_defaults(func=_cmd_export)
+
+    d = sub.add_parser("demo", help="train a round-robin OrthoQNN and its density version on "
+                                    "digits with sampled gradients on a noisy heavy-hex device")
+    d.add_argument("--output", default=".", help="directory for qdensity-demo.png")
+    d.add_argument("--budget", type=int, help="shot budget per model")
+    d.add_argument("--shots", type=int, help="shots per circuit")
+    d.add_argument("--seed", type=int, default=7)
+    d.add_argument("--no-plot", action="store_true")
+    d.set_defaults(func=_cmd_demo)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``qdensity`` command; returns the exit status."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    warnings.filterwarnings("ignore", category=DeprecationWarning)
+    try:
+        return int(args.func(args) or 0)
+    except (ValueError, TypeError) as exc:
+        print(f"qdensity {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,34 @@
+"""Running quantum questions: plans (circuit templates, parameter rows, shots,
+post-processing), engines that execute them (exact Aer probabilities, any ``SamplerV2`` with a
+shot ledger, the unary engine of Supp. F), shot schedulers for randomised density sampling
+(Fig. 1c), hardware targets, noise models and transpiled resource reports."""
+
+from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+from qdensity.execution.plans import (
+    CircuitJob,
+    Estimate,
+    JobResult,
+    Plan,
+    expectation_plan,
+    probabilities_plan,
+)
+from qdensity.execution.resources import ResourceReport, compare_reports, resource_report
+from qdensity.execution.targets import HardwareTarget, get_target, known_targets
+
+__all__ = [
+    "CircuitJob",
+    "JobResult",
+    "Plan",
+    "Estimate",
+    "expectation_plan",
+    "probabilities_plan",
+    "ExactEngine",
+    "SamplerEngine",
+    "ShotLedger",
+    "HardwareTarget",
+    "get_target",
+    "known_targets",
+    "ResourceReport",
+    "resource_report",
+    "compare_reports",
+]

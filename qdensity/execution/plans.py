@@ -1,0 +1,384 @@
+"""Plans: every quantum question compiled to circuits, parameter rows, shots and post-processing.
+
+A :class:`Plan` is a list of :class:`CircuitJob` s (one measured template, its parameter rows,
+shots per row or ``None`` for exact) plus a post-processing function from the engines'
+:class:`JobResult` s to the answer. The number of circuits and shots a question costs is read
+off its plan (DESIGN.md, spine step 4): this is how Table 1 is checked and how shot ledgers
+stay honest.
+
+Measured templates follow one convention: qubit ``j`` is measured into clbit ``j`` of one
+classical register, so an outcome is the integer ``sum_j b_j 2^j`` and outcome probabilities
+are dense arrays of length ``2**num_clbits``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.quantum_info import PauliList, SparsePauliOp
+
+from qdensity.circuits.measure import measured
+from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
+
+__all__ = [
+    "CircuitJob",
+    "JobResult",
+    "Plan",
+    "Estimate",
+    "measured",
+    "z_parities",
+    "diagonal_values",
+    "basis_rotation",
+    "expectation_plan",
+    "probabilities_plan",
+    "check_observable",
+    "postselect_hamming_weight",
+]
+
+
+@dataclass(frozen=True)
+class CircuitJob:
+    """One measured circuit template and the parameter rows it runs with.
+
+    Attributes
+    ----------
+    circuit : QuantumCircuit
+        Measured template (qubit ``j`` -> clbit ``j``); free parameters in
+        ``circuit.parameters`` order.
+    values : numpy.ndarray, shape (rows, P)
+        One row per execution.
+    shots : int or None
+        Shots per row; ``None`` asks for exact probabilities.
+    label : str
+        What the job is for (ledger key).
+    """
+
+    circuit: QuantumCircuit
+    values: np.ndarray
+    shots: int | None = None
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        check_circuit(self.circuit)
+        vals = as_parameter_rows(self.values, self.circuit.num_parameters, "values")
+        object.__setattr__(self, "values", vals)
+        if self.shots is not None:
+            check_positive_int(self.shots, "shots")
+        if self.circuit.num_clbits == 0:
+            raise ValueError("a CircuitJob circuit must measure into classical bits")
+
+    @property
+    def rows(self) -> int:
+        """Number of parameter rows (circuit executions)."""
+        return int(self.values.shape[0])
+
+
+@dataclass
+class JobResult:
+    """Outcome distributions of one job.
+
+    Attributes
+    ----------
+    probabilities : numpy.ndarray, shape (rows, 2**num_clbits)
+        Exact probabilities, or empirical frequencies ``counts / shots``.
+    shots : int or None
+        Shots per row that produced the frequencies (``None`` when exact).
+    job : CircuitJob
+    """
+
+    probabilities: np.ndarray
+    shots: int | None
+    job: CircuitJob
+
+
+@dataclass
+class Estimate:
+    """A value with its standard error (zero for exact evaluations).
+
+    Attributes
+    ----------
+    value : numpy.ndarray
+    standard_error : numpy.ndarray
+        Same shape as ``value``.
+    """
+
+    value: np.ndarray
+    standard_error: np.ndarray
+
+    def __iter__(self):
+        return iter((self.value, self.standard_error))
+
+
+@dataclass
+class Plan:
+    """Jobs plus the post-processing that turns their results into an answer.
+
+    Attributes
+    ----------
+    jobs : list of CircuitJob
+    postprocess : callable
+        ``postprocess(results: list[JobResult]) -> Any``, results in job order.
+    description : str
+    """
+
+    jobs: list[CircuitJob]
+    postprocess: Callable[[list[JobResult]], Any]
+    description: str = ""
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def num_templates(self) -> int:
+        """Distinct circuit templates (one PUB each)."""
+        return len(self.jobs)
+
+    @property
+    def num_circuits(self) -> int:
+        """Distinct circuit executions: the sum of parameter rows over the jobs."""
+        return int(sum(job.rows for job in self.jobs))
+
+    @property
+    def total_shots(self) -> int | None:
+        """Shots the plan spends, or None if any job is exact."""
+        if any(job.shots is None for job in self.jobs):
+            return None
+        return int(sum(job.rows * job.shots for job in self.jobs))
+
+    def with_shots(self, shots: int | None) -> Plan:
+        """The same plan with every job's shots per row set to ``shots``."""
+        if shots is not None:
+            check_positive_int(shots, "shots")
+        return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
+
+    def run(self, engine) -> Any:
+        """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
+        results = engine.run(self.jobs)
+        return self.postprocess(results)
+
+    @staticmethod
+    def combine(plans: Sequence[Plan], description: str = "") -> Plan:
+        """One plan running several; its post-processing returns the list of their answers."""
+        plans = list(plans)
+        bounds = np.cumsum([0] + [len(p.jobs) for p in plans])
+
+        def post(results: list[JobResult]) -> list:
+            return [p.postprocess(results[a:b]) for p, a, b in zip(plans, bounds[:-1], bounds[1:],
+                                                                   strict=True)]
+
+        jobs = [job for p in plans for job in p.jobs]
+        return Plan(jobs, post, description or "; ".join(p.description for p in plans))
+
+
+def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
+    """Signs ``(-1)^{popcount(b & mask)}`` for every outcome ``b`` and every mask.
+
+    Parameters
+    ----------
+    z_masks : numpy.ndarray of int, shape (T,)
+        Bit masks of the Z supports.
+    num_bits : int
+
+    Returns
+    -------
+    numpy.ndarray, shape (T, 2**num_bits), entries +-1
+    """
+    outcomes = np.arange(2**num_bits, dtype=np.int64)
+    anded = outcomes[None, :] & np.asarray(z_masks, dtype=np.int64)[:, None]
+    parity = np.zeros_like(anded)
+    for bit in range(num_bits):
+        parity ^= (anded >> bit) & 1
+    return 1.0 - 2.0 * parity
+
+
+def diagonal_values(paulis: PauliList, coeffs: np.ndarray, num_bits: int) -> np.ndarray:
+    """Eigenvalue of ``sum_t c_t P_t`` on each outcome, for diagonal (I/Z, phase +-1) ``P_t``.
+
+    Parameters
+    ----------
+    paulis : PauliList
+        Z-type Paulis (no X part); their phases are included.
+    coeffs : numpy.ndarray, shape (T,)
+        Real coefficients.
+    num_bits : int
+
+    Returns
+    -------
+    numpy.ndarray, shape (2**num_bits,)
+    """
+    if np.any(paulis.x):
+        raise ValueError("diagonal_values needs Z-type Paulis (no X or Y part)")
+    masks = (paulis.z.astype(np.int64) * (1 << np.arange(paulis.num_qubits))).sum(axis=1)
+    signs = (-1j) ** paulis.phase
+    coeff = np.real(np.asarray(coeffs) * signs)
+    return coeff @ z_parities(masks, num_bits)
+
+
+def basis_rotation(paulis: PauliList) -> tuple[QuantumCircuit, PauliList]:
+    """Single-qubit rotations that map qubit-wise commuting Paulis to Z strings.
+
+    Parameters
+    ----------
+    paulis : PauliList
+        Qubit-wise commuting Paulis.
+
+    Returns
+    -------
+    (QuantumCircuit, PauliList)
+        The rotation (H for X, Sdg then H for Y) and the Z-type images.
+    """
+    n = paulis.num_qubits
+    qc = QuantumCircuit(n)
+    xs, zs = paulis.x.any(axis=0), paulis.z.any(axis=0)
+    for q in range(n):
+        kinds = {(bool(x), bool(z)) for x, z in zip(paulis.x[:, q], paulis.z[:, q], strict=True)}
+        kinds.discard((False, False))
+        if len(kinds) > 1:
+            raise ValueError(f"Paulis are not qubit-wise commuting on qubit {q}")
+        if xs[q] and zs[q]:
+            qc.sdg(q)
+            qc.h(q)
+        elif xs[q]:
+            qc.h(q)
+    images = PauliList.from_symplectic(paulis.x | paulis.z, np.zeros_like(paulis.x))
+    return qc, images
+
+
+def check_observable(observable, num_qubits: int, name: str = "observable") -> SparsePauliOp:
+    """A Hermitian ``SparsePauliOp`` on ``num_qubits`` qubits, or a ``ValueError``."""
+    if not isinstance(observable, SparsePauliOp):
+        try:
+            observable = SparsePauliOp(observable)
+        except Exception as exc:
+            raise TypeError(
+                f"{name} must be a SparsePauliOp or a Pauli label, got {observable!r}"
+            ) from exc
+    if observable.num_qubits != num_qubits:
+        raise ValueError(
+            f"{name} acts on {observable.num_qubits} qubits but the circuit has {num_qubits}"
+        )
+    if not np.allclose(observable.coeffs.imag, 0.0, atol=1e-12):
+        raise ValueError(f"{name} must be Hermitian (real Pauli coefficients)")
+    return observable
+
+
+def expectation_plan(
+    circuit: QuantumCircuit,
+    observable: SparsePauliOp,
+    values,
+    *,
+    shots: int | None = None,
+    label: str = "expectation",
+) -> Plan:
+    """Plan for ``<psi(values)| H |psi(values)>`` by measuring qubit-wise commuting groups.
+
+    Each group of ``H``'s Pauli terms is one template (basis rotation then measurement) run
+    with all parameter rows in one job. Exact when ``shots`` is None.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unmeasured state-preparation circuit with ``P`` free parameters.
+    observable : SparsePauliOp
+        ``H`` on ``circuit.num_qubits`` qubits, real coefficients.
+    values : array_like, shape (rows, P) or (P,)
+    shots : int, optional
+        Shots per row per group.
+    label : str
+
+    Returns
+    -------
+    Plan
+        Post-processing returns an :class:`Estimate` with ``value`` and ``standard_error`` of
+        shape (rows,).
+    """
+    check_circuit(circuit)
+    observable = check_observable(observable, circuit.num_qubits).simplify()
+    vals = as_parameter_rows(values, circuit.num_parameters)
+    n = circuit.num_qubits
+    jobs, diagonals = [], []
+    constant = 0.0
+    for group in observable.group_commuting(qubit_wise=True):
+        ident = ~(group.paulis.x.any(axis=1) | group.paulis.z.any(axis=1))
+        constant += float(np.real(group.coeffs[ident].sum()))
+        group = SparsePauliOp(group.paulis[~ident], group.coeffs[~ident]) if ident.any() else group
+        if len(group.paulis) == 0 or not (~ident).any():
+            continue
+        rot, images = basis_rotation(group.paulis)
+        template = measured(circuit.compose(rot))
+        jobs.append(CircuitJob(template, vals, shots, f"{label}[{len(jobs)}]"))
+        diagonals.append(diagonal_values(images, np.real(group.coeffs), n))
+
+    def post(results: list[JobResult]) -> Estimate:
+        value = np.full(vals.shape[0], constant)
+        var = np.zeros(vals.shape[0])
+        for res, diag in zip(results, diagonals, strict=True):
+            mean = res.probabilities @ diag
+            value += mean
+            if res.shots is not None:
+                second = res.probabilities @ diag**2
+                var += np.maximum(second - mean**2, 0.0) / res.shots
+        return Estimate(value, np.sqrt(var))
+
+    return Plan(jobs, post, f"<H> of {circuit.name} ({len(jobs)} groups)")
+
+
+def probabilities_plan(
+    circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities"
+) -> Plan:
+    """Plan for the computational-basis outcome distribution of ``circuit``.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unmeasured circuit with ``P`` free parameters.
+    values : array_like, shape (rows, P)
+    shots : int, optional
+
+    Returns
+    -------
+    Plan
+        Post-processing returns the :class:`JobResult` (``probabilities`` of shape
+        (rows, 2**n)).
+    """
+    job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
+                     label)
+    return Plan([job], lambda results: results[0], f"P(b) of {circuit.name}")
+
+
+def postselect_hamming_weight(probabilities, weight: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Keep only outcomes of a given Hamming weight and renormalise them (documented here).
+
+    For unary circuits every ideal outcome has weight 1; noise leaks weight elsewhere. The
+    post-selected distribution is ``p(b) / kept`` on weight-``weight`` outcomes.
+
+    Parameters
+    ----------
+    probabilities : numpy.ndarray, shape (rows, 2**m)
+    weight : int
+
+    Returns
+    -------
+    (numpy.ndarray (rows, 2**m), numpy.ndarray (rows,))
+        The post-selected distributions (zero elsewhere) and the kept fraction per row.
+
+    Raises
+    ------
+    ValueError
+        If a row keeps nothing.
+    """
+    probs = np.atleast_2d(np.asarray(probabilities, dtype=float))
+    m = int(round(np.log2(probs.shape[1])))
+    if 2**m != probs.shape[1]:
+        raise ValueError(f"probabilities must have 2**m columns, got {probs.shape[1]}")
+    outcomes = np.arange(2**m)
+    popcount = np.array([bin(b).count("1") for b in outcomes])
+    mask = popcount == weight
+    kept = probs[:, mask].sum(axis=1)
+    if np.any(kept <= 0):
+        raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
+                         f"Hamming weight {weight}")
+    out = np.where(mask[None, :], probs, 0.0) / kept[:, None]
+    return out, kept

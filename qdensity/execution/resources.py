@@ -1,0 +1,258 @@
+"""Resource reports: what a circuit costs once compiled for a target.
+
+The paper argues in gate counts and depths (Sec. 3 and Table 1: loaders, pyramids and butterflies
+of RBS gates, each RBS two native two-qubit gates). :func:`resource_report` compiles a circuit
+once for a :class:`~qdensity.targets.HardwareTarget` and reads off the numbers that matter on
+hardware: active qubits, depth, the two-qubit gate count and the two-qubit depth.
+:func:`compare_reports` prints several reports side by side with ratios to the first.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from qiskit.circuit import QuantumCircuit
+
+from qdensity.execution.targets import HardwareTarget, get_target
+from qdensity.validation import SeedLike, check_circuit
+
+__all__ = ["ResourceReport", "resource_report", "compare_reports", "METRICS", "DEFAULT_BASIS"]
+
+#: Scalar metrics of a :class:`ResourceReport`, in table order.
+METRICS = ("num_qubits", "depth", "two_qubit_count", "two_qubit_depth")
+
+#: Basis of the default ("ideal") target of :func:`resource_report`.
+DEFAULT_BASIS = ("cz", "rz", "sx", "x")
+
+_IGNORED = frozenset({"barrier", "delay"})
+
+
+@dataclass(frozen=True)
+class ResourceReport:
+    """Costs of one compiled circuit.
+
+    Attributes
+    ----------
+    name : str
+        The circuit's name.
+    target : str
+        Label of the target it was compiled for (``HardwareTarget.label``: the name, e.g.
+        ``"line"``, or ``"ideal[cz,rz,sx,x]"`` for an ideal target with a custom basis).
+    num_qubits : int
+        Active qubits: those touched by a gate or a measurement (idle device qubits excluded).
+    depth : int
+        Circuit depth (measurements included, barriers excluded).
+    two_qubit_count : int
+        Number of two-qubit gates.
+    two_qubit_depth : int
+        Depth counting only two-qubit gates (three CZs in sequence on one pair: 3; CZs on
+        disjoint pairs: 1).
+    gate_counts : dict of str to int
+        Instruction counts by name (barriers excluded), sorted by name.
+    """
+
+    name: str
+    target: str
+    num_qubits: int
+    depth: int
+    two_qubit_count: int
+    two_qubit_depth: int
+    gate_counts: dict[str, int] = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """The report as a plain dict (``gate_counts`` copied)."""
+        return {
+            "name": self.name,
+            "target": self.target,
+            "num_qubits": self.num_qubits,
+            "depth": self.depth,
+            "two_qubit_count": self.two_qubit_count,
+            "two_qubit_depth": self.two_qubit_depth,
+            "gate_counts": dict(self.gate_counts),
+        }
+
+    def rows(self) -> list[tuple[str, int]]:
+        """``(metric, value)`` rows: :data:`METRICS`, then ``gates[<name>]`` per gate."""
+        out = [(m, getattr(self, m)) for m in METRICS]
+        out += [(f"gates[{g}]", c) for g, c in self.gate_counts.items()]
+        return out
+
+    def table(self) -> str:
+        """A fixed-width text table of every metric and gate count.
+
+        Returns
+        -------
+        str
+            A title line ``"<name> on <target>"``, a header and one row per metric.
+        """
+        rows = [(m, str(v)) for m, v in self.rows()]
+        return f"{self.name} on {self.target}\n" + _format_table(["metric", "value"], rows)
+
+    def __str__(self) -> str:
+        return self.table()
+
+
+def resource_report(
+    circuit: QuantumCircuit,
+    target: HardwareTarget | str | None = None,
+    *,
+    optimization_level: int = 1,
+    seed: SeedLike = 0,
+    transpiled: bool = False,
+) -> ResourceReport:
+    """Compile ``circuit`` once for ``target`` and count its resources.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Any circuit (parameters may stay free).
+    target : HardwareTarget, str or None, optional
+        A target, or a name for :func:`~qdensity.targets.get_target` (sized to the circuit,
+        seeded with ``seed``, built without its noise model, which does not change counts).
+        Default: the noiseless ``"ideal"`` all-to-all target with basis
+        ``("cz", "rz", "sx", "x")`` (the name ``"ideal"`` alone keeps every standard gate).
+    optimization_level : int, optional
+        Transpiler optimisation level, 0 to 3. Default 1.
+    seed : int, numpy.random.Generator or None, optional
+        Transpiler seed (the report is reproducible). Default 0.
+    transpiled : bool, optional
+        If True, ``circuit`` is taken as already compiled for ``target`` and counted as is.
+
+    Returns
+    -------
+    ResourceReport
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.gates import RBSGate
+    >>> qc = QuantumCircuit(3, name="chain")
+    >>> _ = qc.append(RBSGate(0.3), [0, 1])
+    >>> _ = qc.append(RBSGate(0.5), [1, 2])
+    >>> rep = resource_report(qc)
+    >>> rep.two_qubit_count, rep.two_qubit_depth
+    (4, 4)
+    >>> resource_report(qc, "rbs_native").two_qubit_count
+    2
+    """
+    check_circuit(circuit)
+    if not isinstance(transpiled, bool):
+        raise TypeError(f"transpiled must be a bool, got {transpiled!r}")
+    if target is None:
+        hw = get_target("ideal", max(circuit.num_qubits, 1), seed=seed, basis_gates=DEFAULT_BASIS)
+    elif isinstance(target, str):
+        # noise does not change counts and costs time to build: leave it off
+        hw = get_target(target, circuit.num_qubits, seed=seed, noise=False)
+    elif isinstance(target, HardwareTarget):
+        hw = target
+    else:
+        raise TypeError(
+            f"target must be a HardwareTarget, a target name or None, got {type(target).__name__}"
+        )
+    if transpiled:
+        compiled = circuit
+    else:
+        compiled = hw.transpile(circuit, optimization_level=optimization_level, seed=seed)
+    return _count(compiled, name=circuit.name, target=hw.label)
+
+
+def compare_reports(reports: Mapping[str, ResourceReport]) -> str:
+    """Side-by-side table of several reports, with ratios to the first.
+
+    Parameters
+    ----------
+    reports : mapping of str to ResourceReport
+        Column name -> report, in column order; the first is the reference.
+
+    Returns
+    -------
+    str
+        Rows are :data:`METRICS` and ``gates[<name>]`` for every gate in any report; columns
+        are the reports, then one ratio column ``"<name>/<first>"`` per other report
+        (``n/a`` for 0/0, ``inf`` for x/0).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> qc = QuantumCircuit(3)
+    >>> _ = qc.cx(0, 1)
+    >>> _ = qc.cx(0, 2)
+    >>> text = compare_reports({"ideal": resource_report(qc), "line": resource_report(qc, "line")})
+    """
+    if not isinstance(reports, Mapping):
+        raise TypeError(f"reports must be a mapping name -> ResourceReport, got {reports!r}")
+    if not reports:
+        raise ValueError("reports must hold at least one ResourceReport")
+    for key, rep in reports.items():
+        if not isinstance(key, str):
+            raise TypeError(f"reports keys must be str, got {key!r}")
+        if not isinstance(rep, ResourceReport):
+            raise TypeError(f"reports[{key!r}] must be a ResourceReport, got {type(rep).__name__}")
+    names = list(reports)
+    first = names[0]
+    gates = sorted({g for rep in reports.values() for g in rep.gate_counts})
+    metrics = [*METRICS, *(f"gates[{g}]" for g in gates)]
+
+    def value(rep: ResourceReport, metric: str) -> int:
+        if metric.startswith("gates["):
+            return rep.gate_counts.get(metric[6:-1], 0)
+        return getattr(rep, metric)
+
+    header = ["metric", *names, *(f"{n}/{first}" for n in names[1:])]
+    rows = []
+    for metric in metrics:
+        values = [value(reports[n], metric) for n in names]
+        ratios = [_ratio(v, values[0]) for v in values[1:]]
+        rows.append((metric, *map(str, values), *ratios))
+    return _format_table(header, rows)
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def _count(circuit: QuantumCircuit, *, name: str, target: str) -> ResourceReport:
+    """Read the metrics off a compiled circuit."""
+    active: set[int] = set()
+    two_qubit = 0
+    counts: dict[str, int] = {}
+    for inst in circuit.data:
+        op_name = inst.operation.name
+        if op_name in _IGNORED:
+            continue
+        counts[op_name] = counts.get(op_name, 0) + 1
+        active.update(circuit.find_bit(q).index for q in inst.qubits)
+        if len(inst.qubits) == 2:
+            two_qubit += 1
+
+    def is_two_qubit_gate(inst) -> bool:
+        return len(inst.qubits) == 2 and inst.operation.name not in _IGNORED
+
+    return ResourceReport(
+        name=name,
+        target=target,
+        num_qubits=len(active),
+        depth=circuit.depth(),
+        two_qubit_count=two_qubit,
+        two_qubit_depth=circuit.depth(filter_function=is_two_qubit_gate),
+        gate_counts=dict(sorted(counts.items())),
+    )
+
+
+def _ratio(value: int, reference: int) -> str:
+    if reference == 0:
+        return "n/a" if value == 0 else "inf"
+    return f"{value / reference:.2f}"
+
+
+def _format_table(header: list[str], rows: list[tuple[str, ...]]) -> str:
+    """Left-aligned first column, right-aligned others, a dashed rule under the header."""
+    widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header))]
+
+    def line(cells) -> str:
+        parts = [str(cells[0]).ljust(widths[0])]
+        parts += [str(c).rjust(w) for c, w in zip(cells[1:], widths[1:], strict=True)]
+        return "  ".join(parts).rstrip()
+
+    rule = "  ".join("-" * w for w in widths)
+    return "\n".join([line(header), rule, *(line(r) for r in rows)])

@@ -1,0 +1,590 @@
+"""Named hardware targets: connectivity, native gates, noise, and a matching Aer simulator.
+
+A :class:`HardwareTarget` bundles what running a density QNN "on hardware" needs: the coupling
+map and native gates to transpile against, a noise model, and factories for a seeded
+``AerSimulator`` and a seeded ``SamplerV2`` that carry that noise. Users pick targets by name:
+
+``ideal``
+    Noiseless ``AerSimulator``, all-to-all, the standard gates Aer simulates natively (or any
+    ``basis_gates`` given). ``backend`` is None.
+``all_to_all``, ``line``, ``ring``, ``heavy_hex``
+    A seeded ``GenericBackendV2`` (IBM-like basis ``cx, id, rz, sx, x`` unless ``basis_gates``
+    is given) on ``CouplingMap.from_full`` / ``from_line`` / ``from_ring`` /
+    ``from_heavy_hex``. Heavy-hex devices come in odd code distances ``d >= 3`` with
+    ``(5 d^2 - 2 d - 1) / 2`` qubits (19, 57, 115, ...); the smallest one that fits the
+    requested size is used, so ``num_qubits`` may exceed the request. The backend samples
+    T1/T2, gate and readout errors from its seed: the same seed gives the same noise.
+``rbs_native``
+    A trapped-ion-like all-to-all device whose native two-qubit gate is the beam splitter
+    ``xx_plus_yy`` (``XXPlusYYGate``), next to the Molmer-Sorensen gate ``rxx`` and the
+    one-qubit gates ``rz`` (virtual), ``sx``, ``x``. Because ``RBSGate(theta)`` *equals*
+    ``XXPlusYYGate(2 theta, pi/2)`` (DESIGN.md, measured facts), :meth:`HardwareTarget.transpile`
+    first writes every RBS (also inside gates such as FBS whose definitions hold RBS gates) as
+    that native gate, so a circuit of ``m`` RBS gates (paper eq. 8) transpiles to exactly ``m``
+    native two-qubit gates and nothing else; other two-qubit gates translate through ``rxx``.
+    The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
+    transpilation and sampling.
+
+Aer has no ``xx_plus_yy`` instruction. The ``rbs_native`` simulator therefore lowers each native
+gate at run time to ``rz(beta) . ryy(theta/2) . rxx(theta/2) . rz(-beta)`` (an exact identity)
+and tags the ``rxx`` with the label ``"xx_plus_yy"``; Aer looks noise up by label, so the native
+gate's error is applied exactly once, right after the interaction. The error (depolarizing, then
+thermal relaxation) commutes with the trailing ``rz``, so this equals the error after the whole
+native gate.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import numbers
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit import transpile as qiskit_transpile
+from qiskit.circuit import Delay, Gate, Measure, Parameter, QuantumCircuit, Reset
+from qiskit.circuit.library import (
+    RXXGate,
+    RYYGate,
+    RZGate,
+    SXGate,
+    XGate,
+    XXPlusYYGate,
+    get_standard_gate_name_mapping,
+)
+from qiskit.providers.fake_provider import GenericBackendV2
+from qiskit.transpiler import CouplingMap, InstructionProperties, Target
+from qiskit_aer import AerSimulator
+from qiskit_aer.noise import NoiseModel
+from qiskit_aer.primitives import SamplerV2
+
+from qdensity.circuits.gates import RBSGate
+from qdensity.execution.noise import noise_from_backend, noise_model
+from qdensity.validation import SeedLike, check_circuit, check_positive_int, seed_int
+
+__all__ = [
+    "HardwareTarget",
+    "get_target",
+    "known_targets",
+    "gpu_available",
+    "heavy_hex_distance",
+    "RBS_NATIVE_NOISE",
+    "RBS_NATIVE_BASIS",
+    "SIMULATION_METHODS",
+]
+
+#: Simulation methods accepted by :meth:`HardwareTarget.simulator`.
+SIMULATION_METHODS = ("automatic", "statevector", "density_matrix", "matrix_product_state")
+
+#: Native gates of the ``rbs_native`` target.
+RBS_NATIVE_BASIS = ("xx_plus_yy", "rxx", "rz", "sx", "x")
+
+#: Noise of the ``rbs_native`` target (times in seconds), trapped-ion-like: long T1, T2 of a
+#: second, slow gates, two-qubit depolarizing ``5e-3``.
+RBS_NATIVE_NOISE = {
+    "depolarizing_1q": 5e-4,
+    "depolarizing_2q": 5e-3,
+    "t1": 100.0,
+    "t2": 1.0,
+    "gate_time_1q": 1e-5,
+    "gate_time_2q": 2e-4,
+    "readout_error": 4e-3,
+}
+
+_RBS_NATIVE_MEASURE_TIME = 1e-4
+_NATIVE_XY_LABEL = "xx_plus_yy"
+
+_TARGETS = ("ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native")
+_DEVICES = ("CPU", "GPU")
+_NON_GATES = frozenset({"measure", "reset", "delay", "barrier"})
+
+
+def known_targets() -> list[str]:
+    """Names accepted by :func:`get_target`.
+
+    Returns
+    -------
+    list of str
+        ``["ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native"]``.
+    """
+    return list(_TARGETS)
+
+
+def gpu_available() -> bool:
+    """Whether qiskit-aer can simulate on a GPU here (``qiskit-aer-gpu`` and a CUDA device).
+
+    Returns
+    -------
+    bool
+    """
+    return "GPU" in AerSimulator().available_devices()
+
+
+def heavy_hex_distance(num_qubits: int) -> int:
+    """Smallest odd code distance ``d >= 3`` whose heavy-hex lattice has ``>= num_qubits`` qubits.
+
+    A distance-``d`` heavy-hex lattice (``CouplingMap.from_heavy_hex(d)``) has
+    ``(5 d^2 - 2 d - 1) / 2`` qubits.
+
+    Parameters
+    ----------
+    num_qubits : int
+        Requested size, ``>= 1``.
+
+    Returns
+    -------
+    int
+        ``3`` for up to 19 qubits, ``5`` up to 57, ``7`` up to 115, ...
+    """
+    n = check_positive_int(num_qubits, "num_qubits")
+    d = 3
+    while (5 * d * d - 2 * d - 1) // 2 < n:
+        d += 2
+    return d
+
+
+@dataclass(frozen=True, eq=False)
+class HardwareTarget:
+    """A device to transpile for and simulate on (see :func:`get_target`).
+
+    Attributes
+    ----------
+    name : str
+        One of :func:`known_targets`.
+    num_qubits : int
+        Physical qubits of the device (the requested size, or more for ``heavy_hex``).
+    backend : GenericBackendV2 or None
+        The seeded fake backend (None for ``ideal`` and ``rbs_native``).
+    coupling_map : CouplingMap or None
+        Allowed two-qubit pairs; None means all-to-all without a fixed size (``ideal``).
+    basis_gates : tuple of str
+        Native gate names (without ``measure``, ``reset``, ``delay``).
+    noise_model : qiskit_aer.noise.NoiseModel or None
+        None when the target is noiseless (``ideal``, or ``noise=False``).
+    target : qiskit.transpiler.Target or None
+        What :meth:`transpile` compiles against (None for ``ideal``: basis only).
+    seed : int or None
+        Default seed of transpilation and simulation.
+    """
+
+    name: str
+    num_qubits: int
+    backend: GenericBackendV2 | None = field(repr=False)
+    coupling_map: CouplingMap | None = field(repr=False)
+    basis_gates: tuple[str, ...]
+    noise_model: NoiseModel | None = field(repr=False)
+    target: Target | None = field(repr=False)
+    seed: int | None
+
+    @property
+    def label(self) -> str:
+        """The name, with the basis appended for an ``ideal`` target with a custom basis.
+
+        For example ``"ideal[cz,rz,sx,x]"``; used by resource reports to tell targets apart.
+        """
+        if self.name == "ideal" and self.basis_gates != _ideal_basis():
+            return f"ideal[{','.join(self.basis_gates)}]"
+        return self.name
+
+    @property
+    def is_noisy(self) -> bool:
+        """Whether simulations of this target carry noise."""
+        return self.noise_model is not None and not self.noise_model.is_ideal()
+
+    # ------------------------------------------------------------------------------------------
+    def simulator(
+        self,
+        method: str = "automatic",
+        device: str = "CPU",
+        seed: SeedLike = None,
+    ) -> AerSimulator:
+        """An ``AerSimulator`` with this target's noise and coupling, seeded.
+
+        Parameters
+        ----------
+        method : {"automatic", "statevector", "density_matrix", "matrix_product_state"}
+            Aer simulation method.
+        device : {"CPU", "GPU"}
+            ``"GPU"`` needs ``qiskit-aer-gpu`` (see :func:`gpu_available`).
+        seed : int, numpy.random.Generator or None
+            ``seed_simulator``; None uses the target's seed.
+
+        Returns
+        -------
+        qiskit_aer.AerSimulator
+            ``AerSimulator.from_backend`` for ``GenericBackendV2`` targets (noise model passed
+            explicitly, None when the target is noiseless). It does not transpile: run circuits
+            from :meth:`transpile`.
+
+        Examples
+        --------
+        >>> from qiskit import QuantumCircuit
+        >>> tgt = get_target("line", 2, seed=1)
+        >>> qc = QuantumCircuit(2)
+        >>> _ = qc.x(0)
+        >>> _ = qc.measure_all()
+        >>> counts = tgt.simulator(seed=3).run(tgt.transpile(qc), shots=100).result().get_counts()
+        """
+        if method not in SIMULATION_METHODS:
+            raise ValueError(f"method must be one of {list(SIMULATION_METHODS)}, got {method!r}")
+        if device not in _DEVICES:
+            raise ValueError(f"device must be one of {list(_DEVICES)}, got {device!r}")
+        if device == "GPU" and not gpu_available():
+            raise ValueError(
+                "device='GPU' requested but qiskit-aer has no GPU here; install qiskit-aer-gpu "
+                "(pip install qiskit-aer-gpu, CUDA required) or use device='CPU'"
+            )
+        sim_seed = self.seed if seed is None else seed_int(seed)
+        options = {
+            "method": method,
+            "device": device,
+            "seed_simulator": sim_seed,
+            "noise_model": self.noise_model if self.is_noisy else None,
+        }
+        if self.backend is not None:
+            return AerSimulator.from_backend(self.backend, **options)
+        if self.name == "rbs_native":
+            return _NativeXYSimulator(**options)
+        return AerSimulator(**options)
+
+    def transpile(
+        self,
+        circuits: QuantumCircuit | Sequence[QuantumCircuit],
+        optimization_level: int = 1,
+        seed: SeedLike = None,
+    ) -> QuantumCircuit | list[QuantumCircuit]:
+        """Compile circuits to this target's native gates and connectivity (reproducibly).
+
+        Parameters
+        ----------
+        circuits : QuantumCircuit or sequence of QuantumCircuit
+            At most ``num_qubits`` wide.
+        optimization_level : int
+            0 to 3, as ``qiskit.transpile``.
+        seed : int, numpy.random.Generator or None
+            ``seed_transpiler``; None uses the target's seed.
+
+        Returns
+        -------
+        QuantumCircuit or list of QuantumCircuit
+            Same shape as given. On devices with a coupling map the output has the device's
+            width and a ``layout``.
+
+        Examples
+        --------
+        >>> from qiskit import QuantumCircuit
+        >>> from qdensity.gates import RBSGate
+        >>> qc = QuantumCircuit(3)
+        >>> _ = qc.append(RBSGate(0.4), [0, 2])
+        >>> dict(get_target("rbs_native", 3).transpile(qc).count_ops())
+        {'xx_plus_yy': 1}
+        """
+        single = isinstance(circuits, QuantumCircuit)
+        if single:
+            batch = [circuits]
+        else:
+            if isinstance(circuits, (str, bytes)) or not isinstance(circuits, Sequence):
+                raise TypeError(
+                    f"circuits must be a QuantumCircuit or a sequence of them, "
+                    f"got {type(circuits).__name__}"
+                )
+            batch = list(circuits)
+        for k, circ in enumerate(batch):
+            check_circuit(circ, "circuits" if single else f"circuits[{k}]")
+            if circ.num_qubits > self.num_qubits:
+                raise ValueError(
+                    f"circuit {circ.name!r} has {circ.num_qubits} qubits but target "
+                    f"{self.name!r} has {self.num_qubits}; use a target with >= "
+                    f"{circ.num_qubits} qubits"
+                )
+        level = _check_level(optimization_level)
+        seed_transpiler = self.seed if seed is None else seed_int(seed)
+        if not batch:
+            return []
+        if self.name == "rbs_native":
+            batch = [_rbs_to_native(c) for c in batch]
+        if self.target is not None:
+            out = qiskit_transpile(
+                batch, target=self.target, optimization_level=level,
+                seed_transpiler=seed_transpiler,
+            )
+        else:
+            out = qiskit_transpile(
+                batch, basis_gates=list(self.basis_gates), optimization_level=level,
+                seed_transpiler=seed_transpiler,
+            )
+        return out[0] if single else list(out)
+
+    def sampler(
+        self,
+        seed: SeedLike = None,
+        shots: int | None = None,
+        method: str = "automatic",
+        device: str = "CPU",
+    ) -> SamplerV2:
+        """A qiskit-aer ``SamplerV2`` running on :meth:`simulator` (noise, coupling, seed).
+
+        Parameters
+        ----------
+        seed : int, numpy.random.Generator or None
+            Seed of every run (the sampler's ``seed``, which Aer uses as ``seed_simulator``);
+            None uses the target's seed. The same seed and PUBs give the same counts.
+        shots : int or None
+            Default shots per PUB; None means 1024.
+        method, device : str
+            As :meth:`simulator`.
+
+        Returns
+        -------
+        qiskit_aer.primitives.SamplerV2
+            Aer primitives do not transpile: submit circuits from :meth:`transpile`.
+
+        Examples
+        --------
+        >>> from qiskit import QuantumCircuit
+        >>> tgt = get_target("ring", 3, seed=2)
+        >>> qc = QuantumCircuit(3)
+        >>> _ = qc.h(0)
+        >>> _ = qc.measure_all()
+        >>> result = tgt.sampler(seed=5, shots=200).run([tgt.transpile(qc)]).result()
+        >>> result[0].data.meas.num_shots
+        200
+        """
+        sim_seed = self.seed if seed is None else seed_int(seed)
+        default_shots = 1024 if shots is None else check_positive_int(shots, "shots")
+        sim = self.simulator(method=method, device=device, seed=sim_seed)
+        return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
+
+
+def get_target(
+    name: str,
+    num_qubits: int,
+    *,
+    seed: SeedLike = 0,
+    noise: bool = True,
+    basis_gates: Sequence[str] | None = None,
+) -> HardwareTarget:
+    """Build a named hardware target (see the module docstring for the catalogue).
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`known_targets`.
+    num_qubits : int
+        Requested number of qubits: ``>= 1`` for ``ideal``, ``>= 2`` for devices with
+        two-qubit gates, ``>= 3`` for ``ring``.
+    seed : int, numpy.random.Generator or None, optional
+        Seeds the ``GenericBackendV2`` (its sampled T1/T2, gate and readout errors) and is the
+        default seed of transpilation and simulation. Default 0.
+    noise : bool, optional
+        If False the target keeps its connectivity and gates but simulates without noise.
+    basis_gates : sequence of str or None, optional
+        Native gates for ``ideal`` (default: every standard gate Aer simulates natively) and
+        the ``GenericBackendV2`` targets (default ``cx, id, rz, sx, x``). Refused for
+        ``rbs_native``, whose gate set is its point.
+
+    Returns
+    -------
+    HardwareTarget
+
+    Raises
+    ------
+    ValueError
+        Unknown name (the message lists the known ones), too few qubits, or a basis the
+        backend cannot use.
+
+    Examples
+    --------
+    >>> tgt = get_target("heavy_hex", 5, seed=7)
+    >>> tgt.num_qubits
+    19
+    >>> get_target("ideal", 3).noise_model is None
+    True
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, one of {list(_TARGETS)}, got {name!r}")
+    if name not in _TARGETS:
+        raise ValueError(f"unknown target {name!r}; known targets: {', '.join(_TARGETS)}")
+    n = check_positive_int(num_qubits, "num_qubits")
+    if not isinstance(noise, (bool, np.bool_)):
+        raise TypeError(f"noise must be a bool, got {noise!r}")
+    seed_value = seed_int(seed)
+    basis = _check_basis(basis_gates)
+
+    if name == "ideal":
+        gates = basis if basis is not None else _ideal_basis()
+        return HardwareTarget(
+            name=name, num_qubits=n, backend=None, coupling_map=None, basis_gates=gates,
+            noise_model=None, target=None, seed=seed_value,
+        )
+
+    minimum = 3 if name == "ring" else 2
+    if n < minimum:
+        raise ValueError(
+            f"num_qubits must be >= {minimum} for target {name!r} (it has two-qubit gates"
+            f"{' on a cycle' if name == 'ring' else ''}), got {n}"
+        )
+
+    if name == "rbs_native":
+        if basis is not None:
+            raise ValueError(
+                f"basis_gates cannot be changed for target 'rbs_native' (its native gates are "
+                f"{list(RBS_NATIVE_BASIS)}), got {list(basis)}"
+            )
+        model = noise_model(basis_gates=list(RBS_NATIVE_BASIS), **RBS_NATIVE_NOISE)
+        return HardwareTarget(
+            name=name, num_qubits=n, backend=None, coupling_map=CouplingMap.from_full(n),
+            basis_gates=RBS_NATIVE_BASIS, noise_model=model if noise else None,
+            target=_rbs_native_target(n), seed=seed_value,
+        )
+
+    if name == "all_to_all":
+        cmap = CouplingMap.from_full(n)
+    elif name == "line":
+        cmap = CouplingMap.from_line(n)
+    elif name == "ring":
+        cmap = CouplingMap.from_ring(n)
+    else:
+        cmap = CouplingMap.from_heavy_hex(heavy_hex_distance(n))
+    width = cmap.size()
+    try:
+        backend = GenericBackendV2(
+            width,
+            basis_gates=None if basis is None else list(basis),
+            coupling_map=cmap,
+            seed=seed_value,
+        )
+    except Exception as exc:  # GenericBackendV2 raises QiskitError on a basis it cannot use
+        raise ValueError(
+            f"basis_gates {list(basis) if basis else None} cannot build target {name!r}: {exc}"
+        ) from exc
+    gates = tuple(g for g in backend.operation_names if g not in _NON_GATES)
+    return HardwareTarget(
+        name=name, num_qubits=width, backend=backend, coupling_map=backend.coupling_map,
+        basis_gates=gates, noise_model=noise_from_backend(backend) if noise else None,
+        target=backend.target, seed=seed_value,
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# rbs_native: target, RBS rewriting, and the lowering simulator
+
+
+def _rbs_native_target(n: int) -> Target:
+    """The ``rbs_native`` Target: durations and average gate errors from RBS_NATIVE_NOISE."""
+    p = RBS_NATIVE_NOISE
+    # average gate infidelity of a depolarizing channel lambda on dimension d: lambda (d-1)/d
+    err_1q = p["depolarizing_1q"] / 2
+    err_2q = 3 * p["depolarizing_2q"] / 4
+    target = Target(description="rbs_native: trapped-ion-like, native RBS (xx_plus_yy)",
+                    num_qubits=n)
+    pairs = [(i, j) for i in range(n) for j in range(n) if i != j]
+
+    def props_2q():
+        return {q: InstructionProperties(duration=p["gate_time_2q"], error=err_2q) for q in pairs}
+
+    def props_1q(duration, error):
+        return {(q,): InstructionProperties(duration=duration, error=error) for q in range(n)}
+
+    target.add_instruction(XXPlusYYGate(Parameter("theta"), Parameter("beta")), props_2q())
+    target.add_instruction(RXXGate(Parameter("theta")), props_2q())
+    target.add_instruction(RZGate(Parameter("phi")), props_1q(0.0, 0.0))
+    target.add_instruction(SXGate(), props_1q(p["gate_time_1q"], err_1q))
+    target.add_instruction(XGate(), props_1q(p["gate_time_1q"], err_1q))
+    target.add_instruction(Measure(), props_1q(_RBS_NATIVE_MEASURE_TIME, p["readout_error"]))
+    target.add_instruction(Reset(), {(q,): None for q in range(n)})
+    target.add_instruction(Delay(Parameter("t")), {(q,): None for q in range(n)})
+    return target
+
+
+def _rbs_to_native(circuit: QuantumCircuit) -> QuantumCircuit:
+    """Write every RBS(theta) as XXPlusYY(2 theta, pi/2) (exact), inlining gates that hold RBS."""
+    if not any(_holds_rbs(inst.operation) for inst in circuit.data):
+        return circuit
+    out = circuit.copy_empty_like()
+    for inst in circuit.data:
+        op = inst.operation
+        if isinstance(op, RBSGate):
+            out.append(XXPlusYYGate(2 * op.params[0], math.pi / 2), inst.qubits, inst.clbits)
+        elif _holds_rbs(op):
+            out.compose(_rbs_to_native(op.definition), qubits=inst.qubits, clbits=inst.clbits,
+                        inplace=True)
+        else:
+            out.append(inst)
+    return out
+
+
+def _holds_rbs(op) -> bool:
+    """RBS itself, or a non-standard gate whose definition (recursively) contains one."""
+    if isinstance(op, RBSGate):
+        return True
+    if not isinstance(op, Gate) or op.name in get_standard_gate_name_mapping():
+        return False
+    definition = op.definition
+    return definition is not None and any(_holds_rbs(i.operation) for i in definition.data)
+
+
+def _lower_native_xy(circuit: QuantumCircuit) -> QuantumCircuit:
+    """XXPlusYY(theta, beta) -> rz(beta) ryy(theta/2) rxx(theta/2)[label] rz(-beta), exactly."""
+    if "xx_plus_yy" not in circuit.count_ops():
+        return circuit
+    out = circuit.copy_empty_like()
+    for inst in circuit.data:
+        if inst.operation.name == "xx_plus_yy":
+            theta, beta = inst.operation.params
+            q0, q1 = inst.qubits
+            out.rz(beta, q0)
+            out.append(RYYGate(theta / 2), [q0, q1])
+            out.append(RXXGate(theta / 2, label=_NATIVE_XY_LABEL), [q0, q1])
+            out.rz(-beta, q0)
+        else:
+            out.append(inst)
+    return out
+
+
+class _NativeXYSimulator(AerSimulator):
+    """AerSimulator that lowers native ``xx_plus_yy`` gates before running (rbs_native)."""
+
+    def run(self, circuits, parameter_binds=None, **run_options):
+        if isinstance(circuits, QuantumCircuit):
+            lowered = _lower_native_xy(circuits)
+        else:
+            lowered = [_lower_native_xy(c) for c in circuits]
+        return super().run(lowered, parameter_binds=parameter_binds, **run_options)
+
+
+# ----------------------------------------------------------------------------------------------
+# checks
+
+
+@functools.cache
+def _ideal_basis() -> tuple[str, ...]:
+    """Standard gates that AerSimulator simulates natively."""
+    aer = set(AerSimulator().configuration().basis_gates)
+    mapping = get_standard_gate_name_mapping()
+    return tuple(sorted(g for g in mapping if g in aer and g not in _NON_GATES))
+
+
+def _check_basis(basis_gates) -> tuple[str, ...] | None:
+    if basis_gates is None:
+        return None
+    if isinstance(basis_gates, str) or not isinstance(basis_gates, Sequence):
+        raise TypeError(f"basis_gates must be a sequence of gate names, got {basis_gates!r}")
+    mapping = get_standard_gate_name_mapping()
+    names = tuple(basis_gates)
+    if not names:
+        raise ValueError("basis_gates must not be empty")
+    for g in names:
+        if not isinstance(g, str) or g not in mapping or g in _NON_GATES:
+            raise ValueError(
+                f"basis_gates entry {g!r} is not a standard gate name; allowed: "
+                f"{sorted(set(mapping) - _NON_GATES - {'global_phase'})}"
+            )
+    return names
+
+
+def _check_level(level) -> int:
+    if isinstance(level, bool) or not isinstance(level, numbers.Integral) or not 0 <= level <= 3:
+        raise ValueError(f"optimization_level must be an int in 0..3, got {level!r}")
+    return int(level)

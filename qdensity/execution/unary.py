@@ -1,0 +1,460 @@
+"""Unary engine: RBS / FBS circuits as n x n orthogonal matrices (paper Methods, Supp. D-F).
+
+A circuit made only of :class:`~qdensity.gates.RBSGate` and :class:`~qdensity.gates.FBSGate`
+preserves Hamming weight. On the Hamming-weight-1 ("unary") subspace, spanned by the basis
+states ``e_j`` (statevector entry ``2**j``, qubit ``j`` carries component ``j``), it acts as an
+``n x n`` real orthogonal matrix ``O(theta)`` (paper Methods, "Hamming weight preserving QNNs";
+Supp. D eq. 8): every gate is a Givens rotation of two coordinates,
+
+    RBS(theta) on [i, j]:   y_i -> cos(theta) y_i - sin(theta) y_j,
+                            y_j -> sin(theta) y_i + cos(theta) y_j,
+
+and an FBS gate on ``[i, ..., j]`` acts on unary inputs as RBS on its first and last qubit
+(the inner qubits are ``|0>``, so the parity sign of Supp. E eq. 24 is ``+1``). Simulating a
+batch of ``B`` unary inputs therefore costs ``O(gates * B)`` flops instead of
+``O(gates * 2^n * B)`` for a statevector.
+
+Gradients are reverse-mode (backpropagation) through the rotations. Each rotation is
+orthogonal, so the backward pass recovers the activations by undoing the rotations and
+stores nothing: ``O(gates)`` time and ``O(n)`` memory per input (the paper's backpropagation
+scaling, Definition "Backpropagation scaling", holds classically for this engine).
+
+Angles may be ``a * p + b`` in one circuit parameter ``p`` (parameters may be shared by
+several gates) or fixed numbers. Parameter values are given in ``circuit.parameters`` order.
+
+Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
+:func:`compile_unary`; compile once when calling repeatedly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
+
+from qdensity.analysis.structure import parameter_of
+from qdensity.validation import check_circuit, check_parameter_values
+
+__all__ = [
+    "UnaryCircuit",
+    "compile_unary",
+    "orthogonal_matrix",
+    "forward",
+    "vjp",
+    "jacobian",
+]
+
+_IGNORED = frozenset({"barrier"})
+
+
+@dataclass(frozen=True)
+class UnaryCircuit:
+    """A compiled RBS / FBS circuit: the Givens rotations it applies to unary amplitudes.
+
+    Gate ``g`` rotates the plane ``(first[g], second[g])`` by the angle
+    ``coefficient[g] * values[parameter_index[g]] + offset[g]`` (``parameter_index[g] == -1``
+    for a fixed angle, which is then ``offset[g]``).
+
+    Attributes
+    ----------
+    num_qubits : int
+        ``n``, the dimension of the unary subspace.
+    parameters : tuple of Parameter
+        The circuit's parameters in ``circuit.parameters`` order (the order of ``values``).
+    first, second : numpy.ndarray of int, shape (G,)
+        Qubits of each rotation in gate-argument order (``first`` is RBS's ``i``).
+    parameter_index : numpy.ndarray of int, shape (G,)
+        Index into ``parameters``, or ``-1`` for a fixed angle.
+    coefficient, offset : numpy.ndarray of float, shape (G,)
+        Angle ``= coefficient * value + offset``.
+    """
+
+    num_qubits: int
+    parameters: tuple[Parameter, ...]
+    first: np.ndarray
+    second: np.ndarray
+    parameter_index: np.ndarray
+    coefficient: np.ndarray
+    offset: np.ndarray
+
+    @property
+    def num_parameters(self) -> int:
+        """Number of circuit parameters ``P``."""
+        return len(self.parameters)
+
+    @property
+    def num_gates(self) -> int:
+        """Number of rotations ``G``."""
+        return int(self.first.size)
+
+    def angles(self, values: np.ndarray) -> np.ndarray:
+        """Gate angles for parameter rows.
+
+        Parameters
+        ----------
+        values : numpy.ndarray, shape (P,) or (B, P)
+
+        Returns
+        -------
+        numpy.ndarray, shape (G,) or (G, B)
+        """
+        values = np.asarray(values, dtype=float)
+        idx = np.where(self.parameter_index >= 0, self.parameter_index, 0)
+        if values.shape[-1] == 0:
+            picked = np.zeros((self.num_gates,) + values.shape[:-1])
+        elif values.ndim == 1:
+            picked = values[idx]
+        else:
+            picked = values[:, idx].T
+        free = (self.parameter_index >= 0).astype(float)
+        if picked.ndim == 2:
+            return (self.coefficient * free)[:, None] * picked + self.offset[:, None]
+        return self.coefficient * free * picked + self.offset
+
+
+def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
+    """Extract the Givens rotations of an RBS / FBS circuit once.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Only ``rbs`` and ``fbs`` gates (barriers are ignored). Each angle is a number or
+        ``a * p + b`` in a single parameter ``p``; the global phase must be zero.
+
+    Returns
+    -------
+    UnaryCircuit
+
+    Raises
+    ------
+    ValueError
+        Naming the first unsupported instruction (anything but ``rbs``, ``fbs``, ``barrier``),
+        an angle that is not linear in one parameter, or a non-zero global phase.
+
+    Examples
+    --------
+    >>> from qdensity.ansatze import pyramid
+    >>> compiled = compile_unary(pyramid(4))
+    >>> compiled.num_gates, compiled.num_parameters
+    (6, 6)
+    """
+    if isinstance(circuit, UnaryCircuit):
+        return circuit
+    check_circuit(circuit)
+    phase = circuit.global_phase
+    if isinstance(phase, ParameterExpression) and phase.parameters:
+        raise ValueError(
+            f"circuit has a parameterised global phase {phase}; the unary engine computes real "
+            "amplitudes and needs global phase 0"
+        )
+    if abs(math.remainder(float(phase), 2 * math.pi)) > 1e-12:
+        raise ValueError(
+            f"circuit has global phase {float(phase)!r}; the unary engine computes real "
+            "amplitudes and needs global phase 0"
+        )
+    params = tuple(circuit.parameters)
+    position = {p: k for k, p in enumerate(params)}
+    first, second, pidx, coeff, offset = [], [], [], [], []
+    for index, inst in enumerate(circuit.data):
+        name = inst.operation.name
+        if name in _IGNORED:
+            continue
+        if name not in ("rbs", "fbs"):
+            raise ValueError(
+                f"circuit instruction {index} is {name!r} on qubits "
+                f"{[circuit.find_bit(q).index for q in inst.qubits]}; the unary engine supports "
+                "only 'rbs' and 'fbs' gates (and barriers)"
+            )
+        qubits = [circuit.find_bit(q).index for q in inst.qubits]
+        first.append(qubits[0])
+        second.append(qubits[-1])
+        angle = inst.operation.params[0]
+        found = parameter_of(inst)
+        if found is None:
+            pidx.append(-1)
+            coeff.append(0.0)
+            offset.append(float(angle))
+        else:
+            param, a = found
+            pidx.append(position[param])
+            coeff.append(float(a))
+            offset.append(float(angle.bind({param: 0.0})))
+    return UnaryCircuit(
+        num_qubits=circuit.num_qubits,
+        parameters=params,
+        first=np.asarray(first, dtype=np.intp),
+        second=np.asarray(second, dtype=np.intp),
+        parameter_index=np.asarray(pidx, dtype=np.intp),
+        coefficient=np.asarray(coeff, dtype=float),
+        offset=np.asarray(offset, dtype=float),
+    )
+
+
+def _values(compiled: UnaryCircuit, values, name: str = "values") -> np.ndarray:
+    if values is None:
+        if compiled.num_parameters:
+            raise ValueError(
+                f"{name} is required: the circuit has {compiled.num_parameters} parameters"
+            )
+        values = np.zeros(0)
+    return check_parameter_values(values, compiled.num_parameters, name)
+
+
+def _inputs(compiled: UnaryCircuit, X, name: str = "X") -> np.ndarray:
+    if np.iscomplexobj(X):
+        raise TypeError(f"{name} must be real (the unary engine is real-orthogonal), got complex")
+    try:
+        arr = np.asarray(X, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of real numbers, got {X!r}") from exc
+    n = compiled.num_qubits
+    if arr.ndim not in (1, 2) or arr.shape[-1] != n:
+        raise ValueError(
+            f"{name} must have shape ({n},) or (batch, {n}) for a {n}-qubit circuit, "
+            f"got {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf)")
+    return arr
+
+
+def _batch(compiled: UnaryCircuit, X, values, xname: str = "X"):
+    """Columns (n, B) of inputs, angles (G,) or (G, B), whether the output is 1-d."""
+    x = _inputs(compiled, X, xname)
+    v = _values(compiled, values)
+    single = x.ndim == 1 and v.ndim == 1
+    if v.ndim == 2:
+        if x.ndim == 1:
+            x = np.broadcast_to(x, (v.shape[0], x.size))
+        elif x.shape[0] != v.shape[0]:
+            raise ValueError(
+                f"values has {v.shape[0]} rows but {xname} has {x.shape[0]} rows; give one "
+                "parameter row per input, or values of shape (P,) shared by the batch"
+            )
+    x2 = np.atleast_2d(x)
+    return np.array(x2.T, dtype=float, order="C"), compiled.angles(v), single
+
+
+def _rotate(Z: np.ndarray, compiled: UnaryCircuit, angles: np.ndarray) -> None:
+    """Apply every gate in order to the columns of ``Z`` (n, B), in place."""
+    cos, sin = np.cos(angles), np.sin(angles)
+    for g in range(compiled.num_gates):
+        i, j = compiled.first[g], compiled.second[g]
+        c, s = cos[g], sin[g]
+        zi, zj = Z[i], Z[j]
+        new_i = c * zi - s * zj
+        Z[j] = s * zi + c * zj
+        Z[i] = new_i
+
+
+def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np.ndarray:
+    """The orthogonal matrix ``O`` of a circuit on unary states: ``y = O @ x``.
+
+    ``O[k, j]`` is the amplitude of ``e_k`` (statevector entry ``2**k``) when the circuit acts
+    on ``e_j`` (paper Methods, Supp. D).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit or UnaryCircuit
+        RBS / FBS circuit on ``n`` qubits.
+    values : array_like, shape (P,)
+        Parameter values in ``circuit.parameters`` order (may be omitted when ``P == 0``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n)
+        Real orthogonal with determinant ``+1``.
+
+    Raises
+    ------
+    ValueError
+        Unsupported gate, or ``values`` of the wrong shape.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.ansatze import pyramid
+    >>> O = orthogonal_matrix(pyramid(3), [0.1, 0.2, 0.3])
+    >>> bool(np.allclose(O @ O.T, np.eye(3)))
+    True
+    """
+    compiled = compile_unary(circuit)
+    v = _values(compiled, values)
+    if v.ndim != 1:
+        raise ValueError(
+            f"values must have shape ({compiled.num_parameters},) for orthogonal_matrix, "
+            f"got {v.shape}"
+        )
+    Z = np.eye(compiled.num_qubits)
+    _rotate(Z, compiled, compiled.angles(v))
+    return Z
+
+
+def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarray:
+    """Output unary amplitudes ``y_b = O(values_b) @ x_b`` for a batch of inputs.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit or UnaryCircuit
+        RBS / FBS circuit on ``n`` qubits.
+    X : array_like, shape (n,) or (B, n)
+        Input unary amplitudes (not required to be normalised; the map is linear).
+    values : array_like, shape (P,) or (B, P)
+        Parameter values, shared by the batch or one row per input. With ``X`` of shape
+        ``(n,)`` and ``values`` of shape ``(B, P)`` the one input is run under every row.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,) or (B, n)
+        1-d only when both ``X`` and ``values`` are 1-d.
+
+    Notes
+    -----
+    Shared values: ``O`` is built once (``O(G n)``) and applied as one matrix product.
+    Per-row values: the Givens rotations are applied gate by gate to the whole batch,
+    ``O(G B)`` flops.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.ansatze import pyramid
+    >>> y = forward(pyramid(4), np.eye(4)[0], np.zeros(6))
+    >>> y.tolist()
+    [1.0, 0.0, 0.0, 0.0]
+    """
+    compiled = compile_unary(circuit)
+    Z, angles, single = _batch(compiled, X, values)
+    if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
+        O = np.eye(compiled.num_qubits)
+        _rotate(O, compiled, angles)
+        Z = O @ Z
+    else:
+        _rotate(Z, compiled, angles)
+    return Z[:, 0].copy() if single else np.ascontiguousarray(Z.T)
+
+
+def vjp(
+    circuit: QuantumCircuit | UnaryCircuit,
+    X,
+    values,
+    grad_Y,
+    *,
+    reduce: str = "none",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Vector-Jacobian product (backpropagation) of :func:`forward`.
+
+    For a scalar loss ``L(Y)`` with ``grad_Y = dL/dY`` this returns ``dL/dvalues`` and
+    ``dL/dX``. The backward pass walks the gates in reverse; for a gate rotating ``(i, j)`` by
+    ``theta = a * p + b`` with outputs ``(u_i, u_j)`` and incoming gradient ``(g_i, g_j)``:
+
+        dL/dtheta = g_i du_i/dtheta + g_j du_j/dtheta = -g_i u_j + g_j u_i,
+        dL/dp    += a * dL/dtheta,
+
+    then the gradient and the activations are rotated back by ``-theta`` (``O`` is
+    orthogonal, so the activations before the gate are recovered exactly and none is stored).
+    Cost ``O(G)`` per input, about twice a forward pass.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit or UnaryCircuit
+    X : array_like, shape (n,) or (B, n)
+    values : array_like, shape (P,) or (B, P)
+        As in :func:`forward`.
+    grad_Y : array_like, same shape as ``forward(circuit, X, values)``
+    reduce : {"none", "sum"}
+        ``"none"``: per-example gradients ``grad_values`` of shape ``(B, P)`` (or ``(P,)``
+        for a single input). ``"sum"``: summed over the batch, shape ``(P,)`` -- the gradient
+        of a loss that adds the per-example losses, and the right one for shared values.
+
+    Returns
+    -------
+    grad_values : numpy.ndarray, shape (B, P) or (P,)
+    grad_X : numpy.ndarray, same shape as the output (``O(values_b)^T @ grad_Y_b``)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.ansatze import pyramid
+    >>> gv, gx = vjp(pyramid(2), [1.0, 0.0], [0.0], [0.0, 1.0])
+    >>> gv.round(12).tolist(), gx.round(12).tolist()
+    ([1.0], [0.0, 1.0])
+    """
+    if reduce not in ("none", "sum"):
+        raise ValueError(f"reduce must be 'none' or 'sum', got {reduce!r}")
+    compiled = compile_unary(circuit)
+    Z, angles, single = _batch(compiled, X, values)
+    n, B = Z.shape
+    try:
+        gy = np.asarray(grad_Y, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"grad_Y must be an array of real numbers, got {grad_Y!r}") from exc
+    expected = (n,) if single else (B, n)
+    if gy.shape != expected:
+        raise ValueError(f"grad_Y must have the output's shape {expected}, got {gy.shape}")
+    if not np.all(np.isfinite(gy)):
+        raise ValueError("grad_Y must be finite (no NaN or inf)")
+    G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
+    # forward to the outputs
+    if angles.ndim == 1:
+        O = np.eye(n)
+        _rotate(O, compiled, angles)
+        Y = O @ Z
+    else:
+        Y = Z
+        _rotate(Y, compiled, angles)
+    cos, sin = np.cos(angles), np.sin(angles)
+    grad_p = np.zeros((compiled.num_parameters, B))
+    for g in range(compiled.num_gates - 1, -1, -1):
+        i, j = compiled.first[g], compiled.second[g]
+        c, s = cos[g], sin[g]
+        ui, uj = Y[i], Y[j]
+        gi, gj = G[i], G[j]
+        k = compiled.parameter_index[g]
+        if k >= 0:
+            grad_p[k] += compiled.coefficient[g] * (gj * ui - gi * uj)
+        # undo the rotation on activations and pull the gradient back (transpose = inverse)
+        Y[i], Y[j] = c * ui + s * uj, c * uj - s * ui
+        G[i], G[j] = c * gi + s * gj, c * gj - s * gi
+    grad_values = grad_p.T
+    grad_X = G.T
+    if single:
+        return grad_values[0].copy(), grad_X[0].copy()
+    if reduce == "sum":
+        grad_values = grad_values.sum(axis=0)
+    return np.ascontiguousarray(grad_values), np.ascontiguousarray(grad_X)
+
+
+def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarray:
+    """Jacobian ``dy_k / dvalues_p`` of one output (reverse mode, one pass per output).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit or UnaryCircuit
+    x : array_like, shape (n,)
+        One input.
+    values : array_like, shape (P,)
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, P)
+        ``J[k, p] = d y_k / d values[p]``. (The Jacobian in ``x`` is ``orthogonal_matrix``.)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.ansatze import pyramid
+    >>> jacobian(pyramid(2), [1.0, 0.0], [0.0]).round(12).tolist()
+    [[0.0], [1.0]]
+    """
+    compiled = compile_unary(circuit)
+    x = _inputs(compiled, x, "x")
+    if x.ndim != 1:
+        raise ValueError(f"x must have shape ({compiled.num_qubits},), got {x.shape}")
+    v = _values(compiled, values)
+    if v.ndim != 1:
+        raise ValueError(f"values must have shape ({compiled.num_parameters},), got {v.shape}")
+    n = compiled.num_qubits
+    grad_values, _ = vjp(compiled, np.broadcast_to(x, (n, n)), v, np.eye(n))
+    return grad_values

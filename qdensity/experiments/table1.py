@@ -1,0 +1,128 @@
+"""Table 1 of the paper, rebuilt from real gradient plans.
+
+For each ansatz and size, the original circuit and its density version are turned into
+:class:`~qdensity.models.DensityQNN` s and their gradient plans are built (not run); the
+circuit count is read off each plan: distinct circuit executions for the full gradient of one
+data point, forward pass excluded.
+
+=================== ======================= ==================================================
+ansatz              original (method)       density version (method)
+=================== ======================= ==================================================
+hardware_efficient  D layers, shift         one sub-unitary per layer, commuting (D circuits)
+equivariant_xx      commuting (1 circuit)   K independent copies, commuting (K circuits)
+pyramid             shift, 4 per RBS        odd-even split (Supp. H.1), commuting (2)
+butterfly           shift, 4 per RBS        one sub-unitary per layer, commuting (log2 n)
+round_robin         shift, 4 per RBS        one sub-unitary per layer, commuting (n - 1)
+=================== ======================= ==================================================
+
+Observables: ``Z_0`` for the hardware-efficient and equivariant rows (a single Pauli string, the
+setting of Bowles et al.'s Theorem 1; with ``sum_i Z_i`` their gradient observables do not all
+commute and the commuting method needs several circuits per block) and ``sum_i Z_i`` for the
+Hamming-weight-preserving rows.
+"""
+
+from __future__ import annotations
+
+from qiskit.quantum_info import SparsePauliOp
+
+from qdensity.circuits.ansatze import (
+    butterfly,
+    equivariant_commuting,
+    hardware_efficient,
+    pyramid,
+    round_robin,
+)
+from qdensity.gradients.density import density_gradient_plan
+from qdensity.models.decompositions import by_moments, copies, odd_even
+from qdensity.models.density import DensityQNN
+from qdensity.validation import check_positive_int
+
+__all__ = ["ANSATZE", "table1_row", "table1", "format_table1"]
+
+ANSATZE = ("hardware_efficient", "equivariant_xx", "pyramid", "butterfly", "round_robin")
+
+
+def _z(n: int, qubits) -> SparsePauliOp:
+    return SparsePauliOp.from_sparse_list([("Z", [q], 1.0) for q in qubits], n)
+
+
+def _count(subs, observable, method: str) -> tuple[int, int, int]:
+    model = DensityQNN(subs, observable=observable)
+    plan = density_gradient_plan(model, None, method=method, forward=False)
+    return model.num_parameters, plan.meta["gradient_circuits"], model.num_subunitaries
+
+
+def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int = 2) -> dict:
+    """One row of Table 1 for ``ansatz`` on ``num_qubits`` qubits.
+
+    Parameters
+    ----------
+    ansatz : str
+        One of :data:`ANSATZE`.
+    num_qubits : int
+    layers : int
+        D for the hardware-efficient ansatz.
+    copies_k : int
+        K for the equivariant density version.
+
+    Returns
+    -------
+    dict
+        ``{"ansatz", "n", "observable", "original": {"params", "gradient_circuits", "method"},
+        "density": {"params", "gradient_circuits", "sub_unitaries", "decomposition"}}``.
+    """
+    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
+    if ansatz == "hardware_efficient":
+        circ, obs, obs_name = hardware_efficient(n, layers), _z(n, [0]), "Z0"
+        dec, method = by_moments(circ), "shift"
+    elif ansatz == "equivariant_xx":
+        circ, obs, obs_name = equivariant_commuting(n, "X"), _z(n, [0]), "Z0"
+        dec, method = copies(circ, copies_k), "commuting"
+    elif ansatz == "pyramid":
+        circ, obs, obs_name = pyramid(n), _z(n, range(n)), "sum Z"
+        dec, method = odd_even(circ), "shift"
+    elif ansatz == "butterfly":
+        circ, obs, obs_name = butterfly(n), _z(n, range(n)), "sum Z"
+        dec, method = by_moments(circ), "shift"
+    elif ansatz == "round_robin":
+        circ, obs, obs_name = round_robin(n), _z(n, range(n)), "sum Z"
+        dec, method = by_moments(circ), "shift"
+    else:
+        raise ValueError(f"ansatz must be one of {ANSATZE}, got {ansatz!r}")
+    p0, g0, _ = _count([circ], obs, method)
+    p1, g1, k = _count(dec.sub_unitaries, obs, "commuting")
+    return {
+        "ansatz": ansatz,
+        "n": n,
+        "observable": obs_name,
+        "original": {"params": p0, "gradient_circuits": g0, "method": method},
+        "density": {"params": p1, "gradient_circuits": g1, "sub_unitaries": k,
+                    "decomposition": dec.name},
+    }
+
+
+def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2) -> list[dict]:
+    """Rows of Table 1 for every ansatz and size (butterfly only for powers of two)."""
+    rows = []
+    for name in ansatze:
+        for n in sizes:
+            if name == "butterfly" and n & (n - 1):
+                continue
+            rows.append(table1_row(name, n, layers=layers, copies_k=copies_k))
+    return rows
+
+
+def format_table1(rows: list[dict]) -> str:
+    """Fixed-width text table of :func:`table1` rows."""
+    head = (f"{'ansatz':<20}{'n':>4}  {'obs':<6}{'params':>8}{'grad circ':>11}"
+            f"{'K':>5}{'params':>8}{'grad circ':>11}{'ratio':>8}")
+    lines = [f"{'':<30}{'original':>19}{'density':>24}", head, "-" * len(head)]
+    for r in rows:
+        o, d = r["original"], r["density"]
+        ratio = o["gradient_circuits"] / max(d["gradient_circuits"], 1)
+        lines.append(
+            f"{r['ansatz']:<20}{r['n']:>4}  {r['observable']:<6}{o['params']:>8}"
+            f"{o['gradient_circuits']:>11}{d['sub_unitaries']:>5}{d['params']:>8}"
+            f"{d['gradient_circuits']:>11}{ratio:>8.1f}"
+        )
+    return "\n".join(lines)

@@ -1,0 +1,43 @@
+"""Density QNNs (paper eq. 1-2): the model and its encodings (:mod:`~qdensity.models.density`),
+distributions over sub-unitaries, fixed, softmax or mixture-of-experts (:mod:`~.mixtures`,
+Supp. H), and the paper's decompositions of one circuit into sub-unitaries
+(:mod:`~.decompositions`, Fig. 6, Supp. H.1)."""
+
+from qdensity.models.decompositions import (
+    Decomposition,
+    by_moments,
+    copies,
+    cyclic_moments,
+    independent,
+    odd_even,
+    trainable_parameters,
+)
+from qdensity.models.density import READOUTS, DensityQNN, Encoding, bind_rows
+from qdensity.models.mixtures import (
+    FixedMixture,
+    GatedMixture,
+    Mixture,
+    SoftmaxMixture,
+    as_mixture,
+    softmax,
+)
+
+__all__ = [
+    "Encoding",
+    "DensityQNN",
+    "READOUTS",
+    "bind_rows",
+    "Mixture",
+    "FixedMixture",
+    "SoftmaxMixture",
+    "GatedMixture",
+    "as_mixture",
+    "softmax",
+    "Decomposition",
+    "by_moments",
+    "cyclic_moments",
+    "odd_even",
+    "copies",
+    "independent",
+    "trainable_parameters",
+]

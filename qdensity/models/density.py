@@ -1,0 +1,517 @@
+"""Density QNN models (paper eq. 1, eq. 2, eq. 3).
+
+``rho(theta, alpha, x) = sum_k alpha_k(x) U_k(theta_k) rho(x) U_k(theta_k)^dagger`` with a data
+encoding ``rho(x) = V(x)|0><0|V(x)^dagger``; the model's output is
+``f(x) = sum_k alpha_k(x) f_k(x)``, ``f_k = Tr(O U_k rho(x) U_k^dagger)`` for an observable
+readout, or the mixture of the sub-unitaries' unary probability (or amplitude) vectors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.quantum_info import SparsePauliOp
+
+from qdensity.execution.plans import Plan, check_observable, expectation_plan
+from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
+from qdensity.models.mixtures import Mixture, as_mixture
+from qdensity.validation import as_rng, check_circuit
+
+__all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
+
+READOUTS = ("observable", "unary_probabilities", "unary_amplitudes")
+
+
+def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
+    """Parameter rows in ``circuit.parameters`` order from ``{Parameter: column}``.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+    columns : dict
+        Maps each of the circuit's parameters to an array of shape (B,) or a scalar.
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, P)
+    """
+    params = list(circuit.parameters)
+    missing = [p.name for p in params if p not in columns]
+    if missing:
+        raise ValueError(f"no values given for parameters {missing}")
+    cols = [np.atleast_1d(np.asarray(columns[p], dtype=float)) for p in params]
+    rows = max((c.size for c in cols), default=1)
+    return np.stack([np.broadcast_to(c, (rows,)) for c in cols], axis=1) if cols else np.zeros(
+        (rows, 0))
+
+
+@dataclass
+class Encoding:
+    """A data loader ``V(x)``: a circuit with data parameters and the map from data to them.
+
+    Attributes
+    ----------
+    circuit : QuantumCircuit
+        ``n`` qubits; its free parameters are set by ``transform``.
+    transform : callable
+        ``X (B, d) -> values (B, P_enc)`` in ``circuit.parameters`` order.
+    num_features : int
+        d.
+    kind : str
+        ``"unary"`` (amplitude encoding on the unary basis) or ``"other"``.
+    """
+
+    circuit: QuantumCircuit
+    transform: Callable[[np.ndarray], np.ndarray]
+    num_features: int
+    kind: str = "other"
+
+    @classmethod
+    def unary(cls, num_features: int, layout: str = "parallel") -> Encoding:
+        """Unary amplitude encoding ``|x> = sum_j x_j/||x|| |e_j>`` (parallel loader by default).
+
+        Parameters
+        ----------
+        num_features : int
+            d >= 2 = number of qubits.
+        layout : {"parallel", "diagonal", "semi_diagonal"}
+        """
+        from qdensity.circuits.loaders import loader_angles, unary_loader_template
+
+        template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
+        return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
+
+    @classmethod
+    def angle(cls, num_qubits: int) -> Encoding:
+        """Angle encoding ``R_y(pi x_i / 2)`` on qubit i (paper, equivariant experiments)."""
+        from qdensity.circuits.ansatze.equivariant import angle_encoding
+
+        circ = angle_encoding(num_qubits)
+        return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
+
+    def values(self, X) -> np.ndarray:
+        """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if X.shape[1] != self.num_features:
+            raise ValueError(f"X must have {self.num_features} features, got shape {X.shape}")
+        return np.atleast_2d(self.transform(X))
+
+
+class DensityQNN:
+    """A density quantum neural network (paper eq. 1 and 2).
+
+    Parameters
+    ----------
+    sub_unitaries : sequence of QuantumCircuit
+        ``U_1 .. U_K`` on the same ``n`` qubits. Parameters may be shared between them
+        (Prop. 1) or independent (Cor. 1). Parameters in a vector named ``"x"`` are data
+        (re-uploading): ``x[i]`` is set to feature ``i``.
+    mixture : Mixture or array_like, optional
+        :class:`~qdensity.mixtures.FixedMixture` (or an alpha vector),
+        :class:`~qdensity.mixtures.SoftmaxMixture` or
+        :class:`~qdensity.mixtures.GatedMixture`. Default: uniform, fixed.
+    encoding : Encoding, optional
+        ``V(x)``. Default: none (sub-unitaries act on ``|0...0>`` or upload data themselves).
+    observable : SparsePauliOp, optional
+        ``O`` for ``readout="observable"`` (default ``Z`` on qubit 0).
+    readout : {"observable", "unary_probabilities", "unary_amplitudes"}
+        Unary readouts need a unary encoding and Hamming-weight-preserving sub-unitaries;
+        probabilities are ``Tr(|e_j><e_j| rho)``; amplitudes mix the sub-unitaries' output
+        vectors ``sum_k alpha_k O_k x`` (the mixture-of-experts reading, Supp. H).
+    seed : int or Generator, optional
+        Initial angles uniform in ``[-pi, pi)`` (zeros when None).
+
+    Attributes
+    ----------
+    theta : numpy.ndarray, shape (P,)
+        Trainable angles in :attr:`parameters` order.
+    parameters : list of Parameter
+        Union of the sub-unitaries' trainable parameters, in order of first appearance.
+
+    Examples
+    --------
+    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.decompositions import by_moments
+    >>> dec = by_moments(round_robin(4))
+    >>> model = DensityQNN(dec.sub_unitaries, encoding=Encoding.unary(4),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> model.predict([[1.0, 2.0, 3.0, 4.0]]).shape
+    (1, 4)
+    """
+
+    def __init__(
+        self,
+        sub_unitaries: Sequence[QuantumCircuit],
+        mixture: Mixture | Sequence[float] | None = None,
+        *,
+        encoding: Encoding | None = None,
+        observable: SparsePauliOp | str | None = None,
+        readout: str = "observable",
+        seed=None,
+    ):
+        subs = list(sub_unitaries) if not isinstance(sub_unitaries, QuantumCircuit) else [
+            sub_unitaries]
+        if not subs:
+            raise ValueError("sub_unitaries must contain at least one circuit (K >= 1), got K = 0")
+        subs = [check_circuit(c, f"sub_unitaries[{i}]") for i, c in enumerate(subs)]
+        widths = {c.num_qubits for c in subs}
+        if len(widths) > 1:
+            raise ValueError(f"sub_unitaries must all have the same width, got widths "
+                             f"{[c.num_qubits for c in subs]}")
+        self.num_qubits = subs[0].num_qubits
+        if encoding is not None and encoding.circuit.num_qubits != self.num_qubits:
+            raise ValueError(f"encoding acts on {encoding.circuit.num_qubits} qubits but the "
+                             f"sub-unitaries on {self.num_qubits}")
+        if readout not in READOUTS:
+            raise ValueError(f"readout must be one of {READOUTS}, got {readout!r}")
+        if readout != "observable":
+            from qdensity.analysis.structure import is_hamming_weight_preserving
+
+            if encoding is None or encoding.kind != "unary":
+                raise ValueError(f"readout={readout!r} needs a unary encoding (Encoding.unary)")
+            bad = [i for i, c in enumerate(subs) if not is_hamming_weight_preserving(c)]
+            if bad:
+                raise ValueError(f"readout={readout!r} needs Hamming-weight-preserving "
+                                 f"sub-unitaries; sub_unitaries{bad} are not")
+        self.sub_unitaries = subs
+        self.encoding = encoding
+        self.readout = readout
+        if observable is None:
+            observable = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], self.num_qubits)
+        self.observable = check_observable(observable, self.num_qubits)
+        self.mixture = as_mixture(mixture, len(subs))
+        params: list[Parameter] = []
+        seen = set()
+        for c in subs:
+            for p in trainable_parameters(c):
+                if p not in seen:
+                    seen.add(p)
+                    params.append(p)
+        self.parameters = params
+        self._index = {p: i for i, p in enumerate(params)}
+        self.theta = (as_rng(seed).uniform(-np.pi, np.pi, len(params)) if seed is not None
+                      else np.zeros(len(params)))
+        self.training = True
+        self._unary_ok = None
+
+    # ------------------------------------------------------------------ basic facts
+    @property
+    def num_subunitaries(self) -> int:
+        """K."""
+        return len(self.sub_unitaries)
+
+    @property
+    def num_parameters(self) -> int:
+        """Trainable circuit angles P (the mixture's own parameters are separate)."""
+        return len(self.parameters)
+
+    @property
+    def shares_parameters(self) -> bool:
+        """True when some parameter appears in more than one sub-unitary (Prop. 1 case)."""
+        counts: dict = {}
+        for c in self.sub_unitaries:
+            for p in trainable_parameters(c):
+                counts[p] = counts.get(p, 0) + 1
+        return any(v > 1 for v in counts.values())
+
+    def subunitary_parameter_indices(self, k: int) -> np.ndarray:
+        """Indices into :attr:`theta` of sub-unitary ``k``'s parameters, in its order."""
+        return np.array([self._index[p] for p in trainable_parameters(self.sub_unitaries[k])],
+                        dtype=int)
+
+    def train(self) -> DensityQNN:
+        """Training mode: randomised preparation (sample sub-unitaries, Fig. 1c, Supp. I)."""
+        self.training = True
+        return self
+
+    def eval(self) -> DensityQNN:
+        """Evaluation mode: the deterministic state (Fig. 1b) or its exact value."""
+        self.training = False
+        return self
+
+    def alpha(self, X=None) -> np.ndarray:
+        """Mixture weights, shape (B, K)."""
+        return self.mixture.alpha(None if X is None else np.atleast_2d(X))
+
+    # ------------------------------------------------------------------ circuits
+    def circuit(self, k: int, *, with_encoding: bool = True) -> QuantumCircuit:
+        """``V(x)`` followed by ``U_k`` (parameterised)."""
+        sub = self.sub_unitaries[k]
+        if with_encoding and self.encoding is not None:
+            return self.encoding.circuit.compose(sub)
+        return sub.copy()
+
+    def rows(self, k: int, X, theta=None, circuit: QuantumCircuit | None = None) -> np.ndarray:
+        """Parameter rows of :meth:`circuit` ``(k)`` (or of ``circuit`` built on it) for data X.
+
+        Parameters
+        ----------
+        k : int
+        X : array_like, shape (B, d) or None
+        theta : array_like, shape (P,) or (B, P), optional
+            Defaults to :attr:`theta`.
+        circuit : QuantumCircuit, optional
+            A circuit whose parameters are a subset of encoding, data and model parameters
+            (e.g. a gradient circuit built from :meth:`circuit`).
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, P_circuit)
+        """
+        circ = circuit if circuit is not None else self.circuit(k)
+        theta = self.theta if theta is None else np.asarray(theta, dtype=float)
+        cols: dict = {}
+        B = 1
+        if X is not None:
+            X = np.atleast_2d(np.asarray(X, dtype=float))
+            B = X.shape[0]
+            if self.encoding is not None:
+                enc = self.encoding.values(X)
+                cols.update(zip(self.encoding.circuit.parameters, enc.T, strict=True))
+        for p in circ.parameters:
+            if p in cols:
+                continue
+            vec = getattr(p, "vector", None)
+            if vec is not None and vec.name == DATA_PREFIX:
+                if X is None:
+                    raise ValueError("this model uploads data; X is required")
+                cols[p] = X[:, p.index]
+            elif p in self._index:
+                cols[p] = theta[..., self._index[p]]
+        out = bind_rows(circ, cols)
+        if out.shape[0] == 1 and B > 1:
+            out = np.repeat(out, B, axis=0)
+        return out
+
+    # ------------------------------------------------------------------ exact evaluation
+    def _use_unary(self) -> bool:
+        if self._unary_ok is None:
+            from qdensity.execution.unary import compile_unary
+
+            ok = self.encoding is not None and self.encoding.kind == "unary"
+            if ok:
+                try:
+                    for c in self.sub_unitaries:
+                        compile_unary(c)
+                except ValueError:
+                    ok = False
+            if ok and self.readout == "observable":
+                ok = not np.any(self.observable.paulis.x)
+            self._unary_ok = ok
+        return self._unary_ok
+
+    def _unary_amplitudes(self, X, theta) -> np.ndarray:
+        from qdensity.execution.unary import forward
+
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        norms = np.linalg.norm(X, axis=1, keepdims=True)
+        if np.any(norms == 0):
+            raise ValueError("X has an all-zero row; a unary encoding cannot load it")
+        Xn = X / norms
+        return np.stack([forward(c, Xn, self._sub_theta(k, theta))
+                         for k, c in enumerate(self.sub_unitaries)], axis=1)
+
+    def _sub_theta(self, k: int, theta) -> np.ndarray:
+        theta = self.theta if theta is None else np.asarray(theta, dtype=float)
+        return theta[..., self.subunitary_parameter_indices(k)]
+
+    def _z_readout_matrix(self) -> np.ndarray:
+        """``<e_j| O |e_j>`` for a diagonal observable: f_k = sum_j y_j^2 * this[j]."""
+        n = self.num_qubits
+        from qdensity.execution.plans import diagonal_values
+
+        diag = diagonal_values(self.observable.paulis, np.real(self.observable.coeffs), n)
+        return diag[1 << np.arange(n)]
+
+    def expert_outputs(self, X=None, theta=None, *, method: str = "auto") -> np.ndarray:
+        """Exact per-sub-unitary outputs ``f_k(x)``.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, d), optional
+        theta : array_like, shape (P,), optional
+        method : {"auto", "unary", "statevector"}
+            ``auto`` uses the unary engine when the model allows it (RBS/FBS sub-unitaries on a
+            unary encoding, diagonal observable), else exact Aer statevectors.
+
+        Returns
+        -------
+        numpy.ndarray
+            (B, K) for an observable readout; (B, K, n) for unary readouts.
+        """
+        use_unary = self._use_unary() if method == "auto" else method == "unary"
+        if use_unary:
+            if not self._use_unary():
+                raise ValueError("the unary engine needs RBS/FBS sub-unitaries on a unary "
+                                 "encoding (and a diagonal observable)")
+            Y = self._unary_amplitudes(X, theta)
+            if self.readout == "unary_amplitudes":
+                return Y
+            if self.readout == "unary_probabilities":
+                return Y**2
+            return (Y**2) @ self._z_readout_matrix()
+        if method not in ("auto", "statevector"):
+            raise ValueError(f"method must be 'auto', 'unary' or 'statevector', got {method!r}")
+        from qdensity.execution.engines import ExactEngine
+
+        engine = ExactEngine()
+        outs = []
+        for k in range(self.num_subunitaries):
+            if self.readout == "observable":
+                plan = self.expectation_plan(k, X, theta)
+                outs.append(plan.run(engine).value)
+            else:
+                from qdensity.execution.plans import probabilities_plan
+
+                circ = self.circuit(k)
+                res = probabilities_plan(circ, self.rows(k, X, theta)).run(engine)
+                probs = res.probabilities[:, 1 << np.arange(self.num_qubits)]
+                if self.readout == "unary_amplitudes":
+                    raise ValueError("unary_amplitudes need the unary engine (signs are not "
+                                     "in the probabilities); use method='unary'")
+                outs.append(probs)
+        return np.stack(outs, axis=1)
+
+    def expectation_plan(self, k: int, X=None, theta=None, *, shots: int | None = None) -> Plan:
+        """Plan for ``f_k(x) = Tr(O U_k rho(x) U_k^dagger)`` over the rows of X."""
+        circ = self.circuit(k)
+        return expectation_plan(circ, self.observable, self.rows(k, X, theta), shots=shots,
+                                label=f"forward_k{k}")
+
+    def predict(self, X=None, theta=None, *, method: str = "auto") -> np.ndarray:
+        """Exact model output ``f(x) = sum_k alpha_k(x) f_k(x)`` (eq. 3).
+
+        Returns
+        -------
+        numpy.ndarray
+            (B,) for an observable readout, (B, n) for unary readouts.
+        """
+        outs = self.expert_outputs(X, theta, method=method)
+        alpha = self.alpha(X)
+        if outs.ndim == 2:
+            return (alpha * outs).sum(axis=1)
+        return np.einsum("bk,bkn->bn", alpha, outs)
+
+    # ------------------------------------------------------------------ sampling (Fig. 1, Supp. I)
+    def sample(self, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
+               seed=None):
+        """Estimate ``f(x)`` from shots, as the current mode prescribes (Supp. I).
+
+        ``train()`` mode: the randomised density QNN (Fig. 1c): the shot budget is split over the
+        sub-unitaries by ``scheduler`` and each shot runs one ``V(x)`` + ``U_k`` circuit.
+        ``eval()`` mode: the deterministic state (Fig. 1b) measured with all ``budget`` shots
+        (the observable is read on the ``data`` register; the ``mix`` register is ignored, which
+        traces it out).
+
+        Parameters
+        ----------
+        x : array_like, shape (d,)
+            One data point.
+        budget : int
+            Total shots.
+        scheduler : {"per_shot", "proportional", "neyman"}
+            Used in train mode.
+        engine : SamplerEngine, optional
+            Used as is for every call (note: a fixed-seed Aer sampler repeats its shots).
+        target : qdensity.targets.HardwareTarget, optional
+            Without ``engine``: sample on this target's (noisy) simulator, a fresh sampler per
+            call seeded from ``seed`` so a pilot and a main phase are independent. Default:
+            noiseless Aer.
+        seed : int or Generator, optional
+
+        Returns
+        -------
+        qdensity.schedulers.ScheduleResult
+            Estimate, standard error, allocation and shots used (``allocation`` is ``[budget]``
+            in eval mode).
+        """
+        from qdensity.execution.engines import SamplerEngine
+        from qdensity.execution.plans import CircuitJob, diagonal_values, measured
+        from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
+        from qdensity.validation import check_positive_int
+
+        budget = check_positive_int(budget, "budget")
+        if self.readout != "observable" or np.any(self.observable.paulis.x):
+            raise ValueError("sample() needs a diagonal (Z-type) observable readout")
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        if x.shape[0] != 1:
+            raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
+        rng = as_rng(seed)
+        n = self.num_qubits
+        values = diagonal_values(self.observable.paulis, np.real(self.observable.coeffs), n)
+        lo, hi = float(values.min()), float(values.max())
+        ledger = engine.ledger if engine is not None else None
+
+        def engine_for_call():
+            nonlocal ledger
+            if engine is not None:
+                return engine
+            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger)
+            ledger = fresh.ledger
+            return fresh
+
+        if not self.training:
+            from qdensity.circuits.preparation import deterministic_circuit
+
+            alpha = self.alpha(x)[0]
+            subs = [c.assign_parameters(dict(zip(trainable_parameters(c), self._sub_theta(k, None),
+                                                 strict=True)))
+                    for k, c in enumerate(self.sub_unitaries)]
+            loader = (self.encoding.circuit.assign_parameters(self.encoding.values(x)[0])
+                      if self.encoding is not None else None)
+            circ = measured(deterministic_circuit(subs, alpha, loader=loader))
+            res = engine_for_call().run([CircuitJob(circ, None, budget, "deterministic")])[0]
+            K = self.num_subunitaries
+            probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
+            mean = float(probs @ values)
+            var = float(probs @ values**2) - mean**2
+            return ScheduleResult(name="deterministic", estimate=mean,
+                                  standard_error=float(np.sqrt(max(var, 0.0) / budget)),
+                                  allocation=np.array([budget]), per_subunitary=np.array([mean]),
+                                  shots_used=budget, pilot_allocation=None, info={})
+        circuits = [measured(self.circuit(k)) for k in range(self.num_subunitaries)]
+        rows = [self.rows(k, x) for k in range(self.num_subunitaries)]
+
+        def source(shots_per_k, rng_inner):
+            jobs = [CircuitJob(circuits[k], rows[k], int(s), f"randomised_k{k}")
+                    for k, s in enumerate(shots_per_k) if s > 0]
+            results = iter(engine_for_call().run(jobs))
+            out = []
+            for s in shots_per_k:
+                if s == 0:
+                    out.append(np.zeros(0))
+                    continue
+                counts = np.rint(next(results).probabilities[0] * s).astype(int)
+                out.append(values[np.repeat(np.arange(counts.size), counts)])
+            return out
+
+        runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
+        if scheduler not in runners:
+            raise ValueError(f"scheduler must be one of {sorted(runners)}, got {scheduler!r}")
+        alpha = self.alpha(x)[0]
+        return runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
+
+    # ------------------------------------------------------------------ parameters I/O
+    def get_params(self) -> dict[str, np.ndarray]:
+        """``{"theta": ..., "mixture": ...}`` as plain arrays."""
+        return {"theta": self.theta.copy(), "mixture": self.mixture.params}
+
+    def set_params(self, theta=None, mixture=None) -> DensityQNN:
+        """Set angles and/or mixture parameters (shapes checked)."""
+        if theta is not None:
+            theta = np.asarray(theta, dtype=float)
+            if theta.shape != (self.num_parameters,):
+                raise ValueError(f"theta must have shape ({self.num_parameters},), got "
+                                 f"{theta.shape}")
+            self.theta = theta.copy()
+        if mixture is not None:
+            self.mixture.params = np.asarray(mixture, dtype=float)
+        return self
+
+    def __repr__(self) -> str:
+        return (f"DensityQNN(K={self.num_subunitaries}, n={self.num_qubits}, "
+                f"params={self.num_parameters}, mixture={type(self.mixture).__name__}, "
+                f"readout={self.readout!r})")

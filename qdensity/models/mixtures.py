@@ -1,0 +1,228 @@
+"""Mixtures: the distribution alpha over sub-unitaries (paper eq. 1, eq. 2, Supp. H).
+
+Three kinds share one interface: ``alpha(X) -> (B, K)``, a flat trainable parameter vector
+``params``, and ``vjp(X, grad_alpha) -> grad_params`` (the chain rule through the softmax and
+the gate, paper "Gradients and training").
+
+* :class:`FixedMixture`: alpha on the simplex, not trained (no parameters).
+* :class:`SoftmaxMixture`: alpha = softmax(logits), logits trained.
+* :class:`GatedMixture`: alpha(x) = softmax(W x + b) ("MoE", eq. 26) or
+  softmax(GELU(W x + b)) ("MoE*").
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+
+import numpy as np
+from scipy.special import erf
+
+from qdensity.validation import as_rng, check_distribution, check_positive_int, check_real_vector
+
+__all__ = ["Mixture", "FixedMixture", "SoftmaxMixture", "GatedMixture", "as_mixture", "softmax"]
+
+
+def softmax(z: np.ndarray) -> np.ndarray:
+    """Row-wise softmax, numerically stable. ``z`` shape (..., K)."""
+    z = z - z.max(axis=-1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=-1, keepdims=True)
+
+
+def _softmax_vjp(alpha: np.ndarray, grad_alpha: np.ndarray) -> np.ndarray:
+    """Gradient w.r.t. the logits given alpha = softmax(z) and dL/dalpha, both (B, K)."""
+    return alpha * (grad_alpha - (grad_alpha * alpha).sum(axis=-1, keepdims=True))
+
+
+class Mixture(ABC):
+    """Base class: a distribution over ``K`` sub-unitaries, possibly data dependent."""
+
+    num_components: int
+    data_dependent: bool = False
+
+    @property
+    def params(self) -> np.ndarray:
+        """Flat trainable parameters, shape (M,)."""
+        return np.zeros(0)
+
+    @params.setter
+    def params(self, value: np.ndarray) -> None:
+        if np.size(value):
+            raise ValueError("this mixture has no trainable parameters")
+
+    @property
+    def num_params(self) -> int:
+        return int(self.params.size)
+
+    @abstractmethod
+    def alpha(self, X: np.ndarray | None = None) -> np.ndarray:
+        """Mixture weights, shape (B, K) (B = 1 when ``X`` is None and alpha is data-free)."""
+
+    def vjp(self, X: np.ndarray | None, grad_alpha: np.ndarray) -> np.ndarray:
+        """``sum_b sum_k grad_alpha[b, k] d alpha[b, k] / d params``, shape (M,)."""
+        return np.zeros(0)
+
+    def _batch(self, X: np.ndarray | None) -> int:
+        return 1 if X is None else int(np.atleast_2d(X).shape[0])
+
+
+class FixedMixture(Mixture):
+    """A fixed distribution alpha (not trained).
+
+    Parameters
+    ----------
+    alpha : array_like, shape (K,)
+        Non-negative, summing to 1 within 1e-9 (never renormalised).
+    """
+
+    def __init__(self, alpha):
+        self._alpha = check_distribution(alpha, "alpha")
+        self.num_components = self._alpha.size
+
+    def alpha(self, X=None) -> np.ndarray:
+        return np.broadcast_to(self._alpha, (self._batch(X), self.num_components)).copy()
+
+
+class SoftmaxMixture(Mixture):
+    """Trainable alpha = softmax(logits).
+
+    Parameters
+    ----------
+    num_components : int, optional
+        K; logits start at zero (uniform alpha).
+    logits : array_like, shape (K,), optional
+    alpha : array_like, shape (K,), optional
+        Initial distribution (strictly positive), converted to logits ``log(alpha)``.
+    """
+
+    def __init__(self, num_components: int | None = None, *, logits=None, alpha=None):
+        given = sum(v is not None for v in (num_components, logits, alpha))
+        if given != 1:
+            raise ValueError("give exactly one of num_components, logits or alpha")
+        if logits is not None:
+            self.logits = check_real_vector(logits, "logits")
+        elif alpha is not None:
+            a = check_distribution(alpha, "alpha")
+            if np.any(a <= 0):
+                raise ValueError("alpha must be strictly positive to be expressed as logits")
+            self.logits = np.log(a)
+        else:
+            self.logits = np.zeros(check_positive_int(num_components, "num_components"))
+        self.num_components = self.logits.size
+
+    @property
+    def params(self) -> np.ndarray:
+        return self.logits.copy()
+
+    @params.setter
+    def params(self, value) -> None:
+        value = check_real_vector(value, "params")
+        if value.size != self.num_components:
+            raise ValueError(f"params must have length {self.num_components}, got {value.size}")
+        self.logits = value.copy()
+
+    def alpha(self, X=None) -> np.ndarray:
+        return np.broadcast_to(softmax(self.logits), (self._batch(X), self.num_components)).copy()
+
+    def vjp(self, X, grad_alpha) -> np.ndarray:
+        grad_alpha = np.atleast_2d(grad_alpha)
+        a = softmax(self.logits)[None, :]
+        return _softmax_vjp(np.broadcast_to(a, grad_alpha.shape), grad_alpha).sum(axis=0)
+
+
+def _gelu(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact GELU ``z Phi(z)`` and its derivative."""
+    cdf = 0.5 * (1.0 + erf(z / math.sqrt(2.0)))
+    pdf = np.exp(-0.5 * z**2) / math.sqrt(2.0 * math.pi)
+    return z * cdf, cdf + z * pdf
+
+
+class GatedMixture(Mixture):
+    """Data-dependent mixture of experts: ``alpha(x) = softmax(act(W x + b))`` (Supp. H, eq. 26).
+
+    Parameters
+    ----------
+    num_features : int
+        Input dimension d of the gate.
+    num_components : int
+        K.
+    activation : {None, "gelu"}
+        None is the paper's "MoE"; "gelu" is "MoE*" (exact erf GELU).
+    weights : array_like, shape (K, d), optional
+    bias : array_like, shape (K,), optional
+    seed : int or Generator, optional
+        Initialises ``W`` with N(0, 1/d) entries when ``weights`` is not given; ``b = 0``.
+    """
+
+    data_dependent = True
+
+    def __init__(self, num_features: int, num_components: int, *, activation: str | None = None,
+                 weights=None, bias=None, seed=None):
+        self.num_features = check_positive_int(num_features, "num_features")
+        self.num_components = check_positive_int(num_components, "num_components")
+        if activation not in (None, "gelu"):
+            raise ValueError(f"activation must be None or 'gelu', got {activation!r}")
+        self.activation = activation
+        shape = (self.num_components, self.num_features)
+        if weights is None:
+            weights = as_rng(seed).normal(0.0, 1.0 / math.sqrt(self.num_features), shape)
+        weights = np.asarray(weights, dtype=float)
+        if weights.shape != shape:
+            raise ValueError(f"weights must have shape {shape} (num_components, num_features), "
+                             f"got {weights.shape}")
+        bias = np.zeros(self.num_components) if bias is None else np.asarray(bias, dtype=float)
+        if bias.shape != (self.num_components,):
+            raise ValueError(f"bias must have shape ({self.num_components},), got {bias.shape}")
+        self.weights, self.bias = weights.copy(), bias.copy()
+
+    @property
+    def params(self) -> np.ndarray:
+        return np.concatenate([self.weights.ravel(), self.bias])
+
+    @params.setter
+    def params(self, value) -> None:
+        value = check_real_vector(value, "params")
+        size = self.weights.size + self.bias.size
+        if value.size != size:
+            raise ValueError(f"params must have length {size}, got {value.size}")
+        self.weights = value[: self.weights.size].reshape(self.weights.shape).copy()
+        self.bias = value[self.weights.size:].copy()
+
+    def _check_X(self, X) -> np.ndarray:
+        if X is None:
+            raise ValueError("a data-dependent mixture needs the data X")
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if X.shape[1] != self.num_features:
+            raise ValueError(f"X must have {self.num_features} features, got {X.shape[1]}")
+        return X
+
+    def _logits(self, X):
+        z = X @ self.weights.T + self.bias
+        if self.activation == "gelu":
+            return _gelu(z)
+        return z, np.ones_like(z)
+
+    def alpha(self, X=None) -> np.ndarray:
+        z, _ = self._logits(self._check_X(X))
+        return softmax(z)
+
+    def vjp(self, X, grad_alpha) -> np.ndarray:
+        X = self._check_X(X)
+        z, dz = self._logits(X)
+        g = _softmax_vjp(softmax(z), np.atleast_2d(grad_alpha)) * dz
+        return np.concatenate([(g.T @ X).ravel(), g.sum(axis=0)])
+
+
+def as_mixture(mixture, num_components: int) -> Mixture:
+    """A :class:`Mixture` from a Mixture, an alpha vector, or None (uniform, fixed)."""
+    if mixture is None:
+        return FixedMixture(np.full(num_components, 1.0 / num_components))
+    if not isinstance(mixture, Mixture):
+        mixture = FixedMixture(mixture)
+    if mixture.num_components != num_components:
+        raise ValueError(
+            f"the mixture has {mixture.num_components} components but there are "
+            f"{num_components} sub-unitaries"
+        )
+    return mixture

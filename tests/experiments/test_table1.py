@@ -1,0 +1,28 @@
+"""Table 1 of the paper: gradient-circuit counts of pure and density models, against the
+counts the paper states."""
+
+import numpy as np
+import pytest
+
+from qdensity.experiments.table1 import table1_row
+
+
+@pytest.mark.parametrize("n", [4, 6, 8])
+def test_table1_exact_statements(n):
+    rr = table1_row("round_robin", n)
+    assert rr["original"]["gradient_circuits"] == 4 * n * (n - 1) // 2
+    assert rr["density"]["gradient_circuits"] == n - 1
+    assert rr["original"]["params"] == rr["density"]["params"] == n * (n - 1) // 2
+    py = table1_row("pyramid", n)
+    assert py["density"]["gradient_circuits"] == 2
+    assert py["original"]["gradient_circuits"] == 4 * n * (n - 1) // 2
+    he = table1_row("hardware_efficient", n, layers=3)
+    assert he["original"]["gradient_circuits"] == 2 * n * 3
+    assert he["density"]["gradient_circuits"] == 3  # does not grow with n
+    eq = table1_row("equivariant_xx", n, copies_k=3)
+    assert eq["original"]["gradient_circuits"] == 1
+    assert eq["density"]["gradient_circuits"] == 3
+    if n & (n - 1) == 0:
+        bf = table1_row("butterfly", n)
+        assert bf["density"]["gradient_circuits"] == int(np.log2(n))
+        assert bf["original"]["gradient_circuits"] == 4 * (n // 2) * int(np.log2(n))
