@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from qdensity.circuits.ansatze import round_robin
+from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.resources import compare_reports, resource_report
 from qdensity.execution.targets import get_target
@@ -41,25 +42,6 @@ class DemoConfig:
     seed: int = 7
     target: str = "heavy_hex"
     eval_every: int = 4
-
-
-def load_digits_features(num_features: int = 8, test_size: int = 300, seed: int = 0):
-    """Digits (scikit-learn's bundled copy) reduced to ``num_features`` by PCA.
-
-    Returns
-    -------
-    (X_train, X_test, y_train, y_test)
-        Features (N, num_features) fitted on the training split only.
-    """
-    from sklearn.datasets import load_digits
-    from sklearn.decomposition import PCA
-    from sklearn.model_selection import train_test_split
-
-    X, y = load_digits(return_X_y=True)
-    X_tr, X_te, y_tr, y_te = train_test_split(X, y, test_size=test_size, random_state=seed,
-                                              stratify=y)
-    pca = PCA(num_features, random_state=seed).fit(X_tr)
-    return pca.transform(X_tr), pca.transform(X_te), y_tr, y_te
 
 
 def _models(cfg: DemoConfig):

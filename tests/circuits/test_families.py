@@ -23,7 +23,6 @@ from scipy.linalg import expm
 from qdensity.analysis import instruction_generator, moments, parameter_of
 from qdensity.circuits.ansatze.equivariant import (
     angle_encoding,
-    bars_and_dots,
     equivariant_commuting,
     equivariant_noncommuting,
     equivariant_observable,
@@ -31,7 +30,8 @@ from qdensity.circuits.ansatze.equivariant import (
 )
 from qdensity.circuits.ansatze.hardware_efficient import hardware_efficient
 from qdensity.circuits.ansatze.qcnn import qcnn, qcnn_layers, qcnn_readout_qubit
-from qdensity.circuits.ansatze.reuploading import chebyshev_dataset, reuploading
+from qdensity.circuits.ansatze.reuploading import reuploading
+from qdensity.datasets import bars_and_dots, chebyshev_dataset
 
 # ----------------------------------------------------------------------------- dense oracles
 
@@ -450,63 +450,6 @@ def test_reuploading_is_a_fourier_series_of_degree_layers():
     spectrum = np.abs(np.fft.fft(f)) / m
     assert np.all(spectrum[layers + 1 : m - layers] < 1e-10)
     assert spectrum[layers] > 1e-6
-
-
-# ------------------------------------------------------------------------------------ data
-
-
-def test_bars_and_dots_clean_patterns_and_labels():
-    d = 6
-    X, y = bars_and_dots(200, d, noise_std=0.0, seed=3)
-    assert X.shape == (200, d) and y.shape == (200,)
-    assert set(np.unique(y)) == {-1, 1}
-    bar = np.array([-1, -1, -1, 1, 1, 1.0])
-    dot = np.array([-1, 1, -1, 1, -1, 1.0])
-    for row, label in zip(X, y, strict=True):
-        template = bar if label == 1 else dot
-        assert any(np.array_equal(row, np.roll(template, s)) for s in range(d))
-    # odd dimension: floor(d/2) minus signs in a run (bar) or two apart (dot)
-    X5, y5 = bars_and_dots(100, 5, noise_std=0.0, seed=4)
-    for row, label in zip(X5, y5, strict=True):
-        template = np.array([-1, -1, 1, 1, 1.0]) if label == 1 else np.array([-1, 1, -1, 1, 1.0])
-        assert any(np.array_equal(row, np.roll(template, s)) for s in range(5))
-
-
-def test_bars_and_dots_noise_balance_and_seeding():
-    n, d, sigma = 4000, 8, 1.8
-    X, y = bars_and_dots(n, d, noise_std=sigma, seed=11)
-    X2, y2 = bars_and_dots(n, d, noise_std=sigma, seed=11)
-    np.testing.assert_array_equal(X, X2)
-    np.testing.assert_array_equal(y, y2)
-    assert not np.array_equal(X, bars_and_dots(n, d, noise_std=sigma, seed=12)[0])
-    clean, _ = bars_and_dots(n, d, noise_std=0.0, seed=11)
-    residual = X - clean  # same seed -> same labels and shifts, noise drawn last
-    # sample std of N = 32000 normals: standard error sigma / sqrt(2N) ~ 0.007
-    assert abs(residual.std() - sigma) < 5 * sigma / math.sqrt(2 * residual.size)
-    assert abs(residual.mean()) < 5 * sigma / math.sqrt(residual.size)
-    assert abs(np.mean(y == 1) - 0.5) < 5 * 0.5 / math.sqrt(n)
-    gen = np.random.default_rng(5)
-    assert bars_and_dots(3, 4, 0.1, seed=gen)[0].shape == (3, 4)
-
-
-def test_chebyshev_dataset():
-    X, y = chebyshev_dataset(500, degree=4, noise_std=0.0, seed=1)
-    assert X.shape == (500, 1) and y.shape == (500,)
-    x = X[:, 0]
-    assert np.all((x >= -1) & (x <= 1))
-    np.testing.assert_allclose(y, np.cos(4 * np.arccos(x)), atol=1e-12)
-    np.testing.assert_allclose(y, 8 * x**4 - 8 * x**2 + 1, atol=1e-12)
-    for k in (0, 1, 5):
-        Xk, yk = chebyshev_dataset(50, degree=k, noise_std=0.0, seed=2)
-        np.testing.assert_allclose(yk, np.cos(k * np.arccos(Xk[:, 0])), atol=1e-12)
-    n = 20000
-    Xn, yn = chebyshev_dataset(n, noise_std=0.5, seed=9)
-    Xn2, yn2 = chebyshev_dataset(n, noise_std=0.5, seed=9)
-    np.testing.assert_array_equal(Xn, Xn2)
-    np.testing.assert_array_equal(yn, yn2)
-    resid = yn - np.cos(4 * np.arccos(Xn[:, 0]))
-    assert abs(resid.var() - 0.25) < 5 * 0.25 * math.sqrt(2 / n)
-    assert abs(resid.mean()) < 5 * 0.5 / math.sqrt(n)
 
 
 # --------------------------------------------------------------- transpile and run on Aer

@@ -28,7 +28,8 @@ from qiskit.circuit import ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
+from qdensity.datasets.bars_and_dots import bars_and_dots
+from qdensity.validation import check_positive_int
 
 __all__ = [
     "translation_classes",
@@ -287,58 +288,3 @@ def equivariant_observable(num_qubits: int) -> SparsePauliOp:
     """
     n = check_positive_int(num_qubits, "num_qubits", minimum=1)
     return SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)
-
-
-def bars_and_dots(
-    num_samples: int,
-    num_qubits: int,
-    noise_std: float = 0.0,
-    seed: SeedLike = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Noisy bars-and-dots data set (Methods "Equivariant density QNN"; Bowles et al.).
-
-    Each sample is a bar (label ``+1``) or a dot (label ``-1``) with probability 1/2. Write
-    ``L = floor(d / 2)``. A clean *bar* is ``+1`` everywhere except a run of ``L`` consecutive
-    ``-1`` entries; a clean *dot* is ``+1`` everywhere except ``-1`` at ``L`` positions two apart
-    (so alternating ``-1, +1, -1, ...`` for even ``d``). The pattern starts at a uniformly random
-    site and wraps around the ring, so the task is translation invariant; then independent
-    Gaussian noise ``N(0, noise_std^2)`` is added to every entry.
-
-    Parameters
-    ----------
-    num_samples : int
-        ``N >= 1``.
-    num_qubits : int
-        Dimension ``d >= 4`` (for ``d < 4`` bars and dots coincide).
-    noise_std : float
-        Standard deviation ``σ >= 0`` of the noise (the paper uses ``σ = 1.8``).
-    seed : int, numpy.random.Generator or None
-
-    Returns
-    -------
-    X : numpy.ndarray, shape (N, d)
-        Features, one row per sample (feed to :func:`angle_encoding`).
-    y : numpy.ndarray, shape (N,)
-        Labels in ``{+1, -1}`` (int).
-
-    Examples
-    --------
-    >>> X, y = bars_and_dots(4, 6, seed=1)
-    >>> X.shape, sorted(set(y.tolist())) <= [-1, 1]
-    ((4, 6), True)
-    """
-    num = check_positive_int(num_samples, "num_samples", minimum=1)
-    d = check_positive_int(num_qubits, "num_qubits", minimum=4)
-    sigma = check_nonnegative_float(noise_std, "noise_std")
-    rng = as_rng(seed)
-    length = d // 2
-    is_bar = rng.random(num) < 0.5
-    start = rng.integers(0, d, size=num)
-    X = np.ones((num, d))
-    step = np.where(is_bar, 1, 2)
-    offsets = np.arange(length)
-    cols = (start[:, None] + step[:, None] * offsets[None, :]) % d
-    X[np.arange(num)[:, None], cols] = -1.0
-    X += rng.normal(0.0, sigma, size=X.shape)
-    y = np.where(is_bar, 1, -1)
-    return X, y
