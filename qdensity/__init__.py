@@ -1,13 +1,9 @@
 """qdensity: density quantum neural networks on Qiskit and qiskit-aer.
 
-The spine is ``circuits -> models -> plans -> engines -> training / experiments / CLI``:
-
-* circuits: :mod:`qdensity.gates` (RBS, FBS), :mod:`qdensity.loaders`,
-  :mod:`qdensity.ansatze`, :mod:`qdensity.preparation`, :mod:`qdensity.tomography`;
-* models: :class:`DensityQNN`, :mod:`qdensity.mixtures`, :mod:`qdensity.decompositions`;
-* plans and engines: :mod:`qdensity.plans`, :mod:`qdensity.engines`, :mod:`qdensity.unary`;
-* gradients and training: :mod:`qdensity.gradients`, :mod:`qdensity.training`;
-* hardware: :mod:`qdensity.targets`, :mod:`qdensity.noise`, :mod:`qdensity.resources`.
+``circuits`` (gates, loaders, ansatze, preparations, tomography) make ``models`` (DensityQNN,
+mixtures, decompositions), which compile questions to plans that ``execution`` runs (engines,
+schedulers, targets); ``gradients``, ``learning``, ``experiments`` and ``cli`` build on them,
+``analysis`` and ``datasets`` lie underneath. Imports only go down this list (CONTRIBUTING.md).
 """
 
 from qdensity import _aliases
