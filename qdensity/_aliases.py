@@ -68,6 +68,15 @@ class _AliasLoader(importlib.abc.Loader):
     def create_module(self, spec) -> ModuleType:
         module = importlib.import_module(self.real)
         self._spec = module.__spec__
+        if hasattr(module, "__path__"):
+            # Register the package's loaded submodules under the short path too. Otherwise the
+            # first `import qdensity.ansatze.hardware_efficient` would load it afresh under that
+            # name and the import system would then set the submodule as an attribute of the
+            # package, hiding the function `hardware_efficient` that the package re-exports.
+            prefix = self.real + "."
+            for key, sub in list(sys.modules.items()):
+                if key.startswith(prefix):
+                    sys.modules.setdefault(spec.name + key[len(self.real):], sub)
         return module
 
     def exec_module(self, module: ModuleType) -> None:

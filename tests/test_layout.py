@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import ast
 import importlib
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -301,3 +303,14 @@ def test_submodule_of_a_short_path_is_one_module():
 def test_unknown_attribute_of_the_package_is_an_attribute_error():
     with pytest.raises(AttributeError, match="no_such_module"):
         qdensity.no_such_module  # noqa: B018
+
+
+def test_importing_a_submodule_by_its_short_path_keeps_the_package_functions():
+    """In a fresh interpreter (the first import is the one that matters): the submodule
+    ``hardware_efficient`` must not replace the function of that name in ``qdensity.ansatze``."""
+    code = (
+        "import qdensity.ansatze.hardware_efficient\n"
+        "from qdensity.ansatze import hardware_efficient\n"
+        "assert hardware_efficient(2, 1).num_qubits == 2\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
