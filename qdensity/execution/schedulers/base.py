@@ -1,0 +1,67 @@
+"""What every scheduler shares: the result type, the scheduler protocol and the shot-source type.
+
+A scheduler (paper Fig. 1c, Supp. I) spends a shot budget on the ``K`` sub-unitaries of the
+randomised density QNN through a *shot source* (:data:`ShotSource`) and returns a
+:class:`ScheduleResult` with its estimate of ``f = sum_k alpha_k f_k`` (eq. 3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from qdensity.validation import SeedLike
+
+__all__ = ["ScheduleResult", "ShotSource", "Scheduler"]
+
+ShotSource = Callable[..., Sequence[np.ndarray]]
+"""``source(shots_per_k: ndarray[int] (K,), rng: Generator | None) -> list of K value arrays``."""
+
+
+@dataclass(frozen=True)
+class ScheduleResult:
+    """What a scheduler spent and what it estimated.
+
+    Attributes
+    ----------
+    name : str
+        Scheduler name: ``"per_shot"``, ``"proportional"`` or ``"neyman"``.
+    estimate : float
+        Estimate of ``f = sum_k alpha_k f_k`` (eq. 3).
+    standard_error : float
+        Estimated standard deviation of ``estimate``.
+    allocation : numpy.ndarray, shape (K,), int64
+        Shots run on each sub-unitary in the main phase (the only phase, except for Neyman).
+    per_subunitary : numpy.ndarray, shape (K,), float
+        Sample mean of the values of each sub-unitary over all shots it received (pilot
+        included); ``NaN`` where it received none.
+    shots_used : int
+        Total shots requested from the source, pilot included; never more than the budget.
+    pilot_allocation : numpy.ndarray, shape (K,), int64, or None
+        Shots of the pilot phase (Neyman only).
+    info : dict
+        Scheduler-specific details (e.g. the pilot-estimated spreads and whether Neyman fell
+        back to proportional allocation).
+    """
+
+    name: str
+    estimate: float
+    standard_error: float
+    allocation: np.ndarray
+    per_subunitary: np.ndarray
+    shots_used: int
+    pilot_allocation: np.ndarray | None = None
+    info: dict = field(default_factory=dict)
+
+
+class Scheduler(Protocol):
+    """Anything with ``run(alpha, budget, source, seed) -> ScheduleResult``."""
+
+    name: str
+
+    def run(
+        self, alpha, budget: int, source: ShotSource, seed: SeedLike = None
+    ) -> ScheduleResult: ...
