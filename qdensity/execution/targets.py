@@ -35,31 +35,27 @@ native gate.
 
 from __future__ import annotations
 
-import functools
-import math
 import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from qiskit import transpile as qiskit_transpile
-from qiskit.circuit import Delay, Gate, Measure, Parameter, QuantumCircuit, Reset
-from qiskit.circuit.library import (
-    RXXGate,
-    RYYGate,
-    RZGate,
-    SXGate,
-    XGate,
-    XXPlusYYGate,
-    get_standard_gate_name_mapping,
-)
+from qiskit.circuit import QuantumCircuit
 from qiskit.providers.fake_provider import GenericBackendV2
-from qiskit.transpiler import CouplingMap, InstructionProperties, Target
+from qiskit.transpiler import CouplingMap, Target
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.circuits.gates import RBSGate
+from qdensity.execution._basis import _NON_GATES, _check_basis, _ideal_basis
+from qdensity.execution._native import (
+    RBS_NATIVE_BASIS,
+    RBS_NATIVE_NOISE,
+    _NativeXYSimulator,
+    _rbs_native_target,
+    _rbs_to_native,
+)
 from qdensity.execution.noise import noise_from_backend, noise_model
 from qdensity.validation import SeedLike, check_circuit, check_positive_int, seed_int
 
@@ -77,27 +73,8 @@ __all__ = [
 #: Simulation methods accepted by :meth:`HardwareTarget.simulator`.
 SIMULATION_METHODS = ("automatic", "statevector", "density_matrix", "matrix_product_state")
 
-#: Native gates of the ``rbs_native`` target.
-RBS_NATIVE_BASIS = ("xx_plus_yy", "rxx", "rz", "sx", "x")
-
-#: Noise of the ``rbs_native`` target (times in seconds), trapped-ion-like: long T1, T2 of a
-#: second, slow gates, two-qubit depolarizing ``5e-3``.
-RBS_NATIVE_NOISE = {
-    "depolarizing_1q": 5e-4,
-    "depolarizing_2q": 5e-3,
-    "t1": 100.0,
-    "t2": 1.0,
-    "gate_time_1q": 1e-5,
-    "gate_time_2q": 2e-4,
-    "readout_error": 4e-3,
-}
-
-_RBS_NATIVE_MEASURE_TIME = 1e-4
-_NATIVE_XY_LABEL = "xx_plus_yy"
-
 _TARGETS = ("ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native")
 _DEVICES = ("CPU", "GPU")
-_NON_GATES = frozenset({"measure", "reset", "delay", "barrier"})
 
 
 def known_targets() -> list[str]:
@@ -468,120 +445,7 @@ def get_target(
 
 
 # ----------------------------------------------------------------------------------------------
-# rbs_native: target, RBS rewriting, and the lowering simulator
-
-
-def _rbs_native_target(n: int) -> Target:
-    """The ``rbs_native`` Target: durations and average gate errors from RBS_NATIVE_NOISE."""
-    p = RBS_NATIVE_NOISE
-    # average gate infidelity of a depolarizing channel lambda on dimension d: lambda (d-1)/d
-    err_1q = p["depolarizing_1q"] / 2
-    err_2q = 3 * p["depolarizing_2q"] / 4
-    target = Target(description="rbs_native: trapped-ion-like, native RBS (xx_plus_yy)",
-                    num_qubits=n)
-    pairs = [(i, j) for i in range(n) for j in range(n) if i != j]
-
-    def props_2q():
-        return {q: InstructionProperties(duration=p["gate_time_2q"], error=err_2q) for q in pairs}
-
-    def props_1q(duration, error):
-        return {(q,): InstructionProperties(duration=duration, error=error) for q in range(n)}
-
-    target.add_instruction(XXPlusYYGate(Parameter("theta"), Parameter("beta")), props_2q())
-    target.add_instruction(RXXGate(Parameter("theta")), props_2q())
-    target.add_instruction(RZGate(Parameter("phi")), props_1q(0.0, 0.0))
-    target.add_instruction(SXGate(), props_1q(p["gate_time_1q"], err_1q))
-    target.add_instruction(XGate(), props_1q(p["gate_time_1q"], err_1q))
-    target.add_instruction(Measure(), props_1q(_RBS_NATIVE_MEASURE_TIME, p["readout_error"]))
-    target.add_instruction(Reset(), {(q,): None for q in range(n)})
-    target.add_instruction(Delay(Parameter("t")), {(q,): None for q in range(n)})
-    return target
-
-
-def _rbs_to_native(circuit: QuantumCircuit) -> QuantumCircuit:
-    """Write every RBS(theta) as XXPlusYY(2 theta, pi/2) (exact), inlining gates that hold RBS."""
-    if not any(_holds_rbs(inst.operation) for inst in circuit.data):
-        return circuit
-    out = circuit.copy_empty_like()
-    for inst in circuit.data:
-        op = inst.operation
-        if isinstance(op, RBSGate):
-            out.append(XXPlusYYGate(2 * op.params[0], math.pi / 2), inst.qubits, inst.clbits)
-        elif _holds_rbs(op):
-            out.compose(_rbs_to_native(op.definition), qubits=inst.qubits, clbits=inst.clbits,
-                        inplace=True)
-        else:
-            out.append(inst)
-    return out
-
-
-def _holds_rbs(op) -> bool:
-    """RBS itself, or a non-standard gate whose definition (recursively) contains one."""
-    if isinstance(op, RBSGate):
-        return True
-    if not isinstance(op, Gate) or op.name in get_standard_gate_name_mapping():
-        return False
-    definition = op.definition
-    return definition is not None and any(_holds_rbs(i.operation) for i in definition.data)
-
-
-def _lower_native_xy(circuit: QuantumCircuit) -> QuantumCircuit:
-    """XXPlusYY(theta, beta) -> rz(beta) ryy(theta/2) rxx(theta/2)[label] rz(-beta), exactly."""
-    if "xx_plus_yy" not in circuit.count_ops():
-        return circuit
-    out = circuit.copy_empty_like()
-    for inst in circuit.data:
-        if inst.operation.name == "xx_plus_yy":
-            theta, beta = inst.operation.params
-            q0, q1 = inst.qubits
-            out.rz(beta, q0)
-            out.append(RYYGate(theta / 2), [q0, q1])
-            out.append(RXXGate(theta / 2, label=_NATIVE_XY_LABEL), [q0, q1])
-            out.rz(-beta, q0)
-        else:
-            out.append(inst)
-    return out
-
-
-class _NativeXYSimulator(AerSimulator):
-    """AerSimulator that lowers native ``xx_plus_yy`` gates before running (rbs_native)."""
-
-    def run(self, circuits, parameter_binds=None, **run_options):
-        if isinstance(circuits, QuantumCircuit):
-            lowered = _lower_native_xy(circuits)
-        else:
-            lowered = [_lower_native_xy(c) for c in circuits]
-        return super().run(lowered, parameter_binds=parameter_binds, **run_options)
-
-
-# ----------------------------------------------------------------------------------------------
 # checks
-
-
-@functools.cache
-def _ideal_basis() -> tuple[str, ...]:
-    """Standard gates that AerSimulator simulates natively."""
-    aer = set(AerSimulator().configuration().basis_gates)
-    mapping = get_standard_gate_name_mapping()
-    return tuple(sorted(g for g in mapping if g in aer and g not in _NON_GATES))
-
-
-def _check_basis(basis_gates) -> tuple[str, ...] | None:
-    if basis_gates is None:
-        return None
-    if isinstance(basis_gates, str) or not isinstance(basis_gates, Sequence):
-        raise TypeError(f"basis_gates must be a sequence of gate names, got {basis_gates!r}")
-    mapping = get_standard_gate_name_mapping()
-    names = tuple(basis_gates)
-    if not names:
-        raise ValueError("basis_gates must not be empty")
-    for g in names:
-        if not isinstance(g, str) or g not in mapping or g in _NON_GATES:
-            raise ValueError(
-                f"basis_gates entry {g!r} is not a standard gate name; allowed: "
-                f"{sorted(set(mapping) - _NON_GATES - {'global_phase'})}"
-            )
-    return names
 
 
 def _check_level(level) -> int:

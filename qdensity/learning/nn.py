@@ -20,9 +20,9 @@ forward/backward:
 * :class:`Linear`, :class:`ReLU`, :class:`GELU`, :class:`Softmax`, :class:`Normalize`,
   :class:`Sequential`.
 * :func:`get_flat` / :func:`set_flat` move every parameter to and from one 1-d vector (the
-  form the optimisers of :mod:`qdensity.optim` work on).
-* :func:`save_parameters` / :func:`load_parameters` store named arrays as plain ``.npz``
-  (never pickle) or as JSON.
+  form the optimisers of :mod:`qdensity.optim` work on), and :func:`save_parameters` /
+  :func:`load_parameters` store named arrays as plain ``.npz`` (never pickle) or as JSON;
+  they live in :mod:`qdensity.learning.parameters` and are re-exported here.
 
 Shapes: every layer maps a batch ``X`` of shape ``(B, d_in)`` to ``(B, d_out)``; all
 arithmetic is float64.
@@ -31,17 +31,14 @@ arithmetic is float64.
 from __future__ import annotations
 
 import abc
-import json
 import math
-import os
-import re
-import zipfile
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from scipy.special import erf
 
+from qdensity.learning._checks import _check_batch, _check_grad
+from qdensity.learning.parameters import get_flat, load_parameters, save_parameters, set_flat
 from qdensity.validation import SeedLike, as_rng, check_positive_int
 
 __all__ = [
@@ -57,43 +54,6 @@ __all__ = [
     "save_parameters",
     "load_parameters",
 ]
-
-
-# --------------------------------------------------------------------------------------------
-# input checks
-
-
-def _check_batch(X, name: str, features: int | None = None) -> np.ndarray:
-    """A finite float64 array of shape ``(B, d)`` with ``B >= 1`` (and ``d == features``)."""
-    try:
-        arr = np.asarray(X, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of real numbers, got {X!r}") from exc
-    want = "(batch, features)" if features is None else f"(batch, {features})"
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be 2-dimensional with shape {want}, got shape {arr.shape}")
-    if arr.shape[0] < 1:
-        raise ValueError(f"{name} must hold at least one row, got shape {arr.shape}")
-    if features is not None and arr.shape[1] != features:
-        raise ValueError(f"{name} must have shape {want}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
-
-
-def _check_grad(grad_Y, shape: tuple[int, ...], name: str = "grad_Y") -> np.ndarray:
-    """A finite float64 array with exactly the shape of the layer's last output."""
-    try:
-        arr = np.asarray(grad_Y, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of real numbers, got {grad_Y!r}") from exc
-    if arr.shape != shape:
-        raise ValueError(
-            f"{name} must have the shape of the last forward output {shape}, got {arr.shape}"
-        )
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
 
 
 # --------------------------------------------------------------------------------------------
@@ -504,214 +464,3 @@ class Sequential(Layer):
     def __repr__(self) -> str:
         inner = ", ".join(repr(layer) for layer in self.layers)
         return f"Sequential({inner})"
-
-
-# --------------------------------------------------------------------------------------------
-# flat parameter vectors
-
-
-def _as_mapping(target, name: str) -> Mapping[str, np.ndarray]:
-    if isinstance(target, Mapping):
-        return target
-    if hasattr(target, "params") and isinstance(target.params, Mapping):
-        return target.params
-    raise TypeError(
-        f"{name} must be a layer (with a params dict) or a dict of arrays, "
-        f"got {type(target).__name__}"
-    )
-
-
-def get_flat(target) -> np.ndarray:
-    """All arrays of a layer (its ``params``) or of a dict, concatenated into one vector.
-
-    Parameters
-    ----------
-    target : Layer or dict[str, numpy.ndarray]
-        A layer gives its ``params``; pass ``layer.grads`` to flatten the gradients in the
-        same order.
-
-    Returns
-    -------
-    numpy.ndarray, shape (P,), float64
-        A copy; entries in the dict's key order, each array raveled in C order.
-    """
-    mapping = _as_mapping(target, "target")
-    if not mapping:
-        return np.zeros(0)
-    return np.concatenate([np.asarray(v, dtype=float).ravel() for v in mapping.values()])
-
-
-def set_flat(target, flat) -> None:
-    """Write a flat vector back into the arrays of a layer or dict, in place.
-
-    Parameters
-    ----------
-    target : Layer or dict[str, numpy.ndarray]
-        Order and sizes as in :func:`get_flat`.
-    flat : array_like, shape (P,)
-        ``P`` must equal the total number of entries; values must be finite.
-    """
-    mapping = _as_mapping(target, "target")
-    total = int(sum(np.size(v) for v in mapping.values()))
-    try:
-        vec = np.asarray(flat, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"flat must be a vector of real numbers, got {flat!r}") from exc
-    if vec.shape != (total,):
-        raise ValueError(
-            f"flat must have shape ({total},) (one entry per parameter), got {vec.shape}"
-        )
-    if not np.all(np.isfinite(vec)):
-        raise ValueError("flat must be finite (no NaN or inf)")
-    start = 0
-    for key, arr in mapping.items():
-        if not isinstance(arr, np.ndarray):
-            raise TypeError(f"target[{key!r}] must be a numpy array to be written in place")
-        arr[...] = vec[start : start + arr.size].reshape(arr.shape)
-        start += arr.size
-
-
-# --------------------------------------------------------------------------------------------
-# saving
-
-
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
-_JSON_FORMAT = "qdensity-parameters"
-
-
-def _check_arrays(arrays: Mapping[str, Any]) -> dict[str, np.ndarray]:
-    out = {}
-    for name, value in arrays.items():
-        if not _NAME_RE.match(name):
-            raise ValueError(
-                f"array name {name!r} is not allowed: use letters, digits, '_', '.' and '-'"
-            )
-        arr = np.asarray(value)
-        if arr.dtype.kind not in "biuf":
-            raise TypeError(
-                f"array {name!r} must hold real numbers or bools (stored without pickle), "
-                f"got dtype {arr.dtype}"
-            )
-        out[name] = arr
-    return out
-
-
-def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
-    """Store named real arrays as plain ``.npz`` (no pickle) or, for ``*.json``, as JSON.
-
-    Parameters
-    ----------
-    path : str or path-like
-        Written exactly as given (no suffix appended). A name ending in ``.json`` (any case)
-        is written as JSON, anything else as an uncompressed ``.npz`` archive (the layout of
-        :func:`numpy.savez`, readable by :func:`numpy.load`).
-    **arrays : array_like
-        Real (bool, integer or float) arrays or scalars, e.g. ``**model.params`` or an
-        optimiser's ``state_dict()``. Names may use letters, digits, ``_``, ``.`` and ``-``.
-
-    Raises
-    ------
-    TypeError
-        For object, string or complex arrays (they would need pickle or lose information).
-    ValueError
-        For bad names, and for NaN/inf in a JSON file (standard JSON cannot hold them).
-
-    Notes
-    -----
-    JSON layout: ``{"format": "qdensity-parameters", "version": 1, "arrays": {name:
-    {"dtype": ..., "shape": [...], "data": [flat list in C order]}}}``. Floats are written
-    with ``repr`` precision, so float64 values round-trip exactly.
-
-    Examples
-    --------
-    >>> import tempfile, os, numpy as np
-    >>> from qdensity.nn import save_parameters, load_parameters
-    >>> d = tempfile.mkdtemp()
-    >>> save_parameters(os.path.join(d, "p.json"), W=np.eye(2), t=3)
-    >>> load_parameters(os.path.join(d, "p.json"))["W"]
-    array([[1., 0.],
-           [0., 1.]])
-    """
-    checked = _check_arrays(arrays)
-    path = os.fspath(path)
-    if str(path).lower().endswith(".json"):
-        doc = {"format": _JSON_FORMAT, "version": 1, "arrays": {}}
-        for name, arr in checked.items():
-            if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-                raise ValueError(f"array {name!r} has NaN or inf, which JSON cannot store")
-            doc["arrays"][name] = {
-                "dtype": arr.dtype.str,
-                "shape": list(arr.shape),
-                "data": arr.ravel().tolist(),
-            }
-        with open(path, "w", encoding="utf-8") as fh:
-            json.dump(doc, fh, allow_nan=False)
-        return
-    # the layout of numpy.savez (one "<name>.npy" member per array, uncompressed), written
-    # directly so that no array name can clash with a keyword of numpy.savez
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
-        for name, arr in checked.items():
-            with zf.open(name + ".npy", "w", force_zip64=True) as member:
-                np.lib.format.write_array(member, arr, allow_pickle=False)
-
-
-def load_parameters(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Read arrays written by :func:`save_parameters` (``.npz`` without pickle, or JSON).
-
-    Parameters
-    ----------
-    path : str or path-like
-        A ``*.json`` name is read as JSON, anything else with ``numpy.load(...,
-        allow_pickle=False)``.
-
-    Returns
-    -------
-    dict[str, numpy.ndarray]
-        Arrays with their saved dtype and shape (0-d arrays for scalars).
-
-    Raises
-    ------
-    ValueError
-        If the file needs pickle (object arrays or a pickled object), is not an ``.npz``
-        archive, or is not a qdensity parameter JSON file.
-    """
-    path = os.fspath(path)
-    if str(path).lower().endswith(".json"):
-        with open(path, encoding="utf-8") as fh:
-            try:
-                doc = json.load(fh)
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{path!r} is not valid JSON: {exc}") from exc
-        if not isinstance(doc, dict) or doc.get("format") != _JSON_FORMAT:
-            raise ValueError(f"{path!r} is not a {_JSON_FORMAT!r} JSON file")
-        out = {}
-        for name, entry in doc.get("arrays", {}).items():
-            try:
-                dtype = np.dtype(entry["dtype"])
-                shape = tuple(int(s) for s in entry["shape"])
-                data = entry["data"]
-            except (KeyError, TypeError) as exc:
-                raise ValueError(f"{path!r}: entry {name!r} lacks dtype/shape/data") from exc
-            if dtype.kind not in "biuf":
-                raise ValueError(f"{path!r}: entry {name!r} has unsupported dtype {dtype}")
-            out[name] = np.asarray(data, dtype=dtype).reshape(shape)
-        return out
-    try:
-        loaded = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (ValueError, OSError, zipfile.BadZipFile) as exc:
-        raise ValueError(
-            f"cannot load parameters from {path!r} without pickle (allow_pickle=False): {exc}"
-        ) from exc
-    if not isinstance(loaded, np.lib.npyio.NpzFile):
-        raise ValueError(
-            f"{path!r} holds a single .npy array, not an .npz archive of named parameters"
-        )
-    with loaded:
-        try:
-            return {name: loaded[name] for name in loaded.files}
-        except ValueError as exc:
-            raise ValueError(
-                f"cannot load parameters from {path!r} without pickle (allow_pickle=False): {exc}"
-            ) from exc

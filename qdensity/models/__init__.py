@@ -1,7 +1,7 @@
-"""Density QNNs (paper eq. 1-2): the model and its encodings (:mod:`~qdensity.models.density`),
-distributions over sub-unitaries, fixed, softmax or mixture-of-experts (:mod:`~.mixtures`,
-Supp. H), and the paper's decompositions of one circuit into sub-unitaries
-(:mod:`~.decompositions`, Fig. 6, Supp. H.1)."""
+"""Density QNNs (paper eq. 1-2): the model (:mod:`~qdensity.models.density`), its encodings
+(:mod:`~.encoding`), distributions over sub-unitaries, fixed, softmax or mixture-of-experts
+(:mod:`~.mixtures`, Supp. H), and the paper's decompositions of one circuit into
+sub-unitaries (:mod:`~.decompositions`, Fig. 6, Supp. H.1)."""
 
 from qdensity.models.decompositions import (
     Decomposition,
@@ -12,7 +12,8 @@ from qdensity.models.decompositions import (
     odd_even,
     trainable_parameters,
 )
-from qdensity.models.density import READOUTS, DensityQNN, Encoding, bind_rows
+from qdensity.models.density import READOUTS, DensityQNN, bind_rows
+from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import (
     FixedMixture,
     GatedMixture,

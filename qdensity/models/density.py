@@ -4,12 +4,13 @@
 encoding ``rho(x) = V(x)|0><0|V(x)^dagger``; the model's output is
 ``f(x) = sum_k alpha_k(x) f_k(x)``, ``f_k = Tr(O U_k rho(x) U_k^dagger)`` for an observable
 readout, or the mixture of the sub-unitaries' unary probability (or amplitude) vectors.
+The encoding ``V(x)`` (:class:`Encoding`) lives in :mod:`qdensity.models.encoding` and is
+re-exported here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
@@ -17,6 +18,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution.plans import Plan, check_observable, expectation_plan
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
+from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
 from qdensity.validation import as_rng, check_circuit
 
@@ -46,58 +48,6 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     rows = max((c.size for c in cols), default=1)
     return np.stack([np.broadcast_to(c, (rows,)) for c in cols], axis=1) if cols else np.zeros(
         (rows, 0))
-
-
-@dataclass
-class Encoding:
-    """A data loader ``V(x)``: a circuit with data parameters and the map from data to them.
-
-    Attributes
-    ----------
-    circuit : QuantumCircuit
-        ``n`` qubits; its free parameters are set by ``transform``.
-    transform : callable
-        ``X (B, d) -> values (B, P_enc)`` in ``circuit.parameters`` order.
-    num_features : int
-        d.
-    kind : str
-        ``"unary"`` (amplitude encoding on the unary basis) or ``"other"``.
-    """
-
-    circuit: QuantumCircuit
-    transform: Callable[[np.ndarray], np.ndarray]
-    num_features: int
-    kind: str = "other"
-
-    @classmethod
-    def unary(cls, num_features: int, layout: str = "parallel") -> Encoding:
-        """Unary amplitude encoding ``|x> = sum_j x_j/||x|| |e_j>`` (parallel loader by default).
-
-        Parameters
-        ----------
-        num_features : int
-            d >= 2 = number of qubits.
-        layout : {"parallel", "diagonal", "semi_diagonal"}
-        """
-        from qdensity.circuits.loaders import loader_angles, unary_loader_template
-
-        template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
-        return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
-
-    @classmethod
-    def angle(cls, num_qubits: int) -> Encoding:
-        """Angle encoding ``R_y(pi x_i / 2)`` on qubit i (paper, equivariant experiments)."""
-        from qdensity.circuits.ansatze.equivariant import angle_encoding
-
-        circ = angle_encoding(num_qubits)
-        return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
-
-    def values(self, X) -> np.ndarray:
-        """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        if X.shape[1] != self.num_features:
-            raise ValueError(f"X must have {self.num_features} features, got shape {X.shape}")
-        return np.atleast_2d(self.transform(X))
 
 
 class DensityQNN:

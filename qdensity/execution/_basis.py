@@ -1,0 +1,43 @@
+"""Gate-name sets of the hardware targets in :mod:`qdensity.targets`.
+
+The instructions that are not gates (measure, reset, delay, barrier), the basis of the
+``ideal`` target (every standard gate Aer simulates natively) and the check of a user's
+``basis_gates`` for ``get_target``.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+
+from qiskit.circuit.library import get_standard_gate_name_mapping
+from qiskit_aer import AerSimulator
+
+_NON_GATES = frozenset({"measure", "reset", "delay", "barrier"})
+
+
+@functools.cache
+def _ideal_basis() -> tuple[str, ...]:
+    """Standard gates that AerSimulator simulates natively."""
+    aer = set(AerSimulator().configuration().basis_gates)
+    mapping = get_standard_gate_name_mapping()
+    return tuple(sorted(g for g in mapping if g in aer and g not in _NON_GATES))
+
+
+def _check_basis(basis_gates) -> tuple[str, ...] | None:
+    if basis_gates is None:
+        return None
+    if isinstance(basis_gates, str) or not isinstance(basis_gates, Sequence):
+        raise TypeError(f"basis_gates must be a sequence of gate names, got {basis_gates!r}")
+    mapping = get_standard_gate_name_mapping()
+    names = tuple(basis_gates)
+    if not names:
+        raise ValueError("basis_gates must not be empty")
+    for g in names:
+        if not isinstance(g, str) or g not in mapping or g in _NON_GATES:
+            raise ValueError(
+                f"basis_gates entry {g!r} is not a standard gate name; allowed: "
+                f"{sorted(set(mapping) - _NON_GATES - {'global_phase'})}"
+            )
+    return names
+

@@ -1,0 +1,68 @@
+"""Data encodings ``V(x)`` of a density QNN: ``rho(x) = V(x)|0><0|V(x)^dagger`` (paper eq. 1).
+
+:class:`Encoding` pairs a loader circuit with the map from data to its parameters: the unary
+amplitude encoding of the orthogonal (RBS) models, or the angle encoding of the equivariant
+experiments. :class:`qdensity.models.density.DensityQNN` takes one as its ``encoding``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+
+__all__ = ["Encoding"]
+
+
+@dataclass
+class Encoding:
+    """A data loader ``V(x)``: a circuit with data parameters and the map from data to them.
+
+    Attributes
+    ----------
+    circuit : QuantumCircuit
+        ``n`` qubits; its free parameters are set by ``transform``.
+    transform : callable
+        ``X (B, d) -> values (B, P_enc)`` in ``circuit.parameters`` order.
+    num_features : int
+        d.
+    kind : str
+        ``"unary"`` (amplitude encoding on the unary basis) or ``"other"``.
+    """
+
+    circuit: QuantumCircuit
+    transform: Callable[[np.ndarray], np.ndarray]
+    num_features: int
+    kind: str = "other"
+
+    @classmethod
+    def unary(cls, num_features: int, layout: str = "parallel") -> Encoding:
+        """Unary amplitude encoding ``|x> = sum_j x_j/||x|| |e_j>`` (parallel loader by default).
+
+        Parameters
+        ----------
+        num_features : int
+            d >= 2 = number of qubits.
+        layout : {"parallel", "diagonal", "semi_diagonal"}
+        """
+        from qdensity.circuits.loaders import loader_angles, unary_loader_template
+
+        template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
+        return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
+
+    @classmethod
+    def angle(cls, num_qubits: int) -> Encoding:
+        """Angle encoding ``R_y(pi x_i / 2)`` on qubit i (paper, equivariant experiments)."""
+        from qdensity.circuits.ansatze.equivariant import angle_encoding
+
+        circ = angle_encoding(num_qubits)
+        return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
+
+    def values(self, X) -> np.ndarray:
+        """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if X.shape[1] != self.num_features:
+            raise ValueError(f"X must have {self.num_features} features, got shape {X.shape}")
+        return np.atleast_2d(self.transform(X))
