@@ -1,7 +1,9 @@
 """Structure read off circuits: moments (parallel layers), Pauli generators, Hamming-weight
-preservation (:mod:`~qdensity.analysis.structure`), and the Pauli / Clifford algebra behind the
-commuting-generator gradients (:mod:`~qdensity.analysis.pauli`; paper Prop. 1, Supp. F.3)."""
+preservation (:mod:`~qdensity.analysis.structure`), the Pauli / Clifford algebra behind the
+commuting-generator gradients (:mod:`~qdensity.analysis.pauli`; paper Prop. 1, Supp. F.3), and
+the commuting blocks of a circuit (:mod:`~qdensity.analysis.blocks`; paper eq. 9, Cor. 2)."""
 
+from qdensity.analysis.blocks import commuting_blocks
 from qdensity.analysis.pauli import (
     as_pauli_list,
     commutation_matrix,
@@ -36,4 +38,5 @@ __all__ = [
     "diagonalising_clifford",
     "z_string_values",
     "conjugate_two_qubit",
+    "commuting_blocks",
 ]

@@ -1,13 +1,9 @@
 """Gradients: parameter shift (Supp. E), commuting-generator circuits (Prop. 1, Cor. 2,
 Supp. F.3) and density-QNN gradients (Cor. 1, Prop. 1, chain rule through mixtures)."""
 
-from qdensity.gradients.commuting import (
-    CommutingBlockGradient,
-    CommutingGradient,
-    commuting_block_gradient,
-    commuting_blocks,
-    commuting_gradient,
-)
+from qdensity.analysis.blocks import commuting_blocks
+from qdensity.gradients.blocks import CommutingBlockGradient, commuting_block_gradient
+from qdensity.gradients.commuting import CommutingGradient, commuting_gradient
 from qdensity.gradients.density import (
     DensityGradient,
     chain_rule,

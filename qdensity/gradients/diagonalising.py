@@ -2,17 +2,24 @@
 
 The symplectic Clifford diagonalisation of a commuting Pauli set lives with the Pauli algebra in
 :func:`qdensity.analysis.pauli.diagonalising_clifford`; this module builds the RBS layer that
-diagonalises RBS gradient observables.
+diagonalises RBS gradient observables (:func:`rbs_diagonalising_layer`), decides whether that
+layer applies to a block (``_rbs_layer_for``), appends a diagonalising tail and the measurement
+to a circuit (``_measured``) and tabulates diagonal observables on every computational-basis
+outcome (``_diagonal_matrix``), the post-processing of every gradient circuit.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
-from qiskit.circuit import QuantumCircuit
+from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.circuits.gates import RBSGate
+from qdensity.analysis.blocks import _ATOL, _is_zero, _Trainable
+from qdensity.analysis.pauli import conjugate_two_qubit, z_string_values
+from qdensity.circuits.gates import RBSGate, rbs_matrix
+from qdensity.execution.plans import measured
 from qdensity.validation import check_positive_int
 
 __all__ = ["rbs_diagonalising_layer"]
@@ -57,3 +64,63 @@ def rbs_diagonalising_layer(num_qubits: int, pairs: Iterable[tuple[int, int]]) -
         used.update((i, j))
         circ.append(RBSGate(np.pi / 4), [i, j])
     return circ
+
+
+def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> np.ndarray:
+    """Values of diagonal operators on every basis state: shape ``(2**n, len(diag_ops))``."""
+    labels: dict[str, int] = {}
+    entries: list[tuple[int, int, float]] = []
+    for col, op in enumerate(diag_ops):
+        for label, coeff in op.to_list():
+            if abs(coeff) <= _ATOL:
+                continue
+            if abs(coeff.imag) > 1e-9:
+                raise RuntimeError(f"diagonal observable has a complex coefficient: {op}")
+            row = labels.setdefault(label, len(labels))
+            entries.append((row, col, coeff.real))
+    out = np.zeros((2**num_qubits, len(diag_ops)))
+    if not labels:
+        return out
+    vals = z_string_values(PauliList(list(labels)), num_qubits)
+    coeffs = np.zeros((len(labels), len(diag_ops)))
+    for row, col, c in entries:
+        coeffs[row, col] += c
+    return vals @ coeffs
+
+
+def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCircuit:
+    out = circuit.copy()
+    if tail is not None and tail.size():
+        out.barrier()
+        out.compose(tail, qubits=range(tail.num_qubits), inplace=True)
+    return measured(out)
+
+
+def _rbs_layer_for(
+    trainables: Sequence[_Trainable], observables: dict[Parameter, SparsePauliOp], n: int
+) -> tuple[QuantumCircuit, dict[Parameter, SparsePauliOp]] | None:
+    """The RBS(pi/4) layer of Supp. F.3 when every trainable gate is an RBS, the pairs are
+    disjoint and the layer diagonalises every gradient observable; else None."""
+    if not trainables or any(t.name != "rbs" for t in trainables):
+        return None
+    pairs: list[tuple[int, int]] = []
+    for t in trainables:
+        support = np.flatnonzero(np.any(t.generator.paulis.x | t.generator.paulis.z, axis=0))
+        if len(support) != 2:
+            return None
+        pair = (int(support[0]), int(support[1]))
+        if pair not in pairs:
+            pairs.append(pair)
+    used = [q for p in pairs for q in p]
+    if len(used) != len(set(used)):
+        return None
+    layer = rbs_diagonalising_layer(n, pairs)
+    umat = rbs_matrix(np.pi / 4)
+    diag = {}
+    for p, op in observables.items():
+        for pair in pairs:
+            op = conjugate_two_qubit(op, umat, pair)
+        if op.paulis.x.any() and not _is_zero(op):
+            return None
+        diag[p] = op
+    return layer, diag

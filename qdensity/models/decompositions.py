@@ -20,6 +20,10 @@ from dataclasses import dataclass, field
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
+from qdensity.analysis.parameters import (  # re-exported: the helper lives below the models
+    DATA_PREFIX,  # noqa: F401 - imported from here by qdensity.models.density
+    trainable_parameters,
+)
 from qdensity.analysis.structure import moment_indices, moments
 from qdensity.validation import check_circuit, check_positive_int
 
@@ -32,18 +36,6 @@ __all__ = [
     "independent",
     "trainable_parameters",
 ]
-
-DATA_PREFIX = "x"
-
-
-def trainable_parameters(circuit: QuantumCircuit) -> list:
-    """Parameters of ``circuit`` that are not data (not in a vector named ``"x"``), in order."""
-    return [p for p in circuit.parameters if not _is_data(p)]
-
-
-def _is_data(param) -> bool:
-    vector = getattr(param, "vector", None)
-    return vector is not None and vector.name == DATA_PREFIX
 
 
 @dataclass

@@ -1,0 +1,244 @@
+"""Commuting blocks read off a circuit (paper eq. 9, Prop. 1, Cor. 2; Methods "Commuting-block
+quantum neural networks").
+
+A *commuting block* is a run of trainable gates ``exp(-i angle G_j)`` whose generators mutually
+commute (Bowles et al. 2023). Fixed Clifford gates interleaved with or following the trainable
+gates are absorbed by propagating each generator to the end of its block, ``G~ = C G C^dagger``
+with ``C`` the Clifford gates after the gate. This module reads the trainable gates of a circuit
+and their propagated generators (``_analyse_block``), tests commutation (``_commute``) and splits
+a circuit into maximal commuting blocks (:func:`commuting_blocks`); the gradient circuits built on
+them live in :mod:`qdensity.gradients.commuting` and :mod:`qdensity.gradients.blocks`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from qiskit.circuit import (
+    CircuitInstruction,
+    Parameter,
+    ParameterExpression,
+    QuantumCircuit,
+)
+from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
+
+from qdensity.analysis.parameters import trainable_parameters
+from qdensity.analysis.pauli import first_noncommuting_pair
+from qdensity.analysis.structure import instruction_generator, parameter_of
+from qdensity.validation import check_circuit
+
+__all__ = ["commuting_blocks"]
+
+_ATOL = 1e-12
+_SKIP = frozenset({"barrier"})
+_NON_UNITARY = frozenset({"measure", "reset", "delay"})
+
+
+@dataclass
+class _Trainable:
+    """One trainable gate: its place, parameter, coefficient and (propagated) generator."""
+
+    index: int
+    name: str
+    label: str
+    parameter: Parameter
+    coeff: float
+    generator: SparsePauliOp
+
+
+def _check_parameters(circuit: QuantumCircuit, parameters) -> list[Parameter]:
+    if parameters is None:
+        params = trainable_parameters(circuit)
+    else:
+        if isinstance(parameters, Parameter):
+            parameters = [parameters]
+        params = list(parameters)
+        known = set(circuit.parameters)
+        for p in params:
+            if not isinstance(p, Parameter):
+                raise TypeError(f"parameters must hold qiskit Parameters, got {p!r}")
+            if p not in known:
+                raise ValueError(f"parameter {p} is not a parameter of the circuit")
+        if len(set(params)) != len(params):
+            raise ValueError(f"parameters must not repeat, got {params}")
+    if not params:
+        raise ValueError(
+            "no trainable parameters: the circuit has none outside the data vector 'x'"
+        )
+    return params
+
+
+def _qubits(inst: CircuitInstruction, circuit: QuantumCircuit) -> list[int]:
+    return [circuit.find_bit(q).index for q in inst.qubits]
+
+
+def _label(inst: CircuitInstruction, circuit: QuantumCircuit, index: int) -> str:
+    params = ", ".join(str(p) for p in inst.operation.params)
+    return f"{inst.operation.name}({params}) on qubits {tuple(_qubits(inst, circuit))} [#{index}]"
+
+
+def _is_trainable(inst: CircuitInstruction, params: set[Parameter]) -> bool:
+    for p in inst.operation.params:
+        if isinstance(p, ParameterExpression) and p.parameters & params:
+            return True
+    return False
+
+
+def _clifford_of(inst: CircuitInstruction) -> Clifford | None:
+    op = inst.operation
+    if any(isinstance(p, ParameterExpression) and p.parameters for p in op.params):
+        return None
+    try:
+        return Clifford(op)
+    except Exception:  # qiskit raises QiskitError for non-Clifford gates
+        return None
+
+
+def _evolve(op: SparsePauliOp, cliff: Clifford, qubits: list[int]) -> SparsePauliOp:
+    """``C op C^dagger`` for a Clifford ``C`` on ``qubits``."""
+    paulis = op.paulis.evolve(cliff, qargs=qubits, frame="s")
+    return SparsePauliOp(paulis, op.coeffs)
+
+
+def _commutator(a: SparsePauliOp, b: SparsePauliOp) -> SparsePauliOp:
+    return (a.dot(b) - b.dot(a)).simplify(atol=_ATOL)  # matrix product AB - BA
+
+
+def _is_zero(op: SparsePauliOp) -> bool:
+    return bool(np.all(np.abs(op.coeffs) <= 1e-10))
+
+
+def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
+    terms = PauliList(a.paulis) + PauliList(b.paulis)
+    if first_noncommuting_pair(terms) is None:
+        return True
+    return _is_zero(_commutator(a, b))
+
+
+def _trainable_of(
+    inst: CircuitInstruction, circuit: QuantumCircuit, index: int, params: set[Parameter]
+) -> _Trainable:
+    label = _label(inst, circuit, index)
+    found = parameter_of(inst)
+    if found is None or found[0] not in params:
+        raise ValueError(f"gate {label} mixes trainable and other parameters; not supported")
+    param, coeff = found
+    try:
+        gen = instruction_generator(inst, circuit)
+    except ValueError as exc:
+        raise ValueError(f"trainable gate {label}: {exc}") from exc
+    return _Trainable(index, inst.operation.name, label, param, coeff, gen.simplify(atol=_ATOL))
+
+
+def _check_unitary(inst: CircuitInstruction, circuit: QuantumCircuit, index: int) -> None:
+    if inst.operation.name in _NON_UNITARY or not inst.qubits and inst.clbits:
+        raise ValueError(
+            f"circuit must be unitary (no measure/reset/delay); found "
+            f"{_label(inst, circuit, index)}"
+        )
+
+
+def _analyse_block(
+    circuit: QuantumCircuit, start: int, stop: int, params: set[Parameter]
+) -> list[_Trainable]:
+    """Trainable gates of ``circuit.data[start:stop]``, generators propagated to ``stop``.
+
+    Fixed gates before the block's first trainable gate are state preparation; after it they
+    must be Clifford. Generators must commute pairwise (ValueError naming both gates).
+    """
+    live: list[_Trainable] = []
+    for idx in range(start, stop):
+        inst = circuit.data[idx]
+        name = inst.operation.name
+        if name in _SKIP:
+            continue
+        _check_unitary(inst, circuit, idx)
+        if _is_trainable(inst, params):
+            live.append(_trainable_of(inst, circuit, idx, params))
+            continue
+        if not live:
+            continue
+        cliff = _clifford_of(inst)
+        if cliff is None:
+            raise ValueError(
+                f"gate {_label(inst, circuit, idx)} follows trainable gates of the block but is "
+                "neither trainable nor Clifford; a commuting block may only be interleaved "
+                "with fixed Clifford gates (use commuting_block_gradient for several blocks)"
+            )
+        qs = _qubits(inst, circuit)
+        for t in live:
+            t.generator = _evolve(t.generator, cliff, qs)
+    for a in range(len(live)):
+        for b in range(a + 1, len(live)):
+            if not _commute(live[a].generator, live[b].generator):
+                raise ValueError(
+                    "generators do not commute, so these gates are not one commuting block: "
+                    f"{live[a].label} (parameter {live[a].parameter}) and {live[b].label} "
+                    f"(parameter {live[b].parameter})"
+                )
+    return live
+
+
+def commuting_blocks(
+    circuit: QuantumCircuit, parameters: Sequence[Parameter] | None = None
+) -> list[tuple[int, int]]:
+    """Maximal runs of mutually commuting trainable gates (the blocks of paper eq. 9).
+
+    Gates before the first trainable gate are state preparation. A block grows while each new
+    trainable gate's generator commutes with the block's generators (propagated through the
+    fixed Clifford gates in between); a non-commuting trainable gate starts a new block, a fixed
+    non-Clifford gate closes the current one.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unitary circuit (no measurements).
+    parameters : sequence of Parameter, optional
+        Trainable parameters; default every parameter outside the vector ``"x"``.
+
+    Returns
+    -------
+    list of (int, int)
+        ``(start, stop)`` ranges into ``circuit.data``; ``start`` is the block's first
+        trainable gate, ``stop`` the first gate after it that belongs elsewhere.
+
+    Examples
+    --------
+    >>> from qdensity.ansatze import round_robin
+    >>> len(commuting_blocks(round_robin(4)))
+    3
+    """
+    check_circuit(circuit)
+    params = set(_check_parameters(circuit, parameters))
+    blocks: list[tuple[int, int]] = []
+    start: int | None = None
+    live: list[SparsePauliOp] = []
+    for idx, inst in enumerate(circuit.data):
+        if inst.operation.name in _SKIP:
+            continue
+        _check_unitary(inst, circuit, idx)
+        if _is_trainable(inst, params):
+            gen = _trainable_of(inst, circuit, idx, params).generator
+            if start is not None and all(_commute(gen, g) for g in live):
+                live.append(gen)
+                continue
+            if start is not None:
+                blocks.append((start, idx))
+            start, live = idx, [gen]
+            continue
+        if start is None:
+            continue
+        cliff = _clifford_of(inst)
+        if cliff is None:
+            blocks.append((start, idx))
+            start, live = None, []
+        else:
+            qs = _qubits(inst, circuit)
+            live = [_evolve(g, cliff, qs) for g in live]
+    if start is not None:
+        blocks.append((start, len(circuit.data)))
+    if not blocks:
+        raise ValueError("circuit has no trainable gates for the given parameters")
+    return blocks

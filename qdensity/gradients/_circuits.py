@@ -1,0 +1,151 @@
+"""Shared base of the commuting-generator gradient circuits (paper Prop. 1, Cor. 2, Supp. F.3).
+
+Input checks of the gradient builders (``_check_inputs``) and ``_GradientCircuits``, the
+measured circuits with, per circuit, the estimator's value on every outcome: the gradient from
+outcome probabilities and its standard error. Both
+:class:`~qdensity.gradients.commuting.CommutingGradient` (one block) and
+:class:`~qdensity.gradients.blocks.CommutingBlockGradient` (several blocks) derive from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.quantum_info import SparsePauliOp
+
+from qdensity.analysis.blocks import _ATOL, _check_parameters
+from qdensity.execution.plans import check_observable
+from qdensity.validation import check_circuit, check_rows_sum_to_one
+
+
+def _check_inputs(circuit, observable, parameters, diagonaliser):
+    """Shared checks of the commuting-gradient builders: (params, observable)."""
+    check_circuit(circuit)
+    if circuit.num_clbits:
+        raise ValueError(
+            f"circuit must have no classical bits (it is measured here), got {circuit.num_clbits}"
+        )
+    if diagonaliser not in ("auto", "rbs", "clifford"):
+        raise ValueError(
+            f"diagonaliser must be 'auto', 'rbs' or 'clifford', got {diagonaliser!r}"
+        )
+    params = _check_parameters(circuit, parameters)
+    if not isinstance(observable, SparsePauliOp):
+        raise TypeError(f"observable must be a SparsePauliOp, got {type(observable).__name__}")
+    op = check_observable(observable, circuit.num_qubits).simplify(atol=_ATOL)
+    return params, SparsePauliOp(op.paulis, op.coeffs.real.astype(complex))
+
+
+def _check_probs(probs, dim: int, name: str = "probs") -> np.ndarray:
+    try:
+        arr = np.asarray(probs, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of probabilities, got {probs!r}") from exc
+    if arr.ndim not in (1, 2) or arr.shape[-1] != dim:
+        raise ValueError(
+            f"{name} must have shape ({dim},) or (rows, {dim}) (one probability per measured "
+            f"bitstring, index = integer with clbit j as bit j), got {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    check_rows_sum_to_one(arr, name)
+    return arr
+
+
+def _check_shots(shots, rows: int) -> np.ndarray:
+    arr = np.asarray(shots)
+    if arr.dtype == bool or not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"shots must be an int or an integer array, got {shots!r}")
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != rows):
+        raise ValueError(f"shots must be an int or have shape ({rows},), got shape {arr.shape}")
+    if np.any(arr < 2):
+        raise ValueError(f"shots must be >= 2 to estimate a variance, got {shots!r}")
+    return np.broadcast_to(arr.astype(float), (rows,))
+
+
+@dataclass
+class _GradientCircuits:
+    """Measured circuits and, per circuit, the estimator's value on every outcome."""
+
+    circuits: list[QuantumCircuit]
+    parameters: list[Parameter]
+    _values: list[np.ndarray] = field(repr=False)
+
+    @property
+    def num_gradient_circuits(self) -> int:
+        """Distinct circuits per data point (``len(circuits)``)."""
+        return len(self.circuits)
+
+    def value_matrices(self) -> list[np.ndarray]:
+        """Per circuit, shape ``(2**width, P)``: each parameter's estimator on each outcome."""
+        return [v.copy() for v in self._values]
+
+    def _as_list(self, probs) -> list[np.ndarray]:
+        if len(self.circuits) == 1 and not isinstance(probs, (list, tuple)):
+            probs = [probs]
+        if not isinstance(probs, (list, tuple)) or len(probs) != len(self.circuits):
+            raise ValueError(
+                f"probs must be a list of {len(self.circuits)} arrays, one per circuit in "
+                "`circuits` order (a single array is accepted when there is one circuit)"
+            )
+        arrs = [
+            _check_probs(p, v.shape[0], f"probs[{c}]")
+            for c, (p, v) in enumerate(zip(probs, self._values, strict=True))
+        ]
+        if len({a.shape[:-1] for a in arrs}) != 1:
+            raise ValueError("the probability arrays must all have the same number of rows")
+        return arrs
+
+    def gradient_from_probabilities(self, probs) -> np.ndarray:
+        """Gradient from the outcome probabilities of the circuits.
+
+        Parameters
+        ----------
+        probs : array_like or sequence of array_like
+            Per circuit, shape ``(rows, 2**width)`` or ``(2**width,)``: exact or empirical
+            probability of each measured bitstring, index = integer of the bitstring with
+            clbit ``j`` as bit ``j``. A single array when there is one circuit.
+
+        Returns
+        -------
+        numpy.ndarray, shape (rows, P) or (P,)
+            ``d f / d p`` for each parameter of :attr:`parameters`.
+        """
+        arrs = self._as_list(probs)
+        return sum(a @ v for a, v in zip(arrs, self._values, strict=True))
+
+    def standard_error(self, probs, shots) -> np.ndarray:
+        """Standard error of each gradient estimate.
+
+        Each shot of a circuit gives one value of every parameter's estimator; per circuit the
+        error is ``s^2 / shots`` with ``s^2`` the unbiased sample variance of those values
+        (``shots / (shots - 1)`` times the variance under ``probs``); independent circuits add.
+
+        Parameters
+        ----------
+        probs : array_like or sequence of array_like
+            Empirical frequencies, as in :meth:`gradient_from_probabilities`.
+        shots : int or sequence of int
+            Shots per circuit (one int for all circuits, or one per circuit), each ``>= 2``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (rows, P) or (P,)
+        """
+        arrs = self._as_list(probs)
+        per_circuit = [shots] * len(arrs) if np.ndim(shots) == 0 else list(shots)
+        if len(per_circuit) != len(arrs):
+            raise ValueError(
+                f"shots must be an int or one int per circuit ({len(arrs)}), got {shots!r}"
+            )
+        total = 0.0
+        for a, v, s in zip(arrs, self._values, per_circuit, strict=True):
+            two_d = np.atleast_2d(a)
+            n_shots = _check_shots(s, two_d.shape[0])
+            mean = two_d @ v
+            var = np.maximum(two_d @ v**2 - mean**2, 0.0)  # rounding can give -1e-17
+            total = total + var / (n_shots[:, None] - 1.0)
+        se = np.sqrt(total)
+        return se if arrs[0].ndim == 2 else se[0]

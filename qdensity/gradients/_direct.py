@@ -1,0 +1,193 @@
+"""Direct measurement of a commuting block that ends the circuit (paper Methods eq. 9, Prop. 1,
+Supp. F.3; Bowles et al., Thm. 1).
+
+For a block whose (propagated) generators ``G~_j`` commute, ``d f / d p = <psi| O_p |psi>`` with
+``O_p = sum over p's gates of a i [G~, H]``. Per non-constant Pauli term of ``H`` the gradient
+strings are collected (``_gradient_terms``), the terms of ``H`` are grouped greedily so that all
+strings of a group commute (``_group_terms``), and each group is one measured circuit after a
+diagonalising unitary, the ``RBS(pi/4)`` layer or a symplectic Clifford (``_direct_gradient``).
+This is the construction behind :func:`~qdensity.gradients.commuting.commuting_gradient` and the
+last block of :func:`~qdensity.gradients.blocks.commuting_block_gradient`; it lives apart from
+both so that each can use it without importing the other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.quantum_info import Clifford, SparsePauliOp
+
+from qdensity.analysis.blocks import _ATOL, _commutator, _evolve, _is_zero, _Trainable
+from qdensity.analysis.pauli import diagonalising_clifford, first_noncommuting_pair
+from qdensity.gradients._circuits import _GradientCircuits
+from qdensity.gradients.diagonalising import _diagonal_matrix, _measured, _rbs_layer_for
+
+__all__ = ["CommutingGradient"]
+
+
+@dataclass
+class CommutingGradient(_GradientCircuits):
+    """Circuits that yield every partial derivative of a commuting block (Methods eq. 9).
+
+    One circuit when every gradient observable is measured after one diagonalising unitary;
+    when ``H`` is a sum whose terms give non-commuting gradient terms, the terms of ``H`` are
+    split into groups, one circuit each (``num_gradient_circuits`` says how many).
+
+    Attributes
+    ----------
+    circuits : list of QuantumCircuit
+        Input circuit + diagonalising circuit + measurement of all qubits into one register
+        ``"meas"`` (clbit ``j`` = qubit ``j``); same parameters as the input.
+    parameters : list of Parameter
+        Differentiated parameters, in the order of the gradient's columns.
+    observables : dict Parameter -> SparsePauliOp
+        Gradient observable ``O_p = sum_gates a i [G~, H]`` (``d f / d p = <psi| O_p |psi>``).
+    term_groups : list of list of str
+        Pauli terms of ``H`` measured by each circuit.
+    diagonalising_circuits : list of QuantumCircuit
+    diagonal_observables : list of dict Parameter -> SparsePauliOp
+        Per circuit, ``D O_p^(group) D^dagger`` (``Z``/``I`` strings only).
+    diagonaliser : str
+        ``"rbs"`` (a layer of ``RBS(pi/4)``, Supp. F.3) or ``"clifford"``.
+    """
+
+    observables: dict[Parameter, SparsePauliOp] = field(default_factory=dict)
+    term_groups: list[list[str]] = field(default_factory=list)
+    diagonalising_circuits: list[QuantumCircuit] = field(default_factory=list)
+    diagonal_observables: list[dict[Parameter, SparsePauliOp]] = field(default_factory=list)
+    diagonaliser: str = "clifford"
+
+    @property
+    def circuit(self) -> QuantumCircuit:
+        """The measured gradient circuit, when there is exactly one."""
+        if len(self.circuits) != 1:
+            raise ValueError(
+                f"this gradient needs {len(self.circuits)} circuits (the observable's terms "
+                "split into groups whose gradient terms commute); use .circuits"
+            )
+        return self.circuits[0]
+
+    @property
+    def value_matrix(self) -> np.ndarray:
+        """Shape ``(2**n, P)``: each parameter's estimator on each outcome (one circuit)."""
+        if len(self._values) != 1:
+            raise ValueError(f"{len(self._values)} circuits; use value_matrices()")
+        return self._values[0].copy()
+
+
+def _gradient_terms(
+    trainables: Sequence[_Trainable], observable: SparsePauliOp, params: Sequence[Parameter]
+) -> tuple[dict[Parameter, SparsePauliOp], list[tuple[str, dict[Parameter, SparsePauliOp],
+                                                       list[tuple[str, _Trainable]]]]]:
+    """Total ``O_p`` and, per non-constant Pauli term ``P_t`` of ``H``, its share ``O_{p,t}``
+    with the (term, gate) origin of each Pauli string."""
+    n = observable.num_qubits
+    zero = SparsePauliOp(["I" * n], [0.0])
+    total = {p: zero for p in params}
+    per_term = []
+    for label, h in observable.to_list():
+        if set(label) == {"I"} or abs(h) <= _ATOL:
+            continue
+        term = SparsePauliOp([label], [h.real])
+        shares = {p: zero for p in params}
+        origin: list[tuple[str, _Trainable]] = []
+        for t in trainables:
+            o = (1j * _commutator(t.generator, term)).simplify(atol=_ATOL)
+            if _is_zero(o):
+                continue
+            shares[t.parameter] = (shares[t.parameter] + t.coeff * o).simplify(atol=_ATOL)
+            origin.extend((lab, t) for lab, c in o.to_list() if abs(c) > _ATOL)
+        per_term.append((label, shares, origin))
+        for p in params:
+            total[p] = (total[p] + shares[p]).simplify(atol=_ATOL)
+    return total, per_term
+
+
+def _group_terms(per_term, params):
+    """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute."""
+    groups: list[dict] = []
+    for label, shares, origin in per_term:
+        strings = [lab for lab, _ in origin]
+        if strings:
+            bad = first_noncommuting_pair(strings)
+            if bad is not None:
+                (la, ta), (lb, tb) = origin[bad[0]], origin[bad[1]]
+                raise ValueError(
+                    f"gradient terms for observable term {label} do not commute: {la} from "
+                    f"i[G, {label}] of {ta.label} (parameter {ta.parameter}) anticommutes with "
+                    f"{lb} from {tb.label} (parameter {tb.parameter}); each Pauli term of the "
+                    "observable must commute or anticommute with every (propagated) generator "
+                    "(Bowles et al., Thm. 1)"
+                )
+        for g in groups:
+            if not strings or first_noncommuting_pair(g["strings"] + strings) is None:
+                g["labels"].append(label)
+                g["strings"].extend(strings)
+                for p in params:
+                    g["ops"][p] = (g["ops"][p] + shares[p]).simplify(atol=_ATOL)
+                break
+        else:
+            groups.append({"labels": [label], "strings": list(strings), "ops": dict(shares)})
+    return groups
+
+
+def _direct_gradient(
+    circuit: QuantumCircuit,
+    trainables: Sequence[_Trainable],
+    observable: SparsePauliOp,
+    params: Sequence[Parameter],
+    diagonaliser: str,
+) -> CommutingGradient:
+    n = circuit.num_qubits
+    total, per_term = _gradient_terms(trainables, observable, params)
+    all_labels = [label for label, _, _ in per_term]
+    if diagonaliser in ("auto", "rbs"):
+        found = _rbs_layer_for(trainables, total, n)
+        if found is not None:
+            layer, diag = found
+            return CommutingGradient(
+                circuits=[_measured(circuit, layer)],
+                parameters=list(params),
+                _values=[_diagonal_matrix([diag[p] for p in params], n)],
+                observables=total,
+                term_groups=[all_labels],
+                diagonalising_circuits=[layer],
+                diagonal_observables=[diag],
+                diagonaliser="rbs",
+            )
+        if diagonaliser == "rbs":
+            raise ValueError(
+                "diagonaliser='rbs' needs RBS trainable gates on disjoint pairs whose gradient "
+                "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
+                "'auto'"
+            )
+    groups = _group_terms(per_term, params)
+    if not groups:  # H is a multiple of the identity: every derivative vanishes
+        groups = [{"labels": [], "strings": [], "ops": dict(total)}]
+    circuits, values, diag_circs, diags = [], [], [], []
+    for g in groups:
+        strings = sorted(set(g["strings"]))
+        diag_circ = (
+            diagonalising_clifford(strings)[0] if strings else QuantumCircuit(n, name="diagonalise")
+        )
+        cliff = Clifford(diag_circ)
+        diag = {
+            p: _evolve(op, cliff, list(range(n))).simplify(atol=_ATOL) for p, op in g["ops"].items()
+        }
+        circuits.append(_measured(circuit, diag_circ))
+        values.append(_diagonal_matrix([diag[p] for p in params], n))
+        diag_circs.append(diag_circ)
+        diags.append(diag)
+    return CommutingGradient(
+        circuits=circuits,
+        parameters=list(params),
+        _values=values,
+        observables=total,
+        term_groups=[g["labels"] for g in groups],
+        diagonalising_circuits=diag_circs,
+        diagonal_observables=diags,
+        diagonaliser="clifford",
+    )
