@@ -7,7 +7,7 @@ import numpy as np
 
 from qdensity.validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
 
-__all__ = ["chebyshev_dataset"]
+__all__ = ["chebyshev_dataset", "chebyshev_split", "chebyshev"]
 
 
 def chebyshev_dataset(
@@ -51,10 +51,80 @@ def chebyshev_dataset(
     sigma = check_nonnegative_float(noise_std, "noise_std")
     rng = as_rng(seed)
     x = rng.uniform(-1.0, 1.0, size=num)
+    y = chebyshev(x, deg) + rng.normal(0.0, sigma, size=num)
+    return x[:, None], y
+
+
+def chebyshev(x: np.ndarray, degree: int) -> np.ndarray:
+    """``T_degree(x)`` by the recurrence of eq. 12 (``T_0 = 1``, ``T_1 = x``,
+    ``T_{k+1} = 2 x T_k - T_{k-1}``).
+
+    Parameters
+    ----------
+    x : numpy.ndarray, any shape
+    degree : int
+        ``>= 0``.
+
+    Returns
+    -------
+    numpy.ndarray, the shape of ``x``
+
+    Examples
+    --------
+    >>> chebyshev(np.array([0.5]), 3).round(6).tolist()  # 4 x^3 - 3 x
+    [-1.0]
+    """
+    deg = check_positive_int(degree, "degree", minimum=0)
+    x = np.asarray(x, dtype=float)
     prev, cur = np.ones_like(x), x.copy()
     if deg == 0:
-        cur = prev
+        return prev
     for _ in range(deg - 1):
         prev, cur = cur, 2 * x * cur - prev
-    y = cur + rng.normal(0.0, sigma, size=num)
-    return x[:, None], y
+    return cur
+
+
+def chebyshev_split(
+    degree: int = 4,
+    noise_std: float = 0.5,
+    *,
+    num_train: int = 25,
+    num_test: int = 110,
+    seed: SeedLike = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The re-uploading experiment's data (Methods "Data reuploading density QNN", Supp. J).
+
+    ``num_train`` noisy training points ``(x, T_degree(x) + eps)``, ``x`` uniform on
+    ``[-1, 1]``, ``eps ~ N(0, noise_std^2)``; ``num_test`` clean test points on an even grid of
+    ``[-1, 1]`` (a proxy for the underlying function, Supp. J). The paper is not consistent:
+    Methods uses ``T_4`` and noise variance 0.25 (``noise_std = 0.5``, the default); Supp. J uses
+    ``T_2`` and standard deviation 0.2 (``degree=2, noise_std=0.2``).
+
+    Parameters
+    ----------
+    degree : int
+        Polynomial degree ``>= 0``.
+    noise_std : float
+        Standard deviation of the training noise, ``>= 0``.
+    num_train, num_test : int
+        25 and 110 in Supp. J.
+    seed : int, numpy.random.Generator or None
+
+    Returns
+    -------
+    X_train : numpy.ndarray, shape (num_train, 1)
+    X_test : numpy.ndarray, shape (num_test, 1)
+    y_train : numpy.ndarray, shape (num_train,)
+    y_test : numpy.ndarray, shape (num_test,)
+        Clean ``T_degree`` on the test grid.
+
+    Examples
+    --------
+    >>> X_tr, X_te, y_tr, y_te = chebyshev_split(2, 0.2, seed=0)
+    >>> X_tr.shape, X_te.shape, float(y_te[0])   # T_2(-1) = 1
+    ((25, 1), (110, 1), 1.0)
+    """
+    X_tr, y_tr = chebyshev_dataset(check_positive_int(num_train, "num_train"), degree, noise_std,
+                                   seed)
+    x_te = np.linspace(-1.0, 1.0, check_positive_int(num_test, "num_test", minimum=2))
+    return X_tr, x_te[:, None], y_tr, chebyshev(x_te, degree)

@@ -82,3 +82,14 @@ def test_digits_pca_is_fitted_on_the_training_split_only():
     assert counts.min() >= 25 and counts.max() <= 35
     again = load_digits_features(num_features=5, test_size=300, seed=2)
     np.testing.assert_array_equal(again[0], X_tr)
+
+
+def test_chebyshev_split_follows_supp_j():
+    from qdensity.datasets import chebyshev_split
+
+    X_tr, X_te, y_tr, y_te = chebyshev_split(2, 0.2, seed=4)
+    assert X_tr.shape == (25, 1) and X_te.shape == (110, 1)
+    np.testing.assert_allclose(X_te[:, 0], np.linspace(-1, 1, 110))
+    np.testing.assert_allclose(y_te, np.cos(2 * np.arccos(X_te[:, 0])), atol=1e-12)
+    resid = y_tr - np.cos(2 * np.arccos(X_tr[:, 0]))
+    assert 0.0 < resid.std() < 0.2 + 5 * 0.2 / math.sqrt(2 * 25)

@@ -1,0 +1,167 @@
+"""MNIST from files the user already has (paper Numerical results, "Orthogonal density QNN").
+
+qdensity never downloads data. Point :func:`load_mnist` at a directory holding the four IDX
+files of the original distribution (``train-images-idx3-ubyte``, ``train-labels-idx1-ubyte``,
+``t10k-images-idx3-ubyte``, ``t10k-labels-idx1-ubyte``, each optionally gzipped), or at a single
+``.npz`` archive with arrays ``x_train``, ``y_train``, ``x_test``, ``y_test`` (the layout Keras
+and many mirrors use). The paper reduces the 28 x 28 images to one feature per qubit by PCA
+fitted on the training images (10 features for the round-robin experiments).
+"""
+
+from __future__ import annotations
+
+import gzip
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from qdensity.validation import check_positive_int
+
+__all__ = ["load_mnist", "read_idx", "IDX_FILES"]
+
+#: The four files of the original distribution: split -> (images, labels).
+IDX_FILES = {
+    "train": ("train-images-idx3-ubyte", "train-labels-idx1-ubyte"),
+    "test": ("t10k-images-idx3-ubyte", "t10k-labels-idx1-ubyte"),
+}
+
+_IDX_DTYPES = {0x08: ">u1", 0x09: ">i1", 0x0B: ">i2", 0x0C: ">i4", 0x0D: ">f4", 0x0E: ">f8"}
+
+
+def read_idx(path: str | Path) -> np.ndarray:
+    """Read one IDX file (LeCun's MNIST format), gzipped or not.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file; a name ending in ``.gz`` is decompressed.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape from the file's header (``(N, 28, 28)`` for MNIST images, ``(N,)`` for labels),
+        dtype from its type code.
+
+    Raises
+    ------
+    ValueError
+        If the file is not a well-formed IDX file (bad magic number, unknown type code, or a
+        payload shorter or longer than its header says). The message names the file.
+    """
+    path = Path(path)
+    opener = gzip.open if path.suffix == ".gz" else open
+    try:
+        with opener(path, "rb") as fh:
+            data = fh.read()
+    except (OSError, EOFError) as exc:
+        raise ValueError(f"cannot read IDX file {str(path)!r}: {exc}") from exc
+    if len(data) < 4 or data[0] != 0 or data[1] != 0 or data[2] not in _IDX_DTYPES:
+        raise ValueError(f"{str(path)!r} is not an IDX file (bad magic number)")
+    ndim = data[3]
+    header = 4 + 4 * ndim
+    if len(data) < header:
+        raise ValueError(f"{str(path)!r} is truncated: its header needs {header} bytes")
+    shape = tuple(int.from_bytes(data[4 + 4 * i : 8 + 4 * i], "big") for i in range(ndim))
+    dtype = np.dtype(_IDX_DTYPES[data[2]])
+    expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if len(data) - header != expected:
+        raise ValueError(f"{str(path)!r} holds {len(data) - header} bytes of data, its header "
+                         f"says {expected} (shape {shape})")
+    return np.frombuffer(data, dtype=dtype, offset=header).reshape(shape)
+
+
+def _find(directory: Path, stem: str) -> Path:
+    alt = stem.replace("-idx", ".idx")  # some mirrors name them train-images.idx3-ubyte
+    for name in (stem, stem + ".gz", alt, alt + ".gz"):
+        if (directory / name).is_file():
+            return directory / name
+    raise ValueError(f"{str(directory)!r} has no {stem!r} (or {stem}.gz); an MNIST directory "
+                     f"holds {', '.join(n for pair in IDX_FILES.values() for n in pair)}")
+
+
+def _from_npz(path: Path) -> tuple[np.ndarray, ...]:
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"cannot read {str(path)!r}: not an .npz archive (nor a directory of "
+                         "MNIST IDX files)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in ("x_train", "y_train", "x_test", "y_test") if k not in data]
+            if missing:
+                raise ValueError(f"{str(path)!r} lacks the arrays {missing}; an MNIST .npz holds "
+                                 "x_train, y_train, x_test, y_test")
+            return tuple(np.asarray(data[k]) for k in ("x_train", "y_train", "x_test", "y_test"))
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from exc
+
+
+def load_mnist(
+    path: str | Path,
+    *,
+    num_features: int | None = None,
+    limit_train: int | None = None,
+    limit_test: int | None = None,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """MNIST from local files, flattened, scaled to ``[0, 1]``, optionally reduced by PCA.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A directory with the four IDX files (see :data:`IDX_FILES`; ``.gz`` or not), or an
+        ``.npz`` archive with ``x_train``, ``y_train``, ``x_test``, ``y_test``.
+    num_features : int, optional
+        Keep this many principal components (fitted on the training images only), one per
+        qubit of a unary-loaded model; ``None`` keeps the 784 pixels.
+    limit_train, limit_test : int, optional
+        Keep only the first images of each split (quick runs); the paper uses all 60,000 and
+        10,000.
+    seed : int
+        Seed of the PCA solver.
+
+    Returns
+    -------
+    X_train : numpy.ndarray, shape (N_train, num_features or 784)
+    X_test : numpy.ndarray, shape (N_test, num_features or 784)
+    y_train, y_test : numpy.ndarray of int
+
+    Raises
+    ------
+    ValueError
+        A missing file or array (the message lists what is expected), a malformed file, or
+        images and labels of different lengths.
+    """
+    path = Path(path)
+    if path.is_dir():
+        arrays = []
+        for split in ("train", "test"):
+            images, labels = (read_idx(_find(path, stem)) for stem in IDX_FILES[split])
+            arrays += [images, labels]
+        X_tr, y_tr, X_te, y_te = arrays
+    elif path.is_file():
+        X_tr, y_tr, X_te, y_te = _from_npz(path)
+    else:
+        raise ValueError(f"path {str(path)!r} does not exist; give a directory with the MNIST "
+                         "IDX files or an .npz archive")
+    for name, images, labels in (("train", X_tr, y_tr), ("test", X_te, y_te)):
+        if len(images) != len(labels):
+            raise ValueError(f"{name} split has {len(images)} images but {len(labels)} labels")
+    if limit_train is not None:
+        n = check_positive_int(limit_train, "limit_train")
+        X_tr, y_tr = X_tr[:n], y_tr[:n]
+    if limit_test is not None:
+        n = check_positive_int(limit_test, "limit_test")
+        X_te, y_te = X_te[:n], y_te[:n]
+    scale = 255.0 if np.issubdtype(X_tr.dtype, np.integer) else 1.0
+    X_tr = X_tr.reshape(len(X_tr), -1).astype(float) / scale
+    X_te = X_te.reshape(len(X_te), -1).astype(float) / scale
+    if num_features is not None:
+        from sklearn.decomposition import PCA
+
+        k = check_positive_int(num_features, "num_features")
+        if k > min(X_tr.shape):
+            raise ValueError(f"num_features={k} exceeds what the training split allows "
+                             f"({min(X_tr.shape)})")
+        pca = PCA(k, random_state=seed).fit(X_tr)
+        X_tr, X_te = pca.transform(X_tr), pca.transform(X_te)
+    return X_tr, X_te, y_tr.astype(int), y_te.astype(int)
