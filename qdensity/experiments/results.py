@@ -1,0 +1,269 @@
+"""Results of experiment runs: per-seed metrics, means with 95% confidence intervals, the
+configuration and package versions, written as one JSON file that EXPERIMENTS.md can quote.
+
+Confidence intervals over seeds use Student's t (:func:`mean_ci`); where the paper reports a
+best-of-sweep or another statistic that is not a mean, :func:`bootstrap_ci` resamples it
+(scipy's ``bootstrap``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import platform
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "mean_ci",
+    "bootstrap_ci",
+    "package_versions",
+    "summarise",
+    "ExperimentResult",
+    "RESULT_FORMAT",
+]
+
+#: Format version of the results JSON; :meth:`ExperimentResult.load` refuses other versions.
+RESULT_FORMAT = 1
+
+_PACKAGES = ("qdensity", "qiskit", "qiskit-aer", "numpy", "scipy", "scikit-learn", "torch",
+             "optuna")
+
+
+def _finite_values(values, name: str) -> np.ndarray:
+    arr = np.asarray(values, dtype=float).ravel()
+    if arr.size == 0:
+        raise ValueError(f"{name} is empty: a confidence interval needs at least one value")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _check_confidence(confidence) -> float:
+    c = float(confidence)
+    if not 0.0 < c < 1.0:
+        raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
+    return c
+
+
+def mean_ci(values: Sequence[float], confidence: float = 0.95) -> dict[str, float]:
+    """Mean over seeds with a Student-t confidence interval.
+
+    Parameters
+    ----------
+    values : sequence of float, length ``S >= 1``
+        One value per seed.
+    confidence : float
+        Coverage of the interval, in ``(0, 1)``.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``low``, ``high``, ``std`` (sample standard deviation, ``ddof=1``), ``sem``
+        and ``n``. With one seed the interval is the point itself and ``std`` is ``nan``: one
+        run says nothing about the spread, and the JSON says so.
+
+    Examples
+    --------
+    >>> ci = mean_ci([0.80, 0.82, 0.84])
+    >>> round(ci["mean"], 3), round(ci["low"], 3), round(ci["high"], 3)
+    (0.82, 0.77, 0.87)
+    """
+    arr = _finite_values(values, "values")
+    c = _check_confidence(confidence)
+    mean = float(arr.mean())
+    if arr.size == 1:
+        return {"mean": mean, "low": mean, "high": mean, "std": math.nan, "sem": math.nan,
+                "n": 1}
+    from scipy.stats import t
+
+    std = float(arr.std(ddof=1))
+    sem = std / math.sqrt(arr.size)
+    half = float(t.ppf(0.5 + c / 2, arr.size - 1)) * sem
+    return {"mean": mean, "low": mean - half, "high": mean + half, "std": std, "sem": sem,
+            "n": int(arr.size)}
+
+
+def bootstrap_ci(
+    values: Sequence[float],
+    statistic: Callable[[np.ndarray], float] = np.mean,
+    confidence: float = 0.95,
+    n_resamples: int = 2000,
+    seed: int = 0,
+) -> dict[str, float]:
+    """Bootstrap (BCa, scipy) confidence interval of any statistic of per-run values.
+
+    Parameters
+    ----------
+    values : sequence of float, length ``>= 2``
+    statistic : callable
+        Maps a 1-d array to a number (mean, median, a top-k mean, ...).
+    confidence : float
+        In ``(0, 1)``.
+    n_resamples : int
+        Bootstrap resamples.
+    seed : int
+        Seed of the resampling.
+
+    Returns
+    -------
+    dict
+        ``estimate`` (the statistic of ``values``), ``low``, ``high``, ``n``.
+
+    Examples
+    --------
+    >>> ci = bootstrap_ci([0.1, 0.2, 0.3, 0.4, 0.5], np.median)
+    >>> ci["estimate"], ci["low"] <= 0.3 <= ci["high"]
+    (0.3, True)
+    """
+    arr = _finite_values(values, "values")
+    if arr.size < 2:
+        raise ValueError(f"values needs at least 2 entries for a bootstrap, got {arr.size}")
+    c = _check_confidence(confidence)
+    from scipy.stats import bootstrap
+
+    est = float(statistic(arr))
+    if np.ptp(arr) == 0.0:
+        return {"estimate": est, "low": est, "high": est, "n": int(arr.size)}
+    res = bootstrap((arr,), lambda a, axis=-1: np.apply_along_axis(statistic, axis, a),
+                    confidence_level=c, n_resamples=int(n_resamples), method="BCa",
+                    random_state=np.random.default_rng(seed))
+    low, high = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    if not (np.isfinite(low) and np.isfinite(high)):  # BCa degenerate: fall back to percentile
+        res = bootstrap((arr,), lambda a, axis=-1: np.apply_along_axis(statistic, axis, a),
+                        confidence_level=c, n_resamples=int(n_resamples), method="percentile",
+                        random_state=np.random.default_rng(seed))
+        low, high = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    return {"estimate": est, "low": min(low, est), "high": max(high, est), "n": int(arr.size)}
+
+
+def package_versions() -> dict[str, str | None]:
+    """Versions of Python and of the packages a result depends on (``None`` if absent)."""
+    out: dict[str, str | None] = {"python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def summarise(per_seed: Sequence[Mapping[str, Any]], confidence: float = 0.95) -> dict:
+    """Mean and confidence interval of every scalar metric shared by all seeds.
+
+    Parameters
+    ----------
+    per_seed : sequence of mappings
+        One mapping of metric name -> value per seed; non-scalar entries (curves, lists) are
+        left out of the summary.
+    confidence : float
+
+    Returns
+    -------
+    dict
+        metric name -> :func:`mean_ci` of its values over seeds.
+
+    Examples
+    --------
+    >>> s = summarise([{"acc": 0.8, "curve": [1, 2]}, {"acc": 0.9, "curve": [1, 3]}])
+    >>> sorted(s), round(s["acc"]["mean"], 2)
+    (['acc'], 0.85)
+    """
+    if not per_seed:
+        raise ValueError("per_seed is empty: nothing to summarise")
+    keys = [k for k, v in per_seed[0].items()
+            if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)]
+    out = {}
+    for key in keys:
+        vals = [row.get(key) for row in per_seed]
+        if all(isinstance(v, (int, float, np.integer, np.floating)) for v in vals):
+            out[key] = mean_ci(vals, confidence)
+    return out
+
+
+def _jsonable(obj):
+    if isinstance(obj, Mapping):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None  # JSON has no NaN; a missing spread reads as null
+    return obj
+
+
+@dataclass
+class ExperimentResult:
+    """One experiment run: what was run, with which seeds, what each seed gave, the summary.
+
+    Attributes
+    ----------
+    name : str
+        Experiment name (``qdensity experiment NAME``).
+    mode : str
+        ``"quick"`` or ``"full"`` (or a user label).
+    config : dict
+        Every setting the run used (sizes, epochs, learning rates, shot budgets).
+    seeds : list of int
+        One seed per run, in order.
+    per_seed : list of dict
+        Metrics of each seed (scalars and curves).
+    summary : dict
+        Scalar metric -> mean and confidence interval (:func:`summarise`).
+    versions : dict
+        :func:`package_versions` at the time of the run.
+    created : str
+        UTC time stamp (ISO 8601).
+    """
+
+    name: str
+    mode: str
+    config: dict
+    seeds: list[int]
+    per_seed: list[dict]
+    summary: dict = field(default_factory=dict)
+    versions: dict = field(default_factory=package_versions)
+    created: str = field(
+        default_factory=lambda: _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+
+    def __post_init__(self) -> None:
+        if len(self.seeds) != len(self.per_seed):
+            raise ValueError(f"seeds has {len(self.seeds)} entries but per_seed "
+                             f"{len(self.per_seed)}: one metrics row per seed")
+        if not self.summary and self.per_seed:
+            self.summary = summarise(self.per_seed)
+
+    def to_dict(self) -> dict:
+        """The JSON-ready content, with the format version."""
+        return _jsonable({"format": RESULT_FORMAT, **asdict(self)})
+
+    def save(self, directory: str | Path) -> Path:
+        """Write ``<directory>/<name>-<mode>.json`` (the directory is created); return its path."""
+        path = Path(directory)
+        path.mkdir(parents=True, exist_ok=True)
+        out = path / f"{self.name}-{self.mode}.json"
+        out.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        return out
+
+    @classmethod
+    def load(cls, path: str | Path) -> ExperimentResult:
+        """Read a file written by :meth:`save`; refuses another format version."""
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"cannot read results file {str(path)!r}: {exc}") from exc
+        if not isinstance(data, dict) or data.get("format") != RESULT_FORMAT:
+            found = data.get("format") if isinstance(data, dict) else None
+            raise ValueError(f"{str(path)!r} is not a qdensity results file of format "
+                             f"{RESULT_FORMAT} (found format {found!r})")
+        data.pop("format")
+        return cls(**data)
