@@ -1,7 +1,8 @@
 """Density QNNs (paper eq. 1-2): the model (:mod:`~qdensity.models.density`), its encodings
 (:mod:`~.encoding`), distributions over sub-unitaries, fixed, softmax or mixture-of-experts
 (:mod:`~.mixtures`, Supp. H), and the paper's decompositions of one circuit into
-sub-unitaries (:mod:`~.decompositions`, Fig. 6, Supp. H.1)."""
+sub-unitaries (:mod:`~.decompositions`, Fig. 6, Supp. H.1), and the LCU model that mixes
+amplitudes instead of outputs (:mod:`~.lcu`, Fig. 1a, Supp. C)."""
 
 from qdensity.models.decompositions import (
     Decomposition,
@@ -14,6 +15,7 @@ from qdensity.models.decompositions import (
 )
 from qdensity.models.density import READOUTS, DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
+from qdensity.models.lcu import LCUQNN
 from qdensity.models.mixtures import (
     FixedMixture,
     GatedMixture,
@@ -24,6 +26,7 @@ from qdensity.models.mixtures import (
 )
 
 __all__ = [
+    "LCUQNN",
     "Encoding",
     "DensityQNN",
     "READOUTS",

@@ -1,0 +1,206 @@
+"""The LCU QNN as a trainable model (paper Fig. 1a, Supp. C): the post-selected state
+``A|x> / ||A|x>||`` with ``A = sum_k alpha_k(x) U_k(theta_k)``, on unary data.
+
+A density QNN and its LCU counterpart share everything (sub-unitaries, angles, mixture); only
+the combination differs. The density model mixes the *outputs*,
+``p_j = sum_k alpha_k |y_kj|^2``; the LCU model mixes the *amplitudes*,
+``v = sum_k alpha_k y_k`` with ``y_k = O_k x`` (the unary engine's orthogonal matrix of
+``U_k``), and reads ``p_j = v_j^2 / ||v||^2`` after post-selecting the mixing register on
+``|0...0>``, which succeeds with probability ``||v||^2 <= 1``
+(:func:`~qdensity.circuits.preparation.lcu_circuit` builds that circuit gate by gate).
+The paper leaves the success probability out of its LCU numerics; :meth:`LCUQNN.success_probability`
+reports it, since it multiplies the shots an LCU model costs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+
+from qdensity.execution.unary import vjp
+from qdensity.models.density import DensityQNN
+from qdensity.models.encoding import Encoding
+
+__all__ = ["LCUQNN"]
+
+
+class LCUQNN:
+    """LCU QNN on unary data: ``p(x) = |A x|^2 / ||A x||^2``, ``A = sum_k alpha_k(x) O_k``.
+
+    Parameters
+    ----------
+    sub_unitaries : sequence of QuantumCircuit, length K
+        Hamming-weight-preserving RBS/FBS circuits on ``n`` qubits (trainable parameters by
+        name, shared names share a value, as in :class:`~qdensity.models.DensityQNN`).
+    mixture : Mixture, array_like or None
+        ``alpha``: a fixed distribution, :class:`~qdensity.mixtures.SoftmaxMixture` (trainable)
+        or :class:`~qdensity.mixtures.GatedMixture` (data-dependent, the paper's MoE gate).
+    seed : int, numpy.random.Generator or None
+        Initial angles uniform in ``[-pi, pi)`` (zeros when None).
+
+    Attributes
+    ----------
+    density : DensityQNN
+        The density model with the same sub-unitaries, angles and mixture (it holds the
+        parameters; setting ``theta`` on either changes both).
+
+    Examples
+    --------
+    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.decompositions import by_moments
+    >>> from qdensity.mixtures import SoftmaxMixture
+    >>> dec = by_moments(round_robin(4))
+    >>> lcu = LCUQNN(dec.sub_unitaries, SoftmaxMixture(dec.num_subunitaries), seed=0)
+    >>> X = np.eye(4)[:2] + 0.5
+    >>> lcu.predict(X).sum(axis=1).round(12).tolist()
+    [1.0, 1.0]
+    >>> bool(np.all(lcu.success_probability(X) <= 1.0))
+    True
+    """
+
+    def __init__(self, sub_unitaries: Sequence[QuantumCircuit], mixture=None, *, seed=None):
+        subs = list(sub_unitaries) if not isinstance(sub_unitaries, QuantumCircuit) else None
+        if not subs:
+            raise ValueError("sub_unitaries must be a non-empty sequence of QuantumCircuits")
+        n = subs[0].num_qubits if isinstance(subs[0], QuantumCircuit) else 0
+        self.density = DensityQNN(subs, mixture, encoding=Encoding.unary(max(n, 1)),
+                                  readout="unary_amplitudes", seed=seed)
+        if not self.density._use_unary():
+            raise ValueError("sub_unitaries must be RBS/FBS (Hamming-weight-preserving) circuits: "
+                             "the LCU model runs on the unary engine")
+
+    @classmethod
+    def from_density(cls, model: DensityQNN) -> LCUQNN:
+        """The LCU counterpart of a unary density model, sharing its sub-unitaries and mixture and
+        starting from a copy of its angles (Supp. C: train the sub-unitaries, then combine).
+
+        Parameters
+        ----------
+        model : DensityQNN
+            RBS/FBS sub-unitaries on a unary encoding.
+
+        Returns
+        -------
+        LCUQNN
+        """
+        if not isinstance(model, DensityQNN):
+            raise TypeError(f"model must be a DensityQNN, got {type(model).__name__}")
+        out = cls(model.sub_unitaries, model.mixture)
+        out.theta = model.theta.copy()
+        return out
+
+    @property
+    def num_qubits(self) -> int:
+        return self.density.num_qubits
+
+    @property
+    def num_subunitaries(self) -> int:
+        return self.density.num_subunitaries
+
+    @property
+    def mixture(self):
+        return self.density.mixture
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Angles of all sub-unitaries, shape (P,)."""
+        return self.density.theta
+
+    @theta.setter
+    def theta(self, value) -> None:
+        self.density.theta = value
+
+    def _parts(self, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Y`` (B, K, n) sub-unitary amplitudes, ``alpha`` (B, K), ``v`` (B, n)."""
+        Y = self.density.expert_outputs(X, method="unary")
+        alpha = self.mixture.alpha(X)
+        alpha = np.broadcast_to(alpha, Y.shape[:2])
+        return Y, alpha, np.einsum("bk,bkn->bn", alpha, Y)
+
+    def amplitudes(self, X) -> np.ndarray:
+        """Unnormalised post-selected amplitudes ``v = sum_k alpha_k O_k x / ||x||``.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, n)
+        """
+        return self._parts(X)[2]
+
+    def success_probability(self, X) -> np.ndarray:
+        """Probability ``||A x||^2 / ||x||^2`` that the mixing register post-selects on zeros.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+
+        Returns
+        -------
+        numpy.ndarray, shape (B,), in ``[0, 1]``
+        """
+        v = self.amplitudes(X)
+        return np.einsum("bn,bn->b", v, v)
+
+    def predict(self, X) -> np.ndarray:
+        """Post-selected unary probabilities ``v_j^2 / ||v||^2``.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, n); rows sum to one.
+
+        Raises
+        ------
+        ValueError
+            If ``A x = 0`` for a row (post-selection never succeeds, the output is undefined).
+        """
+        v = self.amplitudes(X)
+        norm2 = np.einsum("bn,bn->b", v, v)
+        if np.any(norm2 <= 1e-300):
+            rows = np.flatnonzero(norm2 <= 1e-300).tolist()
+            raise ValueError(f"post-selection never succeeds for rows {rows} of X (A x = 0)")
+        return v**2 / norm2[:, None]
+
+    def vjp(self, X, grad_P) -> tuple[np.ndarray, np.ndarray]:
+        """Gradient of ``sum_bj grad_P[b, j] p_bj`` w.r.t. the angles and the mixture parameters.
+
+        With ``s = ||v||^2``: ``dL/dv_i = (2 v_i / s) (g_i - <g, p>)``; then
+        ``dL/dy_k = alpha_k dL/dv`` goes through the unary engine's reverse pass and
+        ``dL/dalpha_k = <dL/dv, y_k>`` through the mixture.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+        grad_P : array_like, shape (B, n)
+
+        Returns
+        -------
+        grad_theta : numpy.ndarray, shape (P,)
+            Summed over the batch; shared parameters summed over their occurrences.
+        grad_mixture : numpy.ndarray, shape (M,)
+        """
+        Y, alpha, v = self._parts(X)
+        g = np.asarray(grad_P, dtype=float)
+        if g.shape != v.shape:
+            raise ValueError(f"grad_P must have shape {v.shape}, got {g.shape}")
+        s = np.einsum("bn,bn->b", v, v)[:, None]
+        P = v**2 / s
+        gv = 2.0 * v / s * (g - np.einsum("bn,bn->b", g, P)[:, None])
+        Xn = np.asarray(X, dtype=float)
+        Xn = Xn / np.linalg.norm(Xn, axis=1, keepdims=True)
+        grad_theta = np.zeros_like(self.theta)
+        for k, circ in enumerate(self.density.sub_unitaries):
+            idx = self.density.subunitary_parameter_indices(k)
+            gk, _ = vjp(circ, Xn, self.theta[idx], alpha[:, k, None] * gv, reduce="sum")
+            np.add.at(grad_theta, idx, gk)
+        grad_alpha = np.einsum("bn,bkn->bk", gv, Y)
+        grad_mixture = self.mixture.vjp(X, grad_alpha)
+        return grad_theta, np.asarray(grad_mixture, dtype=float)
