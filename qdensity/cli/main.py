@@ -227,7 +227,7 @@ def _cmd_demo(args) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from qdensity.execution.targets import known_targets
+    from qdensity.execution.targets import target_help
 
     p = argparse.ArgumentParser(prog="qdensity", description="Density quantum neural networks "
                                 "on Qiskit and qiskit-aer.")
@@ -246,7 +246,7 @@ def _parser() -> argparse.ArgumentParser:
     t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
     t.add_argument("--size", type=int, default=4)
-    t.add_argument("--target", default="ideal", help=f"one of: {', '.join(known_targets())}")
+    t.add_argument("--target", default="ideal", help=target_help())
     t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3])
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -255,7 +255,7 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="estimate a density model's output on a noisy target "
                                    "under a shot budget")
     r.add_argument("--size", type=int, default=6, help="qubits of the round-robin model")
-    r.add_argument("--target", default="heavy_hex", help=f"one of: {', '.join(known_targets())}")
+    r.add_argument("--target", default="heavy_hex", help=target_help())
     r.add_argument("--shots", type=int, default=2000, help="total shot budget")
     r.add_argument("--scheduler", default="proportional",
                    choices=["per_shot", "proportional", "neyman"])

@@ -21,6 +21,7 @@ from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
+from qdensity.execution._device import check_for_device, check_width, device_of
 from qdensity.execution.plans import CircuitJob, JobResult
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
@@ -281,6 +282,7 @@ class SamplerEngine:
         if not isinstance(sampler, BaseSamplerV2):
             raise TypeError(f"sampler must be a BaseSamplerV2, got {type(sampler).__name__}")
         self.sampler = sampler
+        self._device = device_of(sampler)  # a provider's backend: circuits are checked against it
         if transpiler is None:
             if target is not None:
                 def transpiler(c: QuantumCircuit) -> QuantumCircuit:
@@ -302,11 +304,25 @@ class SamplerEngine:
         """How many templates have been transpiled (each once)."""
         return self._cache.misses
 
+    def compiled(self, circuit: QuantumCircuit) -> QuantumCircuit:
+        """The transpiled form of a template (transpiled once, then cached), as submitted."""
+        return self._cache(circuit)
+
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
-        """Sample every job: one PUB each, all in one sampler call."""
+        """Sample every job: one PUB each, all in one sampler call.
+
+        When the sampler names its device (a provider's primitive), every template is checked
+        against it first: a job wider than the device or holding an instruction it cannot run
+        raises ``ValueError`` before anything is submitted. The ledger is written only once
+        the sampler's results are back, so a failed job leaves it unchanged.
+        """
         pubs, metas = [], []
         for job in jobs:
+            if self._device is not None:
+                check_width(job.circuit, self._device, job.label or job.circuit.name)
             compiled = self._cache(job.circuit)
+            if self._device is not None:
+                check_for_device(compiled, self._device, job.label or job.circuit.name)
             cols = _columns_for(job.circuit, compiled)
             shots = job.shots if job.shots is not None else self.default_shots
             if compiled.num_parameters:

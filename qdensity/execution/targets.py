@@ -24,6 +24,10 @@ map and native gates to transpile against, a noise model, and factories for a se
     native two-qubit gates and nothing else; other two-qubit gates translate through ``rxx``.
     The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
     transpilation and sampling.
+``fake_manila``, ``fake_torino``, ... (one per backend of ``qiskit_ibm_runtime.fake_provider``)
+    A calibrated device snapshot (:mod:`qdensity.execution.snapshots`): the real coupling map,
+    native gates, T1/T2, gate and readout errors of an IBM device. Needs the optional extra
+    ``ibm``; ``num_qubits`` may be omitted (the device's size) and ``basis_gates`` is refused.
 
 Aer has no ``xx_plus_yy`` instruction. The ``rbs_native`` simulator therefore lowers each native
 gate at run time to ``rz(beta) . ryy(theta/2) . rxx(theta/2) . rz(-beta)`` (an exact identity)
@@ -42,8 +46,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from qiskit import transpile as qiskit_transpile
 from qiskit.circuit import QuantumCircuit
+from qiskit.providers import BackendV2
 from qiskit.providers.fake_provider import GenericBackendV2
 from qiskit.transpiler import CouplingMap, Target
+from qiskit.transpiler.exceptions import TranspilerError
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
@@ -57,12 +63,18 @@ from qdensity.execution._native import (
     _rbs_to_native,
 )
 from qdensity.execution.noise import noise_from_backend, noise_model
+from qdensity.execution.snapshots import (
+    is_snapshot_name,
+    snapshot_fields,
+    snapshot_names,
+)
 from qdensity.validation import SeedLike, check_circuit, check_positive_int, seed_int
 
 __all__ = [
     "HardwareTarget",
     "get_target",
     "known_targets",
+    "target_help",
     "gpu_available",
     "heavy_hex_distance",
     "RBS_NATIVE_NOISE",
@@ -83,9 +95,22 @@ def known_targets() -> list[str]:
     Returns
     -------
     list of str
-        ``["ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native"]``.
+        ``["ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native"]``, then the
+        device snapshots (``"fake_manila"``, ``"fake_torino"``, ...) when the ``ibm`` extra is
+        installed.
     """
-    return list(_TARGETS)
+    return list(_TARGETS) + list(snapshot_names())
+
+
+def target_help() -> str:
+    """A short description of the target names for command-line help (imports no provider).
+
+    Returns
+    -------
+    str
+    """
+    return (f"one of: {', '.join(_TARGETS)}, or a calibrated device snapshot fake_manila, "
+            f"fake_torino, ... (needs pip install 'qdensity[ibm]')")
 
 
 def gpu_available() -> bool:
@@ -131,8 +156,9 @@ class HardwareTarget:
         One of :func:`known_targets`.
     num_qubits : int
         Physical qubits of the device (the requested size, or more for ``heavy_hex``).
-    backend : GenericBackendV2 or None
-        The seeded fake backend (None for ``ideal`` and ``rbs_native``).
+    backend : qiskit.providers.BackendV2 or None
+        The seeded ``GenericBackendV2``, or the snapshot's fake backend (None for ``ideal`` and
+        ``rbs_native``).
     coupling_map : CouplingMap or None
         Allowed two-qubit pairs; None means all-to-all without a fixed size (``ideal``).
     basis_gates : tuple of str
@@ -147,7 +173,7 @@ class HardwareTarget:
 
     name: str
     num_qubits: int
-    backend: GenericBackendV2 | None = field(repr=False)
+    backend: BackendV2 | None = field(repr=False)
     coupling_map: CouplingMap | None = field(repr=False)
     basis_gates: tuple[str, ...]
     noise_model: NoiseModel | None = field(repr=False)
@@ -281,16 +307,16 @@ class HardwareTarget:
             return []
         if self.name == "rbs_native":
             batch = [_rbs_to_native(c) for c in batch]
-        if self.target is not None:
-            out = qiskit_transpile(
-                batch, target=self.target, optimization_level=level,
-                seed_transpiler=seed_transpiler,
-            )
-        else:
-            out = qiskit_transpile(
-                batch, basis_gates=list(self.basis_gates), optimization_level=level,
-                seed_transpiler=seed_transpiler,
-            )
+        where = ({"target": self.target} if self.target is not None
+                 else {"basis_gates": list(self.basis_gates)})
+        try:
+            out = qiskit_transpile(batch, optimization_level=level,
+                                   seed_transpiler=seed_transpiler, **where)
+        except TranspilerError as exc:
+            raise ValueError(
+                f"circuits cannot run on target {self.name!r} (native gates "
+                f"{list(self.basis_gates)}): {exc}"
+            ) from exc
         return out[0] if single else list(out)
 
     def sampler(
@@ -336,7 +362,7 @@ class HardwareTarget:
 
 def get_target(
     name: str,
-    num_qubits: int,
+    num_qubits: int | None = None,
     *,
     seed: SeedLike = 0,
     noise: bool = True,
@@ -348,9 +374,10 @@ def get_target(
     ----------
     name : str
         One of :func:`known_targets`.
-    num_qubits : int
+    num_qubits : int or None
         Requested number of qubits: ``>= 1`` for ``ideal``, ``>= 2`` for devices with
-        two-qubit gates, ``>= 3`` for ``ring``.
+        two-qubit gates, ``>= 3`` for ``ring``. Optional for device snapshots (whose size is
+        fixed; a request wider than the device is refused), required otherwise.
     seed : int, numpy.random.Generator or None, optional
         Seeds the ``GenericBackendV2`` (its sampled T1/T2, gate and readout errors) and is the
         default seed of transpilation and simulation. Default 0.
@@ -368,8 +395,9 @@ def get_target(
     Raises
     ------
     ValueError
-        Unknown name (the message lists the known ones), too few qubits, or a basis the
-        backend cannot use.
+        Unknown name (the message lists the known ones), too few qubits, a request wider than a
+        device snapshot, a snapshot without the ``ibm`` extra (the message says what to
+        install), or a basis the backend cannot use.
 
     Examples
     --------
@@ -381,11 +409,17 @@ def get_target(
     """
     if not isinstance(name, str):
         raise TypeError(f"name must be a str, one of {list(_TARGETS)}, got {name!r}")
-    if name not in _TARGETS:
-        raise ValueError(f"unknown target {name!r}; known targets: {', '.join(_TARGETS)}")
-    n = check_positive_int(num_qubits, "num_qubits")
     if not isinstance(noise, (bool, np.bool_)):
         raise TypeError(f"noise must be a bool, got {noise!r}")
+    if is_snapshot_name(name):
+        fields = snapshot_fields(name, num_qubits, noise=bool(noise), basis_gates=basis_gates)
+        return HardwareTarget(**fields, seed=seed_int(seed))
+    if name not in _TARGETS:
+        raise ValueError(f"unknown target {name!r}; known targets: {', '.join(known_targets())}")
+    if num_qubits is None:
+        raise ValueError(f"num_qubits is required for target {name!r} (only device snapshots "
+                         "have a fixed size)")
+    n = check_positive_int(num_qubits, "num_qubits")
     seed_value = seed_int(seed)
     basis = _check_basis(basis_gates)
 
