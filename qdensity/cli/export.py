@@ -1,6 +1,8 @@
 """Writing and checking the ``circuits/`` directory of reference circuits, and its command line.
 
-:func:`export_circuits` writes ``<name>.qasm`` for every reference circuit of
+:func:`export_circuits` writes ``<name>.qasm`` (OpenQASM 2, parameters bound) and
+``<name>.qasm3`` (OpenQASM 3, trainable and data parameters symbolic) for every reference
+circuit of
 :mod:`qdensity.cli.reference` (the catalogue: loaders, ansätze, the density-QNN preparations of
 Fig. 1 and Fig. 13b, a gradient circuit of Methods eq. 9, the tomography circuits of Supp. F)
 and a ``README.md`` index (:func:`index_markdown`); :func:`check_circuits` lists the files that
@@ -25,10 +27,13 @@ from qdensity.cli.reference import (
     REFERENCE_DESCRIPTIONS,
     _check_names,
     _exported,
+    _exported3,
     bind_reference,
     reference_circuit,
     reference_qasm,
+    reference_qasm3,
     reference_seed,
+    symbolic_circuit,
 )
 
 __all__ = [
@@ -40,6 +45,8 @@ __all__ = [
     "bind_reference",
     "reference_circuit",
     "reference_qasm",
+    "reference_qasm3",
+    "symbolic_circuit",
     "export_circuits",
     "check_circuits",
     "index_markdown",
@@ -62,14 +69,16 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
     -------
     str
         Markdown: a table of file, qubits, two-qubit gates and depth of the exported circuit,
-        and a one-line description, followed by how to regenerate and check the files.
+        a one-line description and the OpenQASM 3 file with its number of symbolic
+        parameters, followed by how to regenerate and check the files.
     """
     rows = []
     for name in _check_names(names):
         _, qubits, two_qubit, depth = _exported(name)
+        free = _exported3(name)[1]
         rows.append(
             f"| [`{name}.qasm`]({name}.qasm) | {qubits} | {two_qubit} | {depth} | "
-            f"{REFERENCE_DESCRIPTIONS[name]} |"
+            f"{REFERENCE_DESCRIPTIONS[name]} | [`{name}.qasm3`]({name}.qasm3) ({free}) |"
         )
     lines = [
         "# Reference circuits",
@@ -83,8 +92,14 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
         "Two-qubit gates and depth are those of the exported circuit (measurements count",
         "towards depth, not towards two-qubit gates).",
         "",
-        "| file | qubits | two-qubit gates | depth | description |",
-        "|---|---:|---:|---:|---|",
+        "Each circuit is also exported as OpenQASM 3 (`<name>.qasm3`, gates of",
+        "`stdgates.inc`) with its trainable angles and the data angles of its unary loaders",
+        "kept symbolic: one `input float[64]` per parameter, in the circuit's parameter order",
+        "(the number in brackets), for a provider to bind. They reload with",
+        "`qiskit.qasm3.loads` (`pip install qiskit-qasm3-import`).",
+        "",
+        "| file | qubits | two-qubit gates | depth | description | OpenQASM 3 (parameters) |",
+        "|---|---:|---:|---:|---|---|",
         *rows,
         "",
         "## Regenerate",
@@ -92,7 +107,7 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
         "These files are generated; do not edit them by hand. Regenerate with",
         "",
         "```",
-        "qdensity export",
+        "qdensity export            # both formats; --qasm3 writes only the OpenQASM 3 files",
         "```",
         "",
         "or `python -m qdensity.export [DIRECTORY]` (default `./circuits`). The test suite",
@@ -103,8 +118,9 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
     return "\n".join(lines)
 
 
-def export_circuits(directory: str | Path, names: Sequence[str] | None = None) -> list[Path]:
-    """Write ``<name>.qasm`` for each reference circuit and the ``README.md`` index.
+def export_circuits(directory: str | Path, names: Sequence[str] | None = None, *,
+                    formats: Sequence[str] = ("qasm", "qasm3")) -> list[Path]:
+    """Write ``<name>.qasm`` and ``<name>.qasm3`` for each reference circuit, and the index.
 
     Output is deterministic: the same bytes on every run (fixed seeds, no timestamps).
 
@@ -115,34 +131,42 @@ def export_circuits(directory: str | Path, names: Sequence[str] | None = None) -
     names : sequence of str, optional
         Reference names to export, default all of :data:`REFERENCE_BUILDERS`. The index
         lists the exported names.
+    formats : sequence of {"qasm", "qasm3"}
+        OpenQASM 2 (bound parameters) and/or OpenQASM 3 (symbolic parameters); default both.
 
     Returns
     -------
     list of Path
-        The ``.qasm`` files in ``names`` order, then the index.
+        The ``.qasm`` files in ``names`` order, then the ``.qasm3`` files, then the index.
 
     Examples
     --------
     >>> import tempfile
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     [p.name for p in export_circuits(tmp, ["pyramid_4"])]
-    ['pyramid_4.qasm', 'README.md']
+    ['pyramid_4.qasm', 'pyramid_4.qasm3', 'README.md']
     """
     selected = _check_names(names)
+    if isinstance(formats, str) or not set(formats) <= set(_WRITERS) or not formats:
+        raise ValueError(f"formats must be a non-empty sequence of {list(_WRITERS)}, "
+                         f"got {formats!r}")
     if not isinstance(directory, (str, Path)):
         raise TypeError(f"directory must be a str or Path, got {type(directory).__name__}")
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name in selected:
-        path = out / f"{name}.qasm"
-        path.write_bytes(reference_qasm(name).encode("utf-8"))
-        written.append(path)
+    for suffix in (f for f in _WRITERS if f in formats):
+        for name in selected:
+            path = out / f"{name}.{suffix}"
+            path.write_bytes(_WRITERS[suffix](name).encode("utf-8"))
+            written.append(path)
     index = out / INDEX_NAME
     index.write_bytes(index_markdown(selected).encode("utf-8"))
     written.append(index)
     return written
 
+
+_WRITERS = {"qasm": reference_qasm, "qasm3": reference_qasm3}
 
 # Numbers in OpenQASM text: angles ("-2.0344439357957027", "1.5e-05") and indices.
 _NUMBER = re.compile(r"\d+(?:\.\d*)?(?:[eE][-+]?\d+)?")
@@ -191,7 +215,8 @@ def check_circuits(directory: str | Path) -> list[str]:
         differs from what :func:`export_circuits` would write now (angles are compared to
         ``1e-9`` relative, everything else exactly); then, sorted, the stem of every other
         ``.qasm`` file in the directory (a stale export of a circuit that no longer exists);
-        then ``"README.md"`` if the index is missing or differs. Empty when all is current.
+        then the same for the OpenQASM 3 files, as ``"<name>.qasm3"``; then ``"README.md"``
+        if the index is missing or differs. Empty when all is current.
 
     Raises
     ------
@@ -214,15 +239,15 @@ def check_circuits(directory: str | Path) -> list[str]:
     if root.exists() and not root.is_dir():
         raise ValueError(f"directory must be a directory, got the file {str(root)!r}")
     stale = []
-    for name in REFERENCE_BUILDERS:
-        written = _read_text(root / f"{name}.qasm")
-        if written is None or not _same_text(written, reference_qasm(name)):
-            stale.append(name)
-    if root.is_dir():
-        extra = sorted(
-            p.stem for p in root.glob("*.qasm") if p.stem not in REFERENCE_BUILDERS
-        )
-        stale.extend(extra)
+    for suffix, writer in _WRITERS.items():
+        tag = "" if suffix == "qasm" else f".{suffix}"
+        for name in REFERENCE_BUILDERS:
+            written = _read_text(root / f"{name}.{suffix}")
+            if written is None or not _same_text(written, writer(name)):
+                stale.append(f"{name}{tag}")
+        if root.is_dir():
+            stale.extend(sorted(f"{p.stem}{tag}" for p in root.glob(f"*.{suffix}")
+                                if p.stem not in REFERENCE_BUILDERS))
     index = _read_text(root / INDEX_NAME)
     if index is None or index != index_markdown():
         stale.append(INDEX_NAME)
@@ -245,12 +270,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = argparse.ArgumentParser(
         prog="python -m qdensity.export",
-        description="Export qdensity's reference circuits as OpenQASM 2 with a README index.",
+        description="Export qdensity's reference circuits as OpenQASM 2 and 3 with a README index.",
     )
     parser.add_argument("directory", nargs="?", default="circuits",
                         help="output directory (default: ./circuits)")
     parser.add_argument("--check", action="store_true",
                         help="write nothing; list missing or out-of-date files, exit 1 if any")
+    parser.add_argument("--qasm3", action="store_true",
+                        help="write only the OpenQASM 3 files (symbolic parameters) and index")
     args = parser.parse_args(argv)
     if args.check:
         stale = check_circuits(args.directory)
@@ -259,8 +286,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not stale:
             print(f"{args.directory}: all {len(REFERENCE_BUILDERS)} reference circuits current")
         return 1 if stale else 0
-    paths = export_circuits(args.directory)
-    print(f"wrote {len(paths) - 1} circuits and {INDEX_NAME} to {args.directory}")
+    formats = ("qasm3",) if args.qasm3 else ("qasm", "qasm3")
+    paths = export_circuits(args.directory, formats=formats)
+    print(f"wrote {len(paths) - 1} files and {INDEX_NAME} to {args.directory}")
     return 0
 
 

@@ -211,7 +211,8 @@ def _cmd_table1(args) -> int:
 def _cmd_export(args) -> int:
     from qdensity.cli.export import main as export_main
 
-    return export_main([args.directory] + (["--check"] if args.check else []))
+    return export_main([args.directory] + (["--check"] if args.check else [])
+                       + (["--qasm3"] if args.qasm3 else []))
 
 
 def _cmd_demo(args) -> int:
@@ -276,6 +277,8 @@ def _parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
     e.add_argument("directory", nargs="?", default="circuits")
     e.add_argument("--check", action="store_true", help="only check the files are current")
+    e.add_argument("--qasm3", action="store_true", help="write only the OpenQASM 3 files "
+                   "(trainable and data parameters symbolic)")
     e.set_defaults(func=_cmd_export)
 
     d = sub.add_parser("demo", help="train a round-robin OrthoQNN and its density version on "

@@ -19,6 +19,16 @@ the first instance's angle into the definition. The global phase is dropped (Ope
 none), so a file reloads to a circuit equal to the builder's up to a global phase; final
 measurements are kept where the builder has them.
 
+Every reference circuit is also exported as OpenQASM 3 (:func:`reference_qasm3`, files
+``<name>.qasm3``) with its parameters kept *symbolic*, so that a provider binds them: the
+trainable angles of the ansätze (``θ``, ...) and the data angles of the unary loaders (``x``,
+:func:`qdensity.loaders.unary_loader_template`) are ``input float[64]`` declarations, in the
+order of the circuit's parameters. The catalogue is the same: :func:`bind_reference` binds
+nothing and :func:`_data_loader` builds template loaders while :func:`symbolic_circuit` builds.
+The matrix loader, ``Load(sqrt(alpha))``, the mixtures alpha and the loader of the gradient
+circuit (whose diagonalising layer is built for fixed data) keep their fixed values. The circuit
+is unrolled into the gates of ``stdgates.inc`` (:data:`QASM3_BASIS`) at optimisation level 0.
+
 This module holds the catalogue (:data:`REFERENCE_BUILDERS`, their descriptions, seeds and
 parameter binding) and the exported form of one circuit (:func:`reference_circuit`,
 :func:`reference_qasm`). Writing and checking the ``circuits/`` directory, and the command
@@ -38,13 +48,15 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import zlib
 from collections.abc import Callable, Iterable
 from functools import cache
 
 import numpy as np
-from qiskit import qasm2, transpile
+from qiskit import qasm2, qasm3, transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
@@ -61,7 +73,12 @@ from qdensity.circuits.ansatze import (
     round_robin_pairs,
     x_circuit,
 )
-from qdensity.circuits.loaders import distribution_loader, matrix_loader, unary_loader
+from qdensity.circuits.loaders import (
+    distribution_loader,
+    matrix_loader,
+    unary_loader,
+    unary_loader_template,
+)
 from qdensity.circuits.preparation import deterministic_circuit, hw_generative_circuit, lcu_circuit
 from qdensity.circuits.tomography import tomography_circuits
 from qdensity.gradients.commuting import commuting_gradient
@@ -75,6 +92,9 @@ __all__ = [
     "bind_reference",
     "reference_circuit",
     "reference_qasm",
+    "QASM3_BASIS",
+    "symbolic_circuit",
+    "reference_qasm3",
 ]
 
 #: Gates of the original ``qelib1.inc`` (the file ``qiskit.qasm2.loads`` and other OpenQASM 2
@@ -84,6 +104,15 @@ QASM2_BASIS: tuple[str, ...] = (
     "u1", "u2", "u3", "x", "y", "z", "h", "s", "sdg", "t", "tdg", "rx", "ry", "rz",
     "cx", "cy", "cz", "ch", "crz", "cu1", "cu3", "ccx",
 )
+
+#: Gates of OpenQASM 3's ``stdgates.inc`` that the symbolic exports may contain.
+QASM3_BASIS: tuple[str, ...] = (
+    "x", "y", "z", "h", "s", "sdg", "t", "tdg", "sx", "rx", "ry", "rz", "p",
+    "cx", "cy", "cz", "cp", "crx", "cry", "crz", "ch", "swap", "ccx",
+)
+
+# Whether the builders are building the symbolic (OpenQASM 3) form.
+_SYMBOLIC: contextvars.ContextVar[bool] = contextvars.ContextVar("symbolic", default=False)
 
 # Reference data: fixed signed vectors with a zero (loaders) and a distribution.
 _VECTOR_5 = (0.8, -0.3, 0.0, 0.5, -1.1)
@@ -146,6 +175,8 @@ def bind_reference(circuit: QuantumCircuit, name: str) -> QuantumCircuit:
         ``default_rng(reference_seed(name)).uniform(-pi, pi, P)[i]``.
     """
     rng = np.random.default_rng(reference_seed(name))
+    if _SYMBOLIC.get():  # building the OpenQASM 3 form: parameters stay free
+        return circuit.copy()
     values = rng.uniform(-math.pi, math.pi, circuit.num_parameters)
     return circuit.assign_parameters(values.tolist())
 
@@ -163,6 +194,22 @@ def _reference(name: str) -> Callable[[Callable[[], QuantumCircuit]], Callable[[
     return register
 
 
+def _data_loader(vector, layout: str = "parallel") -> QuantumCircuit:
+    """A unary loader of ``vector``; in the symbolic form, the template with data angles ``x``."""
+    if _SYMBOLIC.get():
+        return unary_loader_template(len(vector), layout)
+    return unary_loader(vector, layout)
+
+
+@contextlib.contextmanager
+def _symbolic():
+    token = _SYMBOLIC.set(True)
+    try:
+        yield
+    finally:
+        _SYMBOLIC.reset(token)
+
+
 # --------------------------------------------------------------------------------------------
 # The reference circuits
 # --------------------------------------------------------------------------------------------
@@ -171,19 +218,19 @@ def _reference(name: str) -> Callable[[Callable[[], QuantumCircuit]], Callable[[
 @_reference("loader_parallel_5")
 def _loader_parallel_5() -> QuantumCircuit:
     """Unary loader, parallel tree layout (RBS depth 3), x = (0.8, -0.3, 0, 0.5, -1.1)."""
-    return unary_loader(_VECTOR_5, "parallel")
+    return _data_loader(_VECTOR_5, "parallel")
 
 
 @_reference("loader_diagonal_5")
 def _loader_diagonal_5() -> QuantumCircuit:
     """Unary loader, diagonal chain layout (RBS depth 4), x = (0.8, -0.3, 0, 0.5, -1.1)."""
-    return unary_loader(_VECTOR_5, "diagonal")
+    return _data_loader(_VECTOR_5, "diagonal")
 
 
 @_reference("loader_semi_diagonal_5")
 def _loader_semi_diagonal_5() -> QuantumCircuit:
     """Unary loader, semi-diagonal layout (RBS depth 3), x = (0.8, -0.3, 0, 0.5, -1.1)."""
-    return unary_loader(_VECTOR_5, "semi_diagonal")
+    return _data_loader(_VECTOR_5, "semi_diagonal")
 
 
 @_reference("matrix_loader_2x3")
@@ -272,14 +319,14 @@ def _round_robin_layers() -> list[QuantumCircuit]:
 @_reference("deterministic_k3")
 def _deterministic_k3() -> QuantumCircuit:
     """Deterministic density QNN (Fig. 1b): K=3 round-robin rounds, alpha=(0.5, 0.3, 0.2)."""
-    qc = deterministic_circuit(_round_robin_layers(), _ALPHA_3, unary_loader(_VECTOR_4))
+    qc = deterministic_circuit(_round_robin_layers(), _ALPHA_3, _data_loader(_VECTOR_4))
     return bind_reference(qc, "deterministic_k3")
 
 
 @_reference("lcu_k3")
 def _lcu_k3() -> QuantumCircuit:
     """LCU density QNN (Fig. 1a): K=3 round-robin rounds, post-select mix = 000."""
-    qc = lcu_circuit(_round_robin_layers(), _ALPHA_3, unary_loader(_VECTOR_4))
+    qc = lcu_circuit(_round_robin_layers(), _ALPHA_3, _data_loader(_VECTOR_4))
     return bind_reference(qc, "lcu_k3")
 
 
@@ -304,7 +351,7 @@ def _tomography_builder(index: int) -> Callable[[], QuantumCircuit]:
     basis = ("computational basis", "RBS(pi/4) on (0,1),(2,3)", "RBS(pi/4) on (1,2)")[index]
 
     def build() -> QuantumCircuit:
-        state = unary_loader(_VECTOR_4).compose(pyramid(4))
+        state = _data_loader(_VECTOR_4).compose(pyramid(4))
         state = bind_reference(state, "tomography_4")  # one state for all three circuits
         return tomography_circuits(state)[index]
 
@@ -388,3 +435,54 @@ def _exported(name: str) -> tuple[str, int, int, int]:
     )
     return text, circuit.num_qubits, two_qubit, circuit.depth()
 
+
+
+def symbolic_circuit(name: str) -> QuantumCircuit:
+    """The OpenQASM 3 form of a reference circuit: parameters free, unrolled into stdgates.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`REFERENCE_BUILDERS`.
+
+    Returns
+    -------
+    QuantumCircuit
+        The builder's circuit with its trainable and loader-data parameters free (same
+        ``parameters`` order), every gate outside :data:`QASM3_BASIS` replaced by its
+        definition; for any values it equals the builder's circuit up to global phase.
+
+    Examples
+    --------
+    >>> [p.name for p in symbolic_circuit("pyramid_4").parameters][:2]
+    ['θ[0]', 'θ[1]']
+    """
+    with _symbolic():
+        circuit = REFERENCE_BUILDERS[_check_name(name)]()
+    return transpile(circuit, basis_gates=list(QASM3_BASIS), optimization_level=0)
+
+
+def reference_qasm3(name: str) -> str:
+    """OpenQASM 3 text of a reference circuit with symbolic parameters (``<name>.qasm3``).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`REFERENCE_BUILDERS`.
+
+    Returns
+    -------
+    str
+        ``qasm3.dumps`` of :func:`symbolic_circuit`, with a comment line naming and describing
+        the circuit after the version line; one ``input float[64]`` per free parameter, in
+        ``parameters`` order. Reload with ``qiskit.qasm3.loads`` (``qiskit-qasm3-import``).
+    """
+    return _exported3(_check_name(name))[0]
+
+
+@cache
+def _exported3(name: str) -> tuple[str, int]:
+    """(text, number of symbolic parameters) of the OpenQASM 3 export (immutable, cached)."""
+    circuit = symbolic_circuit(name)
+    header, rest = qasm3.dumps(circuit).split("\n", 1)
+    return f"{header}\n// {name}: {REFERENCE_DESCRIPTIONS[name]}\n{rest}\n", circuit.num_parameters

@@ -96,7 +96,7 @@ def test_file_holds_only_qelib1_gates(name):
 def test_index_lists_every_file_with_its_width():
     rows = _index_rows()
     assert set(rows) == {p.stem for p in CIRCUITS.glob("*.qasm")}
-    for name, (qubits, two_qubit, depth, description) in rows.items():
+    for name, (qubits, two_qubit, depth, description, qasm3) in rows.items():
         loaded = _load(name)
         assert int(qubits) == loaded.num_qubits
         gates = sum(
@@ -105,6 +105,7 @@ def test_index_lists_every_file_with_its_width():
         )
         assert int(two_qubit) == gates
         assert int(depth) >= 1 and description
+        assert qasm3.startswith(f"[`{name}.qasm3`]({name}.qasm3) (")
     text = (CIRCUITS / INDEX_NAME).read_text(encoding="utf-8")
     assert "python -m qdensity.export" in text and "qdensity export" in text
 
@@ -167,7 +168,8 @@ def test_measured_file_runs_on_aer_after_transpiling():
 def test_export_is_deterministic_and_checks_clean(tmp_path):
     first = export_circuits(tmp_path / "a")
     second = export_circuits(tmp_path / "b")
-    assert [p.name for p in first] == [f"{n}.qasm" for n in NAMES] + [INDEX_NAME]
+    assert [p.name for p in first] == ([f"{n}.qasm" for n in NAMES]
+                                       + [f"{n}.qasm3" for n in NAMES] + [INDEX_NAME])
     for a, b in zip(first, second, strict=True):
         assert a.read_bytes() == b.read_bytes()
     assert check_circuits(tmp_path / "a") == []
@@ -204,7 +206,8 @@ def test_check_tolerates_angle_round_off_only(tmp_path):
 
 def test_export_subset_writes_its_own_index(tmp_path):
     paths = export_circuits(str(tmp_path), ["qcnn_4", "pyramid_4"])
-    assert [p.name for p in paths] == ["qcnn_4.qasm", "pyramid_4.qasm", INDEX_NAME]
+    assert [p.name for p in paths] == ["qcnn_4.qasm", "pyramid_4.qasm", "qcnn_4.qasm3",
+                                       "pyramid_4.qasm3", INDEX_NAME]
     index = (tmp_path / INDEX_NAME).read_text(encoding="utf-8")
     assert "qcnn_4.qasm" in index and "round_robin_4.qasm" not in index
     # A partial export is not a complete reference directory.
