@@ -20,7 +20,12 @@ __all__ = [
     "parameter_of",
     "is_hamming_weight_preserving",
     "HW_PRESERVING_GATES",
+    "GENERATOR_GATES",
 ]
+
+#: Gates whose generator :func:`instruction_generator` knows (the families with a gradient).
+GENERATOR_GATES = ("rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "crx", "cry", "crz", "p",
+                   "u1", "cp", "cu1", "rbs", "fbs", "PauliEvolution")
 
 #: Names of gates that preserve Hamming weight (used by :func:`is_hamming_weight_preserving`).
 HW_PRESERVING_GATES = frozenset(
@@ -161,9 +166,13 @@ def parameter_of(inst: CircuitInstruction) -> tuple[Parameter, float] | None:
 def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> SparsePauliOp:
     """Hermitian generator ``G`` with ``gate(angle) = exp(-i angle G)`` on the whole register.
 
-    Supported: ``rx, ry, rz`` (``G = P/2``), ``rxx, ryy, rzz, rzx`` (``G = P P / 2``),
-    ``rbs`` (``G = Q = (X_i Y_j - Y_i X_j)/2`` in qubit-indexed notation, eigenvalues
-    ``{-1, 0, 0, 1}``; paper eq. 8) and ``PauliEvolutionGate`` (``G = H``).
+    Supported (:data:`GENERATOR_GATES`): ``rx, ry, rz`` (``G = P/2``), ``rxx, ryy, rzz, rzx``
+    (``G = P P / 2``), the controlled rotations ``crx, cry, crz`` (``G = |1><1| (x) P/2``,
+    eigenvalues ``{-1/2, 0, 0, 1/2}``, so a four-term shift rule), the phases ``p``/``u1``
+    (``G = -|1><1|``) and ``cp``/``cu1`` (``G = -|11><11|``), ``rbs`` (``G = Q = (X_i Y_j -
+    Y_i X_j)/2`` in qubit-indexed notation, eigenvalues ``{-1, 0, 0, 1}``; paper eq. 8),
+    ``fbs`` on ``[i, ..., j]`` (``G = Q Z_{i+1} ... Z_{j-1}``, Supp. E eq. 24) and
+    ``PauliEvolutionGate`` (``G = H``).
 
     Parameters
     ----------
@@ -192,9 +201,19 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
         return SparsePauliOp.from_sparse_list([(p + p, q, 0.5)], n)
     if name == "rzx":
         return SparsePauliOp.from_sparse_list([("ZX", q, 0.5)], n)
-    if name == "rbs":
+    if name in ("crx", "cry", "crz"):
+        p = name[2].upper()
+        return SparsePauliOp.from_sparse_list([(p, q[1:], 0.25), ("Z" + p, q, -0.25)], n)
+    if name in ("p", "u1"):
+        return SparsePauliOp.from_sparse_list([("Z", q, 0.5), ("", [], -0.5)], n)
+    if name in ("cp", "cu1"):
         return SparsePauliOp.from_sparse_list(
-            [("XY", q, 0.5), ("YX", q, -0.5)], n
+            [("", [], -0.25), ("Z", q[:1], 0.25), ("Z", q[1:], 0.25), ("ZZ", q, -0.25)], n)
+    if name in ("rbs", "fbs"):
+        i, j, inner = q[0], q[-1], q[1:-1]
+        zs = "Z" * len(inner)
+        return SparsePauliOp.from_sparse_list(
+            [("X" + zs + "Y", [i, *inner, j], 0.5), ("Y" + zs + "X", [i, *inner, j], -0.5)], n
         )
     if name == "PauliEvolution":
         op = inst.operation.operator
@@ -202,8 +221,7 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
             raise ValueError("PauliEvolutionGate with a list of operators is not supported")
         return SparsePauliOp(op).apply_layout(q, n)
     raise ValueError(
-        f"no Pauli generator known for gate {name!r}; supported: rx, ry, rz, rxx, ryy, rzz, "
-        "rzx, rbs, PauliEvolution"
+        f"no Pauli generator known for gate {name!r}; supported: {', '.join(GENERATOR_GATES)}"
     )
 
 

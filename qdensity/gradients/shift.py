@@ -4,7 +4,11 @@
   two-term rule ``df/dt = r [f(t + pi/(4r)) - f(t - pi/(4r))]``.
 * RBS and FBS (generator eigenvalues {-1, 0, 1}): the four-term rule of eq. 23,
   ``df/dt = [f(t + pi/4) - f(t - pi/4)] - (sqrt(2) - 1)/2 [f(t + pi/2) - f(t - pi/2)]``,
-  exact for every input and observable. ``rbs_rule="two_term"`` gives the pi/4 two-term rule,
+  exact for every input and observable.
+* Controlled rotations ``crx, cry, crz`` (generator ``|1><1| (x) P/2``, eigenvalues
+  {-1/2, 0, 1/2}): the same four-term rule with angles doubled and coefficients halved,
+  ``df/dt = [f(t + pi/2) - f(t - pi/2)]/2 - (sqrt(2) - 1)/4 [f(t + pi) - f(t - pi)]``.
+  Phase gates ``p``/``cp`` (two eigenvalues one apart) take the two-term rule with r = 1/2. ``rbs_rule="two_term"`` gives the pi/4 two-term rule,
   exact only when no later gate touches the gate's qubits and the observable is diagonal
   (DESIGN.md); it is offered to show that fact, not for use.
 
@@ -20,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
-from qiskit.quantum_info import SparsePauliOp
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.execution.plans import Estimate, Plan, expectation_plan, probabilities_plan
@@ -57,13 +61,41 @@ def _rule_for(inst, circuit: QuantumCircuit, rbs_rule: str) -> ShiftRule:
             return ShiftRule((math.pi / 4, -math.pi / 4), (1.0, -1.0))
         raise ValueError(f"rbs_rule must be 'four_term' or 'two_term', got {rbs_rule!r}")
     gen = instruction_generator(inst, circuit).simplify()
-    if len(gen) != 1:
-        raise ValueError(
-            f"gate {name!r} has a generator with {len(gen)} Pauli terms; the two-term rule "
-            "needs a single Pauli string (use RBS/FBS for the four-term rule)"
-        )
-    r = abs(complex(gen.coeffs[0]))
-    return ShiftRule((math.pi / (4 * r), -math.pi / (4 * r)), (r, -r))
+    ident = ~(gen.paulis.x.any(axis=1) | gen.paulis.z.any(axis=1))
+    if ident.any() and not ident.all():  # an identity part is a global phase
+        gen = SparsePauliOp(gen.paulis[~ident], gen.coeffs[~ident])
+    if len(gen) == 1:
+        r = abs(complex(gen.coeffs[0]))
+        return ShiftRule((math.pi / (4 * r), -math.pi / (4 * r)), (r, -r))
+    return _spectral_rule(name, gen, [circuit.find_bit(q).index for q in inst.qubits])
+
+
+def _spectral_rule(name: str, gen: SparsePauliOp, qubits: list[int]) -> ShiftRule:
+    """The rule read off the generator's spectrum on the gate's qubits: two eigenvalues
+    ``{l, l + 2r}`` give the two-term rule, three equally spaced ``{l - d, l, l + d}`` the
+    four-term rule of eq. 23 with angles scaled by ``d`` (controlled rotations: ``d = 1/2``)."""
+    if len(qubits) > 10:
+        raise ValueError(f"gate {name!r} spans {len(qubits)} qubits; no shift rule is derived "
+                         "for a multi-term generator that wide")
+    paulis = gen.paulis
+    local = SparsePauliOp(PauliList.from_symplectic(paulis.z[:, qubits], paulis.x[:, qubits],
+                                                    paulis.phase), gen.coeffs)
+    eig = np.linalg.eigvalsh(local.to_matrix())
+    levels = [eig[0]]
+    for e in eig[1:]:
+        if e - levels[-1] > 1e-9:
+            levels.append(e)
+    if len(levels) == 2:
+        r = (levels[1] - levels[0]) / 2
+        return ShiftRule((math.pi / (4 * r), -math.pi / (4 * r)), (r, -r))
+    if len(levels) == 3 and abs((levels[2] - levels[1]) - (levels[1] - levels[0])) < 1e-9:
+        d = levels[1] - levels[0]
+        return ShiftRule(tuple(s / d for s, _ in _FOUR_TERM), tuple(c * d for _, c in _FOUR_TERM))
+    raise ValueError(
+        f"gate {name!r} has a generator with eigenvalues {np.round(levels, 6).tolist()}; shift "
+        "rules are derived for two eigenvalues (two-term) or three equally spaced ones "
+        "(four-term: RBS, FBS, controlled rotations)"
+    )
 
 
 def expand_occurrences(

@@ -7,7 +7,11 @@ Two ways to get gradients:
 
 * ``engine="exact"``: exact values. RBS/FBS models on a unary encoding use the unary engine's
   reverse mode (also giving gradients w.r.t. the inputs, so a trainable pre-processing layer
-  works, Fig. 11); other models use the exact plans.
+  works, Fig. 11); every other model uses the adjoint statevector engine
+  (:mod:`qdensity.execution.adjoint`): one forward and one backward sweep per data row, with
+  gradients w.r.t. the inputs too when the data enter as angles. Both engines, and the compiled
+  circuits, live as long as the model. An :class:`~qdensity.engines.ExactEngine` passed as
+  ``engine`` runs the exact gradient plans on Aer instead (each template transpiled once).
 * ``engine=SamplerEngine(...)`` with ``shots``: every step runs the model's gradient plan
   (forward circuits plus parameter-shift or commuting-generator circuits) on the sampler with
   ``shots`` per circuit; circuits and shots are read off the engine's ledger.
@@ -20,12 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine
-from qdensity.gradients.density import chain_rule, density_gradient_plan
+from qdensity.gradients.density import DensityGradient, chain_rule, density_gradient_plan
 from qdensity.learning import losses as _losses
 from qdensity.learning.nn import get_flat, load_parameters, save_parameters, set_flat
 from qdensity.learning.optim import SGD, Adam
 from qdensity.models.density import DensityQNN
+from qdensity.models.exact import exact_gradients, unary_circuits
 from qdensity.validation import as_rng, check_positive_int
 
 __all__ = ["QuantumLayer", "History", "QNNClassifier", "QNNRegressor"]
@@ -41,7 +47,9 @@ class QuantumLayer:
     Parameters
     ----------
     model : DensityQNN
-    engine : "exact" or SamplerEngine
+    engine : "exact", AdjointEngine, ExactEngine or SamplerEngine
+        ``"exact"``: the unary engine for RBS models on unary inputs, else the model's own
+        adjoint engine. An engine instance is kept for the layer's lifetime.
     shots : int, optional
         Shots per circuit with a sampler engine.
     gradient : {"auto", "shift", "commuting"}
@@ -63,8 +71,10 @@ class QuantumLayer:
             if shots is None:
                 raise ValueError("a sampler engine needs shots (per circuit)")
             check_positive_int(shots, "shots")
-        elif engine != "exact":
-            raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {engine!r}")
+        elif not (isinstance(engine, (AdjointEngine, ExactEngine)) or (
+                isinstance(engine, str) and engine == "exact")):
+            raise ValueError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or a "
+                             f"SamplerEngine, got {engine!r}")
 
     @property
     def params(self) -> dict[str, np.ndarray]:
@@ -73,19 +83,36 @@ class QuantumLayer:
     @property
     def analytic(self) -> bool:
         """True when exact unary reverse mode is used."""
-        return self.engine == "exact" and self.model._use_unary()
+        return self._is_exact_string() and self.model._use_unary()
+
+    def _is_exact_string(self) -> bool:
+        return isinstance(self.engine, str) and self.engine == "exact"
+
+    @property
+    def adjoint(self) -> bool:
+        """True when the adjoint statevector engine gives values and gradients."""
+        return isinstance(self.engine, AdjointEngine) or (
+            self._is_exact_string() and not self.model._use_unary())
 
     def forward(self, Z: np.ndarray, *, need_grad: bool = True) -> np.ndarray:
         """Model output for inputs ``Z`` (B, d) -> (B, m)."""
         Z = np.atleast_2d(np.asarray(Z, dtype=float))
         if self.analytic:
             return self._forward_unary(Z)
-        if not need_grad:
-            if self.engine == "exact":
-                out = self.model.predict(Z)
-                return out[:, None] if out.ndim == 1 else out
+        if not need_grad and self._is_exact_string():
+            out = self.model.predict(Z)
+            return out[:, None] if out.ndim == 1 else out
+        if self.adjoint:
+            engine = self.engine if isinstance(self.engine, AdjointEngine) else None
+            res = exact_gradients(self.model, Z, engine)
+            zeros = np.zeros_like(res.outputs)
+            grad = DensityGradient(res.outputs, zeros, res.jacobians,
+                                   [np.zeros_like(j) for j in res.jacobians])
+            alpha = np.broadcast_to(self.model.alpha(Z), res.outputs.shape[:2])
+            self._cache = ("plan", Z, grad, res.input_jacobians)
+            return np.einsum("bk,bkm->bm", alpha, res.outputs)
         plan = density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)
-        engine = ExactEngine() if self.engine == "exact" else self.engine
+        engine = self.engine
         cost = plan.total_shots
         if self.max_shots is not None and cost is not None and (
                 self.shots_spent + cost > self.max_shots):
@@ -97,7 +124,7 @@ class QuantumLayer:
             self.shots_spent += engine.ledger.total_shots - before
         self.circuits += plan.num_circuits
         alpha = self.model.alpha(Z)
-        self._cache = ("plan", Z, grad)
+        self._cache = ("plan", Z, grad, None)
         return np.einsum("bk,bkm->bm", np.broadcast_to(alpha, grad.outputs.shape[:2]),
                          grad.outputs)
 
@@ -107,10 +134,14 @@ class QuantumLayer:
             raise RuntimeError("backward called before forward")
         kind = self._cache[0]
         if kind == "plan":
-            _, Z, grad = self._cache
+            _, Z, grad, input_jacobians = self._cache
             g_theta, g_mix = chain_rule(self.model, Z, grad, grad_F)
             self.grads = {"theta": g_theta, "mixture": g_mix}
-            return None
+            if input_jacobians is None or self.model.mixture.data_dependent:
+                return None
+            alpha = np.broadcast_to(self.model.alpha(Z), grad.outputs.shape[:2])
+            return sum(np.einsum("bm,bmd->bd", grad_F * alpha[:, k:k + 1], xj)
+                       for k, xj in enumerate(input_jacobians))
         return self._backward_unary(grad_F)
 
     # exact unary path ------------------------------------------------------------
@@ -123,7 +154,7 @@ class QuantumLayer:
             rows = np.flatnonzero(norms[:, 0] == 0).tolist()
             raise ValueError(f"inputs {rows} are all-zero; a unary encoding cannot load them")
         Xn = Z / norms
-        Ys = [forward(c, Xn, m._sub_theta(k, None)) for k, c in enumerate(m.sub_unitaries)]
+        Ys = [forward(c, Xn, m._sub_theta(k, None)) for k, c in enumerate(unary_circuits(m))]
         alpha = m.alpha(Z)
         alpha = np.broadcast_to(alpha, (Z.shape[0], m.num_subunitaries))
         if m.readout == "unary_amplitudes":
@@ -143,7 +174,7 @@ class QuantumLayer:
         m = self.model
         g_theta = np.zeros(m.num_parameters)
         g_Xn = np.zeros_like(Xn)
-        for k, (c, y) in enumerate(zip(m.sub_unitaries, Ys, strict=True)):
+        for k, (c, y) in enumerate(zip(unary_circuits(m), Ys, strict=True)):
             a = alpha[:, k:k + 1]
             if m.readout == "unary_amplitudes":
                 dY = a * grad_F

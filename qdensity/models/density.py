@@ -239,13 +239,12 @@ class DensityQNN:
     # ------------------------------------------------------------------ exact evaluation
     def _use_unary(self) -> bool:
         if self._unary_ok is None:
-            from qdensity.execution.unary import compile_unary
+            from qdensity.models.exact import unary_circuits
 
             ok = self.encoding is not None and self.encoding.kind == "unary"
             if ok:
                 try:
-                    for c in self.sub_unitaries:
-                        compile_unary(c)
+                    unary_circuits(self)  # compiled once, kept on the model
                 except ValueError:
                     ok = False
             if ok and self.readout == "observable":
@@ -255,6 +254,7 @@ class DensityQNN:
 
     def _unary_amplitudes(self, X, theta) -> np.ndarray:
         from qdensity.execution.unary import forward
+        from qdensity.models.exact import unary_circuits
 
         X = np.atleast_2d(np.asarray(X, dtype=float))
         norms = np.linalg.norm(X, axis=1, keepdims=True)
@@ -262,7 +262,7 @@ class DensityQNN:
             raise ValueError("X has an all-zero row; a unary encoding cannot load it")
         Xn = X / norms
         return np.stack([forward(c, Xn, self._sub_theta(k, theta))
-                         for k, c in enumerate(self.sub_unitaries)], axis=1)
+                         for k, c in enumerate(unary_circuits(self))], axis=1)
 
     def _sub_theta(self, k: int, theta) -> np.ndarray:
         theta = self.theta if theta is None else np.asarray(theta, dtype=float)
@@ -283,9 +283,10 @@ class DensityQNN:
         ----------
         X : array_like, shape (B, d), optional
         theta : array_like, shape (P,), optional
-        method : {"auto", "unary", "statevector"}
+        method : {"auto", "unary", "statevector", "aer"}
             ``auto`` uses the unary engine when the model allows it (RBS/FBS sub-unitaries on a
-            unary encoding, diagonal observable), else exact Aer statevectors.
+            unary encoding, diagonal observable), else the adjoint statevector engine the model
+            keeps (``"statevector"``); ``"aer"`` asks Aer (an ExactEngine kept on the model).
 
         Returns
         -------
@@ -303,27 +304,12 @@ class DensityQNN:
             if self.readout == "unary_probabilities":
                 return Y**2
             return (Y**2) @ self._z_readout_matrix()
-        if method not in ("auto", "statevector"):
-            raise ValueError(f"method must be 'auto', 'unary' or 'statevector', got {method!r}")
-        from qdensity.execution.engines import ExactEngine
+        if method not in ("auto", "statevector", "aer"):
+            raise ValueError(f"method must be 'auto', 'unary', 'statevector' or 'aer', got "
+                             f"{method!r}")
+        from qdensity.models.exact import aer_outputs, exact_outputs
 
-        engine = ExactEngine()
-        outs = []
-        for k in range(self.num_subunitaries):
-            if self.readout == "observable":
-                plan = self.expectation_plan(k, X, theta)
-                outs.append(plan.run(engine).value)
-            else:
-                from qdensity.execution.plans import probabilities_plan
-
-                circ = self.circuit(k)
-                res = probabilities_plan(circ, self.rows(k, X, theta)).run(engine)
-                probs = res.probabilities[:, 1 << np.arange(self.num_qubits)]
-                if self.readout == "unary_amplitudes":
-                    raise ValueError("unary_amplitudes need the unary engine (signs are not "
-                                     "in the probabilities); use method='unary'")
-                outs.append(probs)
-        return np.stack(outs, axis=1)
+        return (aer_outputs if method == "aer" else exact_outputs)(self, X, theta)
 
     def expectation_plan(self, k: int, X=None, theta=None, *, shots: int | None = None) -> Plan:
         """Plan for ``f_k(x) = Tr(O U_k rho(x) U_k^dagger)`` over the rows of X."""

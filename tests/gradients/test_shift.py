@@ -252,8 +252,29 @@ def test_shift_errors():
         parameter_shift_plan(qc, SparsePauliOp("ZZZ"), np.zeros(3), parameters=[Parameter("z")])
     with pytest.raises(ValueError, match=r"\(rows, 3\)"):
         parameter_shift_plan(qc, SparsePauliOp("ZZZ"), np.zeros((2, 4)))
-    two_terms = QuantumCircuit(2)
-    two_terms.append(PauliEvolutionGate(SparsePauliOp(["XX", "ZZ"]), time=Parameter("t")),
-                     [0, 1])
-    with pytest.raises(ValueError, match="2 Pauli terms"):
-        parameter_shift_plan(two_terms, SparsePauliOp("ZZ"), np.zeros(1))
+    # XX + 0.5 ZZ has four distinct eigenvalues: no two- or four-term rule
+    four_levels = QuantumCircuit(2)
+    four_levels.append(PauliEvolutionGate(SparsePauliOp(["XX", "ZZ"], [1.0, 0.5]),
+                                          time=Parameter("t")), [0, 1])
+    with pytest.raises(ValueError, match="eigenvalues"):
+        parameter_shift_plan(four_levels, SparsePauliOp("ZZ"), np.zeros(1))
+
+
+def test_spectral_rule_for_equally_spaced_generator():
+    """XX + ZZ has eigenvalues {-2, 0, 0, 2}: the four-term rule with angles scaled by 2 is
+    exact (checked against central finite differences of exact statevectors)."""
+    t = Parameter("t")
+    qc = QuantumCircuit(2)
+    qc.h(0)
+    qc.ry(0.4, 1)
+    qc.append(PauliEvolutionGate(SparsePauliOp(["XX", "ZZ"]), time=t), [0, 1])
+    obs = SparsePauliOp(["XZ", "YI"], [0.7, 0.3])
+    vals = np.array([[0.3], [-1.1]])
+    grad = parameter_shift_plan(qc, obs, vals).run(ExactEngine()).value
+    eps = 1e-6
+
+    def f(v):
+        return Statevector(qc.assign_parameters([v])).expectation_value(obs).real
+
+    fd = [(f(v + eps) - f(v - eps)) / (2 * eps) for v in vals[:, 0]]
+    np.testing.assert_allclose(grad[:, 0], fd, atol=1e-7)

@@ -1,0 +1,323 @@
+"""Statevector operations of the adjoint engine: a circuit compiled to Pauli rotations.
+
+Every parameterised gate the builders emit is a product of (controlled) Pauli rotations
+``exp(-i angle c Pi P)``, ``Pi`` the projector on its controls being ``|1>`` (identity when
+it has none) and ``P`` a Pauli string on the other qubits:
+
+* ``rx, ry, rz``: ``c = 1/2``; ``rxx, ryy, rzz, rzx``: two-qubit strings, ``c = 1/2``;
+* ``crx, cry, crz``: generator ``|1><1| (x) P/2`` (one control);
+* ``p``/``u1`` and ``cp``/``cu1``: ``P = I``, ``c = -1`` (a phase ``e^{i angle}`` on ``Pi``);
+* ``rbs``: ``Q = (X_i Y_j - Y_i X_j)/2`` is two commuting strings, so ``RBS = exp(-i t X_i Y_j
+  / 2) exp(+i t Y_i X_j / 2)`` exactly; ``fbs`` multiplies both strings by ``Z`` on the inner
+  qubits (the parity sign of Supp. E eq. 24);
+* ``PauliEvolutionGate``: one rotation per term of its operator (the terms must commute).
+
+Fixed Pauli gates (``x, y, z, cx, cy, cz, ccx``) are applied as (controlled) Pauli strings,
+other fixed gates by their matrix, and other parameterised gates through their definition.
+
+States are arrays of shape ``(..., R, 2, ..., 2)``: leading batch axes, ``R`` parameter rows
+and one axis per qubit, qubit ``q`` on axis ``-1 - q`` (so a flat index is ``sum_q b_q 2^q``,
+Qiskit's convention).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import ParameterExpression, QuantumCircuit
+
+__all__ = ["Rotation", "Fixed", "Program", "compile_program", "SUPPORTED"]
+
+SUPPORTED = ("rx, ry, rz, rxx, ryy, rzz, rzx, crx, cry, crz, p, u1, cp, cu1, rbs, fbs, "
+             "PauliEvolution (commuting terms), any fixed gate with a matrix, and gates whose "
+             "definition uses these")
+
+_SKIP = frozenset({"barrier", "delay", "id", "global_phase"})
+_ROT = {"rx": "X", "ry": "Y", "rz": "Z", "rxx": "XX", "ryy": "YY", "rzz": "ZZ", "rzx": "ZX"}
+_CROT = {"crx": "X", "cry": "Y", "crz": "Z"}
+_FIXED_PAULI = {"x": (0, "X"), "y": (0, "Y"), "z": (0, "Z"), "cx": (1, "X"), "cy": (1, "Y"),
+                "cz": (1, "Z"), "ccx": (2, "X"), "ccz": (2, "Z")}
+
+
+@dataclass
+class _Pauli:
+    """``P`` on ``n`` qubits: ``(P psi)[k] = factor[k] psi[k ^ x]`` (flip, then a sign)."""
+
+    flip_axes: tuple[int, ...]
+    factor: np.ndarray | None  # broadcastable over the qubit axes, or None for 1
+
+    def apply(self, state: np.ndarray) -> np.ndarray:
+        out = np.flip(state, axis=self.flip_axes) if self.flip_axes else state
+        return out * self.factor if self.factor is not None else out
+
+
+def _pauli(letters: dict[int, str], n: int, phase: complex = 1.0) -> _Pauli:
+    """``phase * prod_q letters[q]`` as a flip of the X/Y axes and a factor over Y/Z axes.
+
+    ``Y|b> = i (-1)^b |1-b>``, so ``(P psi)[k] = (-i)^{#Y} (-1)^{|k & z|} psi[k ^ x]``.
+    """
+    flips = tuple(sorted(-1 - q for q, p in letters.items() if p in "XY"))
+    zq = [q for q, p in letters.items() if p in "YZ"]
+    ny = sum(1 for p in letters.values() if p == "Y")
+    scalar = complex(phase) * (-1j) ** ny
+    if not zq and scalar == 1:
+        return _Pauli(flips, None)
+    factor = np.full((1,) * n, scalar, dtype=complex)
+    for q in zq:
+        shape = [1] * n
+        shape[n - 1 - q] = 2
+        factor = factor * np.array([1.0, -1.0]).reshape(shape)
+    return _Pauli(flips, factor)
+
+
+def _control_index(controls: tuple[int, ...], n: int) -> tuple:
+    idx = [slice(None)] * n
+    for q in controls:
+        idx[n - 1 - q] = slice(1, 2)
+    return (Ellipsis, *idx)
+
+
+@dataclass
+class Rotation:
+    """``exp(-i angle c Pi P)``; ``angle = offset + sum_j coeffs[j] values[cols[j]]``."""
+
+    pauli: _Pauli
+    coefficient: float
+    controls: tuple[int, ...]
+    cols: np.ndarray
+    coeffs: np.ndarray
+    offset: float
+    index: tuple = field(default=(Ellipsis,))
+    identity: bool = False
+
+    def apply(self, state: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> None:
+        """In place; ``cos, sin`` of ``c * angle`` shaped ``(R, 1, ..., 1)`` (negate sin to undo)."""
+        view = state[self.index] if self.controls else state
+        if self.identity:
+            view *= cos - 1j * sin
+            return
+        view[...] = cos * view - 1j * sin * self.pauli.apply(view)
+
+    def overlap(self, lam: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """``2 c Im <lam| Pi P |phi>`` per row: the derivative w.r.t. the angle, shape (..., R)."""
+        if self.controls:
+            lam, phi = lam[self.index], phi[self.index]
+        p_phi = phi if self.identity else self.pauli.apply(phi)
+        n = phi.ndim - 1
+        axes = tuple(range(-n, 0))
+        z = np.sum(np.conj(lam) * p_phi, axis=axes)
+        return 2.0 * self.coefficient * z.imag
+
+
+@dataclass
+class Fixed:
+    """A gate without free parameters: a (controlled) Pauli string or a dense matrix."""
+
+    qubits: tuple[int, ...]
+    matrix: np.ndarray | None = None
+    pauli: _Pauli | None = None
+    controls: tuple[int, ...] = ()
+    index: tuple = field(default=(Ellipsis,))
+
+    def apply(self, state: np.ndarray, inverse: bool = False) -> None:
+        """In place."""
+        if self.pauli is not None:
+            view = state[self.index] if self.controls else state
+            view[...] = self.pauli.apply(view)  # a Pauli is its own inverse
+            return
+        k = len(self.qubits)
+        mat = self.matrix.conj().T if inverse else self.matrix
+        src = [-1 - q for q in reversed(self.qubits)]
+        dst = list(range(-k, 0))
+        moved = np.moveaxis(state, src, dst)
+        shape = moved.shape
+        out = (moved.reshape(shape[:-k] + (2**k,)) @ mat.T).reshape(shape)
+        state[...] = np.moveaxis(out, dst, src)
+
+
+@dataclass
+class Program:
+    """A circuit compiled for the adjoint engine.
+
+    Attributes
+    ----------
+    num_qubits : int
+    num_parameters : int
+        ``P``, in ``circuit.parameters`` order.
+    ops : list of Rotation or Fixed
+        In circuit order.
+    rotations : list of int
+        Positions in ``ops`` of the rotations.
+    coefficients : numpy.ndarray, shape (P, G)
+        ``d angle_g / d value_p`` of rotation ``g``.
+    offsets, scales : numpy.ndarray, shape (G,)
+        Angle offsets and the generator coefficients ``c`` of the rotations.
+    """
+
+    num_qubits: int
+    num_parameters: int
+    ops: list
+    rotations: list[int]
+    coefficients: np.ndarray
+    offsets: np.ndarray
+    scales: np.ndarray
+
+    def angles(self, values: np.ndarray) -> np.ndarray:
+        """Rotation angles ``(R, G)`` for parameter rows ``(R, P)``."""
+        return values @ self.coefficients + self.offsets
+
+
+def _linear(expr, index: dict, gate: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """``expr = offset + sum coeffs * values[cols]``, or a ValueError if not linear."""
+    if not isinstance(expr, ParameterExpression):
+        return np.zeros(0, dtype=int), np.zeros(0), float(np.real(complex(expr)))
+    params = list(expr.parameters)
+    if not params:
+        return np.zeros(0, dtype=int), np.zeros(0), float(np.real(complex(expr)))
+    cols, coeffs = [], []
+    for p in params:
+        g = expr.gradient(p)
+        if isinstance(g, ParameterExpression):
+            if g.parameters:
+                raise ValueError(f"gate {gate!r} angle {expr} is not linear in {p}; the adjoint "
+                                 "engine needs angles linear in the parameters")
+            g = complex(g)
+        cols.append(index[p])
+        coeffs.append(float(np.real(complex(g))))
+    offset = float(np.real(complex(expr.bind({p: 0.0 for p in params}))))
+    return np.array(cols, dtype=int), np.array(coeffs), offset
+
+
+class _Builder:
+    def __init__(self, n: int, index: dict):
+        self.n = n
+        self.index = index
+        self.ops: list = []
+
+    def rotation(self, letters: dict[int, str], c: float, angle, controls=(), gate="") -> None:
+        cols, coeffs, offset = _linear(angle, self.index, gate)
+        identity = not letters
+        self.ops.append(Rotation(_pauli(letters, self.n), float(c), tuple(controls), cols,
+                                 coeffs, offset, _control_index(tuple(controls), self.n),
+                                 identity))
+
+    def fixed_pauli(self, letters: dict[int, str], controls=()) -> None:
+        qs = tuple(controls) + tuple(letters)
+        self.ops.append(Fixed(qs, None, _pauli(letters, self.n), tuple(controls),
+                              _control_index(tuple(controls), self.n)))
+
+    def add(self, op, qubits: list[int]) -> None:
+        name = op.name
+        params = list(op.params)
+        if name in _SKIP:
+            return
+        if name in _ROT:
+            self.rotation(dict(zip(qubits, _ROT[name], strict=True)), 0.5, params[0], (), name)
+        elif name in _CROT:
+            self.rotation({qubits[1]: _CROT[name]}, 0.5, params[0], (qubits[0],), name)
+        elif name in ("p", "u1"):
+            self.rotation({}, -1.0, params[0], (qubits[0],), name)
+        elif name in ("cp", "cu1"):
+            self.rotation({}, -1.0, params[0], tuple(qubits), name)
+        elif name in ("rbs", "fbs"):
+            i, j, inner = qubits[0], qubits[-1], qubits[1:-1]
+            zs = {q: "Z" for q in inner}
+            self.rotation({i: "X", j: "Y", **zs}, 0.5, params[0], (), name)
+            self.rotation({i: "Y", j: "X", **zs}, -0.5, params[0], (), name)
+        elif name == "PauliEvolution":
+            self._evolution(op, qubits)
+        elif name in _FIXED_PAULI and not _free(params):
+            nc, letter = _FIXED_PAULI[name]
+            self.fixed_pauli({qubits[nc]: letter}, qubits[:nc])
+        elif not _free(params) and _has_matrix(op):
+            self.ops.append(Fixed(tuple(qubits), np.asarray(op.to_matrix(), dtype=complex)))
+        elif getattr(op, "definition", None) is not None:
+            inner = op.definition
+            for inst in inner.data:
+                self.add(inst.operation, [qubits[inner.find_bit(q).index] for q in inst.qubits])
+        else:
+            raise ValueError(f"the adjoint engine has no rule for gate {name!r}; supported: "
+                             f"{SUPPORTED}")
+
+    def _evolution(self, op, qubits: list[int]) -> None:
+        from qiskit.quantum_info import SparsePauliOp
+
+        operator = op.operator
+        if isinstance(operator, list):
+            raise ValueError("PauliEvolutionGate with a list of operators is not supported by "
+                             "the adjoint engine; give one SparsePauliOp")
+        spo = SparsePauliOp(operator).simplify()
+        if len(spo) > 1 and not _all_commute(spo):
+            raise ValueError("PauliEvolutionGate with non-commuting terms is not supported by "
+                             "the adjoint engine (its product of exponentials is not exact)")
+        for pauli, coeff in zip(spo.paulis, spo.coeffs, strict=True):
+            c = complex(coeff) * (-1j) ** int(pauli.phase)
+            if abs(c.imag) > 1e-12:
+                raise ValueError("PauliEvolutionGate needs a Hermitian operator (real "
+                                 "coefficients)")
+            letters = {}
+            for k, q in enumerate(qubits):
+                x, z = bool(pauli.x[k]), bool(pauli.z[k])
+                if x or z:
+                    letters[q] = "Y" if x and z else ("X" if x else "Z")
+            if letters:
+                self.rotation(letters, c.real, op.params[0], (), "PauliEvolution")
+
+
+def _free(params) -> bool:
+    return any(isinstance(p, ParameterExpression) and p.parameters for p in params)
+
+
+def _has_matrix(op) -> bool:
+    try:
+        op.to_matrix()
+    except Exception:
+        return False
+    return True
+
+
+def _all_commute(spo) -> bool:
+    x, z = spo.paulis.x.astype(np.int64), spo.paulis.z.astype(np.int64)
+    sym = (x @ z.T + z @ x.T) % 2
+    return not np.any(sym)
+
+
+def compile_program(circuit: QuantumCircuit) -> Program:
+    """Compile an unmeasured circuit (no measurements, no resets) for the adjoint engine.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+
+    Returns
+    -------
+    Program
+
+    Raises
+    ------
+    ValueError
+        For a measurement, a reset, a non-linear angle or a gate with no rule (the message
+        names the gate and the supported families).
+    """
+    n = circuit.num_qubits
+    index = {p: i for i, p in enumerate(circuit.parameters)}
+    builder = _Builder(n, index)
+    for inst in circuit.data:
+        name = inst.operation.name
+        if name in ("measure", "reset"):
+            raise ValueError(f"the adjoint engine simulates unitary circuits; found {name!r} "
+                             "(strip terminal measurements first)")
+        builder.add(inst.operation, [circuit.find_bit(q).index for q in inst.qubits])
+    ops = builder.ops
+    rotations = [i for i, op in enumerate(ops) if isinstance(op, Rotation)]
+    P = circuit.num_parameters
+    coefficients = np.zeros((P, len(rotations)))
+    offsets = np.zeros(len(rotations))
+    scales = np.zeros(len(rotations))
+    for g, i in enumerate(rotations):
+        op = ops[i]
+        np.add.at(coefficients[:, g], op.cols, op.coeffs)
+        offsets[g] = op.offset
+        scales[g] = op.coefficient
+    return Program(n, P, ops, rotations, coefficients, offsets, scales)

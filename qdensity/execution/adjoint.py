@@ -1,0 +1,356 @@
+"""Adjoint engine: exact expectation values and their gradients on a numpy statevector.
+
+For a circuit ``U = U_G ... U_1`` whose parameterised gates are rotations
+``U_g = exp(-i theta_g c_g G_g)`` and an observable ``O``, adjoint differentiation (Jones and
+Gacon, arXiv:2009.02823) gives every derivative of ``f = <psi|O|psi>`` from one forward and one
+backward sweep:
+
+    phi = U |0>,  lam = O phi;  for g = G .. 1:
+        d f / d theta_g = 2 c_g Im <lam| G_g |phi>,   phi <- U_g^dag phi,   lam <- U_g^dag lam
+
+so a gradient costs ``O(gates x 2^n)`` per data row, with no per-parameter circuits and no
+stored activations. Parameters enter gate angles linearly (``angle = a p + b``; a parameter may
+appear in many gates), so ``d f / d p = sum_g a_g d f / d theta_g``. The derivatives are with
+respect to *every* circuit parameter: trainable angles and data-uploading angles alike.
+
+Rows of parameter values are simulated together as one array (batched over data rows); rows
+are processed in chunks that keep the working memory under ``memory_budget`` bytes.
+Supported gates and the compiled form are described in :mod:`qdensity.execution._statevector`.
+
+The widest circuit accepted is ``max_qubits`` (default :data:`MAX_QUBITS` = 20, 16 MiB per row
+and state); a wider one is refused before anything is allocated.
+
+:class:`AdjointEngine` also runs :class:`~qdensity.plans.Plan` s (exact probabilities of the
+measured templates), so it can stand in for :class:`~qdensity.engines.ExactEngine` without Aer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.quantum_info import SparsePauliOp
+
+from qdensity.execution._statevector import Program, compile_program
+from qdensity.execution.engines import _measurement_map, circuit_fingerprint
+from qdensity.execution.plans import CircuitJob, JobResult, check_observable
+from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
+
+__all__ = ["AdjointEngine", "MAX_QUBITS"]
+
+#: Default widest circuit (qubits) the adjoint engine simulates.
+MAX_QUBITS = 20
+#: Hard ceiling for ``max_qubits`` (a 2**30 state is 16 GiB).
+_CEILING = 30
+
+
+class _Observable:
+    """``O psi`` for a SparsePauliOp (grouped by X part) or a real diagonal."""
+
+    def __init__(self, obs, n: int):
+        from qdensity.execution._statevector import _pauli
+
+        self.n = n
+        self.diagonal = None
+        self.terms = []
+        if isinstance(obs, np.ndarray):
+            self.diagonal = obs.astype(float).reshape((2,) * n)
+            return
+        diag = np.zeros((2,) * n)
+        for pauli, coeff in zip(obs.paulis, obs.coeffs, strict=True):
+            letters = {}
+            for q in range(n):
+                x, z = bool(pauli.x[q]), bool(pauli.z[q])
+                if x or z:
+                    letters[q] = "Y" if x and z else ("X" if x else "Z")
+            c = complex(coeff) * (-1j) ** int(pauli.phase)
+            p = _pauli(letters, n, c)
+            if p.flip_axes:
+                self.terms.append(p)
+            else:
+                diag = diag + (np.real(p.factor) if p.factor is not None else np.real(c))
+        if np.any(diag):
+            self.diagonal = diag
+
+    def apply(self, state: np.ndarray) -> np.ndarray:
+        out = state * self.diagonal if self.diagonal is not None else np.zeros_like(state)
+        for p in self.terms:
+            out = out + p.apply(state)
+        return out
+
+
+class AdjointEngine:
+    """Exact statevector values and adjoint gradients, batched over parameter rows.
+
+    Parameters
+    ----------
+    max_qubits : int
+        Widest circuit accepted (default 20; at most 30). Wider circuits are refused before
+        allocating: use the unary engine for RBS/FBS circuits on unary inputs, or a
+        :class:`~qdensity.engines.SamplerEngine` (hardware or an Aer method that scales
+        differently) for anything else.
+    memory_budget : int
+        Bytes of working state per chunk of rows (default 256 MiB).
+
+    Attributes
+    ----------
+    compile_count : int
+        Distinct circuits compiled so far (each once per engine).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.circuit import Parameter
+    >>> t = Parameter("t")
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.ry(t, 0)
+    >>> values, jac = AdjointEngine().value_and_gradient(qc, "Z", [[0.3]])
+    >>> bool(np.allclose(values[0, 0], np.cos(0.3))), bool(np.allclose(jac[0, 0, 0], -np.sin(0.3)))
+    (True, True)
+    """
+
+    def __init__(self, max_qubits: int = MAX_QUBITS, memory_budget: int = 2**28):
+        self.max_qubits = check_positive_int(max_qubits, "max_qubits")
+        if self.max_qubits > _CEILING:
+            raise ValueError(f"max_qubits must be <= {_CEILING}, got {max_qubits}")
+        self.memory_budget = check_positive_int(memory_budget, "memory_budget")
+        self._by_id: dict[int, tuple[QuantumCircuit, Program]] = {}
+        self._by_print: dict[tuple, Program] = {}
+        self.compile_count = 0
+
+    # ------------------------------------------------------------------ compiling
+    def _check_width(self, circuit: QuantumCircuit) -> None:
+        if circuit.num_qubits > self.max_qubits:
+            raise ValueError(
+                f"circuit {circuit.name!r} has {circuit.num_qubits} qubits; the adjoint engine "
+                f"accepts at most max_qubits = {self.max_qubits} (2**n amplitudes per row). "
+                "For RBS/FBS circuits on unary inputs use the unary engine "
+                "(qdensity.execution.unary, n x n instead of 2**n); otherwise sample with a "
+                "SamplerEngine, or raise max_qubits (up to 30) if memory allows")
+
+    def compile(self, circuit: QuantumCircuit) -> Program:
+        """The compiled form of ``circuit``, compiled once per engine (recognised by identity,
+        then by structure).
+
+        Parameters
+        ----------
+        circuit : QuantumCircuit
+            Unmeasured.
+
+        Returns
+        -------
+        Program
+        """
+        hit = self._by_id.get(id(circuit))
+        if hit is not None and hit[0] is circuit:
+            return hit[1]
+        check_circuit(circuit)
+        self._check_width(circuit)
+        key = circuit_fingerprint(circuit)
+        prog = self._by_print.get(key)
+        if prog is None:
+            prog = compile_program(circuit)
+            self._by_print[key] = prog
+            self.compile_count += 1
+        self._by_id[id(circuit)] = (circuit, prog)
+        return prog
+
+    # ------------------------------------------------------------------ sweeps
+    def _chunks(self, rows: int, n: int, copies: int):
+        per_row = 16 * (2**n) * max(copies, 1)
+        size = max(1, min(rows, self.memory_budget // per_row))
+        for start in range(0, rows, size):
+            yield slice(start, min(rows, start + size))
+
+    @staticmethod
+    def _trig(prog: Program, values: np.ndarray):
+        theta = prog.angles(values) * prog.scales
+        shape = (values.shape[0],) + (1,) * prog.num_qubits
+        return np.cos(theta), np.sin(theta), shape
+
+    def _forward(self, prog: Program, values: np.ndarray, initial=None) -> np.ndarray:
+        from qdensity.execution._statevector import Rotation
+
+        n, R = prog.num_qubits, values.shape[0]
+        if initial is None:
+            state = np.zeros((R,) + (2,) * n, dtype=complex)
+            state[(slice(None),) + (0,) * n] = 1.0
+        else:
+            state = np.array(initial, dtype=complex).reshape((R,) + (2,) * n)
+        cos, sin, shape = self._trig(prog, values)
+        g = 0
+        for op in prog.ops:
+            if isinstance(op, Rotation):
+                op.apply(state, cos[:, g].reshape(shape), sin[:, g].reshape(shape))
+                g += 1
+            else:
+                op.apply(state)
+        return state
+
+    def _observables(self, observables, n: int) -> list[_Observable]:
+        if isinstance(observables, (str, SparsePauliOp, np.ndarray)):
+            observables = [observables]
+        out = []
+        for i, obs in enumerate(observables):
+            if isinstance(obs, np.ndarray) and obs.ndim == 1:
+                if obs.shape != (2**n,) or np.iscomplexobj(obs):
+                    raise ValueError(f"observables[{i}] as a diagonal must be a real vector of "
+                                     f"length 2**n = {2**n}, got shape {obs.shape}")
+                out.append(_Observable(obs, n))
+            else:
+                out.append(_Observable(check_observable(obs, n, f"observables[{i}]").simplify(),
+                                       n))
+        if not out:
+            raise ValueError("observables must hold at least one observable")
+        return out
+
+    def _rows(self, circuit: QuantumCircuit, values) -> tuple[Program, np.ndarray]:
+        prog = self.compile(circuit)
+        vals = as_parameter_rows(values, circuit.num_parameters)
+        if not np.all(np.isfinite(vals)):
+            raise ValueError("values must be finite")
+        return prog, vals
+
+    # ------------------------------------------------------------------ public API
+    def statevector(self, circuit: QuantumCircuit, values=None) -> np.ndarray:
+        """Statevectors ``U(values)|0>``.
+
+        Parameters
+        ----------
+        circuit : QuantumCircuit
+            ``n`` qubits, ``P`` parameters.
+        values : array_like, shape (R, P) or (P,)
+
+        Returns
+        -------
+        numpy.ndarray, shape (R, 2**n)
+            Entry ``k`` is the amplitude of ``|k>``, ``k = sum_q b_q 2^q``.
+        """
+        prog, vals = self._rows(circuit, np.zeros((1, 0)) if values is None else values)
+        n = prog.num_qubits
+        out = np.empty((vals.shape[0], 2**n), dtype=complex)
+        for sl in self._chunks(vals.shape[0], n, 1):
+            out[sl] = self._forward(prog, vals[sl]).reshape(-1, 2**n)
+        return out
+
+    def probabilities(self, circuit: QuantumCircuit, values=None) -> np.ndarray:
+        """Outcome probabilities ``|<k|U(values)|0>|^2``, shape (R, 2**n)."""
+        return np.abs(self.statevector(circuit, values)) ** 2
+
+    def expectation(self, circuit: QuantumCircuit, observables, values=None) -> np.ndarray:
+        """``<psi|O_m|psi>`` per row and observable.
+
+        Parameters
+        ----------
+        circuit : QuantumCircuit
+        observables : SparsePauliOp, Pauli label, real diagonal (2**n,), or a sequence of them
+        values : array_like, shape (R, P) or (P,)
+
+        Returns
+        -------
+        numpy.ndarray, shape (R, M)
+        """
+        prog, vals = self._rows(circuit, np.zeros((1, 0)) if values is None else values)
+        obs = self._observables(observables, prog.num_qubits)
+        n = prog.num_qubits
+        out = np.empty((vals.shape[0], len(obs)))
+        axes = tuple(range(1, n + 1))
+        for sl in self._chunks(vals.shape[0], n, 2):
+            psi = self._forward(prog, vals[sl])
+            for m, o in enumerate(obs):
+                out[sl, m] = np.real(np.sum(np.conj(psi) * o.apply(psi), axis=axes))
+        return out
+
+    def value_and_gradient(self, circuit: QuantumCircuit, observables, values,
+                           wrt: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Expectation values and their derivatives w.r.t. circuit parameters (adjoint method).
+
+        Parameters
+        ----------
+        circuit : QuantumCircuit
+            ``n <= max_qubits`` qubits, ``P`` parameters (trainable and data alike).
+        observables : SparsePauliOp, Pauli label, real diagonal (2**n,), or a sequence of them
+            ``M`` observables; a diagonal ``d`` reads ``sum_k d_k |psi_k|^2`` (an indicator
+            vector reads one outcome probability).
+        values : array_like, shape (R, P) or (P,)
+            Parameter rows in ``circuit.parameters`` order.
+        wrt : sequence of int, optional
+            Parameter indices to differentiate (default: all ``P``). The backward sweep stops
+            at the first gate that uses one of them.
+
+        Returns
+        -------
+        (numpy.ndarray (R, M), numpy.ndarray (R, M, len(wrt)))
+            Values and Jacobians.
+        """
+        from qdensity.execution._statevector import Rotation
+
+        prog, vals = self._rows(circuit, values)
+        obs = self._observables(observables, prog.num_qubits)
+        cols = np.arange(prog.num_parameters) if wrt is None else np.asarray(wrt, dtype=int)
+        if cols.size and (cols.min() < 0 or cols.max() >= prog.num_parameters):
+            raise ValueError(f"wrt must hold parameter indices in [0, {prog.num_parameters}), "
+                             f"got {cols.tolist()}")
+        n, M, R = prog.num_qubits, len(obs), vals.shape[0]
+        coeff = prog.coefficients[cols]  # (W, G)
+        needs = np.any(coeff != 0, axis=0)
+        used = np.flatnonzero(needs)
+        first_rot = int(used.min()) if used.size else len(prog.rotations)
+        stop = prog.rotations[first_rot] if used.size else len(prog.ops)
+        values_out = np.empty((R, M))
+        jac = np.zeros((R, M, cols.size))
+        axes = tuple(range(-n, 0))
+        for sl in self._chunks(R, n, M + 1):
+            phi = self._forward(prog, vals[sl])
+            lam = np.stack([o.apply(phi) for o in obs])  # (M, r, 2, ..., 2)
+            values_out[sl] = np.real(np.sum(np.conj(lam) * phi, axis=axes)).T
+            if not used.size:
+                continue
+            cos, sin, shape = self._trig(prog, vals[sl])
+            dtheta = np.zeros((M, phi.shape[0], len(prog.rotations)))
+            g = len(prog.rotations)
+            for i in range(len(prog.ops) - 1, stop - 1, -1):
+                op = prog.ops[i]
+                if isinstance(op, Rotation):
+                    g -= 1
+                    if needs[g]:
+                        dtheta[:, :, g] = op.overlap(lam, phi)
+                    c, s = cos[:, g].reshape(shape), -sin[:, g].reshape(shape)
+                    if i > stop:
+                        op.apply(phi, c, s)
+                        op.apply(lam, c, s)
+                else:
+                    op.apply(phi, inverse=True)
+                    op.apply(lam, inverse=True)
+            jac[sl] = np.einsum("mrg,wg->rmw", dtheta, coeff)
+        return values_out, jac
+
+    # ------------------------------------------------------------------ plans
+    def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
+        """Exact probabilities of every job's measured template (shots are ignored)."""
+        results = []
+        for job in jobs:
+            bare, qubits = self._bare(job.circuit)
+            probs = self.probabilities(bare, job.values)
+            probs = probs.reshape((job.rows,) + (2,) * bare.num_qubits)
+            if len(set(qubits)) != len(qubits):
+                raise ValueError("the adjoint engine needs each qubit measured at most once")
+            n = bare.num_qubits
+            keep = [n - q for q in reversed(qubits)]  # axis of qubit q is n - q (after rows)
+            drop = tuple(a for a in range(1, n + 1) if a not in keep)
+            marg = probs.sum(axis=drop) if drop else probs
+            order = sorted(keep)
+            marg = np.moveaxis(marg, [1 + order.index(a) for a in keep],
+                               list(range(1, len(keep) + 1)))
+            results.append(JobResult(marg.reshape(job.rows, -1), None, job))
+        return results
+
+    def _bare(self, circuit: QuantumCircuit) -> tuple[QuantumCircuit, list[int]]:
+        cache = self.__dict__.setdefault("_bare_cache", {})
+        hit = cache.get(id(circuit))
+        if hit is not None and hit[0] is circuit:
+            return hit[1], hit[2]
+        bare, qubits = _measurement_map(circuit)
+        cache[id(circuit)] = (circuit, bare, qubits)
+        return bare, qubits

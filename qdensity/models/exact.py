@@ -1,0 +1,194 @@
+"""Exact evaluation and gradients of a density QNN on engines the model keeps (paper eq. 3).
+
+A :class:`~qdensity.models.density.DensityQNN` keeps, for its lifetime, everything exact
+evaluation needs, built on first use and never again:
+
+* the composed circuits ``V(x) U_k`` (one per sub-unitary);
+* an :class:`~qdensity.execution.adjoint.AdjointEngine` with those circuits compiled once
+  (every model family: RBS ansatze, hardware-efficient, equivariant, QCNN, re-uploading);
+* the unary engine's compiled form of each sub-unitary (RBS/FBS models on unary inputs);
+* an Aer :class:`~qdensity.execution.engines.ExactEngine` when asked for (``method="aer"``),
+  which transpiles each template once.
+
+:func:`exact_gradients` gives the per-sub-unitary outputs ``f_k``, their Jacobians w.r.t. the
+trainable angles (Cor. 1 / Prop. 1) and w.r.t. the input features when the data enter as
+angles (re-uploading ``x[i]``, angle encodings), from one adjoint sweep per sub-unitary.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+
+from qdensity.analysis.parameters import DATA_PREFIX
+
+__all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "ExactGradients"]
+
+
+@dataclass
+class ModelEngines:
+    """What a model keeps for exact evaluation (see the module docstring)."""
+
+    circuits: list[QuantumCircuit]
+    adjoint: object = None
+    unary: list | None = None
+    aer: object = None
+    columns: dict = field(default_factory=dict)
+
+
+def engines_of(model) -> ModelEngines:
+    """The model's :class:`ModelEngines`, made on first use and kept on the model."""
+    state = model.__dict__.get("_engines")
+    if state is None:
+        from qdensity.execution.adjoint import AdjointEngine
+
+        circuits = [model.circuit(k) for k in range(model.num_subunitaries)]
+        state = ModelEngines(circuits, AdjointEngine())
+        model.__dict__["_engines"] = state
+    return state
+
+
+def unary_circuits(model) -> list:
+    """The sub-unitaries compiled for the unary engine once per model (ValueError if not RBS)."""
+    state = engines_of(model)
+    if state.unary is None:
+        from qdensity.execution.unary import compile_unary
+
+        state.unary = [compile_unary(c) for c in model.sub_unitaries]
+    return state.unary
+
+
+def _readouts(model) -> list:
+    """Adjoint observables of the readout: ``O``, or the outcome probabilities of ``e_j``."""
+    n = model.num_qubits
+    if model.readout == "observable":
+        return [model.observable]
+    if model.readout == "unary_amplitudes":
+        raise ValueError("unary_amplitudes need the unary engine (signs are not in the "
+                         "probabilities); use method='unary'")
+    out = []
+    for j in range(n):
+        d = np.zeros(2**n)
+        d[1 << j] = 1.0
+        out.append(d)
+    return out
+
+
+def _columns(model, k: int):
+    """Column indices of circuit k: trainable (in sub-unitary order), and data -> feature."""
+    state = engines_of(model)
+    if k not in state.columns:
+        circ = state.circuits[k]
+        index = {p: i for i, p in enumerate(circ.parameters)}
+        from qdensity.models.decompositions import trainable_parameters
+
+        trainable = np.array([index[p] for p in trainable_parameters(model.sub_unitaries[k])],
+                             dtype=int)
+        angle_data = model.encoding is None or model.encoding.kind == "angle"
+        data = [(i, p.index) for i, p in enumerate(circ.parameters)
+                if getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX]
+        state.columns[k] = (trainable, data if angle_data else None)
+    return state.columns[k]
+
+
+def exact_outputs(model, X=None, theta=None, engine=None) -> np.ndarray:
+    """Exact ``f_k(x)`` on the adjoint engine: (B, K) for an observable, (B, K, n) for unary
+    probabilities.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d), optional
+    theta : array_like, shape (P,), optional
+    engine : AdjointEngine, optional
+        Default: the model's own.
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    state = engines_of(model)
+    engine = engine or state.adjoint
+    obs = _readouts(model)
+    outs = [engine.expectation(c, obs, model.rows(k, X, theta, circuit=c))
+            for k, c in enumerate(state.circuits)]
+    out = np.stack(outs, axis=1)
+    return out[:, :, 0] if model.readout == "observable" else out
+
+
+def aer_outputs(model, X=None, theta=None) -> np.ndarray:
+    """The same as :func:`exact_outputs` from Aer statevectors (an ExactEngine kept on the
+    model, each template transpiled once)."""
+    from qdensity.execution.engines import ExactEngine
+    from qdensity.execution.plans import probabilities_plan
+
+    state = engines_of(model)
+    if state.aer is None:
+        state.aer = ExactEngine()
+    outs = []
+    for k, circ in enumerate(state.circuits):
+        if model.readout == "observable":
+            outs.append(model.expectation_plan(k, X, theta).run(state.aer).value)
+        else:
+            _readouts(model)
+            res = probabilities_plan(circ, model.rows(k, X, theta, circuit=circ)).run(state.aer)
+            outs.append(res.probabilities[:, 1 << np.arange(model.num_qubits)])
+    return np.stack(outs, axis=1)
+
+
+@dataclass
+class ExactGradients:
+    """Exact outputs and Jacobians of every sub-unitary for one batch.
+
+    Attributes
+    ----------
+    outputs : numpy.ndarray, shape (B, K, m)
+    jacobians : list of numpy.ndarray, each (B, m, P_k)
+        ``d f_k / d theta_k`` in sub-unitary k's parameter order.
+    input_jacobians : list of numpy.ndarray (B, m, d), or None
+        ``d f_k / d x`` when every data parameter is a feature (re-uploading, angle
+        encodings); None for other encodings.
+    """
+
+    outputs: np.ndarray
+    jacobians: list[np.ndarray]
+    input_jacobians: list[np.ndarray] | None
+
+
+def exact_gradients(model, X=None, engine=None) -> ExactGradients:
+    """Outputs and Jacobians of every sub-unitary by adjoint differentiation.
+
+    One forward and one backward statevector sweep per data row and sub-unitary
+    (``O(gates x 2^n)``), for the trainable angles and the data-uploading angles at once.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d), optional
+    engine : AdjointEngine, optional
+        Default: the model's own (kept for the model's lifetime).
+
+    Returns
+    -------
+    ExactGradients
+    """
+    state = engines_of(model)
+    engine = engine or state.adjoint
+    obs = _readouts(model)
+    outs, jacs, xjacs = [], [], []
+    d = None if X is None else np.atleast_2d(np.asarray(X, dtype=float)).shape[1]
+    for k, circ in enumerate(state.circuits):
+        trainable, data = _columns(model, k)
+        wrt = np.concatenate([trainable, [i for i, _ in (data or [])]]).astype(int)
+        vals, jac = engine.value_and_gradient(circ, obs, model.rows(k, X, circuit=circ), wrt)
+        outs.append(vals)
+        jacs.append(jac[:, :, :trainable.size])
+        if data is not None and d is not None:
+            xj = np.zeros(jac.shape[:2] + (d,))
+            for col, (_, feature) in enumerate(data):
+                xj[:, :, feature] += jac[:, :, trainable.size + col]
+            xjacs.append(xj)
+    return ExactGradients(np.stack(outs, axis=1), jacs,
+                          xjacs if len(xjacs) == len(jacs) else None)
