@@ -92,7 +92,7 @@ class Rotation:
     identity: bool = False
 
     def apply(self, state: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> None:
-        """In place; ``cos, sin`` of ``c * angle`` shaped ``(R, 1, ..., 1)`` (negate sin to undo)."""
+        """In place; ``cos, sin`` of ``c * angle``, shape ``(R, 1, ..., 1)``; ``-sin`` undoes."""
         view = state[self.index] if self.controls else state
         if self.identity:
             view *= cos - 1j * sin
