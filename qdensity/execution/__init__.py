@@ -1,8 +1,10 @@
 """Running quantum questions: plans (circuit templates, parameter rows, shots,
-post-processing), engines that execute them (exact Aer probabilities, any ``SamplerV2`` with a
-shot ledger, the unary engine of Supp. F), shot schedulers for randomised density sampling
-(Fig. 1c), hardware targets, noise models and transpiled resource reports."""
+post-processing), engines that execute them (exact Aer probabilities, the adjoint statevector
+engine with its gradients, any ``SamplerV2`` with a shot ledger, the unary engine of Supp. F),
+shot schedulers for randomised density sampling (Fig. 1c), hardware targets, noise models and
+transpiled resource reports."""
 
+from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
 from qdensity.execution.plans import (
     CircuitJob,
@@ -23,6 +25,7 @@ __all__ = [
     "expectation_plan",
     "probabilities_plan",
     "ExactEngine",
+    "AdjointEngine",
     "SamplerEngine",
     "ShotLedger",
     "HardwareTarget",

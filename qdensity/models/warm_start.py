@@ -1,0 +1,107 @@
+"""Warm start of a density QNN from separately trained sub-unitaries (paper, Methods).
+
+The paper's protocol: train the K sub-unitaries in parallel (each as a model of its own), then
+initialise the density model ``f = sum_k alpha_k f_k`` with their trained angles and an alpha
+given up front (e.g. 0.99 on the best sub-unitary and 0.01 on the other), and go on training
+the density model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from qdensity.models.decompositions import independent, trainable_parameters
+from qdensity.models.density import DensityQNN
+from qdensity.models.mixtures import FixedMixture, SoftmaxMixture
+from qdensity.validation import check_distribution
+
+__all__ = ["warm_start", "MIXTURES"]
+
+#: Mixtures a warm-started model may start with.
+MIXTURES = ("softmax", "fixed")
+
+
+def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softmax"
+               ) -> DensityQNN:
+    """A density QNN whose sub-unitaries start at the angles of K trained models.
+
+    Parameters
+    ----------
+    sub_models : sequence of DensityQNN
+        K >= 1 trained models of one sub-unitary each, all with the same width, encoding,
+        readout and observable (those of ``sub_models[0]`` are used).
+    alpha : array_like, shape (K,)
+        Initial mixture weights on the simplex (e.g. ``[0.99, 0.01]``); with
+        ``mixture="softmax"`` every weight must be positive (the logits are ``log alpha``).
+    mixture : {"softmax", "fixed"}
+        A trainable softmax over the K sub-unitaries, or alpha kept fixed.
+
+    Returns
+    -------
+    DensityQNN
+        ``K`` sub-unitaries; ``f(x) = sum_k alpha_k f_k(x)`` (eq. 3) with ``f_k`` exactly the
+        trained ``sub_models[k]``'s output. Sub-unitaries that share parameter objects are
+        given independent copies (Cor. 1), so each keeps its own trained angles.
+
+    Raises
+    ------
+    ValueError
+        For an empty list, a sub-model with K != 1, mismatched widths or readouts, alpha off
+        the simplex or of the wrong length, or an unknown ``mixture``.
+
+    Examples
+    --------
+    >>> from qiskit.quantum_info import SparsePauliOp
+    >>> from qdensity.ansatze import reuploading
+    >>> a = DensityQNN([reuploading(2, parameter_prefix="a")], seed=0)
+    >>> b = DensityQNN([reuploading(2, parameter_prefix="b")], seed=1)
+    >>> model = warm_start([a, b], [0.99, 0.01])
+    >>> x = [[0.3]]
+    >>> bool(np.allclose(model.predict(x), 0.99 * a.predict(x) + 0.01 * b.predict(x)))
+    True
+    """
+    subs = list(sub_models)
+    if not subs:
+        raise ValueError("sub_models must hold at least one trained DensityQNN (K >= 1)")
+    for i, m in enumerate(subs):
+        if not isinstance(m, DensityQNN):
+            raise TypeError(f"sub_models[{i}] must be a DensityQNN, got {type(m).__name__}")
+        if m.num_subunitaries != 1:
+            raise ValueError(f"sub_models[{i}] has K = {m.num_subunitaries} sub-unitaries; each "
+                             "trained model must hold one")
+    first = subs[0]
+    for i, m in enumerate(subs[1:], start=1):
+        if m.num_qubits != first.num_qubits or m.readout != first.readout:
+            raise ValueError(f"sub_models[{i}] has width {m.num_qubits} and readout "
+                             f"{m.readout!r}; sub_models[0] has {first.num_qubits} and "
+                             f"{first.readout!r}")
+        if m.readout == "observable" and not m.observable.equiv(first.observable):
+            raise ValueError(f"sub_models[{i}] reads a different observable than sub_models[0]")
+    alpha = check_distribution(alpha, "alpha")
+    if alpha.shape != (len(subs),):
+        raise ValueError(f"alpha must have one weight per sub-model ({len(subs)}), got "
+                         f"{alpha.shape}")
+    if mixture not in MIXTURES:
+        raise ValueError(f"mixture must be one of {MIXTURES}, got {mixture!r}")
+    if mixture == "softmax" and np.any(alpha <= 0):
+        raise ValueError("alpha must be positive for mixture='softmax' (logits are log alpha); "
+                         "use mixture='fixed' for zero weights")
+    circuits = [m.sub_unitaries[0] for m in subs]
+    seen: set = set()
+    shared = False
+    for c in circuits:
+        params = set(trainable_parameters(c))
+        shared |= bool(seen & params)
+        seen |= params
+    if shared:
+        circuits = independent(circuits).sub_unitaries
+    mix = SoftmaxMixture(alpha=alpha) if mixture == "softmax" else FixedMixture(alpha)
+    model = DensityQNN(circuits, mix, encoding=first.encoding, observable=first.observable,
+                       readout=first.readout)
+    theta = np.zeros(model.num_parameters)
+    for k, m in enumerate(subs):
+        theta[model.subunitary_parameter_indices(k)] = m.theta
+    model.set_params(theta)
+    return model
