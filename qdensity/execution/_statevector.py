@@ -7,6 +7,7 @@ it has none) and ``P`` a Pauli string on the other qubits:
 * ``rx, ry, rz``: ``c = 1/2``; ``rxx, ryy, rzz, rzx``: two-qubit strings, ``c = 1/2``;
 * ``crx, cry, crz``: generator ``|1><1| (x) P/2`` (one control);
 * ``p``/``u1`` and ``cp``/``cu1``: ``P = I``, ``c = -1`` (a phase ``e^{i angle}`` on ``Pi``);
+  ``u``/``u3``: ``RZ RY RZ`` (equal up to a global phase);
 * ``rbs``: ``Q = (X_i Y_j - Y_i X_j)/2`` is two commuting strings, so ``RBS = exp(-i t X_i Y_j
   / 2) exp(+i t Y_i X_j / 2)`` exactly; ``fbs`` multiplies both strings by ``Z`` on the inner
   qubits (the parity sign of Supp. E eq. 24);
@@ -29,7 +30,7 @@ from qiskit.circuit import ParameterExpression, QuantumCircuit
 
 __all__ = ["Rotation", "Fixed", "Program", "compile_program", "SUPPORTED"]
 
-SUPPORTED = ("rx, ry, rz, rxx, ryy, rzz, rzx, crx, cry, crz, p, u1, cp, cu1, rbs, fbs, "
+SUPPORTED = ("rx, ry, rz, rxx, ryy, rzz, rzx, crx, cry, crz, p, u1, cp, cu1, u, u3, rbs, fbs, "
              "PauliEvolution (commuting terms), any fixed gate with a matrix, and gates whose "
              "definition uses these")
 
@@ -225,6 +226,11 @@ class _Builder:
             zs = {q: "Z" for q in inner}
             self.rotation({i: "X", j: "Y", **zs}, 0.5, params[0], (), name)
             self.rotation({i: "Y", j: "X", **zs}, -0.5, params[0], (), name)
+        elif name in ("u", "u3"):  # U(t, f, l) = RZ(f) RY(t) RZ(l) up to a global phase
+            q = qubits[0]
+            self.rotation({q: "Z"}, 0.5, params[2], (), name)
+            self.rotation({q: "Y"}, 0.5, params[0], (), name)
+            self.rotation({q: "Z"}, 0.5, params[1], (), name)
         elif name == "PauliEvolution":
             self._evolution(op, qubits)
         elif name in _FIXED_PAULI and not _free(params):

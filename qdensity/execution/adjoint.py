@@ -225,7 +225,9 @@ class AdjointEngine:
         Returns
         -------
         numpy.ndarray, shape (R, 2**n)
-            Entry ``k`` is the amplitude of ``|k>``, ``k = sum_q b_q 2^q``.
+            Entry ``k`` is the amplitude of ``|k>``, ``k = sum_q b_q 2^q``; exact up to a
+            global phase (``circuit.global_phase`` and the phase of ``u`` gates are dropped,
+            which no expectation value or probability sees).
         """
         prog, vals = self._rows(circuit, np.zeros((1, 0)) if values is None else values)
         n = prog.num_qubits

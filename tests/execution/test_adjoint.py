@@ -1,0 +1,246 @@
+"""The adjoint engine against independent oracles: Qiskit statevectors, central finite
+differences of those statevectors, and parameter-shift plans run on Aer (issue 16)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from qiskit.circuit import Gate, Parameter, ParameterVector, QuantumCircuit
+from qiskit.circuit.library import PauliEvolutionGate, UnitaryGate
+from qiskit.quantum_info import SparsePauliOp, Statevector, random_unitary
+
+from qdensity.circuits.ansatze import (
+    angle_encoding,
+    equivariant_commuting,
+    equivariant_noncommuting,
+    hardware_efficient,
+    pyramid,
+    qcnn,
+    reuploading,
+)
+from qdensity.circuits.gates import FBSGate, RBSGate
+from qdensity.circuits.loaders import unary_loader_template
+from qdensity.execution.adjoint import AdjointEngine
+from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.plans import CircuitJob, expectation_plan, measured
+from qdensity.gradients.shift import parameter_shift_plan
+
+RNG = np.random.default_rng(20261122)
+
+
+@pytest.fixture(scope="module")
+def aer():
+    return ExactEngine()
+
+
+def _every_gate_circuit() -> QuantumCircuit:
+    t = ParameterVector("t", 17)
+    qc = QuantumCircuit(4)
+    qc.h(0)
+    qc.ry(t[0], 1)
+    qc.rx(2 * t[1] + 0.3, 2)
+    qc.cx(0, 3)
+    qc.rz(t[2], 0)
+    qc.append(RBSGate(t[3]), [0, 1])
+    qc.append(FBSGate(t[4], 4), [0, 1, 2, 3])
+    qc.append(FBSGate(t[5], 3), [1, 2, 3])
+    qc.crx(t[6], 0, 2)
+    qc.cry(t[7], 3, 1)
+    qc.crz(t[8], 1, 0)
+    qc.p(t[9], 2)
+    qc.cp(t[10], 1, 3)
+    qc.rxx(t[11], 0, 2)
+    qc.ryy(t[12], 1, 3)
+    qc.rzz(t[13], 0, 1)
+    qc.rzx(t[14], 2, 3)
+    qc.append(PauliEvolutionGate(SparsePauliOp(["XZY", "ZIZ"], [0.7, -0.4]), time=t[15]),
+              [0, 2, 3])
+    qc.s(1)
+    qc.t(2)
+    qc.swap(0, 3)
+    qc.cz(0, 1)
+    qc.y(2)
+    qc.ccx(0, 1, 2)
+    qc.rx(0.4, 1)
+    qc.append(UnitaryGate(random_unitary(4, seed=3)), [1, 3])
+    qc.append(RBSGate(t[0]), [2, 3])  # a shared parameter
+    qc.append(RBSGate(1.1), [0, 2])  # a fixed RBS
+    qc.u(t[16], 0.2, -0.5, 0)  # a gate reached through its definition
+    return qc
+
+
+def _sv_expectations(qc, observables, values):
+    return np.array([[Statevector(qc.assign_parameters(row)).expectation_value(o).real
+                      for o in observables] for row in values])
+
+
+def test_statevectors_match_qiskit_for_every_gate():
+    qc = _every_gate_circuit()
+    vals = RNG.uniform(-np.pi, np.pi, (3, qc.num_parameters))
+    sv = AdjointEngine().statevector(qc, vals)
+    for row, got in zip(vals, sv, strict=True):
+        ref = Statevector(qc.assign_parameters(row)).data
+        phase = np.vdot(got, ref)  # equal up to a global phase (the u gate's is dropped)
+        assert abs(abs(phase) - 1) < 1e-12
+        np.testing.assert_allclose(got * phase, ref, atol=1e-12)
+
+
+def test_gradients_match_finite_differences_for_every_gate():
+    qc = _every_gate_circuit()
+    obs = [SparsePauliOp(["XYZI", "ZZII", "IIIX"], [0.3, 0.5, -1.2]), SparsePauliOp("ZIII")]
+    vals = RNG.uniform(-np.pi, np.pi, (2, qc.num_parameters))
+    values, jac = AdjointEngine().value_and_gradient(qc, obs, vals)
+    np.testing.assert_allclose(values, _sv_expectations(qc, obs, vals), atol=1e-12)
+    eps = 1e-6
+    fd = np.zeros_like(jac)
+    for p in range(qc.num_parameters):
+        step = np.zeros(qc.num_parameters)
+        step[p] = eps
+        fd[:, :, p] = (_sv_expectations(qc, obs, vals + step)
+                       - _sv_expectations(qc, obs, vals - step)) / (2 * eps)
+    np.testing.assert_allclose(jac, fd, atol=1e-7)
+
+
+def test_wrt_selects_columns_and_diagonal_observables_read_probabilities():
+    qc = _every_gate_circuit()
+    vals = RNG.uniform(-np.pi, np.pi, (2, qc.num_parameters))
+    eng = AdjointEngine()
+    indicator = np.zeros(16)
+    indicator[5] = 1.0
+    values, jac = eng.value_and_gradient(qc, [indicator, "IIZZ"], vals)
+    _, part = eng.value_and_gradient(qc, [indicator, "IIZZ"], vals, wrt=[16, 4])
+    np.testing.assert_allclose(part, jac[:, :, [16, 4]], atol=1e-14)
+    probs = np.array([Statevector(qc.assign_parameters(r)).probabilities() for r in vals])
+    np.testing.assert_allclose(values[:, 0], probs[:, 5], atol=1e-12)
+    np.testing.assert_allclose(eng.probabilities(qc, vals), probs, atol=1e-12)
+
+
+def _family_cases():
+    n = 4
+    loader = unary_loader_template(n, parameter_prefix="φ")
+    yield "pyramid+loader", loader.compose(pyramid(n)), SparsePauliOp("IIZI")
+    yield "hardware_efficient", hardware_efficient(n, 2, ("ry", "rz")), SparsePauliOp("XIZZ")
+    enc = angle_encoding(n)
+    z = SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)
+    yield "equivariant_xx", enc.compose(equivariant_commuting(n, "X", 2)), z
+    yield "equivariant_yy", enc.compose(equivariant_commuting(n, "Y", 2)), z
+    yield "equivariant_noncommuting", enc.compose(equivariant_noncommuting(n, 2)), z
+    yield "qcnn", enc.compose(qcnn(n)), SparsePauliOp("ZIII")
+    yield "reuploading", reuploading(4), SparsePauliOp("Z")
+
+
+@pytest.mark.parametrize("name, circuit, observable", list(_family_cases()),
+                         ids=[c[0] for c in _family_cases()])
+def test_every_family_matches_parameter_shift_on_aer(name, circuit, observable, aer):
+    vals = RNG.uniform(-np.pi, np.pi, (2, circuit.num_parameters))
+    values, jac = AdjointEngine().value_and_gradient(circuit, observable, vals)
+    shift = parameter_shift_plan(circuit, observable, vals).run(aer).value
+    np.testing.assert_allclose(jac[:, 0, :], shift, atol=1e-9)
+    exact = expectation_plan(circuit, observable, vals).run(aer).value
+    np.testing.assert_allclose(values[:, 0], exact, atol=1e-9)
+
+
+def test_plans_run_on_the_adjoint_engine_like_aer(aer):
+    qc = hardware_efficient(3, 2)
+    meas = QuantumCircuit(3, 2)
+    meas.compose(qc, inplace=True)
+    meas.measure(2, 0)  # clbit 0 <- qubit 2, clbit 1 <- qubit 0: a permuted marginal
+    meas.measure(0, 1)
+    vals = RNG.uniform(-np.pi, np.pi, (3, qc.num_parameters))
+    jobs = [CircuitJob(meas, vals), CircuitJob(measured(qc), vals)]
+    for ours, ref in zip(AdjointEngine().run(jobs), aer.run(jobs), strict=True):
+        np.testing.assert_allclose(ours.probabilities, ref.probabilities, atol=1e-12)
+
+
+def test_compiles_each_circuit_once():
+    eng = AdjointEngine()
+    qc = qcnn(4)
+    vals = np.zeros((1, qc.num_parameters))
+    for _ in range(3):
+        eng.value_and_gradient(qc, "ZIII", vals)
+    eng.expectation(qcnn(4), "ZIII", vals)  # rebuilt, same structure
+    assert eng.compile_count == 1
+
+
+def test_rows_are_chunked_under_the_memory_budget():
+    qc = hardware_efficient(3, 2)
+    vals = RNG.uniform(-np.pi, np.pi, (7, qc.num_parameters))
+    big = AdjointEngine().value_and_gradient(qc, "ZZI", vals)
+    small = AdjointEngine(memory_budget=16 * 8 * 3).value_and_gradient(qc, "ZZI", vals)
+    for a, b in zip(big, small, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-14)
+
+
+def test_refuses_wide_circuits_before_allocating():
+    wide = QuantumCircuit(40)
+    wide.ry(Parameter("t"), 0)
+    with pytest.raises(ValueError, match=r"max_qubits = 20.*unary engine.*SamplerEngine"):
+        AdjointEngine().value_and_gradient(wide, SparsePauliOp("Z" * 40), [[0.1]])
+    with pytest.raises(ValueError, match=r"max_qubits = 3"):
+        AdjointEngine(max_qubits=3).statevector(hardware_efficient(4, 1), np.zeros(4))
+    with pytest.raises(ValueError, match="max_qubits must be <= 30"):
+        AdjointEngine(max_qubits=31)
+
+
+def test_bad_gates_and_inputs_are_named():
+    class Opaque(Gate):
+        def __init__(self, theta):
+            super().__init__("opaque", 1, [theta])
+
+    qc = QuantumCircuit(1)
+    qc.append(Opaque(Parameter("t")), [0])
+    with pytest.raises(ValueError, match=r"'opaque'.*supported: rx, ry, rz"):
+        AdjointEngine().statevector(qc, [0.1])
+    t = Parameter("t")
+    nonlinear = QuantumCircuit(1)
+    nonlinear.ry(t * t, 0)
+    with pytest.raises(ValueError, match="not linear"):
+        AdjointEngine().statevector(nonlinear, [0.1])
+    noncommuting = QuantumCircuit(2)
+    noncommuting.append(PauliEvolutionGate(SparsePauliOp(["XX", "ZI"]), time=t), [0, 1])
+    with pytest.raises(ValueError, match="non-commuting"):
+        AdjointEngine().statevector(noncommuting, [0.1])
+    ok = hardware_efficient(2, 1)
+    with pytest.raises(ValueError, match=r"\(rows, 2\)"):
+        AdjointEngine().expectation(ok, "ZZ", np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="wrt"):
+        AdjointEngine().value_and_gradient(ok, "ZZ", np.zeros(2), wrt=[5])
+    with pytest.raises(ValueError, match="length 2\\*\\*n = 4"):
+        AdjointEngine().expectation(ok, np.ones(3), np.zeros(2))
+    with pytest.raises(ValueError, match="finite"):
+        AdjointEngine().expectation(ok, "ZZ", [np.nan, 0.0])
+
+
+def test_structurally_equal_templates_differ_by_pauli_operator(aer):
+    """XX and YY evolutions share a gate name and angle; neither engine may confuse them."""
+    n = 3
+    z = SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)
+    enc = angle_encoding(n)
+    eng = AdjointEngine()
+    vals = RNG.uniform(-1, 1, (2, n + 2))
+    for pauli in ("X", "Y"):
+        qc = enc.compose(equivariant_commuting(n, pauli, 2))
+        ref = _sv_expectations(qc, [z], vals)[:, 0]
+        np.testing.assert_allclose(eng.expectation(qc, z, vals)[:, 0], ref, atol=1e-12)
+        np.testing.assert_allclose(expectation_plan(qc, z, vals).run(aer).value, ref, atol=1e-9)
+    assert eng.compile_count == 2
+
+
+def test_aer_engines_bind_controlled_rotations_correctly(aer):
+    """qiskit-aer 0.18 binds parameterised crx/cry/crz/cp wrongly from parameter arrays; the
+    engines unroll them, so QCNN values on Aer equal exact statevectors."""
+    qc = QuantumCircuit(2)
+    t = ParameterVector("t", 4)
+    qc.h(0)
+    qc.ry(0.4, 1)
+    qc.crx(t[0], 0, 1)
+    qc.cry(t[1], 1, 0)
+    qc.crz(t[2], 0, 1)
+    qc.cp(t[3], 1, 0)
+    qc.h([0, 1])
+    vals = RNG.uniform(-np.pi, np.pi, (3, 4))
+    ref = np.array([Statevector(qc.assign_parameters(v)).probabilities() for v in vals])
+    res = aer.run([CircuitJob(measured(qc), vals)])[0]
+    np.testing.assert_allclose(res.probabilities, ref, atol=1e-12)
+    sampled = SamplerEngine(seed=5).run([CircuitJob(measured(qc), vals, 4000)])[0]
+    assert np.all(np.abs(sampled.probabilities - ref) < 5 * np.sqrt(0.25 / 4000) + 1e-12)
