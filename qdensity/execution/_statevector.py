@@ -16,14 +16,14 @@ it has none) and ``P`` a Pauli string on the other qubits:
 Fixed Pauli gates (``x, y, z, cx, cy, cz, ccx``) are applied as (controlled) Pauli strings,
 other fixed gates by their matrix, and other parameterised gates through their definition.
 
-States are arrays of shape ``(..., R, 2, ..., 2)``: leading batch axes, ``R`` parameter rows
-and one axis per qubit, qubit ``q`` on axis ``-1 - q`` (so a flat index is ``sum_q b_q 2^q``,
-Qiskit's convention).
+States are flat arrays of shape ``(..., R, 2**n)``: leading batch axes, ``R`` parameter rows,
+amplitude ``k = sum_q b_q 2^q`` (Qiskit's convention). A gate is a gather (``k -> k ^ x``) with
+a sign, on the positions where its controls are 1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
@@ -41,74 +41,120 @@ _FIXED_PAULI = {"x": (0, "X"), "y": (0, "Y"), "z": (0, "Z"), "cx": (1, "X"), "cy
                 "cz": (1, "Z"), "ccx": (2, "X"), "ccz": (2, "Z")}
 
 
-@dataclass
-class _Pauli:
-    """``P`` on ``n`` qubits: ``(P psi)[k] = factor[k] psi[k ^ x]`` (flip, then a sign)."""
+#: Index arrays of a gate are kept when the state has at most this many amplitudes.
+_CACHE_DIM = 2**16
 
-    flip_axes: tuple[int, ...]
-    factor: np.ndarray | None  # broadcastable over the qubit axes, or None for 1
+
+class _Gather:
+    """``(P psi)[k] = factor[k] psi[k ^ x]`` on the positions ``k`` where every control is 1.
+
+    ``Y|b> = i (-1)^b |1-b>``, so ``(P psi)[k] = (-i)^{#Y} (-1)^{|k & z|} psi[k ^ x]`` with
+    ``x`` the X/Y qubits and ``z`` the Y/Z qubits. States are flat, shape ``(..., R, 2**n)``.
+    """
+
+    def __init__(self, letters: dict[int, str], n: int, phase: complex = 1.0,
+                 controls: tuple[int, ...] = ()):
+        self.n = n
+        self.xmask = sum(1 << q for q, p in letters.items() if p in "XY")
+        self.zmask = sum(1 << q for q, p in letters.items() if p in "YZ")
+        ny = sum(1 for p in letters.values() if p == "Y")
+        self.scalar = complex(phase) * (-1j) ** ny
+        self.cmask = sum(1 << q for q in controls)
+        self._arrays = None
+
+    def arrays(self):
+        """``(idx, src, factor)``: positions (None: all), sources (None: the same) and factors
+        (None: 1)."""
+        if self._arrays is not None:
+            return self._arrays
+        k = np.arange(2**self.n, dtype=np.intp)
+        idx = k[(k & self.cmask) == self.cmask] if self.cmask else None
+        kk = k if idx is None else idx
+        src = kk ^ self.xmask if self.xmask else None
+        fac = None
+        if self.zmask or self.scalar != 1:
+            parity = np.bitwise_count(kk & self.zmask) & 1
+            fac = self.scalar * (1.0 - 2.0 * parity)
+            if not np.any(fac.imag):
+                fac = fac.real.copy()
+        out = (idx, src, fac)
+        if 2**self.n <= _CACHE_DIM:
+            self._arrays = out
+        return out
+
+    def select(self, state: np.ndarray) -> np.ndarray:
+        """``state`` on the controlled positions (a view when there are no controls)."""
+        idx = self.arrays()[0]
+        return state if idx is None else state[..., idx]
 
     def apply(self, state: np.ndarray) -> np.ndarray:
-        out = np.flip(state, axis=self.flip_axes) if self.flip_axes else state
-        return out * self.factor if self.factor is not None else out
+        """A new array: ``P state`` on the controlled positions."""
+        idx, src, fac = self.arrays()
+        if src is not None:
+            out = state[..., src]
+        elif idx is not None:
+            out = state[..., idx]
+        else:
+            out = state.copy()
+        if fac is not None:
+            out *= fac
+        return out
 
-
-def _pauli(letters: dict[int, str], n: int, phase: complex = 1.0) -> _Pauli:
-    """``phase * prod_q letters[q]`` as a flip of the X/Y axes and a factor over Y/Z axes.
-
-    ``Y|b> = i (-1)^b |1-b>``, so ``(P psi)[k] = (-i)^{#Y} (-1)^{|k & z|} psi[k ^ x]``.
-    """
-    flips = tuple(sorted(-1 - q for q, p in letters.items() if p in "XY"))
-    zq = [q for q, p in letters.items() if p in "YZ"]
-    ny = sum(1 for p in letters.values() if p == "Y")
-    scalar = complex(phase) * (-1j) ** ny
-    if not zq and scalar == 1:
-        return _Pauli(flips, None)
-    factor = np.full((1,) * n, scalar, dtype=complex)
-    for q in zq:
-        shape = [1] * n
-        shape[n - 1 - q] = 2
-        factor = factor * np.array([1.0, -1.0]).reshape(shape)
-    return _Pauli(flips, factor)
-
-
-def _control_index(controls: tuple[int, ...], n: int) -> tuple:
-    idx = [slice(None)] * n
-    for q in controls:
-        idx[n - 1 - q] = slice(1, 2)
-    return (Ellipsis, *idx)
+    def assign(self, state: np.ndarray, values: np.ndarray) -> None:
+        idx = self.arrays()[0]
+        if idx is None:
+            state[...] = values
+        else:
+            state[..., idx] = values
 
 
 @dataclass
 class Rotation:
-    """``exp(-i angle c Pi P)``; ``angle = offset + sum_j coeffs[j] values[cols[j]]``."""
+    """``exp(-i angle c Pi P)``; ``angle = offset + sum_j coeffs[j] values[cols[j]]``.
 
-    pauli: _Pauli
+    ``P = I`` (``identity``) is a phase on the controlled positions."""
+
+    gather: _Gather
     coefficient: float
-    controls: tuple[int, ...]
     cols: np.ndarray
     coeffs: np.ndarray
     offset: float
-    index: tuple = field(default=(Ellipsis,))
     identity: bool = False
 
-    def apply(self, state: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> None:
-        """In place; ``cos, sin`` of ``c * angle``, shape ``(R, 1, ..., 1)``; ``-sin`` undoes."""
-        view = state[self.index] if self.controls else state
+    def apply(self, state: np.ndarray, cos: np.ndarray, msin: np.ndarray) -> None:
+        """In place; ``cos`` (R, 1) and ``msin = -i sin`` (R, 1) of ``c * angle`` (``+i sin``
+        undoes the gate)."""
+        g = self.gather
         if self.identity:
-            view *= cos - 1j * sin
+            g.assign(state, g.select(state) * (cos + msin))
             return
-        view[...] = cos * view - 1j * sin * self.pauli.apply(view)
+        p = g.apply(state)
+        p *= msin
+        if g.cmask:
+            g.assign(state, cos * g.select(state) + p)
+        else:
+            state *= cos
+            state += p
 
-    def overlap(self, lam: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """``2 c Im <lam| Pi P |phi>`` per row: the derivative w.r.t. the angle, shape (..., R)."""
-        if self.controls:
-            lam, phi = lam[self.index], phi[self.index]
-        p_phi = phi if self.identity else self.pauli.apply(phi)
-        n = phi.ndim - 1
-        axes = tuple(range(-n, 0))
-        z = np.sum(np.conj(lam) * p_phi, axis=axes)
-        return 2.0 * self.coefficient * z.imag
+    def step_back(self, both: np.ndarray, cos: np.ndarray, isin: np.ndarray,
+                  need: bool) -> np.ndarray | None:
+        """On ``both = [phi, lam_1 .. lam_M]`` (M + 1, R, 2**n): the derivative
+        ``2 c Im <lam_m| Pi P |phi>`` per observable and row, shape (M, R) (if ``need``); then
+        undo the gate on every state in place (one gather for all of them)."""
+        g = self.gather
+        sel = g.select(both)
+        p = sel.copy() if self.identity else g.apply(both)
+        grad = 2.0 * self.coefficient * np.vecdot(sel[1:], p[0]).imag if need else None
+        if self.identity:
+            g.assign(both, sel * (cos + isin))
+            return grad
+        p *= isin
+        if g.cmask:
+            g.assign(both, cos * sel + p)
+        else:
+            both *= cos
+            both += p
+        return grad
 
 
 @dataclass
@@ -117,24 +163,23 @@ class Fixed:
 
     qubits: tuple[int, ...]
     matrix: np.ndarray | None = None
-    pauli: _Pauli | None = None
-    controls: tuple[int, ...] = ()
-    index: tuple = field(default=(Ellipsis,))
+    gather: _Gather | None = None
 
     def apply(self, state: np.ndarray, inverse: bool = False) -> None:
-        """In place."""
-        if self.pauli is not None:
-            view = state[self.index] if self.controls else state
-            view[...] = self.pauli.apply(view)  # a Pauli is its own inverse
+        """In place, on a flat state ``(..., R, 2**n)``."""
+        if self.gather is not None:
+            self.gather.assign(state, self.gather.apply(state))  # a Pauli is its own inverse
             return
+        n = int(state.shape[-1]).bit_length() - 1
+        tensor = state.reshape(state.shape[:-1] + (2,) * n)
         k = len(self.qubits)
         mat = self.matrix.conj().T if inverse else self.matrix
         src = [-1 - q for q in reversed(self.qubits)]
         dst = list(range(-k, 0))
-        moved = np.moveaxis(state, src, dst)
+        moved = np.moveaxis(tensor, src, dst)
         shape = moved.shape
         out = (moved.reshape(shape[:-k] + (2**k,)) @ mat.T).reshape(shape)
-        state[...] = np.moveaxis(out, dst, src)
+        tensor[...] = np.moveaxis(out, dst, src)
 
 
 @dataclass
@@ -198,15 +243,12 @@ class _Builder:
 
     def rotation(self, letters: dict[int, str], c: float, angle, controls=(), gate="") -> None:
         cols, coeffs, offset = _linear(angle, self.index, gate)
-        identity = not letters
-        self.ops.append(Rotation(_pauli(letters, self.n), float(c), tuple(controls), cols,
-                                 coeffs, offset, _control_index(tuple(controls), self.n),
-                                 identity))
+        self.ops.append(Rotation(_Gather(letters, self.n, 1.0, tuple(controls)), float(c), cols,
+                                 coeffs, offset, not letters))
 
     def fixed_pauli(self, letters: dict[int, str], controls=()) -> None:
         qs = tuple(controls) + tuple(letters)
-        self.ops.append(Fixed(qs, None, _pauli(letters, self.n), tuple(controls),
-                              _control_index(tuple(controls), self.n)))
+        self.ops.append(Fixed(qs, None, _Gather(letters, self.n, 1.0, tuple(controls))))
 
     def add(self, op, qubits: list[int]) -> None:
         name = op.name

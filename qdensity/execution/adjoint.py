@@ -46,37 +46,36 @@ _CEILING = 30
 
 
 class _Observable:
-    """``O psi`` for a SparsePauliOp (grouped by X part) or a real diagonal."""
+    """``O psi`` for a SparsePauliOp (a diagonal plus gathers) or a real diagonal."""
 
     def __init__(self, obs, n: int):
-        from qdensity.execution._statevector import _pauli
+        from qdensity.execution._statevector import _Gather
 
-        self.n = n
         self.diagonal = None
         self.terms = []
         if isinstance(obs, np.ndarray):
-            self.diagonal = obs.astype(float).reshape((2,) * n)
+            self.diagonal = obs.astype(float)
             return
-        diag = np.zeros((2,) * n)
+        diag = np.zeros(2**n)
         for pauli, coeff in zip(obs.paulis, obs.coeffs, strict=True):
             letters = {}
             for q in range(n):
                 x, z = bool(pauli.x[q]), bool(pauli.z[q])
                 if x or z:
                     letters[q] = "Y" if x and z else ("X" if x else "Z")
-            c = complex(coeff) * (-1j) ** int(pauli.phase)
-            p = _pauli(letters, n, c)
-            if p.flip_axes:
-                self.terms.append(p)
+            g = _Gather(letters, n, complex(coeff) * (-1j) ** int(pauli.phase))
+            if g.xmask:
+                self.terms.append(g)
             else:
-                diag = diag + (np.real(p.factor) if p.factor is not None else np.real(c))
+                fac = g.arrays()[2]
+                diag = diag + (np.real(fac) if fac is not None else np.real(g.scalar))
         if np.any(diag):
             self.diagonal = diag
 
     def apply(self, state: np.ndarray) -> np.ndarray:
         out = state * self.diagonal if self.diagonal is not None else np.zeros_like(state)
-        for p in self.terms:
-            out = out + p.apply(state)
+        for g in self.terms:
+            out += g.apply(state)
         return out
 
 
@@ -166,23 +165,20 @@ class AdjointEngine:
     @staticmethod
     def _trig(prog: Program, values: np.ndarray):
         theta = prog.angles(values) * prog.scales
-        shape = (values.shape[0],) + (1,) * prog.num_qubits
-        return np.cos(theta), np.sin(theta), shape
+        return np.cos(theta), np.sin(theta)
 
-    def _forward(self, prog: Program, values: np.ndarray, initial=None) -> np.ndarray:
+    def _forward(self, prog: Program, values: np.ndarray) -> np.ndarray:
         from qdensity.execution._statevector import Rotation
 
-        n, R = prog.num_qubits, values.shape[0]
-        if initial is None:
-            state = np.zeros((R,) + (2,) * n, dtype=complex)
-            state[(slice(None),) + (0,) * n] = 1.0
-        else:
-            state = np.array(initial, dtype=complex).reshape((R,) + (2,) * n)
-        cos, sin, shape = self._trig(prog, values)
+        R = values.shape[0]
+        state = np.zeros((R, 2**prog.num_qubits), dtype=complex)
+        state[:, 0] = 1.0
+        cos, sin = self._trig(prog, values)
+        msin = -1j * sin
         g = 0
         for op in prog.ops:
             if isinstance(op, Rotation):
-                op.apply(state, cos[:, g].reshape(shape), sin[:, g].reshape(shape))
+                op.apply(state, cos[:, g:g + 1], msin[:, g:g + 1])
                 g += 1
             else:
                 op.apply(state)
@@ -233,7 +229,7 @@ class AdjointEngine:
         n = prog.num_qubits
         out = np.empty((vals.shape[0], 2**n), dtype=complex)
         for sl in self._chunks(vals.shape[0], n, 1):
-            out[sl] = self._forward(prog, vals[sl]).reshape(-1, 2**n)
+            out[sl] = self._forward(prog, vals[sl])
         return out
 
     def probabilities(self, circuit: QuantumCircuit, values=None) -> np.ndarray:
@@ -257,11 +253,10 @@ class AdjointEngine:
         obs = self._observables(observables, prog.num_qubits)
         n = prog.num_qubits
         out = np.empty((vals.shape[0], len(obs)))
-        axes = tuple(range(1, n + 1))
         for sl in self._chunks(vals.shape[0], n, 2):
             psi = self._forward(prog, vals[sl])
             for m, o in enumerate(obs):
-                out[sl, m] = np.real(np.sum(np.conj(psi) * o.apply(psi), axis=axes))
+                out[sl, m] = np.vecdot(psi, o.apply(psi)).real
         return out
 
     def value_and_gradient(self, circuit: QuantumCircuit, observables, values,
@@ -302,29 +297,28 @@ class AdjointEngine:
         stop = prog.rotations[first_rot] if used.size else len(prog.ops)
         values_out = np.empty((R, M))
         jac = np.zeros((R, M, cols.size))
-        axes = tuple(range(-n, 0))
-        for sl in self._chunks(R, n, M + 1):
+        for sl in self._chunks(R, n, M + 2):
             phi = self._forward(prog, vals[sl])
-            lam = np.stack([o.apply(phi) for o in obs])  # (M, r, 2, ..., 2)
-            values_out[sl] = np.real(np.sum(np.conj(lam) * phi, axis=axes)).T
+            both = np.empty((M + 1,) + phi.shape, dtype=complex)  # [phi, lam_1 .. lam_M]
+            both[0] = phi
+            for m, o in enumerate(obs):
+                both[m + 1] = o.apply(phi)
+            values_out[sl] = np.vecdot(both[0], both[1:]).real.T
             if not used.size:
                 continue
-            cos, sin, shape = self._trig(prog, vals[sl])
+            cos, sin = self._trig(prog, vals[sl])
+            isin = 1j * sin
             dtheta = np.zeros((M, phi.shape[0], len(prog.rotations)))
             g = len(prog.rotations)
             for i in range(len(prog.ops) - 1, stop - 1, -1):
                 op = prog.ops[i]
                 if isinstance(op, Rotation):
                     g -= 1
-                    if needs[g]:
-                        dtheta[:, :, g] = op.overlap(lam, phi)
-                    c, s = cos[:, g].reshape(shape), -sin[:, g].reshape(shape)
-                    if i > stop:
-                        op.apply(phi, c, s)
-                        op.apply(lam, c, s)
+                    grad = op.step_back(both, cos[:, g:g + 1], isin[:, g:g + 1], bool(needs[g]))
+                    if grad is not None:
+                        dtheta[:, :, g] = grad
                 else:
-                    op.apply(phi, inverse=True)
-                    op.apply(lam, inverse=True)
+                    op.apply(both, inverse=True)
             jac[sl] = np.einsum("mrg,wg->rmw", dtheta, coeff)
         return values_out, jac
 
