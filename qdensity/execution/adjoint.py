@@ -165,7 +165,8 @@ class AdjointEngine:
     @staticmethod
     def _trig(prog: Program, values: np.ndarray):
         theta = prog.angles(values) * prog.scales
-        return np.cos(theta), np.sin(theta)
+        # complex: numpy multiplies complex arrays by complex factors faster than by floats
+        return np.cos(theta).astype(complex), np.sin(theta).astype(complex)
 
     def _forward(self, prog: Program, values: np.ndarray) -> np.ndarray:
         from qdensity.execution._statevector import Rotation
