@@ -177,10 +177,28 @@ def test_instruction_generator_of_pauli_evolution(labels, coeffs, qubits):
     np.testing.assert_allclose(Operator(qc).data, expm(-1j * t * expected), atol=1e-12)
 
 
+@pytest.mark.parametrize("gate", ["crx", "cry", "crz", "p", "cp", "fbs"])
+def test_instruction_generator_of_controlled_rotations_phases_and_fbs(gate):
+    """``gate(t) = exp(-i t G)`` exactly (matrix oracle) for the generators issue 16 added."""
+    from qdensity.circuits.gates import FBSGate
+
+    t = 0.37
+    qc = QuantumCircuit(4)
+    if gate == "fbs":
+        qc.append(FBSGate(t, 3), [1, 2, 3])
+    elif gate == "p":
+        qc.p(t, 2)
+    else:
+        getattr(qc, gate)(t, 3, 1)
+    gen = instruction_generator(qc.data[0], qc).to_matrix()
+    np.testing.assert_allclose(gen, gen.conj().T, atol=1e-14)
+    np.testing.assert_allclose(Operator(qc).data, expm(-1j * t * gen), atol=1e-12)
+
+
 def test_instruction_generator_errors():
     qc = QuantumCircuit(3)
-    qc.crx(0.3, 0, 1)
-    with pytest.raises(ValueError, match="crx"):
+    qc.h(0)
+    with pytest.raises(ValueError, match=r"'h'.*supported: rx, ry, rz.*crx, cry, crz"):
         instruction_generator(qc.data[0], qc)
     qc = QuantumCircuit(2)
     qc.append(PauliEvolutionGate([SparsePauliOp("XX"), SparsePauliOp("ZZ")], time=0.2), [0, 1])
