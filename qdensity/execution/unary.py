@@ -29,12 +29,15 @@ Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
-from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
+from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution._unary_layers import Layer, backward, check_gate_list, rotate, schedule
 from qdensity.validation import check_circuit, check_parameter_values
 
 __all__ = [
@@ -61,7 +64,7 @@ class UnaryCircuit:
     ----------
     num_qubits : int
         ``n``, the dimension of the unary subspace.
-    parameters : tuple of Parameter
+    parameters : tuple of Parameter or ParameterVector
         The circuit's parameters in ``circuit.parameters`` order (the order of ``values``).
     first, second : numpy.ndarray of int, shape (G,)
         Qubits of each rotation in gate-argument order (``first`` is RBS's ``i``).
@@ -72,7 +75,7 @@ class UnaryCircuit:
     """
 
     num_qubits: int
-    parameters: tuple[Parameter, ...]
+    parameters: Sequence[Parameter]
     first: np.ndarray
     second: np.ndarray
     parameter_index: np.ndarray
@@ -88,6 +91,57 @@ class UnaryCircuit:
     def num_gates(self) -> int:
         """Number of rotations ``G``."""
         return int(self.first.size)
+
+    @cached_property
+    def layers(self) -> list[Layer]:
+        """The gates grouped into layers of disjoint rotations (as soon as possible), the unit
+        of work of the vectorised kernels; ``len(layers)`` is the circuit's RBS depth."""
+        return schedule(self.num_qubits, self.first, self.second, self.parameter_index,
+                        self.coefficient)
+
+    @classmethod
+    def from_gates(
+        cls,
+        num_qubits: int,
+        pairs,
+        parameter_index=None,
+        coefficient=None,
+        offset=None,
+        num_parameters: int | None = None,
+    ) -> UnaryCircuit:
+        """A unary circuit straight from a gate list, without building a ``QuantumCircuit``.
+
+        Parameters
+        ----------
+        num_qubits : int
+            ``n``.
+        pairs : array_like of int, shape (G, 2)
+            ``(i, j)`` of each RBS gate in circuit order (an FBS gate on ``[i, ..., j]`` acts
+            on unary states as RBS on ``(i, j)``).
+        parameter_index : array_like of int, shape (G,), optional
+            Parameter of each gate, ``-1`` for a fixed angle; default ``0 .. G - 1`` (one
+            parameter per gate, as a ``ParameterVector("theta", G)`` would give).
+        coefficient, offset : array_like of float, shape (G,), optional
+            Angle ``= coefficient * value + offset``; default 1 and 0.
+        num_parameters : int, optional
+            ``P``; default ``max(parameter_index) + 1``.
+
+        Returns
+        -------
+        UnaryCircuit
+            Its ``parameters`` is a ``ParameterVector("theta", P)`` (created lazily).
+
+        Examples
+        --------
+        >>> c = UnaryCircuit.from_gates(4, [(0, 1), (2, 3), (1, 2)])
+        >>> c.num_gates, c.num_parameters, len(c.layers)
+        (3, 3, 2)
+        >>> forward(c, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]).tolist()
+        [1.0, 0.0, 0.0, 0.0]
+        """
+        n, first, second, pidx, coef, off, p = check_gate_list(
+            num_qubits, pairs, parameter_index, coefficient, offset, num_parameters)
+        return cls(n, ParameterVector("theta", p), first, second, pidx, coef, off)
 
     def angles(self, values: np.ndarray) -> np.ndarray:
         """Gate angles for parameter rows.
@@ -238,15 +292,8 @@ def _batch(compiled: UnaryCircuit, X, values, xname: str = "X"):
 
 
 def _rotate(Z: np.ndarray, compiled: UnaryCircuit, angles: np.ndarray) -> None:
-    """Apply every gate in order to the columns of ``Z`` (n, B), in place."""
-    cos, sin = np.cos(angles), np.sin(angles)
-    for g in range(compiled.num_gates):
-        i, j = compiled.first[g], compiled.second[g]
-        c, s = cos[g], sin[g]
-        zi, zj = Z[i], Z[j]
-        new_i = c * zi - s * zj
-        Z[j] = s * zi + c * zj
-        Z[i] = new_i
+    """Apply every gate in order to the columns of ``Z`` (n, B), in place (layer by layer)."""
+    rotate(Z, compiled.layers, angles)
 
 
 def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np.ndarray:
@@ -366,7 +413,8 @@ def vjp(
     reduce : {"none", "sum"}
         ``"none"``: per-example gradients ``grad_values`` of shape ``(B, P)`` (or ``(P,)``
         for a single input). ``"sum"``: summed over the batch, shape ``(P,)`` -- the gradient
-        of a loss that adds the per-example losses, and the right one for shared values.
+        of a loss that adds the per-example losses, and the right one for shared values;
+        it never allocates the per-example ``(B, P)`` array.
 
     Returns
     -------
@@ -397,32 +445,19 @@ def vjp(
         raise ValueError("grad_Y must be finite (no NaN or inf)")
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
     # forward to the outputs
-    if angles.ndim == 1:
+    if angles.ndim == 1 and B > n:
         O = np.eye(n)
         _rotate(O, compiled, angles)
         Y = O @ Z
     else:
         Y = Z
         _rotate(Y, compiled, angles)
-    cos, sin = np.cos(angles), np.sin(angles)
-    grad_p = np.zeros((compiled.num_parameters, B))
-    for g in range(compiled.num_gates - 1, -1, -1):
-        i, j = compiled.first[g], compiled.second[g]
-        c, s = cos[g], sin[g]
-        ui, uj = Y[i], Y[j]
-        gi, gj = G[i], G[j]
-        k = compiled.parameter_index[g]
-        if k >= 0:
-            grad_p[k] += compiled.coefficient[g] * (gj * ui - gi * uj)
-        # undo the rotation on activations and pull the gradient back (transpose = inverse)
-        Y[i], Y[j] = c * ui + s * uj, c * uj - s * ui
-        G[i], G[j] = c * gi + s * gj, c * gj - s * gi
-    grad_values = grad_p.T
+    per_example = reduce == "none" and not single
+    grad_p = backward(Y, G, compiled.layers, angles, compiled.num_parameters, per_example)
     grad_X = G.T
     if single:
-        return grad_values[0].copy(), grad_X[0].copy()
-    if reduce == "sum":
-        grad_values = grad_values.sum(axis=0)
+        return grad_p, grad_X[0].copy()
+    grad_values = grad_p.T if per_example else grad_p
     return np.ascontiguousarray(grad_values), np.ascontiguousarray(grad_X)
 
 

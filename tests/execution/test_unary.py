@@ -306,3 +306,61 @@ def test_bad_shapes():
         jacobian(qc, np.ones((2, 3)), np.zeros(3))
     with pytest.raises(TypeError, match="circuit"):
         compile_unary("pyramid")
+
+
+# ----------------------------------------------------------------------------- gate lists
+def test_gate_list_matches_statevector_and_shared_parameters_in_one_layer():
+    """from_gates (no QuantumCircuit) against the statevector of the equivalent circuit; two
+    disjoint gates sharing a parameter and a fixed gate fall in one layer (add.at path)."""
+    rng = np.random.default_rng(7)
+    pairs = [(0, 1), (2, 3), (1, 2), (0, 3), (1, 2)]
+    pidx = [0, 0, 1, -1, 2]
+    coef, off = [0.7, -1.3, 2.0, 0.0, 1.0], [0.1, 0.0, -0.2, 0.4, 0.0]
+    uc = UnaryCircuit.from_gates(4, pairs, pidx, coef, off)
+    assert (uc.num_gates, uc.num_parameters) == (5, 3)
+    p = [Parameter(f"p{k}") for k in range(3)]
+    qc = QuantumCircuit(4)
+    for (i, j), k, a, b in zip(pairs, pidx, coef, off, strict=True):
+        qc.append(RBSGate(b if k < 0 else a * p[k] + b), [i, j])
+    values = rng.normal(size=3)
+    bind = dict(zip(p, values, strict=True))
+    x = unit_rows(rng, 1, 4)[0]
+    expected = statevector_output(qc.assign_parameters(bind), x, [])
+    np.testing.assert_allclose(forward(uc, x, values), expected, atol=TOL)
+    # gradient of w . y against central differences of the statevector oracle
+    w = rng.normal(size=4)
+    gv, _ = vjp(uc, x, values, w)
+    eps = 1e-6
+    for k in range(3):
+        d = np.zeros(3)
+        d[k] = eps
+        up = statevector_output(qc.assign_parameters(dict(zip(p, values + d, strict=True))), x, [])
+        dn = statevector_output(qc.assign_parameters(dict(zip(p, values - d, strict=True))), x, [])
+        assert abs(gv[k] - w @ (up - dn) / (2 * eps)) < 1e-7
+
+
+def test_summed_gradient_matches_finite_differences_of_summed_loss():
+    """reduce='sum' (no per-example array) against central differences of the batch loss."""
+    rng = np.random.default_rng(3)
+    qc = round_robin(6)
+    uc = compile_unary(qc)
+    X = unit_rows(rng, 9, 6)
+    W = rng.normal(size=(9, 6))
+    values = rng.normal(size=uc.num_parameters)
+    gsum, _ = vjp(uc, X, values, W, reduce="sum")
+    eps = 1e-6
+    for k in range(uc.num_parameters):
+        d = np.zeros(uc.num_parameters)
+        d[k] = eps
+        up = np.sum(W * np.array([statevector_output(qc, x, values + d) for x in X]))
+        dn = np.sum(W * np.array([statevector_output(qc, x, values - d) for x in X]))
+        assert abs(gsum[k] - (up - dn) / (2 * eps)) < 1e-6
+
+
+def test_gate_list_bad_input():
+    with pytest.raises(ValueError, match="pairs"):
+        UnaryCircuit.from_gates(3, [(0, 3)])
+    with pytest.raises(ValueError, match="pairs"):
+        UnaryCircuit.from_gates(3, [(1, 1)])
+    with pytest.raises(ValueError, match="parameter_index"):
+        UnaryCircuit.from_gates(3, [(0, 1)], parameter_index=[0, 1])
