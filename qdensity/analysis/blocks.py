@@ -25,7 +25,7 @@ from qiskit.circuit import (
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
 from qdensity.analysis.parameters import trainable_parameters
-from qdensity.analysis.pauli import first_noncommuting_pair
+from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
 from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.validation import check_circuit
 
@@ -117,6 +117,33 @@ def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
     return _is_zero(_commutator(a, b))
 
 
+def _stacked(gens: Sequence[SparsePauliOp]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Symplectic bits of every term of every generator and where each generator starts."""
+    sizes = [g.size for g in gens]
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+    x = np.concatenate([g.paulis.x for g in gens]) if gens else np.zeros((0, 0), bool)
+    z = np.concatenate([g.paulis.z for g in gens]) if gens else np.zeros((0, 0), bool)
+    return x, z, starts
+
+
+def _first_noncommuting(gens: Sequence[SparsePauliOp]) -> tuple[int, int] | None:
+    """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
+
+    One GF(2) product gives the anticommutation of every pair of terms; summed over the terms
+    of each generator it flags the pairs that *may* fail to commute (a generator pair all of
+    whose terms commute does commute). Only flagged pairs get an exact commutator.
+    """
+    if len(gens) < 2:
+        return None
+    x, z, starts = _stacked(gens)
+    anti = anticommutation(x, z).astype(np.int64)
+    flags = np.add.reduceat(np.add.reduceat(anti, starts, axis=0), starts, axis=1) > 0
+    for a, b in np.argwhere(np.triu(flags, k=1)):
+        if not _is_zero(_commutator(gens[a], gens[b])):
+            return int(a), int(b)
+    return None
+
+
 def _trainable_of(
     inst: CircuitInstruction, circuit: QuantumCircuit, index: int, params: set[Parameter]
 ) -> _Trainable:
@@ -125,11 +152,26 @@ def _trainable_of(
     if found is None or found[0] not in params:
         raise ValueError(f"gate {label} mixes trainable and other parameters; not supported")
     param, coeff = found
+    op = inst.operation
+    key = None
+    if op.name in _CACHED_GENERATORS:
+        key = (op.name, circuit.num_qubits, tuple(_qubits(inst, circuit)))
+        gen = _GENERATOR_CACHE.get(key)
+        if gen is not None:
+            return _Trainable(index, op.name, label, param, coeff, gen)
     try:
-        gen = instruction_generator(inst, circuit)
+        gen = instruction_generator(inst, circuit).simplify(atol=_ATOL)
     except ValueError as exc:
         raise ValueError(f"trainable gate {label}: {exc}") from exc
-    return _Trainable(index, inst.operation.name, label, param, coeff, gen.simplify(atol=_ATOL))
+    if key is not None and len(_GENERATOR_CACHE) < 100_000:
+        _GENERATOR_CACHE[key] = gen
+    return _Trainable(index, op.name, label, param, coeff, gen)
+
+
+# Generators of the fixed-form gates depend only on (name, width, qubits); reading them once
+# saves building a SparsePauliOp per gate (they are never mutated, only replaced).
+_CACHED_GENERATORS = frozenset({"rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "rbs"})
+_GENERATOR_CACHE: dict[tuple, SparsePauliOp] = {}
 
 
 def _check_unitary(inst: CircuitInstruction, circuit: QuantumCircuit, index: int) -> None:
@@ -149,6 +191,7 @@ def _analyse_block(
     must be Clifford. Generators must commute pairwise (ValueError naming both gates).
     """
     live: list[_Trainable] = []
+    stack = _Stack()  # every live generator's terms, propagated through the Cliffords
     for idx in range(start, stop):
         inst = circuit.data[idx]
         name = inst.operation.name
@@ -156,7 +199,9 @@ def _analyse_block(
             continue
         _check_unitary(inst, circuit, idx)
         if _is_trainable(inst, params):
-            live.append(_trainable_of(inst, circuit, idx, params))
+            t = _trainable_of(inst, circuit, idx, params)
+            stack.append(t.generator)
+            live.append(t)
             continue
         if not live:
             continue
@@ -167,18 +212,62 @@ def _analyse_block(
                 "neither trainable nor Clifford; a commuting block may only be interleaved "
                 "with fixed Clifford gates (use commuting_block_gradient for several blocks)"
             )
-        qs = _qubits(inst, circuit)
-        for t in live:
-            t.generator = _evolve(t.generator, cliff, qs)
-    for a in range(len(live)):
-        for b in range(a + 1, len(live)):
-            if not _commute(live[a].generator, live[b].generator):
-                raise ValueError(
-                    "generators do not commute, so these gates are not one commuting block: "
-                    f"{live[a].label} (parameter {live[a].parameter}) and {live[b].label} "
-                    f"(parameter {live[b].parameter})"
-                )
+        stack.evolve(cliff, _qubits(inst, circuit))
+    for t, gen in zip(live, stack.generators(), strict=True):
+        t.generator = gen
+    pair = _first_noncommuting([t.generator for t in live])
+    if pair is not None:
+        a, b = pair
+        raise ValueError(
+            "generators do not commute, so these gates are not one commuting block: "
+            f"{live[a].label} (parameter {live[a].parameter}) and {live[b].label} "
+            f"(parameter {live[b].parameter})"
+        )
     return live
+
+
+class _Stack:
+    """The terms of several generators as one ``PauliList``, evolved by a Clifford at once."""
+
+    def __init__(self):
+        self.paulis: PauliList | None = None
+        self.coeffs: list[np.ndarray] = []
+        self.sizes: list[int] = []
+
+    def append(self, gen: SparsePauliOp) -> None:
+        self.paulis = gen.paulis.copy() if self.paulis is None else self.paulis + gen.paulis
+        self.coeffs.append(gen.coeffs)
+        self.sizes.append(gen.size)
+
+    def evolve(self, cliff: Clifford, qubits: list[int]) -> None:
+        if self.paulis is not None:
+            self.paulis = self.paulis.evolve(cliff, qargs=qubits, frame="s")
+
+    def commutes_with(self, gen: SparsePauliOp) -> bool:
+        """Whether ``gen`` commutes with every generator: one GF(2) product against all terms,
+        an exact commutator only with generators that have an anticommuting term."""
+        if self.paulis is None:
+            return True
+        anti = anticommutation(gen.paulis.x, gen.paulis.z, self.paulis.x, self.paulis.z)
+        hit = np.flatnonzero(anti.any(axis=0))
+        if not hit.size:
+            return True
+        ends = np.cumsum(self.sizes)
+        coeffs = np.concatenate(self.coeffs)
+        for owner in np.unique(np.searchsorted(ends, hit, side="right")):
+            e, k = ends[owner], self.sizes[owner]
+            other = SparsePauliOp(self.paulis[e - k:e], coeffs[e - k:e])
+            if not _is_zero(_commutator(gen, other)):
+                return False
+        return True
+
+    def generators(self) -> list[SparsePauliOp]:
+        if self.paulis is None:
+            return []
+        coeffs = np.concatenate(self.coeffs)
+        ends = np.cumsum(self.sizes)
+        return [SparsePauliOp(self.paulis[e - k:e], coeffs[e - k:e])
+                for e, k in zip(ends, self.sizes, strict=True)]
 
 
 def commuting_blocks(
@@ -214,29 +303,29 @@ def commuting_blocks(
     params = set(_check_parameters(circuit, parameters))
     blocks: list[tuple[int, int]] = []
     start: int | None = None
-    live: list[SparsePauliOp] = []
+    stack = _Stack()
     for idx, inst in enumerate(circuit.data):
         if inst.operation.name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)
         if _is_trainable(inst, params):
             gen = _trainable_of(inst, circuit, idx, params).generator
-            if start is not None and all(_commute(gen, g) for g in live):
-                live.append(gen)
+            if start is not None and stack.commutes_with(gen):
+                stack.append(gen)
                 continue
             if start is not None:
                 blocks.append((start, idx))
-            start, live = idx, [gen]
+            start, stack = idx, _Stack()
+            stack.append(gen)
             continue
         if start is None:
             continue
         cliff = _clifford_of(inst)
         if cliff is None:
             blocks.append((start, idx))
-            start, live = None, []
+            start, stack = None, _Stack()
         else:
-            qs = _qubits(inst, circuit)
-            live = [_evolve(g, cliff, qs) for g in live]
+            stack.evolve(cliff, _qubits(inst, circuit))
     if start is not None:
         blocks.append((start, len(circuit.data)))
     if not blocks:

@@ -24,6 +24,9 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
 
 __all__ = [
+    "MAX_DENSE_QUBITS",
+    "ZStringTable",
+    "anticommutation",
     "as_pauli_list",
     "commutation_matrix",
     "paulis_commute_pairwise",
@@ -67,6 +70,147 @@ def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
         raise ValueError(f"{name} could not be read as Pauli operators: {exc}") from exc
 
 
+MAX_DENSE_QUBITS = 20
+"""Widest register for which a dense ``2**n`` table of outcome values is built (16 MiB per
+column); wider registers are evaluated on observed outcomes only (:class:`ZStringTable`)."""
+
+
+def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None,
+                    zb: np.ndarray | None = None) -> np.ndarray:
+    """Anticommutation of every pair of Pauli operators as one GF(2) product.
+
+    ``A[s, t] = x_s . z'_t + z_s . x'_t (mod 2)``, computed as one floating-point matrix
+    product of the symplectic bit matrices (exact: the sums are integers below ``2^53``).
+
+    Parameters
+    ----------
+    xa, za : numpy.ndarray of bool, shape (m, n)
+        Symplectic bits of the first set.
+    xb, zb : numpy.ndarray of bool, shape (k, n), optional
+        Of the second set; default the first.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (m, k)
+        True where the operators anticommute.
+
+    Examples
+    --------
+    >>> pl = PauliList(["XI", "ZI", "IZ"])
+    >>> anticommutation(pl.x, pl.z).astype(int).tolist()
+    [[0, 0, 1], [0, 0, 0], [1, 0, 0]]
+    """
+    if xb is None:
+        xb, zb = xa, za
+    a = np.concatenate([xa, za], axis=1).astype(np.float64)
+    b = np.concatenate([zb, xb], axis=1).astype(np.float64)
+    return (np.rint(a @ b.T).astype(np.int64) & 1).astype(bool)
+
+
+class ZStringTable:
+    """Linear combinations of diagonal Pauli strings, evaluated on outcomes (Supp. F.3).
+
+    Column ``p`` is ``D_p = sum_r coefficients[r, p] Z^{z_r}``: its value on a measured
+    bitstring ``b`` is ``sum_r coefficients[r, p] (-1)^{b . z_r}``. Values are computed from
+    the parities of observed bits (memory ``O(outcomes x strings)``, any width); the dense
+    ``(2**n, P)`` table is built only up to :data:`MAX_DENSE_QUBITS`.
+
+    Parameters
+    ----------
+    z : numpy.ndarray of bool, shape (m, n)
+        The ``Z`` bits of each string (qubit ``q`` = bit ``q`` of the outcome).
+    coefficients : numpy.ndarray of float, shape (m, P)
+
+    Examples
+    --------
+    >>> t = ZStringTable(np.array([[True, False]]), np.array([[2.0]]))
+    >>> t.on_bits(np.array([[0, 0], [1, 0]], dtype=bool)).tolist()
+    [[2.0], [-2.0]]
+    """
+
+    def __init__(self, z: np.ndarray, coefficients: np.ndarray):
+        self.z = np.asarray(z, dtype=bool)
+        self.coefficients = np.asarray(coefficients, dtype=float)
+        if self.z.ndim != 2 or self.coefficients.shape[:1] != self.z.shape[:1]:
+            raise ValueError(
+                f"z (m, n) and coefficients (m, P) must agree, got {self.z.shape} and "
+                f"{self.coefficients.shape}"
+            )
+
+    @property
+    def num_qubits(self) -> int:
+        """Width ``n`` of the outcomes."""
+        return self.z.shape[1]
+
+    @property
+    def num_columns(self) -> int:
+        """``P``, the number of observables."""
+        return self.coefficients.shape[1]
+
+    def on_bits(self, bits: np.ndarray) -> np.ndarray:
+        """Values on outcomes given as bits: ``(..., n)`` bool -> ``(..., P)``."""
+        bits = np.asarray(bits)
+        if bits.shape[-1] != self.num_qubits:
+            raise ValueError(f"bits must have {self.num_qubits} columns, got {bits.shape}")
+        if not self.z.shape[0]:
+            return np.zeros(bits.shape[:-1] + (self.num_columns,))
+        parity = np.rint(bits.astype(np.float64) @ self.z.T.astype(np.float64))
+        signs = 1.0 - 2.0 * (parity.astype(np.int64) & 1)
+        return signs @ self.coefficients
+
+    def dense(self) -> np.ndarray:
+        """The ``(2**n, P)`` table over every outcome (index ``sum_q b_q 2^q``).
+
+        Raises
+        ------
+        ValueError
+            Above :data:`MAX_DENSE_QUBITS` qubits: evaluate on observed outcomes instead.
+        """
+        n = self.num_qubits
+        if n > MAX_DENSE_QUBITS:
+            raise ValueError(
+                f"a dense table of outcome values needs 2**{n} rows; above "
+                f"MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS} qubits estimate from sampled bits "
+                "(SamplerEngine) or use the unary engine"
+            )
+        idx = np.arange(2**n, dtype=np.int64)
+        bits = ((idx[:, None] >> np.arange(n)[None, :]) & 1).astype(bool)
+        return self.on_bits(bits)
+
+    def with_ancilla_z(self, factor: float = 1.0) -> ZStringTable:
+        """The table times ``factor * Z`` on one extra (last) qubit."""
+        z = np.concatenate([self.z, np.ones((self.z.shape[0], 1), bool)], axis=1)
+        return ZStringTable(z, factor * self.coefficients)
+
+    @classmethod
+    def from_operators(cls, ops, num_qubits: int, atol: float = 1e-12) -> ZStringTable:
+        """From diagonal ``SparsePauliOp``s (``Z``/``I`` strings, real coefficients), one per
+        column."""
+        rows: dict[bytes, int] = {}
+        zs: list[np.ndarray] = []
+        entries: list[tuple[int, int, float]] = []
+        for col, op in enumerate(ops):
+            pl, coeffs = op.paulis, op.coeffs * (-1j) ** op.paulis.phase
+            if pl.x.any():
+                bad = int(np.flatnonzero(pl.x.any(axis=1))[0])
+                raise ValueError(f"operator {col} is not diagonal: {pl[bad]}")
+            for zrow, c in zip(pl.z, coeffs, strict=True):
+                if abs(c) <= atol:
+                    continue
+                if abs(c.imag) > 1e-9:
+                    raise RuntimeError(f"diagonal observable has a complex coefficient: {op}")
+                key = np.packbits(zrow).tobytes()
+                r = rows.setdefault(key, len(rows))
+                if r == len(zs):
+                    zs.append(np.asarray(zrow, bool))
+                entries.append((r, col, c.real))
+        coef = np.zeros((len(zs), len(ops)))
+        for r, col, c in entries:
+            coef[r, col] += c
+        z = np.array(zs, dtype=bool).reshape(len(zs), num_qubits)
+        return cls(z, coef)
+
+
 def commutation_matrix(paulis) -> np.ndarray:
     """Symplectic inner products of every pair of Pauli operators.
 
@@ -80,9 +224,7 @@ def commutation_matrix(paulis) -> np.ndarray:
         Entry ``[s, t]`` is True iff ``P_s`` and ``P_t`` anticommute.
     """
     pl = as_pauli_list(paulis)
-    x = pl.x.astype(np.int64)
-    z = pl.z.astype(np.int64)
-    return ((x @ z.T + z @ x.T) % 2).astype(bool)
+    return anticommutation(pl.x, pl.z)
 
 
 def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
@@ -285,6 +427,9 @@ _PAULI_1Q = {
 _LABELS_2Q = [a + b for a in "IXYZ" for b in "IXYZ"]  # label "ab": a on the first qubit
 
 
+_TRANSFER_CACHE: dict[bytes, np.ndarray] = {}
+
+
 def _transfer_matrix(unitary: np.ndarray) -> np.ndarray:
     """``T[a, b] = Tr(s_a U s_b U^dag) / 4`` over two-qubit Paulis ``s`` (first qubit = low bit)."""
     mats = [np.kron(_PAULI_1Q[lab[1]], _PAULI_1Q[lab[0]]) for lab in _LABELS_2Q]
@@ -322,7 +467,10 @@ def conjugate_two_qubit(
     if mat.shape != (4, 4):
         raise ValueError(f"unitary must be 4 x 4 (two qubits), got shape {mat.shape}")
     q0, q1 = (int(q) for q in qubits)
-    tm = _transfer_matrix(mat)
+    key = mat.tobytes()
+    tm = _TRANSFER_CACHE.get(key)
+    if tm is None:
+        tm = _TRANSFER_CACHE.setdefault(key, _transfer_matrix(mat))
     labels: list[str] = []
     coeffs: list[complex] = []
     for label, coeff in op.to_list():

@@ -7,8 +7,12 @@
   array, never one job per row; each template is transpiled once and reused; every run is
   written to a :class:`ShotLedger`.
 
-Both return, per job, a :class:`qdensity.plans.JobResult` whose ``probabilities`` are dense
-``(rows, 2**num_clbits)`` arrays indexed by the integer ``sum_j b_j 2^j`` of the clbits.
+Both return, per job, a :class:`qdensity.plans.JobResult`. The exact engine's
+``probabilities`` are dense ``(rows, 2**num_clbits)`` arrays indexed by the integer
+``sum_j b_j 2^j`` of the clbits, so it refuses circuits wider than
+:data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` (20) qubits. The sampler engine keeps the
+measured bits (``JobResult.bits``, ``(rows, shots, num_clbits)``): estimates come from parities
+and observed outcomes with memory ``O(rows x shots)`` whatever the width.
 """
 
 from __future__ import annotations
@@ -21,11 +25,19 @@ from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
+from qdensity.analysis.pauli import MAX_DENSE_QUBITS
 from qdensity.execution._device import check_for_device, check_width, device_of
-from qdensity.execution.plans import CircuitJob, JobResult
+from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
-__all__ = ["ExactEngine", "SamplerEngine", "ShotLedger", "LedgerEntry", "bitarray_to_probabilities"]
+__all__ = [
+    "ExactEngine",
+    "SamplerEngine",
+    "ShotLedger",
+    "LedgerEntry",
+    "bitarray_to_probabilities",
+    "bitarray_to_bits",
+]
 
 
 @dataclass
@@ -233,6 +245,15 @@ class ExactEngine:
         """Exact probabilities for every row of every job (shots are ignored)."""
         results = []
         for job in jobs:
+            # local width guard (to be replaced by the shared validation.check_width)
+            width = job.circuit.num_clbits or job.circuit.num_qubits
+            if width > MAX_DENSE_QUBITS:
+                raise ValueError(
+                    f"ExactEngine returns 2**n probabilities; job {job.label!r} measures "
+                    f"{width} bits, above MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS}. Use "
+                    "SamplerEngine (estimates from bits), the unary engine for RBS circuits, "
+                    "or SamplerEngine with AerSimulator(method='matrix_product_state')"
+                )
             compiled = self._cache(job.circuit)
             cols = _columns_for(job.circuit, compiled)
             binds = (
@@ -250,6 +271,30 @@ class ExactEngine:
         return results
 
 
+def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
+
+    Parameters
+    ----------
+    bitarray : qiskit.primitives.BitArray
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
+    rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (rows, shots, num_bits)
+        Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
+    """
+    shots = bitarray.num_shots if shots is None else int(shots)
+    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
+    # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
+    bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
+    return bits[..., : bitarray.num_bits].astype(bool)
+
+
 def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
     """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
 
@@ -265,17 +310,13 @@ def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> 
     Returns
     -------
     numpy.ndarray, shape (rows, 2**num_bits)
+
+    Raises
+    ------
+    ValueError
+        Above ``MAX_DENSE_QUBITS`` (20) bits; use :func:`bitarray_to_bits`.
     """
-    shots = bitarray.num_shots if shots is None else int(shots)
-    arr = np.asarray(bitarray.array).reshape(rows, shots, -1).astype(np.int64)
-    nbytes = arr.shape[-1]
-    ints = np.zeros(arr.shape[:2], dtype=np.int64)
-    for b in range(nbytes):
-        ints = (ints << 8) | arr[..., b]
-    dim = 2**bitarray.num_bits
-    flat = ints + (np.arange(rows, dtype=np.int64) * dim)[:, None]
-    counts = np.bincount(flat.ravel(), minlength=rows * dim).reshape(rows, dim)
-    return counts / shots
+    return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 
 
 class SamplerEngine:
@@ -384,8 +425,7 @@ class SamplerEngine:
         raw = self.sampler.run(pubs).result()
         results = []
         for (job, shots), pub_result in zip(metas, raw, strict=True):
-            bits = pub_result.join_data()
-            probs = bitarray_to_probabilities(bits, job.rows, shots)
+            bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
             self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
-            results.append(JobResult(probs, shots, job))
+            results.append(JobResult(None, shots, job, bits=bits))
         return results

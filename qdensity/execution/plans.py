@@ -21,6 +21,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.analysis.pauli import MAX_DENSE_QUBITS, ZStringTable
 from qdensity.circuits.measure import measured
 from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
 
@@ -37,6 +38,8 @@ __all__ = [
     "probabilities_plan",
     "check_observable",
     "postselect_hamming_weight",
+    "bits_to_probabilities",
+    "unary_frequencies",
 ]
 
 
@@ -77,22 +80,93 @@ class CircuitJob:
         return int(self.values.shape[0])
 
 
-@dataclass
 class JobResult:
-    """Outcome distributions of one job.
+    """Outcomes of one job: exact probabilities, or the sampled bits.
 
     Attributes
     ----------
     probabilities : numpy.ndarray, shape (rows, 2**num_clbits)
-        Exact probabilities, or empirical frequencies ``counts / shots``.
+        Exact probabilities, or empirical frequencies ``counts / shots`` built from ``bits``
+        on first access -- only up to :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS`
+        clbits (a ``ValueError`` above: estimate from ``bits``).
     shots : int or None
         Shots per row that produced the frequencies (``None`` when exact).
     job : CircuitJob
+    bits : numpy.ndarray of bool, shape (rows, shots, num_clbits), or None
+        The measured bits of every shot (clbit ``j`` = column ``j``) when sampled; estimates
+        read parities and observed outcomes from them with memory ``O(rows x shots)``.
     """
 
-    probabilities: np.ndarray
-    shots: int | None
-    job: CircuitJob
+    def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None):
+        if probabilities is None and bits is None:
+            raise ValueError("JobResult needs probabilities or bits")
+        self._probabilities = probabilities
+        self.shots = shots
+        self.job = job
+        self.bits = bits
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        if self._probabilities is None:
+            self._probabilities = bits_to_probabilities(self.bits)
+        return self._probabilities
+
+    def __repr__(self) -> str:
+        what = "bits" if self._probabilities is None else "probabilities"
+        return f"JobResult({what}, shots={self.shots}, job={self.job!r})"
+
+
+def bits_to_probabilities(bits: np.ndarray) -> np.ndarray:
+    """Empirical frequencies ``(rows, 2**m)`` of sampled bits ``(rows, shots, m)``.
+
+    Raises
+    ------
+    ValueError
+        Above :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` bits (the dense row would
+        need ``2**m`` entries): estimate from the bits instead.
+    """
+    rows, shots, m = bits.shape
+    if m > MAX_DENSE_QUBITS:
+        raise ValueError(
+            f"dense outcome frequencies over {m} clbits need 2**{m} entries per row; above "
+            f"MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS} estimate from the sampled bits "
+            "(JobResult.bits: parities, observed outcomes)"
+        )
+    ints = bits.astype(np.int64) @ (1 << np.arange(m, dtype=np.int64))
+    dim = 2**m
+    flat = ints + (np.arange(rows, dtype=np.int64) * dim)[:, None]
+    return np.bincount(flat.ravel(), minlength=rows * dim).reshape(rows, dim) / shots
+
+
+def unary_frequencies(result: JobResult, postselect: bool = False):
+    """Frequencies of the unary outcomes ``e_j`` (only bit ``j`` set), from bits or exact.
+
+    Parameters
+    ----------
+    result : JobResult
+    postselect : bool
+        Divide by the kept (Hamming-weight-1) fraction of each row.
+
+    Returns
+    -------
+    (numpy.ndarray (rows, m), numpy.ndarray (rows,))
+        The (post-selected) unary probabilities and the Hamming-weight-1 fraction per row.
+    """
+    if result.bits is not None:
+        b = result.bits
+        weight_one = b.sum(axis=-1) == 1
+        p = (b & weight_one[..., None]).mean(axis=1)
+    else:
+        probs = result.probabilities
+        m = int(round(np.log2(probs.shape[1])))
+        p = probs[:, 1 << np.arange(m)]
+    kept = p.sum(axis=1)
+    if postselect:
+        if np.any(kept <= 0):
+            raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
+                             "Hamming weight 1")
+        p = p / kept[:, None]
+    return p, kept
 
 
 @dataclass
@@ -297,7 +371,6 @@ def expectation_plan(
     check_circuit(circuit)
     observable = check_observable(observable, circuit.num_qubits).simplify()
     vals = as_parameter_rows(values, circuit.num_parameters)
-    n = circuit.num_qubits
     jobs, diagonals = [], []
     constant = 0.0
     for group in observable.group_commuting(qubit_wise=True):
@@ -309,12 +382,19 @@ def expectation_plan(
         rot, images = basis_rotation(group.paulis)
         template = measured(circuit.compose(rot))
         jobs.append(CircuitJob(template, vals, shots, f"{label}[{len(jobs)}]"))
-        diagonals.append(diagonal_values(images, np.real(group.coeffs), n))
+        coeffs = np.real(np.asarray(group.coeffs) * (-1j) ** images.phase)
+        diagonals.append(ZStringTable(images.z, coeffs[:, None]))
 
     def post(results: list[JobResult]) -> Estimate:
         value = np.full(vals.shape[0], constant)
         var = np.zeros(vals.shape[0])
-        for res, diag in zip(results, diagonals, strict=True):
+        for res, table in zip(results, diagonals, strict=True):
+            if res.bits is not None:  # parities of the measured bits, never 2**n
+                per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
+                value += per_shot.mean(axis=1)
+                var += per_shot.var(axis=1) / res.shots
+                continue
+            diag = table.dense()[:, 0]
             mean = res.probabilities @ diag
             value += mean
             if res.shots is not None:

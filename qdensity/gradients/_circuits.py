@@ -16,6 +16,7 @@ from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _check_parameters
+from qdensity.analysis.pauli import ZStringTable
 from qdensity.execution.plans import check_observable
 from qdensity.validation import check_circuit, check_rows_sum_to_one
 
@@ -71,7 +72,7 @@ class _GradientCircuits:
 
     circuits: list[QuantumCircuit]
     parameters: list[Parameter]
-    _values: list[np.ndarray] = field(repr=False)
+    _values: list[ZStringTable] = field(repr=False)
 
     @property
     def num_gradient_circuits(self) -> int:
@@ -79,8 +80,45 @@ class _GradientCircuits:
         return len(self.circuits)
 
     def value_matrices(self) -> list[np.ndarray]:
-        """Per circuit, shape ``(2**width, P)``: each parameter's estimator on each outcome."""
-        return [v.copy() for v in self._values]
+        """Per circuit, shape ``(2**width, P)``: each parameter's estimator on each outcome.
+
+        Dense, so only up to :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` qubits; wider
+        circuits are estimated from sampled bits (:meth:`gradient_from_bits`)."""
+        return [v.dense() for v in self._values]
+
+    def gradient_from_bits(self, bits) -> tuple[np.ndarray, np.ndarray]:
+        """Gradient and standard error from the measured bits, never a ``2**n`` array.
+
+        Each shot gives one value of every parameter's estimator (parities of its bits); the
+        estimate is their mean, the error ``s / sqrt(shots)`` with ``s^2`` the unbiased sample
+        variance; independent circuits add. Memory ``O(shots x P)`` per row.
+
+        Parameters
+        ----------
+        bits : sequence of numpy.ndarray of bool, each shape (rows, shots, width)
+            Per circuit, in :attr:`circuits` order (clbit ``j`` = column ``j``).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray), each shape (rows, P)
+        """
+        if not isinstance(bits, (list, tuple)) or len(bits) != len(self.circuits):
+            raise ValueError(f"bits must be a list of {len(self.circuits)} arrays, one per "
+                             "circuit in `circuits` order")
+        value = 0.0
+        var = 0.0
+        for c, (b, table) in enumerate(zip(bits, self._values, strict=True)):
+            b = np.asarray(b)
+            if b.ndim != 3 or b.shape[-1] != table.num_qubits:
+                raise ValueError(f"bits[{c}] must have shape (rows, shots, "
+                                 f"{table.num_qubits}), got {b.shape}")
+            if b.shape[1] < 2:
+                raise ValueError(f"bits[{c}] needs >= 2 shots to estimate a variance")
+            rows = np.stack([table.on_bits(r) for r in b]) if b.shape[0] else np.zeros(
+                (0, b.shape[1], table.num_columns))
+            value = value + rows.mean(axis=1)
+            var = var + rows.var(axis=1, ddof=1) / b.shape[1]
+        return np.asarray(value), np.sqrt(var)
 
     def _as_list(self, probs) -> list[np.ndarray]:
         if len(self.circuits) == 1 and not isinstance(probs, (list, tuple)):
@@ -91,7 +129,7 @@ class _GradientCircuits:
                 "`circuits` order (a single array is accepted when there is one circuit)"
             )
         arrs = [
-            _check_probs(p, v.shape[0], f"probs[{c}]")
+            _check_probs(p, 2**v.num_qubits, f"probs[{c}]")
             for c, (p, v) in enumerate(zip(probs, self._values, strict=True))
         ]
         if len({a.shape[:-1] for a in arrs}) != 1:
@@ -114,7 +152,7 @@ class _GradientCircuits:
             ``d f / d p`` for each parameter of :attr:`parameters`.
         """
         arrs = self._as_list(probs)
-        return sum(a @ v for a, v in zip(arrs, self._values, strict=True))
+        return sum(a @ v for a, v in zip(arrs, self.value_matrices(), strict=True))
 
     def standard_error(self, probs, shots) -> np.ndarray:
         """Standard error of each gradient estimate.
@@ -141,7 +179,7 @@ class _GradientCircuits:
                 f"shots must be an int or one int per circuit ({len(arrs)}), got {shots!r}"
             )
         total = 0.0
-        for a, v, s in zip(arrs, self._values, per_circuit, strict=True):
+        for a, v, s in zip(arrs, self.value_matrices(), per_circuit, strict=True):
             two_d = np.atleast_2d(a)
             n_shots = _check_shots(s, two_d.shape[0])
             mean = two_d @ v

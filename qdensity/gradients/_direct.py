@@ -18,10 +18,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
-from qiskit.quantum_info import Clifford, SparsePauliOp
+from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _commutator, _evolve, _is_zero, _Trainable
-from qdensity.analysis.pauli import diagonalising_clifford, first_noncommuting_pair
+from qdensity.analysis.blocks import _ATOL, _evolve, _is_zero, _Trainable
+from qdensity.analysis.pauli import (
+    anticommutation,
+    diagonalising_clifford,
+    first_noncommuting_pair,
+)
 from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients.diagonalising import _diagonal_matrix, _measured, _rbs_layer_for
 
@@ -75,7 +79,7 @@ class CommutingGradient(_GradientCircuits):
         """Shape ``(2**n, P)``: each parameter's estimator on each outcome (one circuit)."""
         if len(self._values) != 1:
             raise ValueError(f"{len(self._values)} circuits; use value_matrices()")
-        return self._values[0].copy()
+        return self._values[0].dense()
 
 
 def _gradient_terms(
@@ -83,26 +87,56 @@ def _gradient_terms(
 ) -> tuple[dict[Parameter, SparsePauliOp], list[tuple[str, dict[Parameter, SparsePauliOp],
                                                        list[tuple[str, _Trainable]]]]]:
     """Total ``O_p`` and, per non-constant Pauli term ``P_t`` of ``H``, its share ``O_{p,t}``
-    with the (term, gate) origin of each Pauli string."""
+    with the (term, gate) origin of each Pauli string.
+
+    ``i [G, h P_t] = 2 i h sum_{a: {P_a, P_t} = 0} c_a P_a P_t`` for ``G = sum_a c_a P_a``: the
+    anticommuting (generator term, observable term) pairs come from one GF(2) product, their
+    products from one element-wise ``PauliList.dot``; only non-zero shares are built.
+    """
     n = observable.num_qubits
     zero = SparsePauliOp(["I" * n], [0.0])
-    total = {p: zero for p in params}
+    terms = [(label, h.real) for label, h in observable.to_list()
+             if set(label) != {"I"} and abs(h) > _ATOL]
+    if not terms or not trainables:
+        return {p: zero for p in params}, [(label, {p: zero for p in params}, [])
+                                           for label, _ in terms]
+    hl = PauliList([label for label, _ in terms])
+    hc = np.array([h for _, h in terms])
+    gens = [t.generator for t in trainables]
+    gp = gens[0].paulis.copy() if len(gens) == 1 else PauliList(gens[0].paulis)
+    for g in gens[1:]:
+        gp = gp + g.paulis
+    gc = np.concatenate([g.coeffs for g in gens])
+    owner = np.repeat(np.arange(len(gens)), [g.size for g in gens])
+    ia, it = np.nonzero(anticommutation(gp.x, gp.z, hl.x, hl.z))
+    prod = gp[ia].dot(hl[it])
+    coef = 2j * gc[ia] * hc[it]
+    order = np.lexsort((owner[ia], it))
+    ia, it, coef = ia[order], it[order], coef[order]
+    prod = prod[order]
+    totals: dict[Parameter, list[SparsePauliOp]] = {p: [] for p in params}
     per_term = []
-    for label, h in observable.to_list():
-        if set(label) == {"I"} or abs(h) <= _ATOL:
-            continue
-        term = SparsePauliOp([label], [h.real])
-        shares = {p: zero for p in params}
+    bounds = np.searchsorted(it, np.arange(len(terms) + 1))
+    for t_idx, (label, _) in enumerate(terms):
+        shares: dict[Parameter, SparsePauliOp] = {}
         origin: list[tuple[str, _Trainable]] = []
-        for t in trainables:
-            o = (1j * _commutator(t.generator, term)).simplify(atol=_ATOL)
+        lo, hi = bounds[t_idx], bounds[t_idx + 1]
+        owners = owner[ia[lo:hi]]
+        for j in np.unique(owners):
+            sel = slice(lo + np.searchsorted(owners, j), lo + np.searchsorted(owners, j, "right"))
+            o = SparsePauliOp(prod[sel], coef[sel]).simplify(atol=_ATOL)
             if _is_zero(o):
                 continue
-            shares[t.parameter] = (shares[t.parameter] + t.coeff * o).simplify(atol=_ATOL)
+            t = trainables[j]
+            share = t.coeff * o
+            shares[t.parameter] = (share if t.parameter not in shares
+                                   else (shares[t.parameter] + share).simplify(atol=_ATOL))
             origin.extend((lab, t) for lab, c in o.to_list() if abs(c) > _ATOL)
-        per_term.append((label, shares, origin))
-        for p in params:
-            total[p] = (total[p] + shares[p]).simplify(atol=_ATOL)
+        for p, op in shares.items():
+            totals[p].append(op)
+        per_term.append((label, {p: shares.get(p, zero) for p in params}, origin))
+    total = {p: (SparsePauliOp.sum(ops).simplify(atol=_ATOL) if ops else zero)
+             for p, ops in totals.items()}
     return total, per_term
 
 
@@ -127,7 +161,8 @@ def _group_terms(per_term, params):
                 g["labels"].append(label)
                 g["strings"].extend(strings)
                 for p in params:
-                    g["ops"][p] = (g["ops"][p] + shares[p]).simplify(atol=_ATOL)
+                    if not _is_zero(shares[p]):
+                        g["ops"][p] = (g["ops"][p] + shares[p]).simplify(atol=_ATOL)
                 break
         else:
             groups.append({"labels": [label], "strings": list(strings), "ops": dict(shares)})

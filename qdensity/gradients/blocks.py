@@ -52,7 +52,11 @@ from qdensity.analysis.blocks import (
     _Trainable,
     commuting_blocks,
 )
-from qdensity.analysis.pauli import diagonalising_clifford, first_noncommuting_pair
+from qdensity.analysis.pauli import (
+    ZStringTable,
+    diagonalising_clifford,
+    first_noncommuting_pair,
+)
 from qdensity.gradients._circuits import _check_inputs, _GradientCircuits
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients.diagonalising import _diagonal_matrix, _measured
@@ -161,14 +165,14 @@ def _block_values(
     diag_gens: Sequence[SparsePauliOp],
     params: Sequence[Parameter],
     n: int,
-) -> np.ndarray:
-    """Shape ``(2**n, P)``: ``sum over p's gates of a d_j(x)`` on each system outcome."""
+) -> ZStringTable:
+    """``(2**n, P)`` as a table: ``sum over p's gates of a d_j(x)`` on each system outcome."""
     col = {p: k for k, p in enumerate(params)}
-    d = _diagonal_matrix(list(diag_gens), n)  # (2**n, gates)
-    out = np.zeros((2**n, len(params)))
+    d = _diagonal_matrix(list(diag_gens), n)  # columns: gates
+    mix = np.zeros((len(trainables), len(params)))
     for j, t in enumerate(trainables):
-        out[:, col[t.parameter]] += t.coeff * d[:, j]
-    return out
+        mix[j, col[t.parameter]] += t.coeff
+    return ZStringTable(d.z, d.coefficients @ mix)
 
 
 def _check_blocks(blocks, circuit: QuantumCircuit, pset: set[Parameter]) -> list[tuple[int, int]]:
@@ -301,7 +305,7 @@ def commuting_block_gradient(
             direct = _try_direct(circuit, start, stop, obs, params, pset, diagonaliser)
         if direct is not None:
             for c, (circ, val) in enumerate(
-                zip(direct.circuits, direct.value_matrices(), strict=True)
+                zip(direct.circuits, direct._values, strict=True)
             ):
                 circuits.append(circ)
                 terms_c = ", ".join(direct.term_groups[c]) or "none"
@@ -329,9 +333,8 @@ def commuting_block_gradient(
             if method == "hadamard":
                 circuits.append(_block_circuit(head, rest, pauli, diag_circ, method))
                 roles.append(f"block {b}, term {label} (Hadamard test)")
-                y = np.array([1.0, -1.0])  # ancilla bit 0 -> Y = +1
-                vals = -2.0 * h * sign * (y[:, None, None] * sys_vals[None, :, :])
-                values.append(vals.reshape(2 ** (n + 1), len(params)))
+                # ancilla bit 0 -> Y = +1: the ancilla's Z eigenvalue times the system values
+                values.append(sys_vals.with_ancilla_z(-2.0 * h * sign))
                 continue
             for direction in (1, -1):
                 circuits.append(
@@ -340,7 +343,8 @@ def commuting_block_gradient(
                 roles.append(
                     f"block {b}, term {label} (observable shift {'+' if direction > 0 else '-'})"
                 )
-                values.append(direction * h * sign * sys_vals)
+                values.append(ZStringTable(sys_vals.z,
+                                           direction * h * sign * sys_vals.coefficients))
     return CommutingBlockGradient(
         circuits=circuits,
         parameters=list(params),

@@ -26,7 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.plans import CircuitJob, Estimate, Plan, probabilities_plan
+from qdensity.execution.plans import (
+    CircuitJob,
+    Estimate,
+    Plan,
+    probabilities_plan,
+    unary_frequencies,
+)
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     commuting_block_gradient,
@@ -186,6 +192,11 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
             for i, c in enumerate(shared.circuits)]
 
     def post(results):
+        if shots is not None and all(r.bits is not None for r in results):
+            # sampled: estimator values on the observed bits, never a 2**n array
+            parts = [g.gradient_from_bits([r.bits for r in results]) for g in grads]
+            return Estimate(np.stack([v for v, _ in parts], axis=1),
+                            np.stack([e for _, e in parts], axis=1))
         probs = [r.probabilities for r in results]
         if len(grads) == 1:
             val = grads[0].gradient_from_probabilities(probs)[:, None, :]
@@ -213,11 +224,9 @@ def _forward_plan(model, k: int, X, shots) -> Plan:
         return Plan(inner.jobs, post, inner.description)
     inner = probabilities_plan(model.circuit(k), model.rows(k, X), shots=shots,
                                label=f"forward_k{k}")
-    unary = 1 << np.arange(model.num_qubits)
-
     def post_p(results):
         res = inner.postprocess(results)
-        p = res.probabilities[:, unary]
+        p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
         se = np.sqrt(p * (1 - p) / res.shots) if res.shots else np.zeros_like(p)
         return Estimate(p, se)
     return Plan(inner.jobs, post_p, inner.description)

@@ -14,10 +14,10 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
-from qiskit.quantum_info import PauliList, SparsePauliOp
+from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _is_zero, _Trainable
-from qdensity.analysis.pauli import conjugate_two_qubit, z_string_values
+from qdensity.analysis.pauli import ZStringTable, conjugate_two_qubit
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.execution.plans import measured
 from qdensity.validation import check_positive_int
@@ -66,26 +66,10 @@ def rbs_diagonalising_layer(num_qubits: int, pairs: Iterable[tuple[int, int]]) -
     return circ
 
 
-def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> np.ndarray:
-    """Values of diagonal operators on every basis state: shape ``(2**n, len(diag_ops))``."""
-    labels: dict[str, int] = {}
-    entries: list[tuple[int, int, float]] = []
-    for col, op in enumerate(diag_ops):
-        for label, coeff in op.to_list():
-            if abs(coeff) <= _ATOL:
-                continue
-            if abs(coeff.imag) > 1e-9:
-                raise RuntimeError(f"diagonal observable has a complex coefficient: {op}")
-            row = labels.setdefault(label, len(labels))
-            entries.append((row, col, coeff.real))
-    out = np.zeros((2**num_qubits, len(diag_ops)))
-    if not labels:
-        return out
-    vals = z_string_values(PauliList(list(labels)), num_qubits)
-    coeffs = np.zeros((len(labels), len(diag_ops)))
-    for row, col, c in entries:
-        coeffs[row, col] += c
-    return vals @ coeffs
+def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> ZStringTable:
+    """Values of diagonal operators on outcomes, one column each: a :class:`ZStringTable`
+    (``.dense()`` is the ``(2**n, len(diag_ops))`` table at small ``n``)."""
+    return ZStringTable.from_operators(diag_ops, num_qubits, atol=_ATOL)
 
 
 def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCircuit:
@@ -118,7 +102,10 @@ def _rbs_layer_for(
     umat = rbs_matrix(np.pi / 4)
     diag = {}
     for p, op in observables.items():
+        support = set(np.flatnonzero(np.any(op.paulis.x | op.paulis.z, axis=0)).tolist())
         for pair in pairs:
+            if support.isdisjoint(pair):  # the layer's other gates leave the operator alone
+                continue
             op = conjugate_two_qubit(op, umat, pair)
         if op.paulis.x.any() and not _is_zero(op):
             return None
