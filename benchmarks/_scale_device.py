@@ -50,7 +50,8 @@ def run(n: int = 64, device_qubits: int = 127, mps_widths=(16, 32, 64), rows: in
     print(f"model + gradient plan ({len(plan.jobs)} jobs, {len(templates)} templates, "
           f"{plan.meta['gradient_circuits']} gradient circuits per point): {t_build:.1f} s")
     print(f"transpile + resources of every template: {t_transpile:.1f} s "
-          f"({t_transpile / len(templates):.2f} s each); total {t_target + t_build + t_transpile:.1f} s")
+          f"({t_transpile / len(templates):.2f} s each); "
+          f"total {t_target + t_build + t_transpile:.1f} s")
     print(f"per template: active qubits {min(active)}-{max(active)}, two-qubit gates "
           f"{min(two_q)}-{max(two_q)} (mean {np.mean(two_q):.0f}), two-qubit depth "
           f"{min(depth2)}-{max(depth2)}")
@@ -77,10 +78,9 @@ def run(n: int = 64, device_qubits: int = 127, mps_widths=(16, 32, 64), rows: in
 
 
 def _mps_sampler():
+    from qiskit import transpile
     from qiskit_aer import AerSimulator
     from qiskit_aer.primitives import SamplerV2
-
-    from qiskit import transpile
 
     sim = AerSimulator(method="matrix_product_state", seed_simulator=0)
 

@@ -50,6 +50,8 @@ def run(n: int = 6, rows: int = 16, shots: int = 1000) -> list[dict]:
         print(f"{name:<12}{clean:>11.2f}{noisy:>9.2f}{noisy / clean:>17.1f}", flush=True)
         out.append({"options": name, "noiseless_s_per_Mshot": clean,
                     "noisy_s_per_Mshot": noisy})
-    print(f"{'before/after':<12}{out[0]['noiseless_s_per_Mshot'] / out[1]['noiseless_s_per_Mshot']:>11.2f}"
-          f"{out[0]['noisy_s_per_Mshot'] / out[1]['noisy_s_per_Mshot']:>9.2f}")
+    b, a = out
+    print(f"{'before/after':<12}"
+          f"{b['noiseless_s_per_Mshot'] / a['noiseless_s_per_Mshot']:>11.2f}"
+          f"{b['noisy_s_per_Mshot'] / a['noisy_s_per_Mshot']:>9.2f}")
     return out
