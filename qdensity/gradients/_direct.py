@@ -103,40 +103,50 @@ def _gradient_terms(
     hl = PauliList([label for label, _ in terms])
     hc = np.array([h for _, h in terms])
     gens = [t.generator for t in trainables]
-    gp = gens[0].paulis.copy() if len(gens) == 1 else PauliList(gens[0].paulis)
-    for g in gens[1:]:
-        gp = gp + g.paulis
+    gx = np.concatenate([g.paulis.x for g in gens])
+    gz = np.concatenate([g.paulis.z for g in gens])
+    gph = np.concatenate([g.paulis.phase for g in gens])
     gc = np.concatenate([g.coeffs for g in gens])
     owner = np.repeat(np.arange(len(gens)), [g.size for g in gens])
-    ia, it = np.nonzero(anticommutation(gp.x, gp.z, hl.x, hl.z))
-    prod = gp[ia].dot(hl[it])
-    coef = 2j * gc[ia] * hc[it]
-    order = np.lexsort((owner[ia], it))
-    ia, it, coef = ia[order], it[order], coef[order]
-    prod = prod[order]
-    totals: dict[Parameter, list[SparsePauliOp]] = {p: [] for p in params}
+    ia, it = np.nonzero(anticommutation(gx, gz, hl.x, hl.z))
+    prod = PauliList.from_symplectic(gz[ia], gx[ia], gph[ia]).dot(hl[it])
+    pcol = {p: k for k, p in enumerate(params)}
+    gate_param = np.array([pcol[t.parameter] for t in trainables], dtype=np.int64)
+    gate_coef = np.array([t.coeff for t in trainables])
+    # i [c P_a, h P_t] = 2 i c h P_a P_t, the phase of the product absorbed, times the gate's a
+    coef = (2j * gc[ia] * hc[it] * (-1j) ** prod.phase) * gate_coef[owner[ia]]
+    packed = np.packbits(np.concatenate([prod.x, prod.z], axis=1), axis=1).astype(np.int64)
+    par = gate_param[owner[ia]]
+    # one entry per (term, parameter, Pauli string): coefficients of equal strings add
+    keys = np.concatenate([it[:, None], par[:, None], packed], axis=1)
+    uniq, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    csum = (np.bincount(inv, weights=coef.real, minlength=len(uniq))
+            + 1j * np.bincount(inv, weights=coef.imag, minlength=len(uniq)))
+    keep = np.abs(csum) > _ATOL
+    uniq, first, csum = uniq[keep], first[keep], csum[keep]
+    ux, uz = prod.x[first], prod.z[first]
+    labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
+    u_term, u_par = uniq[:, 0], uniq[:, 1]
+
+    def op(sel) -> SparsePauliOp:
+        return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])
+
     per_term = []
-    bounds = np.searchsorted(it, np.arange(len(terms) + 1))
+    bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq is sorted by term
     for t_idx, (label, _) in enumerate(terms):
-        shares: dict[Parameter, SparsePauliOp] = {}
-        origin: list[tuple[str, _Trainable]] = []
         lo, hi = bounds[t_idx], bounds[t_idx + 1]
-        owners = owner[ia[lo:hi]]
-        for j in np.unique(owners):
-            sel = slice(lo + np.searchsorted(owners, j), lo + np.searchsorted(owners, j, "right"))
-            o = SparsePauliOp(prod[sel], coef[sel]).simplify(atol=_ATOL)
-            if _is_zero(o):
-                continue
-            t = trainables[j]
-            share = t.coeff * o
-            shares[t.parameter] = (share if t.parameter not in shares
-                                   else (shares[t.parameter] + share).simplify(atol=_ATOL))
-            origin.extend((lab, t) for lab, c in o.to_list() if abs(c) > _ATOL)
-        for p, op in shares.items():
-            totals[p].append(op)
-        per_term.append((label, {p: shares.get(p, zero) for p in params}, origin))
-    total = {p: (SparsePauliOp.sum(ops).simplify(atol=_ATOL) if ops else zero)
-             for p, ops in totals.items()}
+        shares = {p: zero for p in params}
+        pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
+        for k in np.flatnonzero(np.diff(pb)):
+            shares[params[k]] = op(slice(pb[k], pb[k + 1]))
+        origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
+        per_term.append((label, shares, origin))
+    total = {p: zero for p in params}
+    order = np.argsort(u_par, kind="stable")
+    pb = np.searchsorted(u_par[order], np.arange(len(params) + 1))
+    for k in np.flatnonzero(np.diff(pb)):
+        total[params[k]] = op(order[pb[k]:pb[k + 1]]).simplify(atol=_ATOL)
     return total, per_term
 
 
