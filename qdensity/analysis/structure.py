@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from qiskit.circuit import CircuitInstruction, Parameter, ParameterExpression, QuantumCircuit
-from qiskit.quantum_info import SparsePauliOp
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
 __all__ = [
     "moments",
@@ -201,6 +201,12 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
         return SparsePauliOp.from_sparse_list([(p + p, q, 0.5)], n)
     if name == "rzx":
         return SparsePauliOp.from_sparse_list([("ZX", q, 0.5)], n)
+    if name == "rbs":  # ("XY", [i, j]): X on i, Y on j; built from bits directly
+        x = np.zeros((2, n), dtype=bool)
+        z = np.zeros((2, n), dtype=bool)
+        x[:, q] = True
+        z[0, q[1]] = z[1, q[0]] = True
+        return SparsePauliOp(PauliList.from_symplectic(z, x), np.array([0.5, -0.5]))
     if name in ("crx", "cry", "crz"):
         p = name[2].upper()
         return SparsePauliOp.from_sparse_list([(p, q[1:], 0.25), ("Z" + p, q, -0.25)], n)

@@ -181,7 +181,8 @@ def parameter_shift_plan(
     check_circuit(circuit)
     vals = as_parameter_rows(values, circuit.num_parameters)
     params = list(circuit.parameters) if parameters is None else list(parameters)
-    unknown = [p for p in params if p not in set(circuit.parameters)]
+    known = set(circuit.parameters)  # once: circuit.parameters sorts on every access
+    unknown = [p for p in params if p not in known]
     if unknown:
         raise ValueError(f"parameters {[p.name for p in unknown]} are not in the circuit")
     col = {p: i for i, p in enumerate(params)}
