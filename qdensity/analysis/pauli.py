@@ -98,7 +98,7 @@ def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None
     --------
     >>> pl = PauliList(["XI", "ZI", "IZ"])
     >>> anticommutation(pl.x, pl.z).astype(int).tolist()
-    [[0, 0, 1], [0, 0, 0], [1, 0, 0]]
+    [[0, 1, 0], [1, 0, 0], [0, 0, 0]]
     """
     if xb is None:
         xb, zb = xa, za
