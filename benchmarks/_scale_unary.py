@@ -140,7 +140,8 @@ print(json.dumps({"build_s": build, "forward_s": tf, "grad_s": tg,
 
 def old_times(path: str, n: int, batch: int) -> dict | None:
     out = subprocess.run([sys.executable, "-c", _OLD, str(n), str(batch)], capture_output=True,
-                         text=True, env={"PYTHONPATH": path, "PATH": ""}, timeout=1200)
+                         text=True, env={"PYTHONPATH": path, "PATH": ""}, timeout=1200,
+                         cwd=path)  # "python -c" puts the working directory first on sys.path
     if out.returncode:
         print(out.stderr[-2000:])
         return None

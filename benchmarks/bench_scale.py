@@ -74,8 +74,9 @@ print(json.dumps(out))
 def _sub(code: str, args, path: str, timeout: float = 1800) -> dict | None:
     env = dict(os.environ, PYTHONPATH=path)
     try:
+        # cwd = path too: "python -c" puts the working directory first on sys.path
         out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True,
-                             text=True, env=env, timeout=timeout)
+                             text=True, env=env, timeout=timeout, cwd=path)
     except subprocess.TimeoutExpired:
         return {"error": f"timeout after {timeout:.0f} s"}
     if out.returncode:
