@@ -339,9 +339,7 @@ class HardwareTarget:
         method, device : str
             As :meth:`simulator`.
         fast : bool
-            Apply :data:`FAST_SAMPLER_OPTIONS` (shot branching for noise, runtime parameter
-            binding, every core for the shots). Counts differ from ``fast=False`` (another
-            random stream) but repeat exactly for the same seed.
+            Apply ``FAST_SAMPLER_OPTIONS``; counts repeat for a seed, not across ``fast``.
 
         Returns
         -------
@@ -367,16 +365,9 @@ class HardwareTarget:
         return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
 
 
-FAST_SAMPLER_OPTIONS = {
-    "shot_branching_enable": True,
-    "runtime_parameter_bind_enable": True,
-    "max_parallel_threads": 0,
-    "max_parallel_shots": 0,
-}
-"""Aer options of :meth:`HardwareTarget.sampler` (``fast=True``): with noise, shots share the
-state until a noise branch differs (shot branching) instead of re-simulating every shot;
-parameter rows are bound inside Aer instead of one circuit copy per row; all cores serve the
-shots. Aer simulates only the qubits a transpiled circuit uses (truncation, on by default)."""
+# sampler(fast=True): shot branching for noise, parameter rows bound inside Aer, all cores.
+FAST_SAMPLER_OPTIONS = {"shot_branching_enable": True, "runtime_parameter_bind_enable": True,
+                        "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 
 def get_target(
