@@ -20,7 +20,7 @@ from qdensity.analysis.blocks import _ATOL, _is_zero, _Trainable
 from qdensity.analysis.pauli import conjugate_two_qubit, z_string_values
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.execution.plans import measured
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_positive_int, check_width
 
 __all__ = ["rbs_diagonalising_layer"]
 
@@ -78,6 +78,9 @@ def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> np.n
                 raise RuntimeError(f"diagonal observable has a complex coefficient: {op}")
             row = labels.setdefault(label, len(labels))
             entries.append((row, col, coeff.real))
+    check_width(num_qubits, engine="the commuting-generator gradient (dense diagonal of its "
+                "observables)", alternative="parameter shift (method='shift') with sampling, or "
+                "the unary engine for RBS circuits", rows=max(len(diag_ops), 1))
     out = np.zeros((2**num_qubits, len(diag_ops)))
     if not labels:
         return out
