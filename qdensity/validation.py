@@ -28,6 +28,10 @@ __all__ = [
     "check_width",
     "MAX_DENSE_QUBITS",
     "MAX_DENSE_ENTRIES",
+    "MAX_CIRCUIT_QUBITS",
+    "MAX_LAYERS",
+    "check_num_qubits",
+    "check_layers",
 ]
 
 #: Widest register an exact/dense path accepts: a ``2**n`` statevector or probability row of
@@ -35,6 +39,10 @@ __all__ = [
 MAX_DENSE_QUBITS = 24
 #: Most entries of a dense ``(rows, 2**n)`` array (2 GiB of float64).
 MAX_DENSE_ENTRIES = 2**28
+#: Widest circuit a builder makes (far beyond any device; refuses 10**9 before building).
+MAX_CIRCUIT_QUBITS = 4096
+#: Most repetitions (layers, reps) a builder makes.
+MAX_LAYERS = 10_000
 
 SeedLike = int | np.random.Generator | None
 
@@ -221,13 +229,33 @@ def check_nonnegative_float(value, name: str) -> float:
     return out
 
 
-def check_positive_int(value, name: str, *, minimum: int = 1) -> int:
-    """An int ``>= minimum`` (bools refused)."""
+def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | None = None,
+                       why: str = "") -> int:
+    """An int ``>= minimum`` (and ``<= maximum`` when given; bools refused).
+
+    ``why`` explains the maximum in the message.
+    """
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an int, got {value!r}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}{' (' + why + ')' if why else ''}, "
+                         f"got {value}")
     return int(value)
+
+
+def check_num_qubits(value, name: str = "num_qubits", *, minimum: int = 1) -> int:
+    """A circuit width for a builder: an int in ``[minimum, MAX_CIRCUIT_QUBITS]``."""
+    return check_positive_int(value, name, minimum=minimum, maximum=MAX_CIRCUIT_QUBITS,
+                              why="wider circuits are beyond any device and take minutes "
+                              "to build")
+
+
+def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
+    """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``."""
+    return check_positive_int(value, name, minimum=minimum, maximum=MAX_LAYERS,
+                              why="deeper circuits take minutes to build")
 
 
 def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:

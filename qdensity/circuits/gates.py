@@ -22,7 +22,7 @@ import numpy as np
 from qiskit.circuit import Gate, QuantumCircuit, QuantumRegister
 from qiskit.circuit.parameterexpression import ParameterExpression, ParameterValueType
 
-from qdensity.validation import check_real_scalar
+from qdensity.validation import check_num_qubits, check_real_scalar
 
 __all__ = ["RBSGate", "FBSGate", "rbs_matrix", "fbs_matrix"]
 
@@ -99,7 +99,7 @@ def _check_width(num_qubits: int) -> int:
     if num_qubits < 2:
         raise ValueError(f"num_qubits must be >= 2 (the FBS block spans its pair), "
                          f"got {num_qubits}")
-    return int(num_qubits)
+    return check_num_qubits(int(num_qubits), minimum=2)
 
 
 class RBSGate(Gate):
