@@ -171,12 +171,10 @@ class DensityQNN:
     def _check_X(self, X) -> np.ndarray:
         """Data as a finite 2-d float array (B, d)."""
         arr = np.atleast_2d(check_finite_array(X, "X"))
-        if arr.ndim != 2 or arr.shape[0] == 0:
-            raise ValueError(f"X must have shape (rows, features) with rows >= 1, got "
-                             f"{np.shape(X)}")
-        if self.encoding is not None and arr.shape[1] != self.encoding.num_features:
-            raise ValueError(f"X must have {self.encoding.num_features} features (the "
-                             f"encoding's num_features), got shape {arr.shape}")
+        d = self.encoding.num_features if self.encoding is not None else arr.shape[-1]
+        if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] != d:
+            raise ValueError(f"X must have shape (rows >= 1, {d}) (d = the encoding's "
+                             f"num_features), got {arr.shape}")
         return arr
 
     @property
@@ -327,10 +325,8 @@ class DensityQNN:
         if method not in ("auto", "unary", "statevector", "aer"):
             raise ValueError(f"method must be 'auto', 'unary', 'statevector' or 'aer', got "
                              f"{method!r}")
-        if theta is not None:
-            theta = self._check_theta(theta)
-        if X is not None:
-            X = self._check_X(X)
+        theta = None if theta is None else self._check_theta(theta)
+        X = None if X is None else self._check_X(X)
         use_unary = self._use_unary() if method == "auto" else method == "unary"
         if use_unary:
             if not self._use_unary():
