@@ -22,7 +22,27 @@ __all__ = [
     "as_parameter_rows",
     "check_positive_int",
     "check_circuit",
+    "check_real_scalar",
+    "check_finite_array",
+    "check_callable",
+    "check_width",
+    "MAX_DENSE_QUBITS",
+    "MAX_DENSE_ENTRIES",
+    "MAX_CIRCUIT_QUBITS",
+    "MAX_LAYERS",
+    "check_num_qubits",
+    "check_layers",
 ]
+
+#: Widest register an exact/dense path accepts: a ``2**n`` statevector or probability row of
+#: float64/complex128 is 256 MiB at n = 24. Wider circuits go to the unary engine, sampling or MPS.
+MAX_DENSE_QUBITS = 24
+#: Most entries of a dense ``(rows, 2**n)`` array (2 GiB of float64).
+MAX_DENSE_ENTRIES = 2**28
+#: Widest circuit a builder makes (far beyond any device; refuses 10**9 before building).
+MAX_CIRCUIT_QUBITS = 4096
+#: Most repetitions (layers, reps) a builder makes.
+MAX_LAYERS = 10_000
 
 SeedLike = int | np.random.Generator | None
 
@@ -209,13 +229,33 @@ def check_nonnegative_float(value, name: str) -> float:
     return out
 
 
-def check_positive_int(value, name: str, *, minimum: int = 1) -> int:
-    """An int ``>= minimum`` (bools refused)."""
+def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | None = None,
+                       why: str = "") -> int:
+    """An int ``>= minimum`` (and ``<= maximum`` when given; bools refused).
+
+    ``why`` explains the maximum in the message.
+    """
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an int, got {value!r}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}{' (' + why + ')' if why else ''}, "
+                         f"got {value}")
     return int(value)
+
+
+def check_num_qubits(value, name: str = "num_qubits", *, minimum: int = 1) -> int:
+    """A circuit width for a builder: an int in ``[minimum, MAX_CIRCUIT_QUBITS]``."""
+    return check_positive_int(value, name, minimum=minimum, maximum=MAX_CIRCUIT_QUBITS,
+                              why="wider circuits are beyond any device and take minutes "
+                              "to build")
+
+
+def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
+    """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``."""
+    return check_positive_int(value, name, minimum=minimum, maximum=MAX_LAYERS,
+                              why="deeper circuits take minutes to build")
 
 
 def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:
@@ -223,3 +263,110 @@ def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:
     if not isinstance(circuit, QuantumCircuit):
         raise TypeError(f"{name} must be a qiskit QuantumCircuit, got {type(circuit).__name__}")
     return circuit
+
+
+def check_real_scalar(value, name: str) -> float:
+    """A finite real number (bools and strings refused), e.g. a gate angle.
+
+    Parameters
+    ----------
+    value : real number
+    name : str
+
+    Returns
+    -------
+    float
+    """
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    out = float(value)
+    if not np.isfinite(out):
+        raise ValueError(f"{name} must be finite (no NaN or inf), got {value!r}")
+    return out
+
+
+def check_finite_array(values, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """A finite real float array, optionally of a given shape.
+
+    Parameters
+    ----------
+    values : array_like
+    name : str
+    shape : tuple of int, optional
+        Required shape.
+
+    Returns
+    -------
+    numpy.ndarray, float64
+    """
+    if isinstance(values, (str, bytes)):
+        raise TypeError(f"{name} must be real numbers, got {values!r}")
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be real numbers, got {values!r}") from exc
+    if shape is not None and arr.shape != tuple(shape):
+        raise ValueError(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf)")
+    return arr
+
+
+def check_callable(value, name: str, what: str = "a callable"):
+    """``value`` if it is callable, else a ``TypeError`` naming ``name`` and ``what``."""
+    if not callable(value):
+        raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
+    return value
+
+
+def check_width(
+    num_qubits: int,
+    *,
+    limit: int = MAX_DENSE_QUBITS,
+    engine: str = "this exact path",
+    alternative: str = "the unary engine (RBS/FBS circuits), sampling (SamplerEngine) or an "
+    "MPS simulator",
+    rows: int = 1,
+) -> int:
+    """Refuse a register too wide for a dense ``2**num_qubits`` array, before allocating it.
+
+    Every exact and dense path (the exact engine, statevector prediction, probability rows,
+    commuting-gradient diagonals, tomography) calls this with its own ``limit``; the message
+    names the limit and what to use instead.
+
+    Parameters
+    ----------
+    num_qubits : int
+        Width ``n`` of the dense register (qubits or measured bits).
+    limit : int
+        Largest ``n`` accepted.
+    engine : str
+        What refuses (for the message).
+    alternative : str
+        What handles wider circuits.
+    rows : int
+        Rows of a dense ``(rows, 2**n)`` array; refused if ``rows * 2**n`` exceeds
+        :data:`MAX_DENSE_ENTRIES`.
+
+    Returns
+    -------
+    int
+        ``num_qubits``.
+
+    Examples
+    --------
+    >>> check_width(4, engine="ExactEngine")
+    4
+    """
+    n = check_positive_int(num_qubits, "num_qubits", minimum=0)
+    if n > limit:
+        raise ValueError(
+            f"{engine} accepts at most {limit} qubits (it holds 2**n numbers), got {n}; "
+            f"for wider circuits use {alternative}"
+        )
+    if rows > 1 and rows * 2**n > MAX_DENSE_ENTRIES:
+        raise ValueError(
+            f"{engine} would hold {rows} rows of 2**{n} numbers ({rows * 2**n} > "
+            f"{MAX_DENSE_ENTRIES}); split the rows into smaller batches or use {alternative}"
+        )
+    return n

@@ -23,6 +23,8 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
 
+from qdensity.validation import MAX_DENSE_QUBITS, check_width
+
 __all__ = [
     "MAX_DENSE_QUBITS",
     "ZStringTable",
@@ -70,9 +72,9 @@ def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
         raise ValueError(f"{name} could not be read as Pauli operators: {exc}") from exc
 
 
-MAX_DENSE_QUBITS = 20
-"""Widest register for which a dense ``2**n`` table of outcome values is built (16 MiB per
-column); wider registers are evaluated on observed outcomes only (:class:`ZStringTable`)."""
+# MAX_DENSE_QUBITS (qdensity.validation, shared by every dense path) is the widest register for
+# which a dense ``2**n`` table of outcome values is built; wider registers are evaluated on
+# observed outcomes only (:class:`ZStringTable`).
 
 
 def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None,
@@ -412,6 +414,8 @@ def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:
     if pl.x.any():
         bad = int(np.flatnonzero(pl.x.any(axis=1))[0])
         raise ValueError(f"z_paulis must be diagonal (Z/I only), got {pl[bad].to_label()}")
+    check_width(n, engine="z_string_values (a dense 2**n table)",
+                alternative="the measured bits' parities (sampling)", rows=max(len(pl), 1))
     idx = np.arange(2**n, dtype=np.int64)
     bits = ((idx[:, None] >> np.arange(n)[None, :]) & 1).astype(np.int64)  # (2**n, n)
     parity = (bits @ pl.z.T.astype(np.int64)) % 2  # (2**n, m)

@@ -20,7 +20,9 @@ import math
 
 import numpy as np
 from qiskit.circuit import Gate, QuantumCircuit, QuantumRegister
-from qiskit.circuit.parameterexpression import ParameterValueType
+from qiskit.circuit.parameterexpression import ParameterExpression, ParameterValueType
+
+from qdensity.validation import check_num_qubits, check_real_scalar
 
 __all__ = ["RBSGate", "FBSGate", "rbs_matrix", "fbs_matrix"]
 
@@ -39,6 +41,7 @@ def rbs_matrix(theta: float) -> np.ndarray:
         ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]`` with ``c = cos(theta)``,
         ``s = sin(theta)``, basis index ``q_0 + 2 q_1``.
     """
+    theta = check_real_scalar(theta, "theta")
     c, s = math.cos(theta), math.sin(theta)
     return np.array(
         [[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], dtype=complex
@@ -61,7 +64,11 @@ def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
         Acts as ``RBS((-1)^p theta)`` on qubits ``(0, m-1)``, ``p`` the parity of qubits
         ``1 .. m-2``; basis index ``sum_q b_q 2^q``.
     """
+    theta = check_real_scalar(theta, "theta")
     m = _check_width(num_qubits)
+    if m > 12:
+        raise ValueError(f"fbs_matrix builds a dense 2**m x 2**m matrix; num_qubits must be "
+                         f"<= 12, got {m} (circuits use FBSGate, which needs no matrix)")
     dim = 2**m
     out = np.eye(dim, dtype=complex)
     last = m - 1
@@ -79,13 +86,20 @@ def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
     return out
 
 
+def _check_angle(theta):
+    """A gate angle: a ``Parameter``/``ParameterExpression`` or a finite real number."""
+    if isinstance(theta, ParameterExpression):
+        return theta
+    return check_real_scalar(theta, "theta")
+
+
 def _check_width(num_qubits: int) -> int:
     if isinstance(num_qubits, bool) or not isinstance(num_qubits, (int, np.integer)):
         raise TypeError(f"num_qubits must be an int >= 2, got {num_qubits!r}")
     if num_qubits < 2:
         raise ValueError(f"num_qubits must be >= 2 (the FBS block spans its pair), "
                          f"got {num_qubits}")
-    return int(num_qubits)
+    return check_num_qubits(int(num_qubits), minimum=2)
 
 
 class RBSGate(Gate):
@@ -107,7 +121,7 @@ class RBSGate(Gate):
     """
 
     def __init__(self, theta: ParameterValueType, label: str | None = None):
-        super().__init__("rbs", 2, [theta], label=label)
+        super().__init__("rbs", 2, [_check_angle(theta)], label=label)
 
     def _define(self) -> None:
         (theta,) = self.params
@@ -154,7 +168,7 @@ class FBSGate(Gate):
     """
 
     def __init__(self, theta: ParameterValueType, num_qubits: int, label: str | None = None):
-        super().__init__("fbs", _check_width(num_qubits), [theta], label=label)
+        super().__init__("fbs", _check_width(num_qubits), [_check_angle(theta)], label=label)
 
     def _define(self) -> None:
         (theta,) = self.params

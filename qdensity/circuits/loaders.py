@@ -42,7 +42,7 @@ from qdensity.circuits.gates import RBSGate
 from qdensity.validation import (
     check_distribution,
     check_nonzero_vector,
-    check_positive_int,
+    check_num_qubits,
 )
 
 __all__ = [
@@ -242,7 +242,7 @@ def loader_start_qubit(d: int, layout: str = "parallel") -> int:
         ``0`` for the diagonal layout, ``d // 2 - 1`` for the semi-diagonal one, and the root
         head chosen for nearest-neighbour friendliness for the parallel one.
     """
-    d = check_positive_int(d, "d", minimum=1)
+    d = check_num_qubits(d, "d", minimum=1)
     return _plan(d, _check_layout(layout)).start
 
 
@@ -276,7 +276,7 @@ def unary_loader_template(
     >>> qc = tpl.assign_parameters(loader_angles(np.array([1.0, -2.0, 0.0, 0.5, 3.0]),
     ...                                          "semi_diagonal"))
     """
-    d = check_positive_int(d, "d", minimum=2)
+    d = check_num_qubits(d, "d", minimum=2)
     layout = _check_layout(layout)
     if not isinstance(parameter_prefix, str) or not parameter_prefix:
         raise ValueError(f"parameter_prefix must be a non-empty str, got {parameter_prefix!r}")

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -223,7 +224,7 @@ def check_circuits(directory: str | Path) -> list[str]:
     TypeError
         If ``directory`` is not a str or Path.
     ValueError
-        If ``directory`` exists and is not a directory.
+        If ``directory`` does not exist or is not a directory.
 
     Examples
     --------
@@ -236,7 +237,10 @@ def check_circuits(directory: str | Path) -> list[str]:
     if not isinstance(directory, (str, Path)):
         raise TypeError(f"directory must be a str or Path, got {type(directory).__name__}")
     root = Path(directory)
-    if root.exists() and not root.is_dir():
+    if not root.exists():
+        raise ValueError(f"directory {str(root)!r} does not exist (write it with "
+                         "export_circuits or `qdensity export DIR` first)")
+    if not root.is_dir():
         raise ValueError(f"directory must be a directory, got the file {str(root)!r}")
     stale = []
     for suffix, writer in _WRITERS.items():
@@ -254,7 +258,7 @@ def check_circuits(directory: str | Path) -> list[str]:
     return stale
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, prog: str = "python -m qdensity.export") -> int:
     """Command line: ``python -m qdensity.export [DIRECTORY] [--check]``.
 
     Parameters
@@ -262,14 +266,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv : sequence of str, optional
         Arguments (default ``sys.argv[1:]``). ``DIRECTORY`` defaults to ``circuits`` in the
         working directory; ``--check`` writes nothing and reports out-of-date files.
+    prog : str
+        Program name in messages.
 
     Returns
     -------
     int
-        Exit status: 0, or 1 when ``--check`` finds out-of-date files.
+        Exit status: 0, 1 when ``--check`` finds out-of-date files, 2 when the directory is
+        missing or not a directory.
     """
     parser = argparse.ArgumentParser(
-        prog="python -m qdensity.export",
+        prog=prog,
         description="Export qdensity's reference circuits as OpenQASM 2 and 3 with a README index.",
     )
     parser.add_argument("directory", nargs="?", default="circuits",
@@ -280,7 +287,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="write only the OpenQASM 3 files (symbolic parameters) and index")
     args = parser.parse_args(argv)
     if args.check:
-        stale = check_circuits(args.directory)
+        try:
+            stale = check_circuits(args.directory)
+        except ValueError as exc:
+            print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+            return 2
         for name in stale:
             print(f"out of date: {name}")
         if not stale:

@@ -15,7 +15,53 @@ from collections.abc import Callable
 import numpy as np
 from qiskit import QuantumCircuit
 
-__all__ = ["main", "BUILDERS", "build_circuit"]
+__all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
+
+#: Widest circuit the ``build``, ``transpile`` and ``table1`` commands build.
+MAX_CLI_QUBITS = 64
+#: Widest model ``run`` simulates with shots on a (noisy) target.
+MAX_RUN_QUBITS = 16
+#: Largest shot budget a command accepts.
+MAX_CLI_SHOTS = 10**8
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2."""
+
+    def error(self, message: str):  # noqa: D102 - argparse API
+        message = " ".join(str(message).split())
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _int_in(low: int, high: int) -> Callable[[str], int]:
+    """An argparse ``type``: an int in ``[low, high]``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be in [{low}, {high}], got {value}")
+        return value
+
+    parse.__name__ = "int"
+    return parse
+
+
+def _finite_float(text: str) -> float:
+    """An argparse ``type``: a finite real number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+_finite_float.__name__ = "float"
+_SEED = _int_in(0, 2**32 - 1)
 
 
 def _vector(n: int, seed: int = 0) -> np.ndarray:
@@ -211,12 +257,20 @@ def _cmd_table1(args) -> int:
 def _cmd_export(args) -> int:
     from qdensity.cli.export import main as export_main
 
-    return export_main([args.directory] + (["--check"] if args.check else [])
-                       + (["--qasm3"] if args.qasm3 else []))
+    try:
+        return export_main([args.directory] + (["--check"] if args.check else [])
+                           + (["--qasm3"] if args.qasm3 else []), prog="qdensity export")
+    except SystemExit as exc:  # its usage errors, already printed on one line
+        return exc.code if isinstance(exc.code, int) else 2
 
 
 def _cmd_demo(args) -> int:
+    from pathlib import Path
+
     from qdensity.experiments.demo import DemoConfig, run_demo
+
+    if not args.no_plot and not Path(args.output).is_dir():
+        raise ValueError(f"--output {args.output!r} is not an existing directory")
 
     cfg = DemoConfig(seed=args.seed)
     if args.budget is not None:
@@ -230,47 +284,54 @@ def _cmd_demo(args) -> int:
 def _parser() -> argparse.ArgumentParser:
     from qdensity.execution.targets import target_help
 
-    p = argparse.ArgumentParser(prog="qdensity", description="Density quantum neural networks "
+    size = _int_in(1, MAX_CLI_QUBITS)
+    shots = _int_in(1, MAX_CLI_SHOTS)
+    p = _Parser(prog="qdensity", description="Density quantum neural networks "
                                 "on Qiskit and qiskit-aer.")
     sub = p.add_subparsers(dest="command", required=True)
 
     b = sub.add_parser("build", help="print, draw or export a named circuit")
     b.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    b.add_argument("--size", type=int, default=4, help="number of (data) qubits")
+    b.add_argument("--size", type=size, default=4, help="number of (data) qubits")
     b.add_argument("--draw", action="store_true", help="draw the circuit (default if no --qasm)")
     b.add_argument("--qasm", metavar="FILE", help="write OpenQASM 2 to FILE ('-' for stdout)")
     b.add_argument("--unbound", action="store_true", help="keep parameters free")
-    b.add_argument("--seed", type=int, default=0, help="seed of the bound parameter values")
-    b.add_argument("--fold", type=int, default=120, help="drawing width")
+    b.add_argument("--seed", type=_SEED, default=0, help="seed of the bound parameter values")
+    b.add_argument("--fold", type=_int_in(-1, 10**4), default=120,
+                   help="drawing width (-1: no folding)")
     b.set_defaults(func=_cmd_build)
 
     t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    t.add_argument("--size", type=int, default=4)
+    t.add_argument("--size", type=size, default=4)
     t.add_argument("--target", default="ideal", help=target_help())
     t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3])
-    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--seed", type=_SEED, default=0)
     t.add_argument("--json", action="store_true", help="print the report as JSON")
     t.set_defaults(func=_cmd_transpile)
 
     r = sub.add_parser("run", help="estimate a density model's output on a noisy target "
                                    "under a shot budget")
-    r.add_argument("--size", type=int, default=6, help="qubits of the round-robin model")
+    r.add_argument("--size", type=_int_in(2, MAX_RUN_QUBITS), default=6,
+                   help="qubits of the round-robin model")
     r.add_argument("--target", default="heavy_hex", help=target_help())
-    r.add_argument("--shots", type=int, default=2000, help="total shot budget")
+    r.add_argument("--shots", type=shots, default=2000, help="total shot budget")
     r.add_argument("--scheduler", default="proportional",
                    choices=["per_shot", "proportional", "neyman"])
-    r.add_argument("--alpha", type=float, nargs="+", help="mixture (default uniform)")
-    r.add_argument("--x", type=float, nargs="+", help="input vector (default seeded random)")
-    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--alpha", type=_finite_float, nargs="+", help="mixture (default uniform)")
+    r.add_argument("--x", type=_finite_float, nargs="+",
+                   help="input vector (default seeded random)")
+    r.add_argument("--seed", type=_SEED, default=0)
     r.add_argument("--json", action="store_true")
     r.set_defaults(func=_cmd_run)
 
     tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
-    tb.add_argument("--n", type=int, nargs="+", default=[4, 8], help="qubit counts")
+    tb.add_argument("--n", type=size, nargs="+", default=[4, 8], help="qubit counts")
     tb.add_argument("--ansatz", nargs="+", default=[], help="subset of ansätze")
-    tb.add_argument("--layers", type=int, default=3, help="hardware-efficient depth D")
-    tb.add_argument("--copies", type=int, default=2, help="K for the equivariant density model")
+    tb.add_argument("--layers", type=_int_in(1, 100), default=3,
+                    help="hardware-efficient depth D")
+    tb.add_argument("--copies", type=_int_in(1, 64), default=2,
+                    help="K for the equivariant density model")
     tb.add_argument("--json", action="store_true", help="print a JSON list of rows")
     tb.set_defaults(func=_cmd_table1)
 
@@ -284,9 +345,9 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="train a round-robin OrthoQNN and its density version on "
                                     "digits with sampled gradients on a noisy heavy-hex device")
     d.add_argument("--output", default=".", help="directory for qdensity-demo.png")
-    d.add_argument("--budget", type=int, help="shot budget per model")
-    d.add_argument("--shots", type=int, help="shots per circuit")
-    d.add_argument("--seed", type=int, default=7)
+    d.add_argument("--budget", type=shots, help="shot budget per model")
+    d.add_argument("--shots", type=shots, help="shots per circuit")
+    d.add_argument("--seed", type=_SEED, default=7)
     d.add_argument("--no-plot", action="store_true")
     d.set_defaults(func=_cmd_demo)
     return p
@@ -295,12 +356,13 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``qdensity`` command; returns the exit status."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # usage errors: one line, SystemExit(2)
     warnings.filterwarnings("ignore", category=DeprecationWarning)
     try:
         return int(args.func(args) or 0)
-    except (ValueError, TypeError) as exc:
-        print(f"qdensity {args.command}: error: {exc}", file=sys.stderr)
+    except (ValueError, TypeError, OSError) as exc:
+        message = " ".join(str(exc).split())  # one line
+        print(f"qdensity {args.command}: error: {message}", file=sys.stderr)
         return 2
 
 

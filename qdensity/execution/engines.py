@@ -10,7 +10,7 @@
 Both return, per job, a :class:`qdensity.plans.JobResult`. The exact engine's
 ``probabilities`` are dense ``(rows, 2**num_clbits)`` arrays indexed by the integer
 ``sum_j b_j 2^j`` of the clbits, so it refuses circuits wider than
-:data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` (20) qubits. The sampler engine keeps the
+:data:`~qdensity.validation.MAX_DENSE_QUBITS` (24) qubits. The sampler engine keeps the
 measured bits (``JobResult.bits``, ``(rows, shots, num_clbits)``): estimates come from parities
 and observed outcomes with memory ``O(rows x shots)`` whatever the width.
 """
@@ -25,10 +25,15 @@ from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
-from qdensity.analysis.pauli import MAX_DENSE_QUBITS
 from qdensity.execution._device import check_for_device, check_width, device_of
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
-from qdensity.validation import SeedLike, check_positive_int, seed_int
+from qdensity.validation import (
+    MAX_DENSE_QUBITS,
+    SeedLike,
+    check_positive_int,
+    seed_int,
+)
+from qdensity.validation import check_width as check_dense_width
 
 __all__ = [
     "ExactEngine",
@@ -226,6 +231,8 @@ class ExactEngine:
 
         if method not in ("statevector", "density_matrix"):
             raise ValueError(f"method must be 'statevector' or 'density_matrix', got {method!r}")
+        if device not in ("CPU", "GPU"):
+            raise ValueError(f"device must be 'CPU' or 'GPU', got {device!r}")
         if device == "GPU" and "GPU" not in AerSimulator().available_devices():
             raise ValueError("device='GPU' needs qiskit-aer-gpu and a CUDA GPU; none is available")
         self.simulator = AerSimulator(method=method, noise_model=noise_model, device=device)
@@ -236,6 +243,27 @@ class ExactEngine:
         """How many templates have been transpiled (each once per engine)."""
         return self._cache.misses
 
+    #: Widest circuit accepted with ``method="statevector"`` (a 2**n complex vector).
+    max_qubits_statevector = MAX_DENSE_QUBITS
+    #: Widest circuit accepted with ``method="density_matrix"`` (a 4**n complex matrix).
+    max_qubits_density_matrix = MAX_DENSE_QUBITS // 2
+
+    @property
+    def max_qubits(self) -> int:
+        """Widest circuit this engine accepts (``n`` qubits hold ``2**n`` or ``4**n`` numbers)."""
+        method = self.simulator.options.method
+        return (self.max_qubits_density_matrix if method == "density_matrix"
+                else self.max_qubits_statevector)
+
+    def _check_width(self, job: CircuitJob) -> None:
+        alternative = ("SamplerEngine (shots), the unary engine for RBS circuits, or "
+                       "AerSimulator(method='matrix_product_state') as a SamplerV2")
+        check_dense_width(job.circuit.num_qubits, limit=self.max_qubits,
+                    engine=f"ExactEngine(method={self.simulator.options.method!r})",
+                    alternative=alternative)
+        check_dense_width(job.circuit.num_clbits, limit=self.max_qubits, engine="ExactEngine",
+                    alternative=alternative, rows=job.rows)
+
     def _prepare(self, circuit: QuantumCircuit) -> QuantumCircuit:
         bare, qubits = _measurement_map(circuit)
         bare.save_probabilities(qubits)
@@ -245,15 +273,7 @@ class ExactEngine:
         """Exact probabilities for every row of every job (shots are ignored)."""
         results = []
         for job in jobs:
-            # local width guard (to be replaced by the shared validation.check_width)
-            width = job.circuit.num_clbits or job.circuit.num_qubits
-            if width > MAX_DENSE_QUBITS:
-                raise ValueError(
-                    f"ExactEngine returns 2**n probabilities; job {job.label!r} measures "
-                    f"{width} bits, above MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS}. Use "
-                    "SamplerEngine (estimates from bits), the unary engine for RBS circuits, "
-                    "or SamplerEngine with AerSimulator(method='matrix_product_state')"
-                )
+            self._check_width(job)
             compiled = self._cache(job.circuit)
             cols = _columns_for(job.circuit, compiled)
             binds = (
@@ -314,7 +334,7 @@ def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> 
     Raises
     ------
     ValueError
-        Above ``MAX_DENSE_QUBITS`` (20) bits; use :func:`bitarray_to_bits`.
+        Above ``MAX_DENSE_QUBITS`` (24) bits; use :func:`bitarray_to_bits`.
     """
     return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 
@@ -358,6 +378,10 @@ class SamplerEngine:
         default_shots: int = 1024,
         optimization_level: int = 1,
     ):
+        if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
+                or optimization_level not in (0, 1, 2, 3)):
+            raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
+                             f"levels), got {optimization_level!r}")
         seed = seed_int(seed)
         if sampler is None:
             if target is not None:

@@ -23,7 +23,13 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis.pauli import MAX_DENSE_QUBITS, ZStringTable
 from qdensity.circuits.measure import measured
-from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
+from qdensity.execution.intervals import wilson_standard_error
+from qdensity.validation import (
+    as_parameter_rows,
+    check_circuit,
+    check_positive_int,
+    check_width,
+)
 
 __all__ = [
     "CircuitJob",
@@ -68,6 +74,9 @@ class CircuitJob:
     def __post_init__(self) -> None:
         check_circuit(self.circuit)
         vals = as_parameter_rows(self.values, self.circuit.num_parameters, "values")
+        if vals.shape[0] == 0:
+            raise ValueError("values must have at least one parameter row, got shape "
+                             f"{vals.shape} (a job with zero rows runs nothing)")
         object.__setattr__(self, "values", vals)
         if self.shots is not None:
             check_positive_int(self.shots, "shots")
@@ -87,7 +96,7 @@ class JobResult:
     ----------
     probabilities : numpy.ndarray, shape (rows, 2**num_clbits)
         Exact probabilities, or empirical frequencies ``counts / shots`` built from ``bits``
-        on first access -- only up to :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS`
+        on first access -- only up to :data:`~qdensity.validation.MAX_DENSE_QUBITS`
         clbits (a ``ValueError`` above: estimate from ``bits``).
     shots : int or None
         Shots per row that produced the frequencies (``None`` when exact).
@@ -122,7 +131,7 @@ def bits_to_probabilities(bits: np.ndarray) -> np.ndarray:
     Raises
     ------
     ValueError
-        Above :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` bits (the dense row would
+        Above :data:`~qdensity.validation.MAX_DENSE_QUBITS` bits (the dense row would
         need ``2**m`` entries): estimate from the bits instead.
     """
     rows, shots, m = bits.shape
@@ -259,6 +268,9 @@ def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
     -------
     numpy.ndarray, shape (T, 2**num_bits), entries +-1
     """
+    check_width(num_bits, engine="z_parities (a dense 2**n table)",
+                alternative="the measured bits' parities (sampling)",
+                rows=max(int(np.size(z_masks)), 1))
     outcomes = np.arange(2**num_bits, dtype=np.int64)
     anded = outcomes[None, :] & np.asarray(z_masks, dtype=np.int64)[:, None]
     parity = np.zeros_like(anded)
@@ -399,7 +411,8 @@ def expectation_plan(
             value += mean
             if res.shots is not None:
                 second = res.probabilities @ diag**2
-                var += np.maximum(second - mean**2, 0.0) / res.shots
+                width = float(diag.max() - diag.min())
+                var += wilson_standard_error(second - mean**2, res.shots, width) ** 2
         return Estimate(value, np.sqrt(var))
 
     return Plan(jobs, post, f"<H> of {circuit.name} ({len(jobs)} groups)")
@@ -423,6 +436,10 @@ def probabilities_plan(
         Post-processing returns the :class:`JobResult` (``probabilities`` of shape
         (rows, 2**n)).
     """
+    check_circuit(circuit)
+    check_width(circuit.num_qubits, engine="probabilities_plan (dense (rows, 2**n) outcome "
+                "probabilities)", alternative="the unary engine for RBS circuits, or sampled "
+                "estimates from the measured bits")
     job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
                      label)
     return Plan([job], lambda results: results[0], f"P(b) of {circuit.name}")

@@ -17,6 +17,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _check_parameters
 from qdensity.analysis.pauli import ZStringTable
+from qdensity.execution.intervals import wilson_standard_error
 from qdensity.execution.plans import check_observable
 from qdensity.validation import check_circuit, check_rows_sum_to_one
 
@@ -82,7 +83,7 @@ class _GradientCircuits:
     def value_matrices(self) -> list[np.ndarray]:
         """Per circuit, shape ``(2**width, P)``: each parameter's estimator on each outcome.
 
-        Dense, so only up to :data:`~qdensity.analysis.pauli.MAX_DENSE_QUBITS` qubits; wider
+        Dense, so only up to :data:`~qdensity.validation.MAX_DENSE_QUBITS` qubits; wider
         circuits are estimated from sampled bits (:meth:`gradient_from_bits`)."""
         return [v.dense() for v in self._values]
 
@@ -159,7 +160,9 @@ class _GradientCircuits:
 
         Each shot of a circuit gives one value of every parameter's estimator; per circuit the
         error is ``s^2 / shots`` with ``s^2`` the unbiased sample variance of those values
-        (``shots / (shots - 1)`` times the variance under ``probs``); independent circuits add.
+        (``shots / (shots - 1)`` times the variance under ``probs``), in the Wilson form of
+        :func:`qdensity.execution.intervals.wilson_standard_error` so that it never collapses to
+        zero when every shot gave the same value; independent circuits add.
 
         Parameters
         ----------
@@ -184,6 +187,8 @@ class _GradientCircuits:
             n_shots = _check_shots(s, two_d.shape[0])
             mean = two_d @ v
             var = np.maximum(two_d @ v**2 - mean**2, 0.0)  # rounding can give -1e-17
-            total = total + var / (n_shots[:, None] - 1.0)
+            n = n_shots[:, None].astype(float)
+            width = v.max(axis=0) - v.min(axis=0)  # range of each parameter's per-shot value
+            total = total + wilson_standard_error(var * n / (n - 1.0), n, width) ** 2
         se = np.sqrt(total)
         return se if arrs[0].ndim == 2 else se[0]

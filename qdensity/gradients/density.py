@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
+from qdensity.execution.intervals import binomial_standard_error
 from qdensity.execution.plans import (
     CircuitJob,
     Estimate,
@@ -227,7 +228,7 @@ def _forward_plan(model, k: int, X, shots) -> Plan:
     def post_p(results):
         res = inner.postprocess(results)
         p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
-        se = np.sqrt(p * (1 - p) / res.shots) if res.shots else np.zeros_like(p)
+        se = binomial_standard_error(p, res.shots) if res.shots else np.zeros_like(p)
         return Estimate(p, se)
     return Plan(inner.jobs, post_p, inner.description)
 

@@ -29,6 +29,7 @@ from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis.structure import instruction_generator, parameter_of
+from qdensity.execution.intervals import binomial_standard_error
 from qdensity.execution.plans import Estimate, Plan, expectation_plan, probabilities_plan
 from qdensity.validation import as_parameter_rows, check_circuit
 
@@ -220,7 +221,7 @@ def parameter_shift_plan(
             var = np.zeros((B, len(params)))
         else:
             f = raw.probabilities
-            se = (np.sqrt(f * (1 - f) / raw.shots) if raw.shots is not None
+            se = (binomial_standard_error(f, raw.shots) if raw.shots is not None
                   else np.zeros_like(f))
             out = np.zeros((B, f.shape[1], len(params)))
             var = np.zeros_like(out)

@@ -13,9 +13,11 @@ import the layers; :mod:`qdensity.nn` re-exports all four names.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import zipfile
+import zlib
 from collections.abc import Mapping
 from typing import Any
 
@@ -132,7 +134,8 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
     TypeError
         For object, string or complex arrays (they would need pickle or lose information).
     ValueError
-        For bad names, and for NaN/inf in a JSON file (standard JSON cannot hold them).
+        For bad names, and for NaN/inf (JSON cannot hold them; :func:`load_parameters`
+        refuses them in either format).
 
     Notes
     -----
@@ -151,6 +154,9 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
            [0., 1.]])
     """
     checked = _check_arrays(arrays)
+    for name, arr in checked.items():
+        if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+            raise ValueError(f"array {name!r} has NaN or inf; parameter files hold finite values")
     path = os.fspath(path)
     if str(path).lower().endswith(".json"):
         doc = {"format": _JSON_FORMAT, "version": 1, "arrays": {}}
@@ -190,46 +196,87 @@ def load_parameters(path: str | os.PathLike) -> dict[str, np.ndarray]:
     Raises
     ------
     ValueError
-        If the file needs pickle (object arrays or a pickled object), is not an ``.npz``
+        Naming the file: if it is empty, damaged, holds NaN or inf, needs pickle (object
+        arrays or a pickled object), is not an ``.npz``
         archive, or is not a qdensity parameter JSON file.
     """
     path = os.fspath(path)
     if str(path).lower().endswith(".json"):
-        with open(path, encoding="utf-8") as fh:
-            try:
-                doc = json.load(fh)
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{path!r} is not valid JSON: {exc}") from exc
-        if not isinstance(doc, dict) or doc.get("format") != _JSON_FORMAT:
-            raise ValueError(f"{path!r} is not a {_JSON_FORMAT!r} JSON file")
-        out = {}
-        for name, entry in doc.get("arrays", {}).items():
-            try:
-                dtype = np.dtype(entry["dtype"])
-                shape = tuple(int(s) for s in entry["shape"])
-                data = entry["data"]
-            except (KeyError, TypeError) as exc:
-                raise ValueError(f"{path!r}: entry {name!r} lacks dtype/shape/data") from exc
-            if dtype.kind not in "biuf":
-                raise ValueError(f"{path!r}: entry {name!r} has unsupported dtype {dtype}")
-            out[name] = np.asarray(data, dtype=dtype).reshape(shape)
-        return out
+        return _load_json(path)
+    return _load_npz(path)
+
+
+def _finite(path: str, name: str, arr: np.ndarray) -> np.ndarray:
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{path!r}: array {name!r} holds NaN or inf; parameters must be finite")
+    return arr
+
+
+def _load_json(path: str) -> dict[str, np.ndarray]:
+    with open(path, encoding="utf-8") as fh:
+        try:
+            doc = json.load(fh)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path!r} is not valid JSON: {exc}") from exc
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path!r} is not a UTF-8 text (JSON) file: {exc}") from exc
+    if not isinstance(doc, dict) or doc.get("format") != _JSON_FORMAT:
+        raise ValueError(f"{path!r} is not a {_JSON_FORMAT!r} JSON file")
+    arrays = doc.get("arrays", {})
+    if not isinstance(arrays, dict):
+        raise ValueError(f"{path!r}: 'arrays' must be an object of named arrays")
+    out = {}
+    for name, entry in arrays.items():
+        try:
+            dtype = np.dtype(entry["dtype"])
+            shape = tuple(int(s) for s in entry["shape"])
+            data = entry["data"]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"{path!r}: entry {name!r} lacks a valid dtype/shape/data") from exc
+        if dtype.kind not in "biuf":
+            raise ValueError(f"{path!r}: entry {name!r} has unsupported dtype {dtype}")
+        if any(s < 0 for s in shape):
+            raise ValueError(f"{path!r}: entry {name!r} has a negative shape {list(shape)}")
+        try:
+            flat = np.asarray(data, dtype=dtype)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ValueError(f"{path!r}: entry {name!r} data are not {dtype} numbers") from exc
+        if flat.ndim != 1 or flat.size != math.prod(shape):
+            raise ValueError(f"{path!r}: entry {name!r} has {flat.size} values in data but "
+                             f"shape {list(shape)} needs {math.prod(shape)} (a flat list)")
+        out[name] = _finite(path, name, flat.reshape(shape))
+    return out
+
+
+def _load_npz(path: str) -> dict[str, np.ndarray]:
+    with open(path, "rb") as fh:  # FileNotFoundError / IsADirectoryError pass through
+        head = fh.read(4)
+    if head[:1] == b"\x80" or head[:1] == b"(":
+        raise ValueError(f"{path!r} is a pickle, which is never loaded; parameters are read "
+                         "without pickle (allow_pickle=False) from save_parameters' .npz files")
+    if head[:4] == b"\x93NUM":
+        raise ValueError(f"{path!r} holds a single .npy array, not an .npz archive of named "
+                         "parameters")
+    if head[:2] != b"PK":
+        what = "an empty file" if not head else "not a zip archive"
+        raise ValueError(f"{path!r} is not an .npz parameter archive ({what}); parameter "
+                         "files are written by save_parameters")
     try:
         loaded = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (ValueError, OSError, zipfile.BadZipFile) as exc:
-        raise ValueError(
-            f"cannot load parameters from {path!r} without pickle (allow_pickle=False): {exc}"
-        ) from exc
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{path!r} is not a readable .npz parameter archive (damaged, or it "
+                         f"needs pickle, which is never used): {exc}") from exc
     if not isinstance(loaded, np.lib.npyio.NpzFile):
         raise ValueError(
             f"{path!r} holds a single .npy array, not an .npz archive of named parameters"
         )
     with loaded:
-        try:
-            return {name: loaded[name] for name in loaded.files}
-        except ValueError as exc:
-            raise ValueError(
-                f"cannot load parameters from {path!r} without pickle (allow_pickle=False): {exc}"
-            ) from exc
+        out = {}
+        for name in loaded.files:
+            try:
+                arr = loaded[name]
+            except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+                raise ValueError(f"{path!r}: array {name!r} cannot be read without pickle (the "
+                                 f"file is damaged or holds objects): {exc}") from exc
+            out[name] = _finite(path, name, arr)
+        return out

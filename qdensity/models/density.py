@@ -20,7 +20,7 @@ from qdensity.execution.plans import Plan, check_observable, expectation_plan
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
-from qdensity.validation import as_rng, check_circuit
+from qdensity.validation import as_rng, check_circuit, check_finite_array, check_width
 
 __all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
 
@@ -149,6 +149,35 @@ class DensityQNN:
 
     # ------------------------------------------------------------------ basic facts
     @property
+    def theta(self) -> np.ndarray:
+        """Trainable angles, shape (P,), in :attr:`parameters` order (finite; checked on set)."""
+        return self._theta
+
+    @theta.setter
+    def theta(self, value) -> None:
+        self._theta = self._check_theta(value, batch=False).copy()
+
+    def _check_theta(self, theta, *, batch: bool = True) -> np.ndarray:
+        """``theta`` as a finite float array of shape (P,) (or (B, P) when ``batch``)."""
+        arr = check_finite_array(theta, "theta")
+        P = len(self.parameters)
+        ok = arr.shape == (P,) or (batch and arr.ndim == 2 and arr.shape[1] == P)
+        if not ok:
+            allowed = f"({P},)" + (f" or (rows, {P})" if batch else "")
+            raise ValueError(f"theta must have shape {allowed} (one angle per model parameter, "
+                             f"in model.parameters order), got {arr.shape}")
+        return arr
+
+    def _check_X(self, X) -> np.ndarray:
+        """Data as a finite 2-d float array (B, d)."""
+        arr = np.atleast_2d(check_finite_array(X, "X"))
+        d = self.encoding.num_features if self.encoding is not None else arr.shape[-1]
+        if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] != d:
+            raise ValueError(f"X must have shape (rows >= 1, {d}) (d = the encoding's "
+                             f"num_features), got {arr.shape}")
+        return arr
+
+    @property
     def num_subunitaries(self) -> int:
         """K."""
         return len(self.sub_unitaries)
@@ -212,11 +241,11 @@ class DensityQNN:
         numpy.ndarray, shape (B, P_circuit)
         """
         circ = circuit if circuit is not None else self.circuit(k)
-        theta = self.theta if theta is None else np.asarray(theta, dtype=float)
+        theta = self.theta if theta is None else self._check_theta(theta)
         cols: dict = {}
         B = 1
         if X is not None:
-            X = np.atleast_2d(np.asarray(X, dtype=float))
+            X = self._check_X(X)
             B = X.shape[0]
             if self.encoding is not None:
                 enc = self.encoding.values(X)
@@ -256,7 +285,7 @@ class DensityQNN:
         from qdensity.execution.unary import forward
         from qdensity.models.exact import unary_circuits
 
-        X = np.atleast_2d(np.asarray(X, dtype=float))
+        X = self._check_X(X)
         norms = np.linalg.norm(X, axis=1, keepdims=True)
         if np.any(norms == 0):
             raise ValueError("X has an all-zero row; a unary encoding cannot load it")
@@ -265,7 +294,7 @@ class DensityQNN:
                          for k, c in enumerate(unary_circuits(self))], axis=1)
 
     def _sub_theta(self, k: int, theta) -> np.ndarray:
-        theta = self.theta if theta is None else np.asarray(theta, dtype=float)
+        theta = self.theta if theta is None else self._check_theta(theta)
         return theta[..., self.subunitary_parameter_indices(k)]
 
     def _z_readout_matrix(self) -> np.ndarray:
@@ -293,6 +322,11 @@ class DensityQNN:
         numpy.ndarray
             (B, K) for an observable readout; (B, K, n) for unary readouts.
         """
+        if method not in ("auto", "unary", "statevector", "aer"):
+            raise ValueError(f"method must be 'auto', 'unary', 'statevector' or 'aer', got "
+                             f"{method!r}")
+        theta = None if theta is None else self._check_theta(theta)
+        X = None if X is None else self._check_X(X)
         use_unary = self._use_unary() if method == "auto" else method == "unary"
         if use_unary:
             if not self._use_unary():
@@ -304,9 +338,9 @@ class DensityQNN:
             if self.readout == "unary_probabilities":
                 return Y**2
             return (Y**2) @ self._z_readout_matrix()
-        if method not in ("auto", "statevector", "aer"):
-            raise ValueError(f"method must be 'auto', 'unary', 'statevector' or 'aer', got "
-                             f"{method!r}")
+        check_width(self.num_qubits, engine=f"DensityQNN method={method!r} prediction",
+                    alternative="method='unary' (RBS/FBS sub-unitaries on a unary encoding) or "
+                    "sample() with shots")
         from qdensity.models.exact import aer_outputs, exact_outputs
 
         return (aer_outputs if method == "aer" else exact_outputs)(self, X, theta)
@@ -365,6 +399,7 @@ class DensityQNN:
             in eval mode).
         """
         from qdensity.execution.engines import SamplerEngine
+        from qdensity.execution.intervals import wilson_standard_error
         from qdensity.execution.plans import CircuitJob, diagonal_values, measured
         from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
         from qdensity.validation import check_positive_int
@@ -372,7 +407,7 @@ class DensityQNN:
         budget = check_positive_int(budget, "budget")
         if self.readout != "observable" or np.any(self.observable.paulis.x):
             raise ValueError("sample() needs a diagonal (Z-type) observable readout")
-        x = np.atleast_2d(np.asarray(x, dtype=float))
+        x = self._check_X(x)
         if x.shape[0] != 1:
             raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
         rng = as_rng(seed)
@@ -405,7 +440,8 @@ class DensityQNN:
             mean = float(probs @ values)
             var = float(probs @ values**2) - mean**2
             return ScheduleResult(name="deterministic", estimate=mean,
-                                  standard_error=float(np.sqrt(max(var, 0.0) / budget)),
+                                  standard_error=float(wilson_standard_error(var, budget,
+                                                                             hi - lo)),
                                   allocation=np.array([budget]), per_subunitary=np.array([mean]),
                                   shots_used=budget, pilot_allocation=None, info={})
         circuits = [measured(self.circuit(k)) for k in range(self.num_subunitaries)]
@@ -438,13 +474,9 @@ class DensityQNN:
     def set_params(self, theta=None, mixture=None) -> DensityQNN:
         """Set angles and/or mixture parameters (shapes checked)."""
         if theta is not None:
-            theta = np.asarray(theta, dtype=float)
-            if theta.shape != (self.num_parameters,):
-                raise ValueError(f"theta must have shape ({self.num_parameters},), got "
-                                 f"{theta.shape}")
-            self.theta = theta.copy()
+            self.theta = self._check_theta(theta, batch=False)
         if mixture is not None:
-            self.mixture.params = np.asarray(mixture, dtype=float)
+            self.mixture.params = check_finite_array(mixture, "mixture")
         return self
 
     def __repr__(self) -> str:

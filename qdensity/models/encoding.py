@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.validation import check_finite_array, check_positive_int
+
 __all__ = ["Encoding"]
 
 
@@ -49,6 +51,7 @@ class Encoding:
         """
         from qdensity.circuits.loaders import loader_angles, unary_loader_template
 
+        check_positive_int(num_features, "num_features", minimum=2)
         template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
         return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
 
@@ -57,12 +60,13 @@ class Encoding:
         """Angle encoding ``R_y(pi x_i / 2)`` on qubit i (paper, equivariant experiments)."""
         from qdensity.circuits.ansatze.equivariant import angle_encoding
 
+        check_positive_int(num_qubits, "num_qubits")
         circ = angle_encoding(num_qubits)
         return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
 
     def values(self, X) -> np.ndarray:
         """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        if X.shape[1] != self.num_features:
+        X = np.atleast_2d(check_finite_array(X, "X"))
+        if X.ndim != 2 or X.shape[0] == 0 or X.shape[1] != self.num_features:
             raise ValueError(f"X must have {self.num_features} features, got shape {X.shape}")
         return np.atleast_2d(self.transform(X))

@@ -245,7 +245,8 @@ def test_bad_input_is_refused(tmp_path):
 
 def test_command_line(tmp_path, capsys):
     target = tmp_path / "out"
-    assert main(["--check", str(target)]) == 1
+    assert main(["--check", str(target)]) == 2  # missing directory: named, not "out of date"
+    assert "does not exist" in capsys.readouterr().err
     assert main([str(target)]) == 0
     assert main(["--check", str(target)]) == 0
     assert main(["--check", str(CIRCUITS)]) == 0

@@ -29,7 +29,7 @@ from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.datasets.bars_and_dots import bars_and_dots
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_layers, check_num_qubits, check_positive_int
 
 __all__ = [
     "translation_classes",
@@ -82,7 +82,7 @@ def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int
     >>> translation_classes(4, 2)[2]
     [(0, 2), (1, 3)]
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=1)
+    n = check_num_qubits(num_qubits, minimum=1)
     k_max = check_positive_int(max_weight, "max_weight", minimum=1)
     if k_max > n:
         raise ValueError(
@@ -163,7 +163,7 @@ def equivariant_commuting(
     >>> qc.num_parameters, len(qc.data)
     (18, 175)
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
+    n = check_num_qubits(num_qubits, minimum=2)
     p = _check_pauli(pauli)
     classes = translation_classes(n, max_weight)
     theta = ParameterVector(parameter_prefix, len(classes))
@@ -224,8 +224,8 @@ def equivariant_noncommuting(
     >>> equivariant_noncommuting(6, 2).num_parameters
     10
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
-    num_layers = check_positive_int(layers, "layers", minimum=1)
+    n = check_num_qubits(num_qubits, minimum=2)
+    num_layers = check_layers(layers)
     xx_classes = _distance_classes(n)
     per_layer = 2 + len(xx_classes)
     theta = ParameterVector(parameter_prefix, num_layers * per_layer)
@@ -265,7 +265,7 @@ def angle_encoding(num_qubits: int, *, parameter_prefix: str = "x") -> QuantumCi
     >>> angle_encoding(3).num_parameters
     3
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=1)
+    n = check_num_qubits(num_qubits, minimum=1)
     x = ParameterVector(parameter_prefix, n)
     qc = QuantumCircuit(n, name=f"angle_encoding_{n}")
     for i in range(n):
@@ -286,5 +286,5 @@ def equivariant_observable(num_qubits: int) -> SparsePauliOp:
     SparsePauliOp
         ``n`` terms ``Z_i`` with coefficient 1 (eigenvalues ``-n .. n``).
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=1)
+    n = check_num_qubits(num_qubits, minimum=1)
     return SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)

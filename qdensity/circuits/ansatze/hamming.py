@@ -24,16 +24,13 @@ from collections.abc import Iterable
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.circuits.gates import FBSGate, RBSGate
+from qdensity.validation import check_num_qubits
 
 __all__ = ["pyramid", "x_circuit", "butterfly", "round_robin", "pairs_circuit"]
 
 
 def _check_n(n: int, minimum: int = 2) -> int:
-    if isinstance(n, bool) or not isinstance(n, int):
-        raise TypeError(f"num_qubits must be an int, got {type(n).__name__}")
-    if n < minimum:
-        raise ValueError(f"num_qubits must be >= {minimum}, got {n}")
-    return n
+    return check_num_qubits(n, minimum=minimum)
 
 
 def pairs_circuit(

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_layers, check_num_qubits
 
 __all__ = ["hardware_efficient", "ROTATIONS", "ENTANGLEMENTS"]
 
@@ -114,8 +114,8 @@ def hardware_efficient(
     >>> [qc.find_bit(inst.qubits[0]).index for inst in cx[3:6]]  # layer 1 runs backwards
     [3, 2, 1]
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
-    depth = check_positive_int(reps, "reps", minimum=1)
+    n = check_num_qubits(num_qubits, minimum=2)
+    depth = check_layers(reps, "reps")
     rots = _check_rotations(rotations)
     if entanglement not in ENTANGLEMENTS:
         raise ValueError(f"entanglement must be one of {ENTANGLEMENTS}, got {entanglement!r}")

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_num_qubits
 
 __all__ = [
     "qcnn",
@@ -45,7 +45,7 @@ POOL_PARAMETERS = 2
 
 
 def _check_n(num_qubits: int) -> int:
-    return check_positive_int(num_qubits, "num_qubits", minimum=2)
+    return check_num_qubits(num_qubits, minimum=2)
 
 
 def qcnn_layers(num_qubits: int) -> list[tuple[list[tuple[int, int]], list[tuple[int, int]]]]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.datasets.chebyshev import chebyshev_dataset
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_layers
 
 __all__ = ["reuploading", "chebyshev_dataset", "ENCODINGS"]
 
@@ -69,7 +69,7 @@ def reuploading(
     >>> qc.num_parameters, [inst.operation.name for inst in qc.data][:4]
     (7, ['rx', 'rz', 'ry', 'rz'])
     """
-    num_layers = check_positive_int(layers, "layers", minimum=1)
+    num_layers = check_layers(layers)
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding must be one of {ENCODINGS}, got {encoding!r}")
     if parameter_prefix == data_prefix:

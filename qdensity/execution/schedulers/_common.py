@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from qdensity.execution.schedulers.base import ShotSource
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_callable, check_positive_int
 
 
 def _check_value_range(value_range) -> tuple[float, float]:
@@ -58,6 +58,8 @@ def _draw(
     value_range: tuple[float, float],
 ) -> list[np.ndarray]:
     """Call ``source`` and check what comes back (count, lengths, finiteness, range)."""
+    check_callable(source, "source", "a callable source(shots_per_k, rng) -> K value arrays "
+                   "(e.g. sampler_source or discrete_source)")
     out = source(shots.copy(), rng)
     try:
         out = list(out)

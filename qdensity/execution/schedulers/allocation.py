@@ -27,9 +27,13 @@ def _round_allocation(
     """
     alloc = np.zeros(weights.size, dtype=np.int64)
     w = np.where(positive, weights, 0.0)
+    top = float(w.max()) if w.size else 0.0
+    if top > 0:
+        # scale by the largest weight first: with tiny weights (1e-308) budget / sum overflows
+        w = w / top
     total = float(w.sum())
     if total > 0:
-        quota = w * (budget / total)
+        quota = w / total * budget
         alloc = np.floor(quota).astype(np.int64)
         remainder = budget - int(alloc.sum())
         frac = np.where(positive, quota - alloc, -1.0)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from qdensity.execution.intervals import wilson_standard_error
 from qdensity.execution.schedulers._common import (
     _check_budget,
     _check_value_range,
@@ -122,8 +123,11 @@ class NeymanScheduler:
         var = np.nan_to_num(_sample_var(both))  # every positive stratum has >= 3 shots
         f_pilot = float(alpha[pos] @ _means(pilot)[pos])
         f_main = float(alpha[pos] @ _means(main)[pos])
-        v_pilot = float(np.sum(alpha[pos] ** 2 * var[pos] / pilot_alloc[pos]))
-        v_main = float(np.sum(alpha[pos] ** 2 * var[pos] / main_alloc[pos]))
+        width = vr[1] - vr[0]
+        v_pilot = float(np.sum(
+            alpha[pos] ** 2 * wilson_standard_error(var[pos], pilot_alloc[pos], width) ** 2))
+        v_main = float(np.sum(
+            alpha[pos] ** 2 * wilson_standard_error(var[pos], main_alloc[pos], width) ** 2))
         lam = n_pilot / budget
         return ScheduleResult(
             name=self.name,

@@ -6,11 +6,11 @@ and the estimate of ``f = sum_k alpha_k f_k`` (eq. 3) is the plain mean of all v
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from qdensity.execution.intervals import wilson_standard_error
 from qdensity.execution.schedulers._common import _check_value_range, _draw, _means
 from qdensity.execution.schedulers.base import ScheduleResult, ShotSource
 from qdensity.validation import SeedLike, as_rng, check_distribution, check_positive_int
@@ -25,7 +25,8 @@ class PerShotScheduler:
     The allocation is ``Multinomial(budget, alpha)`` (drawing all shots' ``k`` at once is the
     same distribution as drawing one per shot). The estimate is the mean of all ``budget``
     values, unbiased since every shot's value has mean ``sum_k alpha_k f_k``; its standard error
-    is ``std(values, ddof=1) / sqrt(budget)`` (with one shot, the bound
+    is ``std(values, ddof=1) / sqrt(budget)`` in Wilson form (:mod:`qdensity.execution.intervals`:
+    never zero, even when every shot gave the same value; with one shot, the bound
     ``(high - low) / 2`` on the standard deviation of a value in ``value_range``).
 
     Parameters
@@ -51,7 +52,7 @@ class PerShotScheduler:
         values = _draw(source, counts, rng, vr)
         pooled = np.concatenate(values)
         if budget >= 2:
-            se = float(pooled.std(ddof=1) / math.sqrt(budget))
+            se = float(wilson_standard_error(pooled.var(ddof=1), budget, vr[1] - vr[0]))
         else:
             se = (vr[1] - vr[0]) / 2.0
         return ScheduleResult(

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from qdensity.execution.intervals import wilson_standard_error
 from qdensity.execution.schedulers._common import (
     _check_value_range,
     _draw,
@@ -55,12 +56,16 @@ class ProportionalScheduler:
         values = _draw(source, alloc, rng, vr)
         means = _means(values)
         var = _sample_var(values)
-        var = np.where(np.isnan(var), (vr[1] - vr[0]) ** 2 / 4.0, var)
         pos = alpha > 0
+        # single-shot strata: the largest variance a bounded value can have; else the sample
+        # variance with the Wilson term, so that agreeing shots do not claim certainty
+        se2 = np.where(np.isnan(var), (vr[1] - vr[0]) ** 2 / 4.0 / np.maximum(alloc, 1),
+                       wilson_standard_error(np.nan_to_num(var), np.maximum(alloc, 1),
+                                             vr[1] - vr[0]) ** 2)
         return ScheduleResult(
             name=self.name,
             estimate=float(alpha[pos] @ means[pos]),
-            standard_error=float(np.sqrt(np.sum(alpha[pos] ** 2 * var[pos] / alloc[pos]))),
+            standard_error=float(np.sqrt(np.sum(alpha[pos] ** 2 * se2[pos]))),
             allocation=alloc,
             per_subunitary=means,
             shots_used=int(alloc.sum()),
@@ -89,7 +94,12 @@ def proportional(
     >>> from qdensity.execution.schedulers import discrete_source
     >>> src = discrete_source([[1.0, 0.0], [0.0, 1.0]], [1.0, -1.0])
     >>> res = proportional([0.75, 0.25], 400, src, seed=1)
-    >>> res.allocation.tolist(), res.estimate, res.standard_error
-    ([300, 100], 0.5, 0.0)
+    >>> res.allocation.tolist(), res.estimate
+    ([300, 100], 0.5)
+
+    Every shot agreed, yet the error is not zero (the Wilson term, ``R / (2 n)`` per stratum):
+
+    >>> round(res.standard_error, 6)
+    0.003536
     """
     return ProportionalScheduler(value_range=value_range).run(alpha, budget, source, seed)

@@ -1,0 +1,80 @@
+"""Standard errors of sampled estimates that never collapse to zero (Wilson's term, z = 1).
+
+The plug-in binomial error ``sqrt(p_hat (1 - p_hat) / N)`` is zero whenever an outcome never
+(or always) turned up in ``N`` shots, and a zero error claims certainty: an interval
+``p_hat +- k * se`` of width zero, and a Neyman allocation that starves the stratum. The Wilson
+score interval (Wilson 1927) at ``z = 1`` has half-width
+``sqrt(p_hat (1 - p_hat) / N + 1 / (4 N^2)) / (1 + 1 / N)``; qdensity keeps its extra term
+``1 / (4 N^2)`` and drops the shrink factor ``1 / (1 + 1 / N)``:
+
+    ``se = sqrt(p_hat (1 - p_hat) / N + 1 / (4 N^2))``,
+
+which is never below the plug-in error nor below Wilson's half-width, differs from both by
+``O(1/N)``, and is at least ``1 / (2 N)``. For a per-shot value bounded in an interval of width
+``R`` (an observable's eigenvalues, a gradient estimator's values) the sample variance replaces
+``p_hat (1 - p_hat)`` and ``R^2 / (4 N^2)`` is the extra term (for values in ``{0, R}`` this is
+the binomial case scaled by ``R``). Every sampled standard error in qdensity (plans, gradients,
+schedulers, models) goes through :func:`wilson_standard_error`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["wilson_standard_error", "binomial_standard_error"]
+
+
+def wilson_standard_error(variance, shots, value_range_width=1.0) -> np.ndarray:
+    """Standard error of the mean of ``shots`` bounded per-shot values, never zero.
+
+    Parameters
+    ----------
+    variance : array_like
+        Per-shot variance estimate (plug-in or unbiased), any shape; negative rounding noise
+        is clipped to zero.
+    shots : int or array_like of int
+        Shots behind each mean (broadcast against ``variance``), ``>= 1``.
+    value_range_width : float or array_like
+        Width ``R = high - low`` of the interval each per-shot value lies in (broadcast).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``sqrt(variance / N + R^2 / (4 N^2))``, strictly positive when ``R > 0``.
+
+    Examples
+    --------
+    >>> float(wilson_standard_error(0.0, 2000))  # an outcome never seen in 2000 shots
+    0.00025
+    >>> round(float(wilson_standard_error(0.25, 10_000)), 7)  # p = 1/2: plug-in is 0.005
+    0.0050002
+    """
+    var = np.maximum(np.asarray(variance, dtype=float), 0.0)
+    n = np.asarray(shots, dtype=float)
+    if np.any(n < 1):
+        raise ValueError(f"shots must be >= 1, got {shots!r}")
+    width = np.asarray(value_range_width, dtype=float)
+    return np.sqrt(var / n + width**2 / (4.0 * n**2))
+
+
+def binomial_standard_error(p, shots) -> np.ndarray:
+    """Standard error of an outcome frequency ``p_hat`` from ``shots`` shots, never zero.
+
+    Parameters
+    ----------
+    p : array_like
+        Empirical frequencies in ``[0, 1]``.
+    shots : int or array_like of int
+
+    Returns
+    -------
+    numpy.ndarray
+        Same shape as ``p``; never zero.
+
+    Examples
+    --------
+    >>> float(binomial_standard_error(0.0, 100))
+    0.005
+    """
+    p = np.asarray(p, dtype=float)
+    return wilson_standard_error(p * (1.0 - p), shots, 1.0)
