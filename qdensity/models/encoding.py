@@ -9,11 +9,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
 __all__ = ["Encoding"]
+
+
+def _as_float(X) -> np.ndarray:
+    """The angle encoding's data map (module level, so encodings and models pickle)."""
+    return np.asarray(X, dtype=float)
 
 
 @dataclass
@@ -50,7 +56,7 @@ class Encoding:
         from qdensity.circuits.loaders import loader_angles, unary_loader_template
 
         template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
-        return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
+        return cls(template, partial(loader_angles, layout=layout), num_features, "unary")
 
     @classmethod
     def angle(cls, num_qubits: int) -> Encoding:
@@ -58,7 +64,7 @@ class Encoding:
         from qdensity.circuits.ansatze.equivariant import angle_encoding
 
         circ = angle_encoding(num_qubits)
-        return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
+        return cls(circ, _as_float, num_qubits, "angle")
 
     def values(self, X) -> np.ndarray:
         """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""
