@@ -180,8 +180,8 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
     jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
             for i, c in enumerate(shared.circuits)]
 
-    return Plan(jobs, partial(_commuting_post, grads, shots), f"commuting gradient of sub-unitary {k}",
-                {"gradient": shared})
+    return Plan(jobs, partial(_commuting_post, grads, shots),
+                f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
 def _forward_plan(model, k: int, X, shots) -> Plan:
