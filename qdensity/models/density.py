@@ -447,6 +447,12 @@ class DensityQNN:
             self.mixture.params = np.asarray(mixture, dtype=float)
         return self
 
+    def __sklearn_clone__(self) -> DensityQNN:
+        """``sklearn.base.clone`` of an estimator holding this model as a template: a copy."""
+        import copy
+
+        return copy.deepcopy(self)
+
     def __repr__(self) -> str:
         return (f"DensityQNN(K={self.num_subunitaries}, n={self.num_qubits}, "
                 f"params={self.num_parameters}, mixture={type(self.mixture).__name__}, "
