@@ -164,6 +164,10 @@ class DensityQNNLayer(nn.Module):
         if self.model.num_parameters == 0:
             self.theta.requires_grad_(False)
         self._unary = (engine == "exact" and self.model._use_unary())
+        if self._unary:  # the Givens rotations of each sub-unitary, extracted once
+            from qdensity.execution.unary import compile_unary
+
+            self._compiled = [compile_unary(c) for c in self.model.sub_unitaries]
 
     @property
     def num_features(self) -> int:
@@ -207,7 +211,7 @@ class DensityQNNLayer(nn.Module):
                                  f"load them")
             Xn = X / norms
             Ys = [forward(c, Xn, theta[m.subunitary_parameter_indices(k)])
-                  for k, c in enumerate(m.sub_unitaries)]
+                  for k, c in enumerate(self._compiled)]
             if m.readout == "unary_amplitudes":
                 outs = np.stack(Ys, axis=1)
             elif m.readout == "unary_probabilities":
@@ -243,7 +247,7 @@ class DensityQNNLayer(nn.Module):
 
         _, Xn, norms, Ys = state
         g_Xn = np.zeros_like(Xn)
-        for k, (c, y) in enumerate(zip(m.sub_unitaries, Ys, strict=True)):
+        for k, (c, y) in enumerate(zip(self._compiled, Ys, strict=True)):
             if m.readout == "unary_amplitudes":
                 dY = g[:, k, :]
             elif m.readout == "unary_probabilities":
