@@ -20,7 +20,7 @@ from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
 from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
 from qdensity.execution.resources import compare_reports, resource_report
 from qdensity.execution.targets import get_target, known_targets
-from qdensity.learning.training import QNNClassifier, QNNRegressor
+from qdensity.learning.estimators import QNNClassifier, QNNRegressor
 from qdensity.models.decompositions import (
     Decomposition,
     by_moments,

@@ -19,8 +19,14 @@ def test_every_module_is_collected():
     assert "qdensity.gradients.commuting" in MODULES and len(MODULES) > 20
 
 
+#: Modules of optional extras and the package each needs (CI installs the extras).
+OPTIONAL = {"qdensity.learning.torch": "torch"}
+
+
 @pytest.mark.parametrize("name", MODULES)
 def test_docstring_examples(name):
+    if name in OPTIONAL:
+        pytest.importorskip(OPTIONAL[name])
     module = importlib.import_module(name)
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.failed == 0, f"{result.failed} doctest example(s) failed in {name}"

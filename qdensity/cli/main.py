@@ -1,4 +1,4 @@
-"""The ``qdensity`` command: build, transpile, run, table1, export, demo.
+"""The ``qdensity`` command: build, transpile, run, table1, export, demo, sweep.
 
 Every sub-command has ``--help``. Bad input (an unknown builder or target, a budget smaller
 than the circuits) prints a clear message and exits with status 2.
@@ -281,6 +281,38 @@ def _cmd_demo(args) -> int:
     return 0
 
 
+_SWEEP_DATASETS = ("digits", "iris", "wine", "breast_cancer")
+
+
+def _cmd_sweep(args) -> int:
+    from sklearn import datasets
+    from sklearn.preprocessing import StandardScaler
+
+    from qdensity.learning.estimators import QNNClassifier
+    from qdensity.learning.sweep import export_trials, run_sweep
+
+    if args.dataset not in _SWEEP_DATASETS:
+        raise ValueError(f"unknown dataset {args.dataset!r}; known: {', '.join(_SWEEP_DATASETS)}")
+    X, y = getattr(datasets, f"load_{args.dataset}")(return_X_y=True)
+    X = X / 16.0 if args.dataset == "digits" else StandardScaler().fit_transform(X)
+    if args.samples is not None:
+        X, y = X[:args.samples], y[:args.samples]
+    est = QNNClassifier(num_qubits=args.num_qubits, ansatz=args.ansatz,
+                        decomposition=args.decomposition, mixture=args.mixture,
+                        epochs=args.epochs, verbose=False)
+    study = run_sweep(X, y, est, n_trials=args.n_trials, storage=args.storage,
+                      study_name=args.study, seed=args.seed, sampler_seed=args.sampler_seed,
+                      verbose=not args.quiet)
+    for path in args.export:
+        export_trials(study, path)
+    done = [t for t in study.trials if t.state.name == "COMPLETE"]
+    summary = {"study": study.study_name, "complete": len(done),
+               "best_value": study.best_value if done else None,
+               "best_params": study.best_params if done else None}
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     from qdensity.execution.targets import target_help
 
@@ -350,6 +382,28 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_SEED, default=7)
     d.add_argument("--no-plot", action="store_true")
     d.set_defaults(func=_cmd_demo)
+
+    sw = sub.add_parser("sweep", help="optuna hyperparameter sweep of a QNNClassifier (the "
+                                      "paper's space); start it on many machines with one "
+                                      "--storage to share a study")
+    sw.add_argument("--dataset", default="digits", help=f"one of: {', '.join(_SWEEP_DATASETS)}")
+    sw.add_argument("--samples", type=int, help="use only the first SAMPLES rows")
+    sw.add_argument("--num-qubits", type=int, default=8, help="PCA to this many qubits")
+    sw.add_argument("--ansatz", default="round_robin")
+    sw.add_argument("--decomposition", default="layers")
+    sw.add_argument("--mixture", default="softmax")
+    sw.add_argument("--epochs", type=int, default=10)
+    sw.add_argument("--n-trials", type=int, default=32, help="trials of the whole study")
+    sw.add_argument("--storage", default=None,
+                    help="optuna storage URL (default sqlite:///qdensity-sweep.db; "
+                         "postgresql://... or mysql://... for many machines)")
+    sw.add_argument("--study", default="qdensity", help="study name")
+    sw.add_argument("--seed", type=int, default=0, help="seed of the validation split")
+    sw.add_argument("--sampler-seed", type=int, default=None, help="seed of optuna's sampler")
+    sw.add_argument("--export", nargs="*", default=[], metavar="FILE",
+                    help="write the trials to FILE.json and/or FILE.csv")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.set_defaults(func=_cmd_sweep)
     return p
 
 
@@ -360,7 +414,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.filterwarnings("ignore", category=DeprecationWarning)
     try:
         return int(args.func(args) or 0)
-    except (ValueError, TypeError, OSError) as exc:
+    except (ValueError, TypeError, OSError, ImportError) as exc:
         message = " ".join(str(exc).split())  # one line
         print(f"qdensity {args.command}: error: {message}", file=sys.stderr)
         return 2

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -246,13 +247,40 @@ class Plan:
         """One plan running several; its post-processing returns the list of their answers."""
         plans = list(plans)
         bounds = np.cumsum([0] + [len(p.jobs) for p in plans])
-
-        def post(results: list[JobResult]) -> list:
-            return [p.postprocess(results[a:b]) for p, a, b in zip(plans, bounds[:-1], bounds[1:],
-                                                                   strict=True)]
-
+        post = partial(_combined_post, plans, bounds)
         jobs = [job for p in plans for job in p.jobs]
         return Plan(jobs, post, description or "; ".join(p.description for p in plans))
+
+
+# Post-processing functions live at module level and are bound with functools.partial, so that
+# plans pickle (joblib, multiprocessing and optuna workers ship them).
+def _combined_post(plans, bounds, results: list[JobResult]) -> list:
+    return [p.postprocess(results[a:b]) for p, a, b in zip(plans, bounds[:-1], bounds[1:],
+                                                           strict=True)]
+
+
+def _expectation_post(num_rows, constant, diagonals, results: list[JobResult]) -> Estimate:
+    """Sum of the groups' estimates (module level, so plans pickle)."""
+    value = np.full(num_rows, constant)
+    var = np.zeros(num_rows)
+    for res, table in zip(results, diagonals, strict=True):
+        if res.bits is not None:  # parities of the measured bits, never 2**n
+            per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
+            value += per_shot.mean(axis=1)
+            var += per_shot.var(axis=1) / res.shots
+            continue
+        diag = table.dense()[:, 0]
+        mean = res.probabilities @ diag
+        value += mean
+        if res.shots is not None:
+            second = res.probabilities @ diag**2
+            width = float(diag.max() - diag.min())
+            var += wilson_standard_error(second - mean**2, res.shots, width) ** 2
+    return Estimate(value, np.sqrt(var))
+
+
+def _first_result(results: list[JobResult]) -> JobResult:
+    return results[0]
 
 
 def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
@@ -397,24 +425,7 @@ def expectation_plan(
         coeffs = np.real(np.asarray(group.coeffs) * (-1j) ** images.phase)
         diagonals.append(ZStringTable(images.z, coeffs[:, None]))
 
-    def post(results: list[JobResult]) -> Estimate:
-        value = np.full(vals.shape[0], constant)
-        var = np.zeros(vals.shape[0])
-        for res, table in zip(results, diagonals, strict=True):
-            if res.bits is not None:  # parities of the measured bits, never 2**n
-                per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
-                value += per_shot.mean(axis=1)
-                var += per_shot.var(axis=1) / res.shots
-                continue
-            diag = table.dense()[:, 0]
-            mean = res.probabilities @ diag
-            value += mean
-            if res.shots is not None:
-                second = res.probabilities @ diag**2
-                width = float(diag.max() - diag.min())
-                var += wilson_standard_error(second - mean**2, res.shots, width) ** 2
-        return Estimate(value, np.sqrt(var))
-
+    post = partial(_expectation_post, vals.shape[0], constant, diagonals)
     return Plan(jobs, post, f"<H> of {circuit.name} ({len(jobs)} groups)")
 
 
@@ -442,7 +453,7 @@ def probabilities_plan(
                 "estimates from the measured bits")
     job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
                      label)
-    return Plan([job], lambda results: results[0], f"P(b) of {circuit.name}")
+    return Plan([job], _first_result, f"P(b) of {circuit.name}")
 
 
 def postselect_hamming_weight(probabilities, weight: int = 1) -> tuple[np.ndarray, np.ndarray]:

@@ -104,7 +104,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
         clf = QNNClassifier(model, post=Linear(cfg.num_qubits, 10, seed=cfg.seed),
                             learning_rate=cfg.learning_rate, epochs=100,
                             batch_size=cfg.batch_size, engine=engine, shots=cfg.shots,
-                            gradient=method, seed=cfg.seed, verbose=False,
+                            gradient=method, seed=cfg.seed, verbose=verbose,
                             max_shots=cfg.budget, callback=checkpoint)
         t = time.perf_counter()
         clf.fit(X_tr, y_tr)

@@ -101,14 +101,22 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
     }
 
 
-def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2) -> list[dict]:
-    """Rows of Table 1 for every ansatz and size (butterfly only for powers of two)."""
+def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
+           verbose: bool = True) -> list[dict]:
+    """Rows of Table 1 for every ansatz and size (butterfly only for powers of two).
+
+    ``verbose`` shows a progress bar when attached to a terminal.
+    """
+    from qdensity.learning.progress import progress_bar
+
+    jobs = [(name, n) for name in ansatze for n in sizes
+            if not (name == "butterfly" and n & (n - 1))]
     rows = []
-    for name in ansatze:
-        for n in sizes:
-            if name == "butterfly" and n & (n - 1):
-                continue
+    with progress_bar(len(jobs), desc="table1", verbose=verbose, unit="row") as bar:
+        for name, n in jobs:
+            bar.set_postfix(ansatz=name, n=n, refresh=False)
             rows.append(table1_row(name, n, layers=layers, copies_k=copies_k))
+            bar.update(1)
     return rows
 
 

@@ -22,6 +22,7 @@ parameter shift otherwise.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
@@ -119,17 +120,11 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
         inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
                                      label=f"shift_k{k}")
 
-        def post(results):
-            est = inner.postprocess(results)
-            return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
+        post = partial(_shift_observable_post, inner)
     else:
         inner = parameter_shift_plan(circ, None, rows, parameters=params, shots=shots,
                                      label=f"shift_k{k}")
-        unary = 1 << np.arange(n)
-
-        def post(results):
-            est = inner.postprocess(results)
-            return Estimate(est.value[:, unary, :], est.standard_error[:, unary, :])
+        post = partial(_shift_unary_post, inner, 1 << np.arange(n))
 
     plan = Plan(inner.jobs, post, inner.description, {"method": "shift"})
     return plan
@@ -192,44 +187,17 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
     jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
             for i, c in enumerate(shared.circuits)]
 
-    def post(results):
-        if shots is not None and all(r.bits is not None for r in results):
-            # sampled: estimator values on the observed bits, never a 2**n array
-            parts = [g.gradient_from_bits([r.bits for r in results]) for g in grads]
-            return Estimate(np.stack([v for v, _ in parts], axis=1),
-                            np.stack([e for _, e in parts], axis=1))
-        probs = [r.probabilities for r in results]
-        if len(grads) == 1:
-            val = grads[0].gradient_from_probabilities(probs)[:, None, :]
-            err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
-                   else np.zeros_like(val))
-            return Estimate(val, err)
-        # one RBS(pi/4) layer on every pair serves every output j: the per-output estimators
-        # only read the bits of their own pair, whose distribution the shared circuit reproduces
-        val = np.stack([g.gradient_from_probabilities(probs) for g in grads], axis=1)
-        err = (np.stack([g.standard_error(probs, shots) for g in grads], axis=1)
-               if shots is not None else np.zeros_like(val))
-        return Estimate(val, err)
-
-    return Plan(jobs, post, f"commuting gradient of sub-unitary {k}",
-                {"gradient": shared})
+    return Plan(jobs, partial(_commuting_post, grads, shots),
+                f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
 def _forward_plan(model, k: int, X, shots) -> Plan:
     if model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
-
-        def post(results):
-            est = inner.postprocess(results)
-            return Estimate(est.value[:, None], est.standard_error[:, None])
-        return Plan(inner.jobs, post, inner.description)
+        return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
     inner = probabilities_plan(model.circuit(k), model.rows(k, X), shots=shots,
                                label=f"forward_k{k}")
-    def post_p(results):
-        res = inner.postprocess(results)
-        p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
-        se = binomial_standard_error(p, res.shots) if res.shots else np.zeros_like(p)
-        return Estimate(p, se)
+    post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
 
 
@@ -261,17 +229,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
     B = model.rows(0, X).shape[0]
 
-    def post(results):
-        parts = combined.postprocess(results)
-        jacs, fwds = parts[:K], parts[K:]
-        if fwds:
-            outputs = np.stack([f.value for f in fwds], axis=1)
-            errors = np.stack([f.standard_error for f in fwds], axis=1)
-        else:
-            outputs = errors = np.full((B, K, jacs[0].value.shape[1]), np.nan)
-        return DensityGradient(outputs, errors, [j.value for j in jacs],
-                               [j.standard_error for j in jacs])
-
+    post = partial(_density_post, combined, K, B)
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
     return Plan(combined.jobs, post, "density gradient",
                 {"gradient_circuits": per_point,
@@ -306,3 +264,58 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
     grad_alpha = np.einsum("bm,bkm->bk", upstream, grad.outputs)
     g_mix = model.mixture.vjp(X, grad_alpha)
     return g_theta, g_mix
+
+
+# Post-processing functions at module level, bound with functools.partial, so plans pickle.
+def _shift_observable_post(inner, results):
+    est = inner.postprocess(results)
+    return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
+
+
+def _shift_unary_post(inner, unary, results):
+    est = inner.postprocess(results)
+    return Estimate(est.value[:, unary, :], est.standard_error[:, unary, :])
+
+
+def _commuting_post(grads, shots, results):
+    if shots is not None and all(r.bits is not None for r in results):
+        # sampled: estimator values on the observed bits, never a 2**n array
+        parts = [g.gradient_from_bits([r.bits for r in results]) for g in grads]
+        return Estimate(np.stack([v for v, _ in parts], axis=1),
+                        np.stack([e for _, e in parts], axis=1))
+    probs = [r.probabilities for r in results]
+    if len(grads) == 1:
+        val = grads[0].gradient_from_probabilities(probs)[:, None, :]
+        err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
+               else np.zeros_like(val))
+        return Estimate(val, err)
+    # one RBS(pi/4) layer on every pair serves every output j: the per-output estimators
+    # only read the bits of their own pair, whose distribution the shared circuit reproduces
+    val = np.stack([g.gradient_from_probabilities(probs) for g in grads], axis=1)
+    err = (np.stack([g.standard_error(probs, shots) for g in grads], axis=1)
+           if shots is not None else np.zeros_like(val))
+    return Estimate(val, err)
+
+
+def _forward_observable_post(inner, results):
+    est = inner.postprocess(results)
+    return Estimate(est.value[:, None], est.standard_error[:, None])
+
+
+def _forward_unary_post(inner, unary, results):
+    res = inner.postprocess(results)
+    p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
+    se = binomial_standard_error(p, res.shots) if res.shots else np.zeros_like(p)
+    return Estimate(p, se)
+
+
+def _density_post(combined, K, B, results):
+    parts = combined.postprocess(results)
+    jacs, fwds = parts[:K], parts[K:]
+    if fwds:
+        outputs = np.stack([f.value for f in fwds], axis=1)
+        errors = np.stack([f.standard_error for f in fwds], axis=1)
+    else:
+        outputs = errors = np.full((B, K, jacs[0].value.shape[1]), np.nan)
+    return DensityGradient(outputs, errors, [j.value for j in jacs],
+                           [j.standard_error for j in jacs])

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
@@ -213,31 +214,35 @@ def parameter_shift_plan(
     else:
         inner = probabilities_plan(expanded, rows, shots=shots, label=label)
 
-    def post(results):
-        raw = inner.postprocess(results)
-        if observable is not None:
-            f, se = raw.value, raw.standard_error
-            out = np.zeros((B, len(params)))
-            var = np.zeros((B, len(params)))
-        else:
-            f = raw.probabilities
-            se = (binomial_standard_error(f, raw.shots) if raw.shots is not None
-                  else np.zeros_like(f))
-            out = np.zeros((B, f.shape[1], len(params)))
-            var = np.zeros_like(out)
-        for blk, (o, c) in enumerate(weights):
-            p, _q, a, _ = occ[o]
-            seg = slice(blk * B, (blk + 1) * B)
-            w = a * c
-            if observable is not None:
-                out[:, col[p]] += w * f[seg]
-                var[:, col[p]] += (w * se[seg]) ** 2
-            else:
-                out[:, :, col[p]] += w * f[seg]
-                var[:, :, col[p]] += (w * se[seg]) ** 2
-        return Estimate(out, np.sqrt(var))
+    post = partial(_shift_post, inner, observable is not None, B, len(params), weights, occ, col)
 
     plan = Plan(inner.jobs, post, f"parameter shift ({rbs_rule}) of {circuit.name}: "
                 f"{len(occ)} occurrences, {rows.shape[0]} shifted rows")
     plan.meta["occurrences"] = len(occ)
     return plan
+
+
+def _shift_post(inner, has_observable, B, num_params, weights, occ, col, results):
+    """Combine shifted evaluations into the gradient (module level, so plans pickle)."""
+    raw = inner.postprocess(results)
+    if has_observable:
+        f, se = raw.value, raw.standard_error
+        out = np.zeros((B, num_params))
+        var = np.zeros((B, num_params))
+    else:
+        f = raw.probabilities
+        se = (binomial_standard_error(f, raw.shots) if raw.shots is not None
+              else np.zeros_like(f))
+        out = np.zeros((B, f.shape[1], num_params))
+        var = np.zeros_like(out)
+    for blk, (o, c) in enumerate(weights):
+        p, _q, a, _ = occ[o]
+        seg = slice(blk * B, (blk + 1) * B)
+        w = a * c
+        if has_observable:
+            out[:, col[p]] += w * f[seg]
+            var[:, col[p]] += (w * se[seg]) ** 2
+        else:
+            out[:, :, col[p]] += w * f[seg]
+            var[:, :, col[p]] += (w * se[seg]) ** 2
+    return Estimate(out, np.sqrt(var))

@@ -1,7 +1,10 @@
-"""Training density QNNs: scikit-learn style estimators and the quantum layer
-(:mod:`~.training`), classical layers for hybrid models (:mod:`~.nn`, Fig. 11), flat parameter
-vectors and parameter files (:mod:`~.parameters`), losses and optimisers."""
+"""Training density QNNs: scikit-learn estimators (:mod:`~.estimators`), the quantum layer
+(:mod:`~.layer`), the PyTorch module (:mod:`~.torch`, optional extra), optuna sweeps
+(:mod:`~.sweep`, optional extra), the numpy read-out and optimisers a density model needs on its
+own (:mod:`~.nn`, :mod:`~.optim`, :mod:`~.losses`), parameter files (:mod:`~.parameters`) and
+progress bars (:mod:`~.progress`). :mod:`~.training` keeps the first release's import path."""
 
-from qdensity.learning.training import History, QNNClassifier, QNNRegressor, QuantumLayer
+from qdensity.learning.estimators import QNNClassifier, QNNRegressor
+from qdensity.learning.layer import History, QuantumLayer
 
 __all__ = ["QuantumLayer", "History", "QNNClassifier", "QNNRegressor"]

@@ -2,14 +2,15 @@
 
 The paper trains every OrthoQNN model with the cross entropy between the model's class
 probabilities and the true labels, optionally plus an ``l2`` penalty (Supp.
-"Hyperparameters"); the equivariant and data re-uploading experiments use binary and
-regression losses. Each loss here returns ``(mean loss, gradient with respect to its first
-argument)`` so that a training loop can feed the gradient straight into
+"Hyperparameters"); regression uses squared error. The numpy estimators need exactly these:
+:func:`cross_entropy_with_logits` (stable for any finite logits), :func:`mse`,
+:func:`l2_penalty` and :func:`accuracy`. Each loss returns ``(mean loss, gradient with respect
+to its first argument)`` so that a training loop can feed the gradient straight into
 :meth:`qdensity.nn.Layer.backward`.
 
-Nothing is clipped: a probability of exactly 0 or 1 where the loss needs a logarithm is
-refused with a ``ValueError`` (use the ``*_with_logits`` variants, which are stable for any
-finite logits).
+The first release's ``binary_cross_entropy``, ``binary_cross_entropy_with_logits`` and
+``cross_entropy`` (on probabilities) were removed in favour of PyTorch's (hybrid models train
+with :mod:`qdensity.learning.torch`); their names remain and say where to go.
 """
 
 from __future__ import annotations
@@ -17,8 +18,6 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-
-from qdensity.validation import check_rows_sum_to_one
 
 __all__ = [
     "mse",
@@ -105,119 +104,6 @@ def mse(pred, target) -> tuple[float, np.ndarray]:
     _same_shape(p, t, "pred", "target")
     diff = p - t
     return float(np.mean(diff**2)), 2.0 * diff / diff.size
-
-
-def binary_cross_entropy(p, y) -> tuple[float, np.ndarray]:
-    """Mean binary cross entropy ``-mean(y log p + (1 - y) log(1 - p))`` on probabilities.
-
-    Parameters
-    ----------
-    p : array_like, any shape
-        Predicted probabilities of class 1, strictly inside ``(0, 1)`` (no clipping).
-    y : array_like, same shape as ``p``
-        Targets in ``[0, 1]`` (hard labels 0/1 or soft targets).
-
-    Returns
-    -------
-    loss : float
-    grad_p : numpy.ndarray, shape of ``p``
-        ``(p - y) / (p (1 - p) N)``.
-    """
-    p_arr = _real_array(p, "p")
-    y_arr = _real_array(y, "y")
-    _same_shape(p_arr, y_arr, "p", "y")
-    if np.any(p_arr <= 0) or np.any(p_arr >= 1):
-        raise ValueError(
-            "p must lie strictly inside (0, 1) (it is not clipped; use "
-            f"binary_cross_entropy_with_logits for saturated outputs), got range "
-            f"[{p_arr.min()!r}, {p_arr.max()!r}]"
-        )
-    if np.any(y_arr < 0) or np.any(y_arr > 1):
-        raise ValueError(f"y must lie in [0, 1], got range [{y_arr.min()!r}, {y_arr.max()!r}]")
-    n = p_arr.size
-    loss = -np.mean(y_arr * np.log(p_arr) + (1.0 - y_arr) * np.log1p(-p_arr))
-    grad = (p_arr - y_arr) / (p_arr * (1.0 - p_arr) * n)
-    return float(loss), grad
-
-
-def binary_cross_entropy_with_logits(z, y) -> tuple[float, np.ndarray]:
-    """Binary cross entropy of ``sigmoid(z)``, computed stably from the logits ``z``.
-
-    Uses ``max(z, 0) - z y + log(1 + exp(-|z|))``, exact for every finite ``z``.
-
-    Parameters
-    ----------
-    z : array_like, any shape
-        Logits.
-    y : array_like, same shape as ``z``
-        Targets in ``[0, 1]``.
-
-    Returns
-    -------
-    loss : float
-    grad_z : numpy.ndarray, shape of ``z``
-        ``(sigmoid(z) - y) / N``.
-    """
-    z_arr = _real_array(z, "z")
-    y_arr = _real_array(y, "y")
-    _same_shape(z_arr, y_arr, "z", "y")
-    if np.any(y_arr < 0) or np.any(y_arr > 1):
-        raise ValueError(f"y must lie in [0, 1], got range [{y_arr.min()!r}, {y_arr.max()!r}]")
-    n = z_arr.size
-    loss = np.mean(np.maximum(z_arr, 0.0) - z_arr * y_arr + np.log1p(np.exp(-np.abs(z_arr))))
-    # sigmoid without overflow: exp of a non-positive number only
-    e = np.exp(-np.abs(z_arr))
-    sig = np.where(z_arr >= 0, 1.0 / (1.0 + e), e / (1.0 + e))
-    return float(loss), (sig - y_arr) / n
-
-
-def cross_entropy(probs, labels, *, atol: float = 1e-6) -> tuple[float, np.ndarray]:
-    """Categorical cross entropy ``-mean_i log probs[i, labels[i]]`` on probability rows.
-
-    The loss of the paper's OrthoQNN experiments (Fig. 11, Supp. "Hyperparameters") after the
-    post-processing ``softmax``.
-
-    Parameters
-    ----------
-    probs : array_like, shape (B, C)
-        Rows on the probability simplex: entries in ``[0, 1]``, each row summing to 1 within
-        ``atol`` (never renormalised). The probability of each true class must be > 0.
-    labels : array_like of int, shape (B,)
-        Class indices in ``0 .. C-1``.
-    atol : float
-        Tolerance on the row sums.
-
-    Returns
-    -------
-    loss : float
-    grad_probs : numpy.ndarray, shape (B, C)
-        ``-1 / (B probs[i, labels[i]])`` at the true classes, 0 elsewhere (each entry treated
-        as a free variable; a preceding :class:`qdensity.nn.Softmax` handles the simplex).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from qdensity.losses import cross_entropy
-    >>> loss, grad = cross_entropy([[0.5, 0.5], [0.25, 0.75]], [0, 1])
-    >>> bool(np.isclose(loss, -(np.log(0.5) + np.log(0.75)) / 2))
-    True
-    """
-    P = _scores_2d(probs, "probs")
-    B, C = P.shape
-    y = _labels(labels, B, C)
-    if np.any(P < 0) or np.any(P > 1):
-        raise ValueError(f"probs must lie in [0, 1], got range [{P.min()!r}, {P.max()!r}]")
-    check_rows_sum_to_one(P, "probs", atol=atol)
-    picked = P[np.arange(B), y]
-    if np.any(picked <= 0):
-        rows = np.flatnonzero(picked <= 0)
-        raise ValueError(
-            f"probs of the true class is 0 in rows {rows[:10].tolist()} (infinite loss; it is "
-            "not clipped, use cross_entropy_with_logits on the logits instead)"
-        )
-    grad = np.zeros_like(P)
-    grad[np.arange(B), y] = -1.0 / (B * picked)
-    return float(-np.mean(np.log(picked))), grad
 
 
 def cross_entropy_with_logits(logits, labels) -> tuple[float, np.ndarray]:
@@ -343,3 +229,27 @@ def accuracy(pred, labels, *, threshold: float | None = None) -> float:
     if y.size == 0:
         raise ValueError("labels must not be empty")
     return float(np.mean(predicted == y))
+
+
+# --------------------------------------------------------------------------------------------
+# removed in favour of PyTorch
+
+
+def _removed(name: str, torch_name: str):
+    message = (f"qdensity.losses.{name} was removed: losses of hybrid models come from "
+               f"PyTorch. Use {torch_name} with qdensity.learning.torch.DensityQNNLayer "
+               f"(pip install \"qdensity[torch]\").")
+
+    def removed(*args, **kwargs):
+        raise NotImplementedError(message)
+
+    removed.__name__ = removed.__qualname__ = name
+    removed.__doc__ = f"Removed; calling it raises ``NotImplementedError``: use ``{torch_name}``."
+    return removed
+
+
+binary_cross_entropy = _removed("binary_cross_entropy", "torch.nn.functional.binary_cross_entropy")
+binary_cross_entropy_with_logits = _removed(
+    "binary_cross_entropy_with_logits", "torch.nn.functional.binary_cross_entropy_with_logits")
+cross_entropy = _removed("cross_entropy", "torch.nn.functional.nll_loss on log-probabilities "
+                         "(or cross_entropy_with_logits here)")

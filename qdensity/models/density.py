@@ -479,6 +479,12 @@ class DensityQNN:
             self.mixture.params = check_finite_array(mixture, "mixture")
         return self
 
+    def __sklearn_clone__(self) -> DensityQNN:
+        """``sklearn.base.clone`` of an estimator holding this model as a template: a copy."""
+        import copy
+
+        return copy.deepcopy(self)
+
     def __repr__(self) -> str:
         return (f"DensityQNN(K={self.num_subunitaries}, n={self.num_qubits}, "
                 f"params={self.num_parameters}, mixture={type(self.mixture).__name__}, "

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -16,6 +17,11 @@ from qiskit.circuit import QuantumCircuit
 from qdensity.validation import check_finite_array, check_positive_int
 
 __all__ = ["Encoding"]
+
+
+def _as_float(X) -> np.ndarray:
+    """The angle encoding's data map (module level, so encodings and models pickle)."""
+    return np.asarray(X, dtype=float)
 
 
 @dataclass
@@ -53,7 +59,7 @@ class Encoding:
 
         check_positive_int(num_features, "num_features", minimum=2)
         template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
-        return cls(template, lambda X: loader_angles(X, layout=layout), num_features, "unary")
+        return cls(template, partial(loader_angles, layout=layout), num_features, "unary")
 
     @classmethod
     def angle(cls, num_qubits: int) -> Encoding:
@@ -62,7 +68,7 @@ class Encoding:
 
         check_positive_int(num_qubits, "num_qubits")
         circ = angle_encoding(num_qubits)
-        return cls(circ, lambda X: np.asarray(X, dtype=float), num_qubits, "angle")
+        return cls(circ, _as_float, num_qubits, "angle")
 
     def values(self, X) -> np.ndarray:
         """Encoding parameter rows for data ``X`` (B, d) -> (B, P_enc)."""

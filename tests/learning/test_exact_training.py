@@ -169,11 +169,14 @@ def test_estimator_fit_keeps_the_models_engine():
     model = _equivariant_density(seed=6)
     X = RNG.uniform(-1, 1, (12, 3))
     y = np.tanh(X.sum(axis=1))
-    QNNRegressor(model, epochs=1, batch_size=3, max_steps=10, verbose=False, seed=0).fit(X, y)
-    engine = model._engines.adjoint
-    assert engine.compile_count == 2
-    QNNRegressor(model, epochs=1, batch_size=3, max_steps=10, verbose=False, seed=0).fit(X, y)
-    assert model._engines.adjoint is engine and engine.compile_count == 2
+    theta = model.theta.copy()
+    est = QNNRegressor(model, epochs=1, batch_size=3, max_steps=10, verbose=False, seed=0)
+    est.fit(X, y)  # fit trains a copy of the template (scikit-learn's rule), never the template
+    np.testing.assert_array_equal(model.theta, theta)
+    engine = est.model_._engines.adjoint
+    assert engine.compile_count == 2  # compiled once for the 10 steps, not once per step
+    est.predict(X)
+    assert est.model_._engines.adjoint is engine and engine.compile_count == 2
 
 
 def test_unary_models_compile_their_circuits_once(monkeypatch):

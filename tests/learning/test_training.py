@@ -7,7 +7,7 @@ import pytest
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.engines import SamplerEngine
 from qdensity.learning import losses
-from qdensity.learning.nn import Linear, ReLU, Sequential
+from qdensity.learning.nn import Linear
 from qdensity.learning.training import QNNClassifier, QNNRegressor, QuantumLayer
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments
@@ -30,15 +30,15 @@ def _blobs(num=40, n=4, seed=0):
 
 
 def test_pipeline_gradient_matches_finite_differences():
-    """pre (Linear+ReLU) -> quantum layer (unary reverse mode) -> post Linear -> CE loss."""
+    """pre Linear -> quantum layer (unary reverse mode) -> post Linear -> CE loss."""
     n = 4
     model = _model(n, seed=1)
-    pre = Sequential(Linear(n, n, seed=2), ReLU())
-    pre.params["0.b"][:] = 1.0  # keep ReLU outputs away from zero rows
-    est = QNNClassifier(model, pre=pre, post=Linear(n, 3, seed=3), verbose=False)
-    est.layer_ = QuantumLayer(model, "exact")
+    pre = Linear(n, n, seed=2)
+    pre.params["b"][:] = 1.0  # keep rows away from zero
     X = RNG.normal(size=(5, n)) * 0.3 + 1.0
     y = np.array([0, 1, 2, 1, 0])
+    est = QNNClassifier(model, pre=pre, post=Linear(n, 3, seed=3), verbose=False,
+                        max_steps=1).fit(X, y)
 
     def loss_at(flat):
         est._set(flat)
@@ -91,8 +91,8 @@ def test_sampled_training_ledger_and_budget():
 def test_sampled_step_is_unbiased_against_exact():
     """One sampled gradient step equals the exact gradient within standard errors."""
     X, y = _blobs(num=4)
-    exact = QNNClassifier(_model(seed=5), post=Linear(4, 2, seed=0), verbose=False)
-    exact.layer_ = QuantumLayer(exact.model, "exact")
+    exact = QNNClassifier(_model(seed=5), post=Linear(4, 2, seed=0), verbose=False,
+                          learning_rate=1e-12, max_steps=1).fit(X, y)
     out = exact._forward(X)
     _, g = losses.cross_entropy_with_logits(out, y)
     exact._backward(g)
@@ -101,8 +101,8 @@ def test_sampled_step_is_unbiased_against_exact():
                          gradient="commuting")
     out_s = layer.forward(X)
     assert np.abs(out_s - exact.layer_.forward(X)).max() < 0.03
-    layer.backward(exact.post.backward(losses.cross_entropy_with_logits(
-        exact.post.forward(out_s), y)[1]))
+    layer.backward(exact.post_.backward(losses.cross_entropy_with_logits(
+        exact.post_.forward(out_s), y)[1]))
     assert np.abs(layer.grads["theta"] - g_exact).max() < 0.05
 
 
@@ -125,11 +125,12 @@ def test_save_and_load_round_trip(tmp_path, suffix):
     path = tmp_path / f"params{suffix}"
     clf.save(path)
     fresh = QNNClassifier(_model(seed=99), post=Linear(4, 2, seed=7), verbose=False)
-    fresh.classes_ = clf.classes_
-    fresh.load(path)
+    fresh.load(path)  # classes_ and everything predict needs come from the file
+    np.testing.assert_array_equal(fresh.classes_, clf.classes_)
     np.testing.assert_allclose(fresh.decision_function(X), clf.decision_function(X), atol=1e-12)
+    np.testing.assert_array_equal(fresh.predict(X), clf.predict(X))
     other = QNNClassifier(_model(n=6, seed=0), post=Linear(6, 2, seed=0), verbose=False)
-    with pytest.raises(ValueError, match="entries"):
+    with pytest.raises(ValueError, match="encodes 6"):
         other.load(path)
 
 
@@ -137,9 +138,10 @@ def test_bad_training_input():
     model = _model()
     with pytest.raises(ValueError, match="shots"):
         QuantumLayer(model, SamplerEngine(seed=0))
+    est = QNNClassifier(model, optimizer="lbfgs")  # stored unvalidated, refused by fit
     with pytest.raises(ValueError, match="optimizer"):
-        QNNClassifier(model, optimizer="lbfgs")
-    with pytest.raises(ValueError, match="rows"):
+        est.fit(*_blobs(num=4))
+    with pytest.raises(ValueError, match="inconsistent numbers of samples"):
         QNNClassifier(model, verbose=False).fit(np.ones((3, 4)), [0, 1])
     pre = Linear(4, 4, seed=0)
     X, y = _blobs(num=4)

@@ -1,0 +1,499 @@
+"""scikit-learn estimators for density QNNs: :class:`QNNClassifier` and :class:`QNNRegressor`.
+
+They behave like scikit-learn's own (``clone``, ``Pipeline``, ``GridSearchCV``,
+``cross_val_score``, ``check_estimator``): the constructor stores hyperparameters only;
+``fit`` validates them, builds a fresh model and trains it; learned state ends in ``_``
+(``model_``, ``classes_``, ``n_features_in_``, ``history_``, ``layer_``, ``pca_``).
+
+The model is given either as a spec (``ansatz``, ``decomposition``, ``depth``, ``mixture``,
+``readout``; the unary encoding of eq. 1 on ``num_qubits`` qubits) or as a :class:`DensityQNN`
+template, which ``fit`` deep-copies and never mutates. The qubit count follows the data:
+``n = n_features + 1`` (the last qubit carries ``constant``, so that the norm of ``x`` reaches
+the model and an all-zero row can be loaded; ``constant=None`` drops it). With ``num_qubits``
+the data are reduced by PCA (fitted in ``fit``, kept in ``pca_``) or padded with zeros to fit.
+
+The output of the model (eq. 3: ``f(x) = sum_k alpha_k(x) f_k(x)``, unary probabilities by
+default) goes through a linear read-out (``post="linear"``, the ``n -> classes`` layer of
+Fig. 11a) to logits (classifier, cross entropy) or predictions (regressor, squared error).
+Gradients come from :class:`~qdensity.learning.layer.QuantumLayer`: exact unary reverse mode
+for RBS models, or gradient plans through any engine with ``shots`` written to the ledger.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import time
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
+from sklearn.decomposition import PCA
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from qdensity.learning import losses as _losses
+from qdensity.learning._spec import (
+    build_model,
+    check_hyperparameters,
+    encoded_width,
+    make_optimizer,
+)
+from qdensity.learning.layer import BudgetExhausted, History, QuantumLayer
+from qdensity.learning.nn import Linear
+from qdensity.learning.parameters import get_flat, load_parameters, save_parameters, set_flat
+from qdensity.learning.progress import progress_bar
+from qdensity.models.mixtures import softmax
+from qdensity.validation import as_rng
+
+__all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION"]
+
+#: Version of the file layout written by :meth:`QNNClassifier.save`.
+FORMAT_VERSION = 1
+_FORMAT = "qdensity-estimator"
+_SPEC_KEYS = ("ansatz", "decomposition", "depth", "mixture", "readout", "num_qubits",
+              "constant")
+
+
+class _QNNEstimator(BaseEstimator):
+    """Shared machinery; see :class:`QNNClassifier` for the parameters."""
+
+    def __init__(self, model=None, *, ansatz="round_robin", decomposition="layers", depth=1,
+                 mixture="softmax", readout="unary_probabilities", num_qubits=None,
+                 constant=1.0, pre=None, post="linear", optimizer="adam", learning_rate=0.05,
+                 l2=0.0, epochs=10, batch_size=32, engine="exact", shots=None,
+                 gradient="auto", max_steps=None, max_shots=None, seed=0, verbose=True,
+                 callback=None, callbacks=None):
+        self.model = model
+        self.ansatz = ansatz
+        self.decomposition = decomposition
+        self.depth = depth
+        self.mixture = mixture
+        self.readout = readout
+        self.num_qubits = num_qubits
+        self.constant = constant
+        self.pre = pre
+        self.post = post
+        self.optimizer = optimizer
+        self.learning_rate = learning_rate
+        self.l2 = l2
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.engine = engine
+        self.shots = shots
+        self.gradient = gradient
+        self.max_steps = max_steps
+        self.max_shots = max_shots
+        self.seed = seed
+        self.verbose = verbose
+        self.callback = callback
+        self.callbacks = callbacks
+
+    # ---------------------------------------------------------------- the data path
+    def _encode(self, X: np.ndarray) -> np.ndarray:
+        """Features of the quantum layer: PCA / zero padding, then the constant qubit."""
+        if self.model is not None:
+            return X
+        Z = self.pca_.transform(X) if self.pca_ is not None else X
+        n, cols = self.num_qubits_, self._data_columns_
+        if Z.shape[1] < cols:
+            Z = np.hstack([Z, np.zeros((Z.shape[0], cols - Z.shape[1]))])
+        if cols < n:
+            Z = np.hstack([Z, np.full((Z.shape[0], n - cols), float(self.constant))])
+        return Z
+
+    def _parts(self):
+        parts = [] if self.pre_ is None else [self.pre_]
+        parts.append(self.layer_)
+        return parts + ([] if self.post_ is None else [self.post_])
+
+    def _get(self) -> np.ndarray:
+        return np.concatenate([get_flat(p.params) for p in self._parts()])
+
+    def _grads(self) -> np.ndarray:
+        return np.concatenate([get_flat(p.grads) if p.grads else np.zeros(get_flat(p.params).size)
+                               for p in self._parts()])
+
+    def _set(self, flat: np.ndarray) -> None:
+        i = 0
+        for part in self._parts():
+            size = get_flat(part.params).size
+            chunk = flat[i:i + size]
+            if part is self.layer_:
+                p = self.model_.num_parameters
+                part.set_params(chunk[:p], chunk[p:])
+            else:
+                set_flat(part, chunk)
+            i += size
+
+    def _forward(self, Z, layer=None, *, need_grad: bool = True) -> np.ndarray:
+        layer = self.layer_ if layer is None else layer
+        if self.pre_ is not None:
+            Z = self.pre_.forward(Z)
+        F = layer.forward(Z, need_grad=need_grad)
+        return self.post_.forward(F) if self.post_ is not None else F
+
+    def _backward(self, grad_out) -> None:
+        g = self.post_.backward(grad_out) if self.post_ is not None else grad_out
+        gz = self.layer_.backward(g)
+        if self.pre_ is not None:
+            if gz is None:
+                raise ValueError("a trainable pre-processing layer needs input gradients, which "
+                                 "only the exact unary engine provides; drop pre or use "
+                                 "engine='exact'")
+            self.pre_.backward(gz)
+
+    def _outputs(self, X) -> np.ndarray:
+        """Exact outputs of the fitted pipeline for raw ``X`` (no shots), shape (N, m)."""
+        check_is_fitted(self, "model_")
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        exact = QuantumLayer(self.model_, "exact")
+        return self._forward(self._encode(X), exact, need_grad=False)
+
+    # ---------------------------------------------------------------- fit
+    def _prepare(self, X, rng, *, fit_pca: bool = True):
+        n, cols = encoded_width(self, X.shape[1])
+        self.num_qubits_, self._data_columns_ = n, cols
+        self.pca_ = None
+        if self.model is None and cols < X.shape[1] and fit_pca:
+            self.pca_ = PCA(n_components=cols, svd_solver="full").fit(X)
+        elif self.model is not None and X.shape[1] != self.model.encoding.num_features:
+            raise ValueError(f"X has {X.shape[1]} features but the model template encodes "
+                             f"{self.model.encoding.num_features}")
+        self.model_ = build_model(self, n, rng)
+        width = self.model_.num_qubits if self.model_.readout != "observable" else 1
+        self.pre_ = copy.deepcopy(self.pre) if self.pre is not None else None
+        if isinstance(self.post, str):
+            self.post_ = Linear(width, self._num_targets, seed=rng)
+        elif self.post is None:
+            if width != self._num_targets:
+                raise ValueError(f"post=None needs the model's {width} outputs to equal the "
+                                 f"{self._num_targets} targets; use post='linear'")
+            self.post_ = None
+        else:
+            self.post_ = copy.deepcopy(self.post)
+
+    def fit(self, X, y, *, eval_set=None):
+        """Train on ``X`` (N, d), ``y`` (N,) with mini-batches; fills ``history_``.
+
+        Parameters
+        ----------
+        X : array_like, shape (N, d)
+        y : array_like, shape (N,) (regressor: or (N, m))
+        eval_set : tuple (X_test, y_test), optional
+            Scored exactly at the end of every epoch (``history_.epochs[i]["test_metric"]``).
+
+        Returns
+        -------
+        self
+        """
+        check_hyperparameters(self)
+        X, target = self._validate_xy(X, y)
+        if eval_set is not None:
+            if not isinstance(eval_set, (tuple, list)) or len(eval_set) != 2:
+                raise ValueError("eval_set must be a pair (X_test, y_test)")
+        rng = as_rng(self.seed)
+        self._prepare(X, rng)
+        Z = self._encode(X)
+        self.layer_ = QuantumLayer(self.model_, self.engine, self.shots, self.gradient)
+        self.layer_.max_shots = self.max_shots
+        self.stopped_by_budget_ = False
+        opt = make_optimizer(self)
+        self.history_ = History()
+        params = self._get()
+        step, stop = 0, False
+        if self.callback is not None:
+            self.callback(self, 0)
+        steps_per_epoch = -(-X.shape[0] // self.batch_size)
+        total = steps_per_epoch * self.epochs
+        if self.max_steps is not None:
+            total = min(total, self.max_steps)
+        t0 = time.perf_counter()
+        with progress_bar(total, desc=type(self).__name__, verbose=self.verbose,
+                          unit="step") as bar:
+            for epoch in range(self.epochs):
+                order = rng.permutation(X.shape[0])
+                losses, metrics = [], []
+                for start in range(0, X.shape[0], self.batch_size):
+                    idx = order[start:start + self.batch_size]
+                    try:
+                        out = self._forward(Z[idx])
+                    except BudgetExhausted:
+                        self.stopped_by_budget_ = stop = True
+                        break
+                    loss, grad_out = self._loss(out, target[idx])
+                    self._backward(grad_out.reshape(out.shape))
+                    grads = self._grads()
+                    if self.l2:
+                        pen, g_pen = _losses.l2_penalty(params, float(self.l2))
+                        loss, grads = loss + pen, grads + g_pen
+                    params = opt.step(params, grads)
+                    self._set(params)
+                    step += 1
+                    metric = self._metric(out, target[idx])
+                    losses.append(float(loss))
+                    metrics.append(metric)
+                    self.history_.append(step=step, epoch=epoch, loss=float(loss), metric=metric,
+                                         circuits=self.layer_.circuits,
+                                         shots=self.layer_.shots_spent)
+                    bar.set_postfix(loss=f"{loss:.4f}", metric=f"{metric:.3f}",
+                                    shots=self.layer_.shots_spent, refresh=False)
+                    bar.update(1)
+                    if self.callback is not None:
+                        self.callback(self, step)
+                    if self.max_steps is not None and step >= self.max_steps:
+                        stop = True
+                        break
+                if losses:
+                    stop = self._end_epoch(epoch, step, losses, metrics, eval_set, t0) or stop
+                if stop:
+                    break
+        return self
+
+    def _end_epoch(self, epoch, step, losses, metrics, eval_set, t0) -> bool:
+        record = {"epoch": epoch, "step": step, "train_loss": float(np.mean(losses)),
+                  "train_metric": float(np.mean(metrics)), "circuits": self.layer_.circuits,
+                  "shots": self.layer_.shots_spent, "seconds": time.perf_counter() - t0}
+        if eval_set is not None:
+            record["test_metric"] = float(self.score(*eval_set))
+        self.history_.epochs.append(record)
+        stop = False
+        for cb in self.callbacks or ():
+            stop = bool(cb(self, record)) or stop
+        return stop
+
+    # ---------------------------------------------------------------- persistence
+    def save(self, path) -> None:
+        """Save everything ``predict`` needs (``.json`` or ``.npz``; never pickle).
+
+        The file records its format version, the estimator's class, the model spec, the
+        learned classes and feature count, the PCA step and all trained parameters.
+        """
+        check_is_fitted(self, "model_")
+        meta = {"format": _FORMAT, "version": FORMAT_VERSION, "estimator": type(self).__name__,
+                "spec": {k: getattr(self, k) for k in _SPEC_KEYS},
+                "template": self.model is not None, "n_features_in": int(self.n_features_in_),
+                "num_qubits": int(self.num_qubits_), "data_columns": int(self._data_columns_),
+                "post": self.post_ is not None, "pre": self.pre_ is not None}
+        meta.update(self._meta())
+        arrays = {f"part{i}": get_flat(p.params) for i, p in enumerate(self._parts())}
+        if self.pca_ is not None:
+            arrays.update(pca_components=self.pca_.components_, pca_mean=self.pca_.mean_)
+        arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+        save_parameters(path, **arrays)
+
+    def load(self, path):
+        """Restore an estimator saved by :meth:`save`; returns ``self``, ready to ``predict``.
+
+        Raises
+        ------
+        ValueError
+            For a file of another format or version, another estimator class, or parameters
+            whose sizes do not fit the model.
+        """
+        data = load_parameters(path)
+        try:
+            meta = json.loads(bytes(data.pop("meta").astype(np.uint8)).decode())
+        except (KeyError, ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{os.fspath(path)!r} is not a saved qdensity estimator (no "
+                             f"metadata; format {_FORMAT!r} version {FORMAT_VERSION})") from exc
+        if meta.get("format") != _FORMAT or meta.get("version") != FORMAT_VERSION:
+            raise ValueError(f"{os.fspath(path)!r} has format {meta.get('format')!r} version "
+                             f"{meta.get('version')!r}; this qdensity reads {_FORMAT!r} version "
+                             f"{FORMAT_VERSION}")
+        if meta["estimator"] != type(self).__name__:
+            raise ValueError(f"{os.fspath(path)!r} holds a {meta['estimator']}, not a "
+                             f"{type(self).__name__}")
+        if not meta["template"]:
+            self.set_params(**meta["spec"])
+        self.n_features_in_ = meta["n_features_in"]
+        self._load_meta(meta)
+        self._prepare(np.zeros((1, self.n_features_in_)), as_rng(0), fit_pca=False)
+        self.layer_ = QuantumLayer(self.model_, "exact")
+        if "pca_components" in data:
+            self.pca_ = PCA(n_components=meta["data_columns"])
+            self.pca_.components_ = data.pop("pca_components")
+            self.pca_.mean_ = data.pop("pca_mean")
+            self.pca_.n_features_in_ = self.n_features_in_
+        parts = self._parts()
+        flat = []
+        for i, part in enumerate(parts):
+            arr = data.get(f"part{i}")
+            want = get_flat(part.params).size
+            if arr is None or arr.size != want:
+                got = "none" if arr is None else arr.size
+                raise ValueError(f"parameters part{i} in {os.fspath(path)!r} have {got} "
+                                 f"entries, expected {want}")
+            flat.append(np.asarray(arr, dtype=float).ravel())
+        self._set(np.concatenate(flat))
+        self.history_ = History()
+        self.stopped_by_budget_ = False
+        return self
+
+    def _meta(self) -> dict:
+        return {}
+
+    def _load_meta(self, meta) -> None:
+        pass
+
+
+class QNNClassifier(ClassifierMixin, _QNNEstimator):
+    """Density-QNN classifier: cross entropy on logits from a linear read-out (Fig. 11a).
+
+    Parameters
+    ----------
+    model : DensityQNN, optional
+        A template that ``fit`` deep-copies (never mutated); overrides the spec below.
+    ansatz : {"round_robin", "pyramid", "x", "butterfly"}
+        Hamming-weight-preserving RBS circuit on ``n`` qubits (butterfly: ``n`` a power of 2).
+    decomposition : {"layers", "cyclic", "odd_even", "none"}
+        Sub-unitaries: ``depth`` moments each ("layers", Fig. 3), ``depth`` cyclic moments
+        ("cyclic", Fig. 6), odd/even gates, or the pure model ("none", K = 1).
+    depth : int
+        Moments per sub-unitary.
+    mixture : {"softmax", "fixed", "moe", "moe_gelu"}
+        Trainable alpha (eq. 2), uniform fixed alpha, or a data-dependent gate (Supp. H).
+    readout : {"unary_probabilities", "unary_amplitudes", "observable"}
+    num_qubits : int, optional
+        Width of the model; the data are PCA-reduced (or zero-padded) to fit.
+    constant : float or None
+        Value loaded on the last qubit (None: no extra qubit).
+    pre : layer, optional
+        A numpy layer before the encoding (trained; exact unary engine only). For classical
+        networks, use the PyTorch layer :mod:`qdensity.learning.torch`.
+    post : "linear", None or a layer
+        Read-out to logits (``"linear"``: ``outputs -> classes``, Glorot initialised).
+    optimizer : {"adam", "sgd", "rmsprop"}
+    learning_rate : float
+        ``> 0``.
+    l2 : float
+        ``>= 0``; adds ``l2 * ||params||^2`` to the loss.
+    epochs, batch_size : int
+    engine : "exact" or SamplerEngine
+        A sampler engine spends ``shots`` per circuit; its ledger records them.
+    shots : int, optional
+        Needed with a sampler engine.
+    gradient : {"auto", "shift", "commuting"}
+    max_steps, max_shots : int, optional
+        Stop after this many steps / before exceeding this many shots.
+    seed : int, Generator or None
+        Initial parameters and batch order (default 0: refits are identical).
+    verbose : bool
+        A tqdm bar (loss, metric, shots) when attached to a terminal.
+    callback : callable, optional
+        ``callback(estimator, step)`` after every step (and with step 0 before training).
+    callbacks : list of callable, optional
+        ``cb(estimator, record)`` after every epoch; ``record`` holds ``epoch, step,
+        train_loss, train_metric, circuits, shots, seconds`` (and ``test_metric`` with
+        ``eval_set``); a callback returning True stops training.
+
+    Attributes
+    ----------
+    classes_ : numpy.ndarray, shape (C,)
+    model_ : DensityQNN
+    layer_ : QuantumLayer
+    history_ : History
+        Per step (``history_["loss"]``) and per epoch (``history_.epochs``).
+    n_features_in_, num_qubits_ : int
+    pca_ : sklearn.decomposition.PCA or None
+
+    Examples
+    --------
+    >>> from sklearn.datasets import load_iris
+    >>> X, y = load_iris(return_X_y=True)
+    >>> clf = QNNClassifier(epochs=5, learning_rate=0.1, verbose=False).fit(X, y)
+    >>> clf.num_qubits_, clf.classes_.tolist()
+    (5, [0, 1, 2])
+    >>> bool(clf.score(X, y) > 0.6)
+    True
+    """
+
+    _num_targets = 2
+
+    def _validate_xy(self, X, y):
+        X, y = validate_data(self, X, y, dtype=np.float64)
+        check_classification_targets(y)
+        self.classes_, target = np.unique(y, return_inverse=True)
+        if self.classes_.size < 2:
+            raise ValueError(f"{type(self).__name__} needs samples of at least 2 classes in "
+                             f"the data, but the data contains only one class: "
+                             f"{self.classes_[0]!r}")
+        self._num_targets = self.classes_.size
+        return X, target
+
+    def _loss(self, out, target):
+        return _losses.cross_entropy_with_logits(out, target)
+
+    def _metric(self, out, target) -> float:
+        return float(np.mean(out.argmax(axis=1) == target))
+
+    def decision_function(self, X) -> np.ndarray:
+        """Logits, shape (N, C); for two classes the margin ``l_1 - l_0``, shape (N,)."""
+        out = self._outputs(X)
+        return out[:, 1] - out[:, 0] if out.shape[1] == 2 else out
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Class probabilities ``softmax(logits)``, shape (N, C)."""
+        return softmax(self._outputs(X))
+
+    def predict(self, X) -> np.ndarray:
+        """Labels from ``classes_``, shape (N,)."""
+        out = self._outputs(X)
+        return self.classes_[out.argmax(axis=1)]
+
+    def _meta(self) -> dict:
+        kind = self.classes_.dtype.kind
+        return {"classes": self.classes_.tolist(), "classes_kind": kind}
+
+    def _load_meta(self, meta) -> None:
+        self.classes_ = np.array(meta["classes"])
+        self._num_targets = self.classes_.size
+
+
+class QNNRegressor(RegressorMixin, _QNNEstimator):
+    """Density-QNN regressor: squared error on a linear read-out of the model's outputs.
+
+    Parameters are those of :class:`QNNClassifier`. ``predict`` returns shape (N,) for a 1-d
+    target, (N, m) for an (N, m) target; ``score`` is R^2.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> X = np.random.default_rng(0).normal(size=(60, 3))
+    >>> reg = QNNRegressor(epochs=20, learning_rate=0.1, verbose=False).fit(X, X[:, 0])
+    >>> reg.predict(X).shape
+    (60,)
+    """
+
+    _num_targets = 1
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        return tags
+
+    def _validate_xy(self, X, y):
+        X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, multi_output=True)
+        y = np.asarray(y, dtype=float)
+        self._target_ndim_ = y.ndim
+        self._num_targets = 1 if y.ndim == 1 else y.shape[1]
+        return X, y
+
+    def _loss(self, out, target):
+        return _losses.mse(out[:, 0] if target.ndim == 1 else out, target)
+
+    def _metric(self, out, target) -> float:
+        return -float(self._loss(out, target)[0])
+
+    def predict(self, X) -> np.ndarray:
+        """Predictions, shape (N,) or (N, m)."""
+        out = self._outputs(X)
+        return out[:, 0] if self._target_ndim_ == 1 else out
+
+    def _meta(self) -> dict:
+        return {"target_ndim": self._target_ndim_, "num_targets": self._num_targets}
+
+    def _load_meta(self, meta) -> None:
+        self._target_ndim_ = meta["target_ndim"]
+        self._num_targets = meta["num_targets"]

@@ -1,0 +1,215 @@
+"""The quantum layer: a :class:`DensityQNN` with ``forward`` and ``backward`` (eq. 3, Cor. 1).
+
+:class:`QuantumLayer` is the piece the scikit-learn estimators
+(:mod:`qdensity.learning.estimators`) build on; :class:`History` is the per-step record of a
+training run. Gradients:
+
+* ``engine="exact"``: exact values. RBS/FBS models on a unary encoding use the unary engine's
+  reverse mode (also giving gradients w.r.t. the inputs, so a trainable pre-processing layer
+  works, Fig. 11); every other model uses the adjoint statevector engine
+  (:mod:`qdensity.execution.adjoint`): one forward and one backward sweep per data row, with
+  gradients w.r.t. the inputs too when the data enter as angles. Both engines, and the compiled
+  circuits, live as long as the model. An :class:`~qdensity.engines.ExactEngine` passed as
+  ``engine`` runs the exact gradient plans on Aer instead (each template transpiled once).
+* ``engine=SamplerEngine(...)`` with ``shots``: every step runs the model's gradient plan
+  (forward circuits plus parameter-shift or commuting-generator circuits) on the sampler with
+  ``shots`` per circuit; circuits and shots are read off the engine's ledger.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from qdensity.execution.adjoint import AdjointEngine
+from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.gradients.density import DensityGradient, chain_rule, density_gradient_plan
+from qdensity.models.density import DensityQNN
+from qdensity.models.exact import exact_gradients, unary_circuits
+from qdensity.validation import check_positive_int
+
+__all__ = ["QuantumLayer", "History", "BudgetExhausted"]
+
+
+class BudgetExhausted(RuntimeError):
+    """Raised before a step whose circuits would exceed the shot budget."""
+
+
+class QuantumLayer:
+    """A :class:`DensityQNN` as a layer: ``forward(Z) -> F`` and ``backward(dL/dF) -> dL/dZ``.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    engine : "exact", AdjointEngine, ExactEngine or SamplerEngine
+        ``"exact"``: the unary engine for RBS models on unary inputs, else the model's own
+        adjoint engine. An engine instance is kept for the layer's lifetime.
+    shots : int, optional
+        Shots per circuit with a sampler engine.
+    gradient : {"auto", "shift", "commuting"}
+        How gradient circuits are built for the sampled (or exact, non-unary) path.
+    """
+
+    def __init__(self, model: DensityQNN, engine="exact", shots: int | None = None,
+                 gradient: str = "auto"):
+        self.model = model
+        self.engine = engine
+        self.shots = shots
+        self.gradient = gradient
+        self.grads: dict[str, np.ndarray] = {}
+        self._cache = None
+        self.circuits = 0
+        self.shots_spent = 0
+        self.max_shots: int | None = None
+        if isinstance(engine, SamplerEngine):
+            if shots is None:
+                raise ValueError("a sampler engine needs shots (per circuit)")
+            check_positive_int(shots, "shots")
+        elif not (isinstance(engine, (AdjointEngine, ExactEngine)) or (
+                isinstance(engine, str) and engine == "exact")):
+            raise ValueError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or a "
+                             f"SamplerEngine, got {engine!r}")
+
+    @property
+    def params(self) -> dict[str, np.ndarray]:
+        return {"theta": self.model.theta, "mixture": self.model.mixture.params}
+
+    @property
+    def analytic(self) -> bool:
+        """True when exact unary reverse mode is used."""
+        return self._is_exact_string() and self.model._use_unary()
+
+    def _is_exact_string(self) -> bool:
+        return isinstance(self.engine, str) and self.engine == "exact"
+
+    @property
+    def adjoint(self) -> bool:
+        """True when the adjoint statevector engine gives values and gradients."""
+        return isinstance(self.engine, AdjointEngine) or (
+            self._is_exact_string() and not self.model._use_unary())
+
+    def forward(self, Z: np.ndarray, *, need_grad: bool = True) -> np.ndarray:
+        """Model output for inputs ``Z`` (B, d) -> (B, m)."""
+        Z = np.atleast_2d(np.asarray(Z, dtype=float))
+        if self.analytic:
+            return self._forward_unary(Z)
+        if not need_grad and self._is_exact_string():
+            out = self.model.predict(Z)
+            return out[:, None] if out.ndim == 1 else out
+        if self.adjoint:
+            engine = self.engine if isinstance(self.engine, AdjointEngine) else None
+            res = exact_gradients(self.model, Z, engine)
+            zeros = np.zeros_like(res.outputs)
+            grad = DensityGradient(res.outputs, zeros, res.jacobians,
+                                   [np.zeros_like(j) for j in res.jacobians])
+            alpha = np.broadcast_to(self.model.alpha(Z), res.outputs.shape[:2])
+            self._cache = ("plan", Z, grad, res.input_jacobians)
+            return np.einsum("bk,bkm->bm", alpha, res.outputs)
+        plan = density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)
+        engine = self.engine
+        cost = plan.total_shots
+        if self.max_shots is not None and cost is not None and (
+                self.shots_spent + cost > self.max_shots):
+            left = self.max_shots - self.shots_spent
+            raise BudgetExhausted(f"the next step needs {cost} shots; {left} remain")
+        before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
+        grad = plan.run(engine)
+        if isinstance(engine, SamplerEngine):
+            self.shots_spent += engine.ledger.total_shots - before
+        self.circuits += plan.num_circuits
+        alpha = self.model.alpha(Z)
+        self._cache = ("plan", Z, grad, None)
+        return np.einsum("bk,bkm->bm", np.broadcast_to(alpha, grad.outputs.shape[:2]),
+                         grad.outputs)
+
+    def backward(self, grad_F: np.ndarray) -> np.ndarray | None:
+        """Store ``grads["theta"]`` and ``grads["mixture"]``; return ``dL/dZ`` or None."""
+        if self._cache is None:
+            raise RuntimeError("backward called before forward")
+        kind = self._cache[0]
+        if kind == "plan":
+            _, Z, grad, input_jacobians = self._cache
+            g_theta, g_mix = chain_rule(self.model, Z, grad, grad_F)
+            self.grads = {"theta": g_theta, "mixture": g_mix}
+            if input_jacobians is None or self.model.mixture.data_dependent:
+                return None
+            alpha = np.broadcast_to(self.model.alpha(Z), grad.outputs.shape[:2])
+            return sum(np.einsum("bm,bmd->bd", grad_F * alpha[:, k:k + 1], xj)
+                       for k, xj in enumerate(input_jacobians))
+        return self._backward_unary(grad_F)
+
+    # exact unary path ------------------------------------------------------------
+    def _forward_unary(self, Z):
+        from qdensity.execution.unary import forward
+
+        m = self.model
+        norms = np.linalg.norm(Z, axis=1, keepdims=True)
+        if np.any(norms == 0):
+            rows = np.flatnonzero(norms[:, 0] == 0).tolist()
+            raise ValueError(f"inputs {rows} are all-zero; a unary encoding cannot load them")
+        Xn = Z / norms
+        Ys = [forward(c, Xn, m._sub_theta(k, None)) for k, c in enumerate(unary_circuits(m))]
+        alpha = m.alpha(Z)
+        alpha = np.broadcast_to(alpha, (Z.shape[0], m.num_subunitaries))
+        if m.readout == "unary_amplitudes":
+            outs = np.stack(Ys, axis=1)
+        elif m.readout == "unary_probabilities":
+            outs = np.stack([y**2 for y in Ys], axis=1)
+        else:
+            d = m._z_readout_matrix()
+            outs = np.stack([(y**2 @ d)[:, None] for y in Ys], axis=1)
+        self._cache = ("unary", Z, Xn, norms, Ys, outs, alpha)
+        return np.einsum("bk,bkm->bm", alpha, outs)
+
+    def _backward_unary(self, grad_F):
+        from qdensity.execution.unary import vjp
+
+        _, Z, Xn, norms, Ys, outs, alpha = self._cache
+        m = self.model
+        g_theta = np.zeros(m.num_parameters)
+        g_Xn = np.zeros_like(Xn)
+        for k, (c, y) in enumerate(zip(unary_circuits(m), Ys, strict=True)):
+            a = alpha[:, k:k + 1]
+            if m.readout == "unary_amplitudes":
+                dY = a * grad_F
+            elif m.readout == "unary_probabilities":
+                dY = 2.0 * a * grad_F * y
+            else:
+                dY = 2.0 * a * grad_F[:, :1] * m._z_readout_matrix()[None, :] * y
+            gv, gx = vjp(c, Xn, m._sub_theta(k, None), dY, reduce="sum")
+            np.add.at(g_theta, m.subunitary_parameter_indices(k), gv)
+            g_Xn += gx
+        grad_alpha = np.einsum("bm,bkm->bk", grad_F, outs)
+        self.grads = {"theta": g_theta, "mixture": m.mixture.vjp(Z, grad_alpha)}
+        # through x / ||x||
+        return (g_Xn - Xn * (Xn * g_Xn).sum(axis=1, keepdims=True)) / norms
+
+    def set_params(self, theta, mixture) -> None:
+        self.model.set_params(theta, mixture if np.size(mixture) else None)
+
+
+@dataclass
+class History:
+    """Per-step record of training: loss, metric, circuits and shots (cumulative).
+
+    Attributes
+    ----------
+    records : list of dict
+        Keys ``step, epoch, loss, metric, circuits, shots``.
+    epochs : list of dict
+        One per finished epoch (filled by the estimators): ``epoch, step, train_loss,
+        train_metric, circuits, shots, seconds`` and ``test_metric`` with an ``eval_set``.
+    """
+
+    records: list[dict] = field(default_factory=list)
+    epochs: list[dict] = field(default_factory=list)
+
+    def append(self, **row) -> None:
+        self.records.append(row)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return np.array([r[key] for r in self.records])
+
+    def __len__(self) -> int:
+        return len(self.records)

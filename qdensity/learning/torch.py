@@ -1,0 +1,280 @@
+"""A density QNN as a PyTorch module (optional extra: ``pip install "qdensity[torch]"``).
+
+:class:`DensityQNNLayer` computes ``f(x) = sum_k alpha_k(x) f_k(x)`` (eq. 3) for a batch. The
+sub-unitaries' outputs ``f_k`` come from qdensity (an ``autograd.Function``); the mixture
+``alpha`` is ordinary torch: trainable softmax logits (eq. 2), a fixed distribution, or a
+mixture-of-experts gate (Supp. H) -- the model's own ``GatedMixture`` copied into torch, or any
+``torch.nn.Module`` you write that maps the input ``(B, d)`` to ``(B, K)`` probabilities.
+Gradients reach the angles, the logits, the gate's weights and the input:
+
+* ``engine="exact"`` on RBS/FBS models with a unary encoding: the unary engine's reverse mode,
+  exact, with the gradient w.r.t. the input (through ``x / ||x||``), so classical layers before
+  the quantum layer train (the paper's MNIST model, Fig. 11a);
+* otherwise the model's gradient plans (parameter shift or commuting-generator circuits, Cor. 1
+  and 2) on ``engine`` -- exact, or a :class:`~qdensity.execution.engines.SamplerEngine` with
+  ``shots`` per circuit, every shot on its ledger. These give no input gradient (a layer before
+  the quantum layer then cannot train; backward says so).
+
+Under ``torch.no_grad()`` the outputs are exact (no shots), as in the estimators' ``predict``.
+Nothing in :mod:`qdensity` imports this module, so ``import qdensity`` never needs torch.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import torch
+from torch import nn
+
+from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.gradients.density import METHODS, density_gradient_plan
+from qdensity.models.density import DensityQNN
+from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
+from qdensity.validation import check_positive_int
+
+__all__ = ["DensityQNNLayer", "MoEGate"]
+
+
+class MoEGate(nn.Module):
+    """``alpha(x) = softmax(act(x W^T + b))``: the mixture-of-experts gate of Supp. H in torch.
+
+    Parameters
+    ----------
+    num_features, num_components : int
+        ``d`` and ``K``.
+    activation : {None, "gelu"}
+        None is the paper's "MoE", "gelu" its "MoE*" (exact erf GELU).
+    """
+
+    def __init__(self, num_features: int, num_components: int, activation: str | None = None):
+        super().__init__()
+        if activation not in (None, "gelu"):
+            raise ValueError(f"activation must be None or 'gelu', got {activation!r}")
+        self.linear = nn.Linear(num_features, num_components, dtype=torch.float64)
+        self.activation = activation
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Input ``(B, d)`` -> mixture weights ``(B, K)`` on the simplex."""
+        z = self.linear(x)
+        if self.activation == "gelu":
+            z = nn.functional.gelu(z)
+        return torch.softmax(z, dim=-1)
+
+
+class _Experts(torch.autograd.Function):
+    """``(x, theta) -> f_k(x)`` of every sub-unitary, shape (B, K, m), with its VJP."""
+
+    @staticmethod
+    def forward(ctx, x, theta, layer, need_grad):
+        X = x.detach().cpu().numpy().astype(np.float64)
+        th = theta.detach().cpu().numpy().astype(np.float64)
+        outs, state = layer._run(X, th, need_grad=need_grad)
+        ctx.layer, ctx.state, ctx.theta = layer, state, th
+        return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
+
+    @staticmethod
+    def backward(ctx, grad_outs):
+        g = grad_outs.detach().cpu().numpy().astype(np.float64)
+        g_theta, g_x = ctx.layer._vjp(ctx.state, ctx.theta, g)
+        if ctx.needs_input_grad[0] and g_x is None:
+            raise RuntimeError("the input gradient needs the exact unary engine (RBS/FBS "
+                               "sub-unitaries on a unary encoding with engine='exact'); "
+                               "gradient plans give gradients w.r.t. parameters only")
+        gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
+        return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
+
+
+class DensityQNNLayer(nn.Module):
+    """A :class:`DensityQNN` as a ``torch.nn.Module``: input ``(B, d)`` -> output ``(B, m)``.
+
+    Parameters
+    ----------
+    model : DensityQNN
+        Copied; the module trains its own copy (:meth:`to_model` gives the trained model).
+    engine : "exact" or SamplerEngine
+    shots : int, optional
+        Shots per circuit with a sampler engine.
+    gradient : {"auto", "shift", "commuting"}
+        Gradient circuits of the plan path.
+    gate : torch.nn.Module, optional
+        A mixture-of-experts gate ``(B, d) -> (B, K)`` that replaces the model's mixture.
+
+    Attributes
+    ----------
+    theta : torch.nn.Parameter, shape (P,)
+        The angles, in ``model.parameters`` order.
+    logits : torch.nn.Parameter, shape (K,)
+        With a softmax mixture.
+    gate : torch.nn.Module or None
+    shots_spent, circuits : int
+        Totals run by this module on its engine.
+
+    Examples
+    --------
+    >>> import torch
+    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.decompositions import by_moments
+    >>> from qdensity.mixtures import SoftmaxMixture
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> dec = by_moments(round_robin(4))
+    >>> model = DensityQNN(dec.sub_unitaries, SoftmaxMixture(dec.num_subunitaries),
+    ...                    encoding=Encoding.unary(4), readout="unary_probabilities", seed=0)
+    >>> layer = DensityQNNLayer(model)
+    >>> out = layer(torch.rand(5, 4, dtype=torch.float64))
+    >>> out.shape, bool(torch.allclose(out.sum(dim=1), torch.ones(5, dtype=torch.float64)))
+    (torch.Size([5, 4]), True)
+    >>> out.sum().backward(); layer.theta.grad.shape
+    torch.Size([6])
+    """
+
+    def __init__(self, model: DensityQNN, *, engine="exact", shots: int | None = None,
+                 gradient: str = "auto", gate: nn.Module | None = None):
+        super().__init__()
+        if not isinstance(model, DensityQNN):
+            raise TypeError(f"model must be a DensityQNN, got {type(model).__name__}")
+        if isinstance(engine, SamplerEngine):
+            if shots is None:
+                raise ValueError("shots must be given (shots per circuit) with a SamplerEngine")
+            check_positive_int(shots, "shots")
+        elif not (isinstance(engine, str) and engine == "exact"):
+            raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {engine!r}")
+        if gradient not in METHODS:
+            raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
+        if gate is not None and not isinstance(gate, nn.Module):
+            raise TypeError(f"gate must be a torch.nn.Module, got {type(gate).__name__}")
+        self.model = copy.deepcopy(model)
+        self.engine, self.shots, self.gradient = engine, shots, gradient
+        self.shots_spent = self.circuits = 0
+        mix = self.model.mixture
+        self.theta = nn.Parameter(torch.tensor(self.model.theta, dtype=torch.float64))
+        self.gate = gate
+        if gate is None and isinstance(mix, SoftmaxMixture):
+            self.logits = nn.Parameter(torch.tensor(mix.params, dtype=torch.float64))
+        elif gate is None and isinstance(mix, GatedMixture):
+            self.gate = MoEGate(mix.num_features, mix.num_components, mix.activation)
+            with torch.no_grad():
+                self.gate.linear.weight.copy_(torch.from_numpy(mix.weights))
+                self.gate.linear.bias.copy_(torch.from_numpy(mix.bias))
+        elif gate is None:
+            self.register_buffer("alpha", torch.tensor(mix.alpha(None)[0], dtype=torch.float64))
+        if not any(p.numel() for p in self.parameters() if p is not self.theta) and \
+                self.model.num_parameters == 0:
+            raise ValueError("model has no trainable parameters (no angles, fixed mixture)")
+        if self.model.num_parameters == 0:
+            self.theta.requires_grad_(False)
+        self._unary = (engine == "exact" and self.model._use_unary())
+        if self._unary:  # the Givens rotations of each sub-unitary, extracted once
+            from qdensity.execution.unary import compile_unary
+
+            self._compiled = [compile_unary(c) for c in self.model.sub_unitaries]
+
+    @property
+    def num_features(self) -> int:
+        """``d``: the width of the input."""
+        enc = self.model.encoding
+        return enc.num_features if enc is not None else self.model.num_qubits
+
+    def mixture_weights(self, x: torch.Tensor) -> torch.Tensor:
+        """``alpha(x)``, shape (B, K)."""
+        if self.gate is not None:
+            return self.gate(x)
+        if hasattr(self, "logits"):
+            return torch.softmax(self.logits, dim=0).expand(x.shape[0], -1)
+        return self.alpha.to(x.dtype).expand(x.shape[0], -1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """``f(x) = sum_k alpha_k(x) f_k(x)``: input (B, d) -> (B, m) (m = 1 for an observable)."""
+        if not isinstance(x, torch.Tensor):
+            raise TypeError(f"input must be a torch.Tensor, got {type(x).__name__}")
+        if not x.is_floating_point():
+            raise TypeError(f"input must be a floating-point tensor (float32 or float64), got "
+                            f"dtype {x.dtype}")
+        if x.ndim != 2 or x.shape[1] != self.num_features or x.shape[0] == 0:
+            raise ValueError(f"input must have shape (batch, {self.num_features}) with batch >= "
+                             f"1, got {tuple(x.shape)}")
+        need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
+        outs = _Experts.apply(x, self.theta, self, need_grad)
+        alpha = self.mixture_weights(x).to(outs.dtype)
+        return torch.einsum("bk,bkm->bm", alpha, outs)
+
+    # ------------------------------------------------------------ numpy side
+    def _run(self, X, theta, *, need_grad: bool):
+        m = self.model
+        if self._unary:
+            from qdensity.execution.unary import forward
+
+            norms = np.linalg.norm(X, axis=1, keepdims=True)
+            if np.any(norms == 0):
+                rows = np.flatnonzero(norms[:, 0] == 0).tolist()
+                raise ValueError(f"input rows {rows} are all-zero; a unary encoding cannot "
+                                 f"load them")
+            Xn = X / norms
+            Ys = [forward(c, Xn, theta[m.subunitary_parameter_indices(k)])
+                  for k, c in enumerate(self._compiled)]
+            if m.readout == "unary_amplitudes":
+                outs = np.stack(Ys, axis=1)
+            elif m.readout == "unary_probabilities":
+                outs = np.stack([y**2 for y in Ys], axis=1)
+            else:
+                d = m._z_readout_matrix()
+                outs = np.stack([(y**2 @ d)[:, None] for y in Ys], axis=1)
+            return outs, ("unary", Xn, norms, Ys)
+        m.set_params(theta=theta)
+        if not need_grad:
+            outs = m.expert_outputs(X)
+            return (outs[:, :, None] if outs.ndim == 2 else outs), None
+        engine = ExactEngine() if self.engine == "exact" else self.engine
+        plan = density_gradient_plan(m, X, method=self.gradient, shots=self.shots)
+        before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
+        grad = plan.run(engine)
+        if isinstance(engine, SamplerEngine):
+            self.shots_spent += engine.ledger.total_shots - before
+        self.circuits += plan.num_circuits
+        return grad.outputs, ("plan", grad)
+
+    def _vjp(self, state, theta, g):
+        m = self.model
+        g_theta = np.zeros(m.num_parameters)
+        if state is None:
+            raise RuntimeError("backward through outputs computed without gradients")
+        if state[0] == "plan":
+            for k, jac in enumerate(state[1].jacobians):
+                np.add.at(g_theta, m.subunitary_parameter_indices(k),
+                          np.einsum("bm,bmp->p", g[:, k, :], jac))
+            return g_theta, None
+        from qdensity.execution.unary import vjp
+
+        _, Xn, norms, Ys = state
+        g_Xn = np.zeros_like(Xn)
+        for k, (c, y) in enumerate(zip(self._compiled, Ys, strict=True)):
+            if m.readout == "unary_amplitudes":
+                dY = g[:, k, :]
+            elif m.readout == "unary_probabilities":
+                dY = 2.0 * g[:, k, :] * y
+            else:
+                dY = 2.0 * g[:, k, :1] * m._z_readout_matrix()[None, :] * y
+            idx = m.subunitary_parameter_indices(k)
+            gv, gx = vjp(c, Xn, theta[idx], dY, reduce="sum")
+            np.add.at(g_theta, idx, gv)
+            g_Xn += gx
+        return g_theta, (g_Xn - Xn * (Xn * g_Xn).sum(axis=1, keepdims=True)) / norms
+
+    def to_model(self) -> DensityQNN:
+        """A copy of the model with the trained angles (and softmax logits or MoE weights)."""
+        out = copy.deepcopy(self.model)
+        out.set_params(theta=self.theta.detach().cpu().numpy())
+        if hasattr(self, "logits"):
+            out.mixture.params = self.logits.detach().cpu().numpy()
+        elif isinstance(self.gate, MoEGate) and isinstance(out.mixture, GatedMixture):
+            w = self.gate.linear.weight.detach().cpu().numpy()
+            b = self.gate.linear.bias.detach().cpu().numpy()
+            out.mixture.params = np.concatenate([w.ravel(), b])
+        elif self.gate is not None:
+            raise ValueError("a custom torch gate has no DensityQNN counterpart; keep using the "
+                             "module (or save its state_dict)")
+        return out
+
+    def extra_repr(self) -> str:
+        engine = "exact" if self.engine == "exact" else type(self.engine).__name__
+        return f"{self.model!r}, engine={engine}, shots={self.shots}"

@@ -1,0 +1,149 @@
+"""optuna sweeps: two worker processes share one SQLite study and finish N trials between them
+(none lost, none run twice); an interrupted sweep keeps its finished trials and resumes;
+JSON and CSV export; the ``qdensity sweep`` command; bad storage URLs and search spaces."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+optuna = pytest.importorskip("optuna")  # the optional extra; CI installs it (.ci/run)
+
+from sklearn.datasets import load_iris  # noqa: E402
+from sklearn.preprocessing import StandardScaler  # noqa: E402
+
+from qdensity.cli import main  # noqa: E402
+from qdensity.learning.estimators import QNNClassifier  # noqa: E402
+from qdensity.learning.sweep import PAPER_SPACE, export_trials, open_study, run_sweep  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+SMALL = {"learning_rate": ("log", 1e-3, 1e-1), "optimizer": ("categorical", ["adam", "sgd"])}
+
+
+def _data():
+    X, y = load_iris(return_X_y=True)
+    return StandardScaler().fit_transform(X), y
+
+
+WORKER = textwrap.dedent("""
+    import sys, time
+    from pathlib import Path
+    from sklearn.datasets import load_iris
+    from sklearn.preprocessing import StandardScaler
+    from qdensity.learning.estimators import QNNClassifier
+    from qdensity.learning.sweep import run_sweep
+
+    storage, me, other, n = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
+    X, y = load_iris(return_X_y=True)
+    X = StandardScaler().fit_transform(X)
+    me.touch()
+    while not other.exists():  # start together
+        time.sleep(0.01)
+    run_sweep(X, y, QNNClassifier(epochs=3, verbose=False), n_trials=n, storage=storage,
+              space={"learning_rate": ("log", 1e-3, 1e-1)}, verbose=False)
+""")
+
+
+def test_two_workers_share_one_sqlite_study(tmp_path):
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    open_study("qdensity", storage)  # create the tables before two processes race for them
+    n = 8
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    a, b = tmp_path / "a", tmp_path / "b"
+    procs = [subprocess.Popen([sys.executable, "-c", WORKER, storage, str(me), str(other),
+                               str(n)], env=env, stderr=subprocess.PIPE, text=True)
+             for me, other in ((a, b), (b, a))]
+    for p in procs:
+        _, err = p.communicate(timeout=600)
+        assert p.returncode == 0, err
+    study = open_study("qdensity", storage)
+    complete = [t for t in study.trials if t.state.name == "COMPLETE"]
+    skipped = [t for t in study.trials if "skipped" in t.user_attrs]
+    assert sorted(t.number for t in complete) == list(range(n))  # none lost, none twice
+    assert all(t.state.name == "FAIL" and t.number >= n for t in skipped)
+    assert len(study.trials) == n + len(skipped) and len(skipped) <= 2
+    assert {t.user_attrs["worker"] for t in complete} == {p.pid for p in procs}
+    assert all(0 <= t.value <= 1 for t in complete)
+
+
+class _Interrupt:
+    """A per-step callback that stops the process like Ctrl-C during the third trial (the count
+    is a class attribute: ``clone`` gives every trial a copy of the callback)."""
+
+    fits = 0
+
+    def __call__(self, est, step):
+        if step == 0:
+            type(self).fits += 1
+        if type(self).fits == 3 and step == 2:
+            raise KeyboardInterrupt
+
+
+def test_interrupted_sweep_keeps_finished_trials_and_resumes(tmp_path):
+    X, y = _data()
+    storage = f"sqlite:///{tmp_path / 's.db'}"
+    _Interrupt.fits = 0
+    est = QNNClassifier(epochs=2, verbose=False, callback=_Interrupt())
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(X, y, est, n_trials=5, storage=storage, space=SMALL, verbose=False)
+    study = open_study("qdensity", storage)
+    assert [t.state.name for t in study.trials] == ["COMPLETE", "COMPLETE", "FAIL"]
+    run_sweep(X, y, QNNClassifier(epochs=2, verbose=False), n_trials=5, storage=storage,
+              space=SMALL, verbose=False)
+    study = open_study("qdensity", storage)
+    assert [t.state.name for t in study.trials].count("COMPLETE") == 5
+    assert len(study.trials) == 6
+
+
+def test_export_json_and_csv(tmp_path):
+    X, y = _data()
+    study = run_sweep(X, y, QNNClassifier(epochs=1, verbose=False), n_trials=3,
+                      storage=f"sqlite:///{tmp_path / 'e.db'}", space=PAPER_SPACE,
+                      sampler_seed=1, verbose=False)
+    doc = json.loads(export_trials(study, tmp_path / "t.json").read_text())
+    with (tmp_path / "t.csv").open() if export_trials(study, tmp_path / "t.csv") else None as fh:
+        rows = list(csv.DictReader(fh))
+    assert doc["study"] == "qdensity" and len(doc["trials"]) == len(rows) == 3
+    for t, j, c in zip(study.trials, doc["trials"], rows, strict=True):
+        assert j["value"] == t.value and float(c["value"]) == pytest.approx(t.value)
+        assert j["param_optimizer"] == c["param_optimizer"] == t.params["optimizer"]
+        assert int(c["param_batch_size"]) == t.params["batch_size"]
+        assert 32 <= t.params["batch_size"] <= 256 and t.params["batch_size"] % 16 == 0
+        assert 1e-4 <= t.params["learning_rate"] <= 1e-2
+    with pytest.raises(ValueError, match="path must end in .json or .csv"):
+        export_trials(study, tmp_path / "t.txt")
+
+
+def test_sweep_command(tmp_path, capsys):
+    storage = f"sqlite:///{tmp_path / 'cli.db'}"
+    out = tmp_path / "trials.csv"
+    assert main(["sweep", "--dataset", "iris", "--num-qubits", "3", "--epochs", "1",
+                 "--n-trials", "2", "--storage", storage, "--export", str(out),
+                 "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["complete"] == 2 and len(out.read_text().splitlines()) == 3
+    assert main(["sweep", "--storage", "sqlite:////no/such/dir/x.db", "--n-trials", "1"]) == 2
+    assert "storage" in capsys.readouterr().err
+    assert main(["sweep", "--dataset", "cifar", "--storage", storage]) == 2
+
+
+def test_bad_sweep_input(tmp_path):
+    X, y = _data()
+    storage = f"sqlite:///{tmp_path / 'b.db'}"
+    with pytest.raises(ValueError, match="storage must be an optuna storage URL"):
+        run_sweep(X, y, storage="study.db")
+    with pytest.raises(ValueError, match="storage 'nosuchdb://x' cannot be opened"):
+        open_study("s", "nosuchdb://x")
+    with pytest.raises(ValueError, match="'learnig_rate', which is not a hyperparameter"):
+        run_sweep(X, y, space={"learnig_rate": ("log", 1e-3, 1e-1)}, storage=storage)
+    with pytest.raises(ValueError, match=r"space\['epochs'\] must be"):
+        run_sweep(X, y, space={"epochs": ("uniform", 1, 3)}, storage=storage)
+    with pytest.raises(ValueError, match="n_trials"):
+        run_sweep(X, y, n_trials=0, storage=storage)
+    assert np.isfinite(X).all()

@@ -1,0 +1,190 @@
+"""The PyTorch module: gradcheck in double precision on the exact paths, gradients against
+finite differences of Aer statevectors, sampled gradients against exact ones, the input
+gradient that lets a classical layer before it train, a gate written in torch, bad input, and
+the runnable examples."""
+
+import pickle
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")  # the optional extra; CI installs it (.ci/run)
+
+from qiskit import QuantumCircuit  # noqa: E402
+from torch import nn  # noqa: E402
+from torch.autograd import gradcheck  # noqa: E402
+
+from qdensity.circuits.ansatze import hardware_efficient, round_robin  # noqa: E402
+from qdensity.execution.engines import SamplerEngine  # noqa: E402
+from qdensity.learning.torch import DensityQNNLayer, MoEGate  # noqa: E402
+from qdensity.models import DensityQNN, Encoding  # noqa: E402
+from qdensity.models.decompositions import by_moments, copies  # noqa: E402
+from qdensity.models.mixtures import GatedMixture, SoftmaxMixture  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _unary_model(mixture="softmax", readout="unary_probabilities", n=4, seed=0):
+    dec = by_moments(round_robin(n))
+    K = dec.num_subunitaries
+    mix = {"softmax": SoftmaxMixture(K), "fixed": None,
+           "moe": GatedMixture(n, K, activation="gelu", seed=seed + 1)}[mixture]
+    return DensityQNN(dec.sub_unitaries, mix, encoding=Encoding.unary(n), readout=readout,
+                      seed=seed)
+
+
+def _functional(layer):
+    names = [n for n, _ in layer.named_parameters()]
+    params = tuple(p.detach().clone().requires_grad_() for p in layer.parameters())
+
+    def f(x, *ps):
+        return torch.func.functional_call(layer, dict(zip(names, ps, strict=True)), (x,))
+
+    return f, params
+
+
+@pytest.mark.parametrize(("mixture", "readout"), [
+    ("softmax", "unary_probabilities"), ("moe", "unary_probabilities"),
+    ("fixed", "unary_amplitudes"), ("softmax", "observable"),
+])
+def test_gradcheck_exact_unary_path_including_the_input(mixture, readout):
+    layer = DensityQNNLayer(_unary_model(mixture, readout))
+    x = (torch.rand(3, 4, dtype=torch.float64) + 0.1).requires_grad_()
+    f, params = _functional(layer)
+    assert gradcheck(f, (x, *params))
+
+
+def test_gradcheck_exact_plan_path_for_a_non_unary_model():
+    circ = hardware_efficient(2, 1)
+    model = DensityQNN(copies(circ, 2).sub_unitaries, SoftmaxMixture(2),
+                       encoding=Encoding.angle(2), seed=2)
+    layer = DensityQNNLayer(model)
+    assert not layer._unary
+    x = torch.rand(1, 2, dtype=torch.float64)
+    f, params = _functional(layer)
+    assert gradcheck(lambda *ps: f(x, *ps), params, fast_mode=True)
+    with pytest.raises(RuntimeError, match="input gradient needs the exact unary engine"):
+        layer(x.clone().requires_grad_()).sum().backward()
+
+
+def test_gradients_match_finite_differences_of_aer_statevectors():
+    """d/dtheta of sum(w * f(x)) against central differences of DensityQNN.predict computed
+    with Aer statevectors (method="statevector"), an independent path."""
+    model = _unary_model("softmax", n=3, seed=3)
+    layer = DensityQNNLayer(model)
+    X = np.random.default_rng(0).normal(size=(2, 3))
+    w = np.random.default_rng(1).normal(size=(2, 3))
+    (layer(torch.tensor(X)) * torch.tensor(w)).sum().backward()
+    h = 1e-5
+    fd = []
+    for p in range(model.num_parameters):
+        e = np.zeros(model.num_parameters)
+        e[p] = h
+        plus = model.predict(X, model.theta + e, method="statevector")
+        minus = model.predict(X, model.theta - e, method="statevector")
+        fd.append(((plus - minus) * w).sum() / (2 * h))
+    np.testing.assert_allclose(layer.theta.grad.numpy(), fd, atol=1e-7)
+
+
+def test_sampled_gradients_agree_with_exact_within_standard_errors():
+    model = _unary_model("softmax", seed=4)
+    X = torch.tensor(np.random.default_rng(2).normal(size=(4, 4)))
+    w = torch.tensor(np.random.default_rng(3).normal(size=(4, 4)))
+    exact = DensityQNNLayer(model)
+    (exact(X) * w).sum().backward()
+    shots = 4000
+    engine = SamplerEngine(seed=11)
+    sampled = DensityQNNLayer(model, engine=engine, shots=shots, gradient="commuting")
+    (sampled(X) * w).sum().backward()
+    assert sampled.shots_spent == engine.ledger.total_shots > 0
+    # every gradient entry is a sum over 4 rows x 4 outputs of |w| * (estimates of
+    # probabilities or their differences, each with variance <= 1 / shots); bound the error
+    se = np.sqrt((w.numpy() ** 2).sum() * 2.0 / shots)
+    for name in ("theta", "logits"):
+        diff = getattr(sampled, name).grad - getattr(exact, name).grad
+        assert float(diff.abs().max()) < 4 * se, name
+    with torch.no_grad():  # evaluation is exact and spends nothing
+        spent = engine.ledger.total_shots
+        torch.testing.assert_close(sampled(X), exact(X))
+        assert engine.ledger.total_shots == spent
+
+
+def test_classical_layer_before_the_quantum_layer_trains():
+    torch.manual_seed(0)
+    pre = nn.Linear(6, 4, dtype=torch.float64)
+    net = nn.Sequential(pre, nn.Softplus(), DensityQNNLayer(_unary_model()),
+                        nn.Linear(4, 2, dtype=torch.float64))
+    X = torch.randn(32, 6, dtype=torch.float64)
+    y = (X[:, 0] > 0).long()
+    opt = torch.optim.Adam(net.parameters(), lr=0.05)
+    losses = []
+    for _ in range(40):
+        opt.zero_grad()
+        loss = nn.functional.cross_entropy(net(X), y)
+        loss.backward()
+        assert float(pre.weight.grad.abs().sum()) > 0
+        opt.step()
+        losses.append(loss.item())
+    assert np.mean(losses[-5:]) < 0.8 * np.mean(losses[:5])
+
+
+def test_gate_written_in_torch_and_copy_of_the_model_gate():
+    model = _unary_model("moe", seed=5)
+    layer = DensityQNNLayer(model)
+    assert isinstance(layer.gate, MoEGate)
+    X = np.abs(np.random.default_rng(4).normal(size=(5, 4))) + 0.1
+    with torch.no_grad():  # the copied gate reproduces the numpy model exactly
+        np.testing.assert_allclose(layer(torch.tensor(X)).numpy(), model.predict(X), atol=1e-12)
+    back = layer.to_model()
+    np.testing.assert_allclose(back.predict(X), model.predict(X), atol=1e-12)
+    custom = nn.Sequential(nn.Linear(4, 3, dtype=torch.float64), nn.Softmax(dim=-1))
+    mine = DensityQNNLayer(_unary_model("fixed"), gate=custom)
+    x = torch.tensor(X, requires_grad=True)
+    f, params = _functional(mine)
+    assert gradcheck(f, (x, *params))
+    with pytest.raises(ValueError, match="custom torch gate"):
+        mine.to_model()
+
+
+def test_module_pickles():
+    layer = DensityQNNLayer(_unary_model("moe"))
+    x = torch.rand(2, 4, dtype=torch.float64)
+    back = pickle.loads(pickle.dumps(layer))
+    torch.testing.assert_close(back(x), layer(x))
+
+
+def test_bad_input():
+    layer = DensityQNNLayer(_unary_model())
+    with pytest.raises(TypeError, match="input must be a floating-point tensor"):
+        layer(torch.ones(2, 4, dtype=torch.int64))
+    with pytest.raises(ValueError, match=r"input must have shape \(batch, 4\)"):
+        layer(torch.ones(2, 5, dtype=torch.float64))
+    with pytest.raises(ValueError, match=r"input must have shape"):
+        layer(torch.ones(4, dtype=torch.float64))
+    with pytest.raises(TypeError, match="input must be a torch.Tensor"):
+        layer(np.ones((2, 4)))
+    with pytest.raises(ValueError, match="all-zero"):
+        layer(torch.zeros(1, 4, dtype=torch.float64))
+    with pytest.raises(TypeError, match="model must be a DensityQNN"):
+        DensityQNNLayer("round_robin")
+    with pytest.raises(ValueError, match="shots"):
+        DensityQNNLayer(_unary_model(), engine=SamplerEngine(seed=0))
+    with pytest.raises(ValueError, match="gradient must be one of"):
+        DensityQNNLayer(_unary_model(), gradient="adjoint-ish")
+    with pytest.raises(ValueError, match="engine must be"):
+        DensityQNNLayer(_unary_model(), engine="gpu")
+    frozen = DensityQNN([QuantumCircuit(3)], encoding=Encoding.unary(3),
+                        readout="unary_probabilities")
+    with pytest.raises(ValueError, match="no trainable parameters"):
+        DensityQNNLayer(frozen)
+
+
+def test_examples_run():
+    first, last, acc = runpy.run_path(str(EXAMPLES / "hybrid_mnist.py"))["main"](
+        epochs=2, samples=120, verbose=False)
+    assert last < first and 0 <= acc <= 1
+    first, last, acc, grad_norm = runpy.run_path(str(EXAMPLES / "moe_gate_torch.py"))["main"](
+        steps=20, verbose=False)
+    assert last < first and grad_norm > 0
