@@ -148,6 +148,12 @@ class ZStringTable:
         """Width ``n`` of the outcomes."""
         return self.z.shape[1]
 
+    def value_range(self) -> np.ndarray:
+        """Bound on ``max - min`` of each column over all outcomes, ``2 sum_t |c_t|`` over the
+        non-constant strings, shape (P,): the ``R`` of a never-zero (Wilson-form) error bar."""
+        varying = self.z.any(axis=1)
+        return 2.0 * np.abs(self.coefficients[varying]).sum(axis=0)
+
     @property
     def num_columns(self) -> int:
         """``P``, the number of observables."""

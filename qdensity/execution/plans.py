@@ -267,7 +267,8 @@ def _expectation_post(num_rows, constant, diagonals, results: list[JobResult]) -
         if res.bits is not None:  # parities of the measured bits, never 2**n
             per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
             value += per_shot.mean(axis=1)
-            var += per_shot.var(axis=1) / res.shots
+            var += wilson_standard_error(per_shot.var(axis=1), res.shots,
+                                         table.value_range()[0]) ** 2
             continue
         diag = table.dense()[:, 0]
         mean = res.probabilities @ diag

@@ -91,8 +91,9 @@ class _GradientCircuits:
         """Gradient and standard error from the measured bits, never a ``2**n`` array.
 
         Each shot gives one value of every parameter's estimator (parities of its bits); the
-        estimate is their mean, the error ``s / sqrt(shots)`` with ``s^2`` the unbiased sample
-        variance; independent circuits add. Memory ``O(shots x P)`` per row.
+        estimate is their mean, the error ``sqrt(s^2 / N + R^2 / (4 N^2))`` with ``s^2`` the
+        unbiased sample variance and ``R`` the estimator's range (never zero, even when every
+        shot agrees); independent circuits add. Memory ``O(shots x P)`` per row.
 
         Parameters
         ----------
@@ -118,7 +119,8 @@ class _GradientCircuits:
             rows = np.stack([table.on_bits(r) for r in b]) if b.shape[0] else np.zeros(
                 (0, b.shape[1], table.num_columns))
             value = value + rows.mean(axis=1)
-            var = var + rows.var(axis=1, ddof=1) / b.shape[1]
+            var = var + wilson_standard_error(rows.var(axis=1, ddof=1), b.shape[1],
+                                              table.value_range()) ** 2
         return np.asarray(value), np.sqrt(var)
 
     def _as_list(self, probs) -> list[np.ndarray]:

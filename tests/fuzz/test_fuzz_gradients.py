@@ -33,11 +33,16 @@ def _loaded(n: int) -> QuantumCircuit:
 
 
 # ----------------------------------------------------------------------------- found case
-def test_found_commuting_gradient_refuses_32_qubits_before_allocating():
+def test_found_commuting_gradient_at_32_qubits_allocates_no_dense_table():
+    """Found: the 32-qubit commuting gradient tried to allocate a (2**32, 16) table. Its
+    estimators now read the measured bits (issue "Scale"), so the plan builds; the dense path
+    (exact probabilities) is refused by the shared width guard before allocating."""
     model = DensityQNN(by_moments(round_robin(32)).sub_unitaries[:2],
                        encoding=Encoding.unary(32))
-    with pytest.raises(ValueError, match=r"at most 24 qubits.*method='shift'"):
-        density_gradient_plan(model, np.ones((1, 32)), method="commuting")
+    plan = density_gradient_plan(model, np.ones((1, 32)), method="commuting", shots=10)
+    assert {job.circuit.num_qubits for job in plan.jobs} == {32}
+    with pytest.raises(ValueError, match=r"at most 24 qubits"):
+        plan.run(ExactEngine())
 
 
 # ----------------------------------------------------------------------------- valid input
