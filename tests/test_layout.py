@@ -24,6 +24,7 @@ ROOT = Path(qdensity.__file__).resolve().parent
 #: layer or a layer below it (DESIGN.md, "The spine"; CONTRIBUTING.md).
 LAYERS = [
     "validation",
+    "progress",
     "_aliases",
     "datasets",
     "analysis",

@@ -27,6 +27,7 @@ from qiskit.primitives import BaseSamplerV2
 
 from qdensity.execution._device import check_for_device, check_width, device_of
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
+from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,
     SeedLike,
@@ -359,6 +360,11 @@ class SamplerEngine:
         Written on every run; a fresh one is made if not given.
     default_shots : int
         Shots per row for jobs that do not say (exact jobs are sampled with this many).
+    progress : bool
+        On a terminal, a run that lasts longer than :attr:`progress_delay` seconds shows one
+        bar per phase: ``transpile`` (templates) and ``sample`` (circuits, shots in the
+        postfix). The sampler gets one call, so the ``sample`` bar's clock runs while it waits
+        and the bar fills when the call returns. False (or no terminal): silent.
 
     Examples
     --------
@@ -377,6 +383,7 @@ class SamplerEngine:
         ledger: ShotLedger | None = None,
         default_shots: int = 1024,
         optimization_level: int = 1,
+        progress: bool = True,
     ):
         if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
                 or optimization_level not in (0, 1, 2, 3)):
@@ -410,6 +417,14 @@ class SamplerEngine:
         self._cache = _TranspileCache(transpiler)
         self.ledger = ledger if ledger is not None else ShotLedger()
         self.default_shots = check_positive_int(default_shots, "default_shots")
+        self.progress = bool(progress)
+
+    #: Seconds a phase must last before its progress bar draws.
+    progress_delay: float = 1.0
+
+    def _bar(self, total: int, desc: str, unit: str):
+        return progress_bar(total, desc=desc, unit=unit, verbose=self.progress,
+                            delay=self.progress_delay, leave=True)
 
     @property
     def transpile_count(self) -> int:
@@ -421,14 +436,16 @@ class SamplerEngine:
         return self._cache(circuit)
 
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
-        """Sample every job: one PUB each, all in one sampler call.
+        """Sample every job: one PUB each, all in one sampler call (progress: see the class).
 
         When the sampler names its device (a provider's primitive), every template is checked
         against it first: a job wider than the device or holding an instruction it cannot run
         raises ``ValueError`` before anything is submitted. The ledger is written only once
         the sampler's results are back, so a failed job leaves it unchanged.
         """
+        jobs = list(jobs)
         pubs, metas = [], []
+        bar = self._bar(len(jobs), "transpile", "template")
         for job in jobs:
             if self._device is not None:
                 check_width(job.circuit, self._device, job.label or job.circuit.name)
@@ -444,9 +461,15 @@ class SamplerEngine:
                 # sample rows * shots at once and split them into rows below.
                 pubs.append((compiled, None, shots * job.rows))
             metas.append((job, shots))
+            bar.update()
+        bar.close()
         if not pubs:
             return []
-        raw = self.sampler.run(pubs).result()
+        rows = sum(job.rows for job, _ in metas)
+        with self._bar(rows, "sample", "circuit") as bar:
+            bar.set_postfix(shots=sum(job.rows * shots for job, shots in metas), refresh=False)
+            raw = wait_for(self.sampler.run(pubs), bar)
+            bar.update(rows)
         results = []
         for (job, shots), pub_result in zip(metas, raw, strict=True):
             bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)

@@ -35,6 +35,7 @@ from qdensity.circuits.ansatze import (
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.models.decompositions import by_moments, copies, odd_even
 from qdensity.models.density import DensityQNN
+from qdensity.progress import progress_bar
 from qdensity.validation import check_positive_int
 
 __all__ = ["ANSATZE", "table1_row", "table1", "format_table1"]
@@ -105,18 +106,18 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
            verbose: bool = True) -> list[dict]:
     """Rows of Table 1 for every ansatz and size (butterfly only for powers of two).
 
-    ``verbose`` shows a progress bar when attached to a terminal.
+    ``verbose``: on a terminal, a ``table1`` bar counts the rows done and names the row in
+    progress (see :mod:`qdensity.progress`); False: silent.
     """
-    from qdensity.learning.progress import progress_bar
-
-    jobs = [(name, n) for name in ansatze for n in sizes
+    todo = [(name, n) for name in ansatze for n in sizes
             if not (name == "butterfly" and n & (n - 1))]
     rows = []
-    with progress_bar(len(jobs), desc="table1", verbose=verbose, unit="row") as bar:
-        for name, n in jobs:
+    with progress_bar(len(todo), desc="table1", unit="row", verbose=verbose,
+                      leave=True) as bar:
+        for name, n in todo:
             bar.set_postfix(ansatz=name, n=n, refresh=False)
             rows.append(table1_row(name, n, layers=layers, copies_k=copies_k))
-            bar.update(1)
+            bar.update()
     return rows
 
 
