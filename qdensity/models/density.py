@@ -397,6 +397,13 @@ class DensityQNN:
         qdensity.schedulers.ScheduleResult
             Estimate, standard error, allocation and shots used (``allocation`` is ``[budget]``
             in eval mode).
+
+        Notes
+        -----
+        The engine's ledger (``engine.ledger``) labels train-mode shots ``randomised_k{k}``;
+        with ``scheduler="neyman"`` the pilot's shots are labelled ``pilot_k{k}``, so the
+        ``randomised_k{k}`` shots equal ``allocation[k]`` and the ``pilot_k{k}`` shots
+        ``pilot_allocation[k]``; ``shots_used`` is their sum.
         """
         from qdensity.execution.engines import SamplerEngine
         from qdensity.execution.intervals import wilson_standard_error
@@ -447,8 +454,9 @@ class DensityQNN:
         circuits = [measured(self.circuit(k)) for k in range(self.num_subunitaries)]
         rows = [self.rows(k, x) for k in range(self.num_subunitaries)]
 
-        def source(shots_per_k, rng_inner):
-            jobs = [CircuitJob(circuits[k], rows[k], int(s), f"randomised_k{k}")
+        def source(shots_per_k, rng_inner, phase: str = "main"):
+            label = "pilot" if phase == "pilot" else "randomised"
+            jobs = [CircuitJob(circuits[k], rows[k], int(s), f"{label}_k{k}")
                     for k, s in enumerate(shots_per_k) if s > 0]
             results = iter(engine_for_call().run(jobs))
             out = []

@@ -622,3 +622,23 @@ def test_sampler_source_bad_input():
         sampler_source(circuits, _z_value)([1, 2], None)
     with pytest.raises(ValueError, match="non-negative"):
         sampler_source(circuits, _z_value)([1, -2, 1], None)
+
+
+def test_neyman_tells_a_phase_aware_source_pilot_then_main():
+    """A source taking ``phase`` hears "pilot" for the pilot_allocation and "main" for the
+    allocation; sources without it, and per_shot and proportional, call it as before."""
+    calls = []
+    plain = PlusMinusSource([0.2, -0.5, 0.9])
+
+    def source(shots, rng, phase="none"):
+        calls.append((phase, np.asarray(shots).tolist()))
+        return plain(shots, rng)
+
+    alpha = [0.5, 0.3, 0.2]
+    res = neyman(alpha, 600, source, seed=1)
+    assert calls == [("pilot", res.pilot_allocation.tolist()), ("main", res.allocation.tolist())]
+    calls.clear()
+    proportional(alpha, 600, source, seed=1)
+    per_shot(alpha, 600, source, seed=1)
+    assert [phase for phase, _ in calls] == ["none", "none"]
+    assert neyman(alpha, 600, PlusMinusSource([0.2, -0.5, 0.9]), seed=1).shots_used == 600

@@ -273,3 +273,21 @@ def test_sample_refuses_bad_input():
     model = DensityQNN([round_robin(3)], encoding=Encoding.unary(3))
     with pytest.raises(ValueError, match="scheduler"):
         model.sample(np.ones(3), 100, scheduler="magic")
+
+
+@pytest.mark.parametrize("scheduler", ["proportional", "neyman"])
+def test_sample_ledger_labels_pilot_apart_from_allocation(scheduler):
+    from qdensity.execution.engines import SamplerEngine
+
+    n = 4
+    dec = by_moments(round_robin(n))
+    model = DensityQNN(dec.sub_unitaries, [0.5, 0.3, 0.2], encoding=Encoding.unary(n), seed=8)
+    engine = SamplerEngine(seed=5)
+    res = model.train().sample(RNG.normal(size=n), 1000, scheduler=scheduler, engine=engine)
+    spent = engine.ledger.by_label()
+    main = [spent.get(f"randomised_k{k}", (0, 0))[1] for k in range(3)]
+    pilot = [spent.get(f"pilot_k{k}", (0, 0))[1] for k in range(3)]
+    assert main == res.allocation.tolist()
+    expected_pilot = [0, 0, 0] if scheduler != "neyman" else res.pilot_allocation.tolist()
+    assert pilot == expected_pilot
+    assert sum(main) + sum(pilot) == res.shots_used == engine.ledger.total_shots == 1000

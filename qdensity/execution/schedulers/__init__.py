@@ -20,6 +20,8 @@ Schedulers never produce shots themselves. They call a *shot source*
 
     source(shots_per_k, rng) -> list of K arrays, array k of shape (shots_per_k[k],)
 
+(a source that also takes a ``phase`` keyword is told ``"pilot"`` or ``"main"`` by :func:`neyman`)
+
 so the same scheduler runs on a synthetic distribution (:func:`discrete_source`), on qiskit-aer,
 or on hardware through any ``BaseSamplerV2`` (:func:`sampler_source`). Every call is checked:
 the number of arrays, their lengths and their range. Allocations are integers that sum to exactly

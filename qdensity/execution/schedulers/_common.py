@@ -6,6 +6,7 @@ source -- and the per-sub-unitary sample means and variances the estimators are 
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
@@ -56,11 +57,19 @@ def _draw(
     shots: np.ndarray,
     rng: np.random.Generator,
     value_range: tuple[float, float],
+    phase: str | None = None,
 ) -> list[np.ndarray]:
-    """Call ``source`` and check what comes back (count, lengths, finiteness, range)."""
+    """Call ``source`` and check what comes back (count, lengths, finiteness, range).
+
+    ``phase`` (``"pilot"`` or ``"main"``, two-phase schedulers only) is passed on to a source
+    that takes a ``phase`` keyword, so it can label its shots (e.g. in a ``ShotLedger``).
+    """
     check_callable(source, "source", "a callable source(shots_per_k, rng) -> K value arrays "
                    "(e.g. sampler_source or discrete_source)")
-    out = source(shots.copy(), rng)
+    if phase is not None and _takes_phase(source):
+        out = source(shots.copy(), rng, phase=phase)
+    else:
+        out = source(shots.copy(), rng)
     try:
         out = list(out)
     except TypeError as exc:
@@ -89,6 +98,14 @@ def _draw(
             )
         checked.append(arr)
     return checked
+
+
+def _takes_phase(source) -> bool:
+    try:
+        params = inspect.signature(source).parameters
+    except (TypeError, ValueError):  # builtins and some callables have no signature
+        return False
+    return "phase" in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
 
 
 def _means(values: list[np.ndarray]) -> np.ndarray:

@@ -56,7 +56,11 @@ class NeymanScheduler:
     of all that stratum's shots (at least 3, so always defined).
 
     The source must give independent shots in every call (:func:`sampler_source` draws a fresh
-    simulator seed for each call from the generator it is given).
+    simulator seed for each call from the generator it is given). A source that takes a
+    ``phase`` keyword is told which call is which (``phase="pilot"``, then ``phase="main"``),
+    so it can label the pilot's shots apart from the allocation's:
+    :meth:`~qdensity.models.DensityQNN.sample` writes them to the ledger as ``pilot_k{k}``
+    next to ``randomised_k{k}``, whose shots add up to ``allocation``.
 
     Parameters
     ----------
@@ -103,7 +107,7 @@ class NeymanScheduler:
 
         n_pilot = min(max(round(self.pilot_fraction * budget), 2 * m), budget - m)
         pilot_alloc = allocate_proportional(alpha, n_pilot, minimum=2)
-        pilot = _draw(source, pilot_alloc, rng, vr)
+        pilot = _draw(source, pilot_alloc, rng, vr, phase="pilot")
         pilot_var = _sample_var(pilot)
 
         n_main = budget - n_pilot
@@ -117,7 +121,7 @@ class NeymanScheduler:
             denom = np.where(pos, pilot_alloc - 1 + c, 1.0)
             sigma_alloc = np.where(pos, np.sqrt((ss + c * vmax) / denom), 0.0)
             main_alloc = allocate_neyman(alpha, sigma_alloc, n_main)
-        main = _draw(source, main_alloc, rng, vr)
+        main = _draw(source, main_alloc, rng, vr, phase="main")
 
         both = [np.concatenate([p, q]) for p, q in zip(pilot, main, strict=True)]
         var = np.nan_to_num(_sample_var(both))  # every positive stratum has >= 3 shots
