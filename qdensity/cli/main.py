@@ -1,7 +1,11 @@
 """The ``qdensity`` command: build, transpile, run, table1, export, demo, sweep.
 
-Every sub-command has ``--help``. Bad input (an unknown builder or target, a budget smaller
-than the circuits) prints a clear message and exits with status 2.
+Every sub-command has ``--help`` (with help text for every option) and ``--json``, which prints
+one JSON document on stdout whose field names are those of the Python result (a circuit's
+``num_qubits`` / ``size`` / ``depth``, a ``ResourceReport``, a ``ScheduleResult``, the rows of
+``table1``, the dict ``run_demo`` returns); progress bars, when a terminal shows them, go to
+stderr. Bad input (an unknown builder or target, a budget smaller than the circuits) prints a
+clear message and exits with status 2.
 """
 
 from __future__ import annotations
@@ -173,8 +177,24 @@ def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> Q
     return qc
 
 
+def _print_json(obj) -> None:
+    """One JSON document on stdout (numpy scalars and arrays as plain numbers and lists)."""
+
+    def plain(o):
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        if isinstance(o, np.generic):
+            return o.item()
+        raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+    print(json.dumps(obj, indent=2, default=plain))
+
+
 def _cmd_build(args) -> int:
     qc = build_circuit(args.name, args.size, bind_seed=None if args.unbound else args.seed)
+    out = {"name": args.name, "num_qubits": qc.num_qubits, "num_clbits": qc.num_clbits,
+           "size": qc.size(), "depth": qc.depth(), "num_parameters": qc.num_parameters,
+           "count_ops": dict(qc.count_ops())}
     if args.qasm:
         from qiskit import qasm2, transpile
 
@@ -182,15 +202,25 @@ def _cmd_build(args) -> int:
 
         text = qasm2.dumps(transpile(qc, basis_gates=list(QASM2_BASIS), optimization_level=0))
         if args.qasm == "-":
-            print(text)
+            out["qasm"] = text
+            if not args.json:
+                print(text)
         else:
             with open(args.qasm, "w", encoding="utf-8") as fh:
                 fh.write(text)
-            print(f"wrote {args.qasm}")
-    if args.draw or not args.qasm:
-        print(qc.draw(output="text", fold=args.fold))
-    print(f"{args.name}: {qc.num_qubits} qubits, {qc.size()} gates, depth {qc.depth()}, "
-          f"{qc.num_parameters} free parameters", file=sys.stderr)
+            out["qasm_file"] = args.qasm
+            if not args.json:
+                print(f"wrote {args.qasm}")
+    if args.draw or not (args.qasm or args.json):
+        drawing = str(qc.draw(output="text", fold=args.fold))
+        out["drawing"] = drawing
+        if not args.json:
+            print(drawing)
+    if args.json:
+        _print_json(out)
+    else:
+        print(f"{args.name}: {qc.num_qubits} qubits, {qc.size()} gates, depth {qc.depth()}, "
+              f"{qc.num_parameters} free parameters", file=sys.stderr)
     return 0
 
 
@@ -202,7 +232,10 @@ def _cmd_transpile(args) -> int:
     target = get_target(args.target, qc.num_qubits, seed=args.seed, noise=False)
     report = resource_report(qc, target, optimization_level=args.optimization_level,
                              seed=args.seed)
-    print(json.dumps(report.as_dict(), indent=2) if args.json else report.table())
+    if args.json:
+        _print_json(report.as_dict())
+    else:
+        print(report.table())
     return 0
 
 
@@ -230,13 +263,18 @@ def _cmd_run(args) -> int:
     result = model.train().sample(x, args.shots, scheduler=args.scheduler, target=target,
                                   seed=args.seed)
     exact = float(model.eval().predict(x[None, :])[0])
+    pilot = result.pilot_allocation
     out = {"model": f"round_robin_{n} by layers (K={K})", "target": target.label,
            "scheduler": args.scheduler, "budget": args.shots,
-           "allocation": np.asarray(result.allocation).tolist(),
+           # the ScheduleResult's fields, under their own names
            "estimate": float(result.estimate), "standard_error": float(result.standard_error),
-           "exact_noiseless": exact, "shots_spent": int(result.shots_used)}
+           "allocation": np.asarray(result.allocation).tolist(),
+           "pilot_allocation": None if pilot is None else np.asarray(pilot).tolist(),
+           "per_subunitary": np.asarray(result.per_subunitary).tolist(),
+           "shots_used": int(result.shots_used),
+           "exact_noiseless": exact}
     if args.json:
-        print(json.dumps(out, indent=2))
+        _print_json(out)
     else:
         for key, val in out.items():
             print(f"{key:>16}: {val}")
@@ -250,18 +288,32 @@ def _cmd_table1(args) -> int:
     if unknown:
         raise ValueError(f"unknown ansatz {unknown}; known: {', '.join(ANSATZE)}")
     rows = table1(args.n, args.ansatz or ANSATZE, layers=args.layers, copies_k=args.copies)
-    print(json.dumps(rows, indent=2) if args.json else format_table1(rows))
+    if args.json:
+        _print_json(rows)
+    else:
+        print(format_table1(rows))
     return 0
 
 
 def _cmd_export(args) -> int:
+    from qdensity.cli.export import check_circuits, export_circuits
     from qdensity.cli.export import main as export_main
 
-    try:
-        return export_main([args.directory] + (["--check"] if args.check else [])
-                           + (["--qasm3"] if args.qasm3 else []), prog="qdensity export")
-    except SystemExit as exc:  # its usage errors, already printed on one line
-        return exc.code if isinstance(exc.code, int) else 2
+    if not args.json:
+        try:
+            return export_main([args.directory] + (["--check"] if args.check else [])
+                               + (["--qasm3"] if args.qasm3 else []), prog="qdensity export")
+        except SystemExit as exc:  # its usage errors, already printed on one line
+            return exc.code if isinstance(exc.code, int) else 2
+    # the Python results: check_circuits -> stale names, export_circuits -> written paths
+    if args.check:
+        stale = check_circuits(args.directory)
+        _print_json({"directory": args.directory, "check": True, "stale": stale})
+        return 1 if stale else 0
+    formats = ("qasm3",) if args.qasm3 else ("qasm", "qasm3")
+    paths = export_circuits(args.directory, formats=formats)
+    _print_json({"directory": args.directory, "check": False, "paths": [str(p) for p in paths]})
+    return 0
 
 
 def _cmd_demo(args) -> int:
@@ -272,12 +324,15 @@ def _cmd_demo(args) -> int:
     if not args.no_plot and not Path(args.output).is_dir():
         raise ValueError(f"--output {args.output!r} is not an existing directory")
 
-    cfg = DemoConfig(seed=args.seed)
+    cfg = DemoConfig.quick(seed=args.seed) if args.quick else DemoConfig(seed=args.seed)
     if args.budget is not None:
         cfg.budget = args.budget
     if args.shots is not None:
         cfg.shots = args.shots
-    run_demo(cfg, output_dir=args.output, plot=not args.no_plot)
+    results = run_demo(cfg, output_dir=args.output, plot=not args.no_plot,
+                       verbose=not args.json, progress=True)
+    if args.json:
+        _print_json(results)
     return 0
 
 
@@ -331,14 +386,20 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--seed", type=_SEED, default=0, help="seed of the bound parameter values")
     b.add_argument("--fold", type=_int_in(-1, 10**4), default=120,
                    help="drawing width (-1: no folding)")
+    b.add_argument("--json", action="store_true",
+                   help="print JSON: num_qubits, size, depth, num_parameters, count_ops (and "
+                        "qasm / qasm_file / drawing when asked)")
     b.set_defaults(func=_cmd_build)
 
     t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    t.add_argument("--size", type=size, default=4)
+    t.add_argument("--size", type=size, default=4, help="number of (data) qubits")
     t.add_argument("--target", default="ideal", help=target_help())
-    t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3])
-    t.add_argument("--seed", type=_SEED, default=0)
+    t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3],
+                   help="Qiskit preset pass manager level")
+    t.add_argument("--seed", type=_SEED, default=0,
+                   help="seed of the bound parameters, the target's sampled errors and the "
+                        "transpiler")
     t.add_argument("--json", action="store_true", help="print the report as JSON")
     t.set_defaults(func=_cmd_transpile)
 
@@ -349,12 +410,18 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--target", default="heavy_hex", help=target_help())
     r.add_argument("--shots", type=shots, default=2000, help="total shot budget")
     r.add_argument("--scheduler", default="proportional",
-                   choices=["per_shot", "proportional", "neyman"])
+                   choices=["per_shot", "proportional", "neyman"],
+                   help="how the budget is split over the sub-unitaries: per_shot (draw k for "
+                        "every shot), proportional (n_k ~ alpha_k) or neyman (a pilot, then "
+                        "n_k ~ alpha_k sigma_k; allocation excludes the pilot_allocation)")
     r.add_argument("--alpha", type=_finite_float, nargs="+", help="mixture (default uniform)")
     r.add_argument("--x", type=_finite_float, nargs="+",
                    help="input vector (default seeded random)")
-    r.add_argument("--seed", type=_SEED, default=0)
-    r.add_argument("--json", action="store_true")
+    r.add_argument("--seed", type=_SEED, default=0,
+                   help="seed of the model, the input, the target's errors and the shots")
+    r.add_argument("--json", action="store_true",
+                   help="print JSON: estimate, standard_error, allocation, pilot_allocation, "
+                        "per_subunitary, shots_used (the ScheduleResult's fields)")
     r.set_defaults(func=_cmd_run)
 
     tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
@@ -368,10 +435,15 @@ def _parser() -> argparse.ArgumentParser:
     tb.set_defaults(func=_cmd_table1)
 
     e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
-    e.add_argument("directory", nargs="?", default="circuits")
-    e.add_argument("--check", action="store_true", help="only check the files are current")
+    e.add_argument("directory", nargs="?", default="circuits",
+                   help="where the .qasm files and their README.md index go (default: circuits)")
+    e.add_argument("--check", action="store_true",
+                   help="only check the files are current (exit status 1 if not)")
     e.add_argument("--qasm3", action="store_true", help="write only the OpenQASM 3 files "
                    "(trainable and data parameters symbolic)")
+    e.add_argument("--json", action="store_true",
+                   help="print JSON: directory and the written paths (or, with --check, the "
+                        "stale names)")
     e.set_defaults(func=_cmd_export)
 
     d = sub.add_parser("demo", help="train a round-robin OrthoQNN and its density version on "
@@ -379,8 +451,14 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--output", default=".", help="directory for qdensity-demo.png")
     d.add_argument("--budget", type=shots, help="shot budget per model")
     d.add_argument("--shots", type=shots, help="shots per circuit")
-    d.add_argument("--seed", type=_SEED, default=7)
-    d.add_argument("--no-plot", action="store_true")
+    d.add_argument("--seed", type=_SEED, default=7,
+                   help="seed of the data split, the models, the device's errors and the shots")
+    d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
+    d.add_argument("--quick", action="store_true",
+                   help="a 4-qubit demo with a small budget (seconds, for a smoke test)")
+    d.add_argument("--json", action="store_true",
+                   help="print JSON instead of text: per model accuracy, circuits, shots, steps, "
+                        "seconds, curve (what run_demo returns)")
     d.set_defaults(func=_cmd_demo)
 
     sw = sub.add_parser("sweep", help="optuna hyperparameter sweep of a QNNClassifier (the "

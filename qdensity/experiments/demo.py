@@ -25,6 +25,7 @@ from qdensity.learning.training import QNNClassifier
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
 from qdensity.models.mixtures import SoftmaxMixture
+from qdensity.progress import progress_bar
 
 __all__ = ["DemoConfig", "run_demo", "load_digits_features"]
 
@@ -43,6 +44,21 @@ class DemoConfig:
     target: str = "heavy_hex"
     eval_every: int = 4
 
+    @classmethod
+    def quick(cls, **changes) -> DemoConfig:
+        """Small settings for smoke tests (``qdensity demo --quick``, the test suite): 4 qubits,
+        a 4000-shot budget per model, 60 test digits; the same code path as the full demo.
+
+        Examples
+        --------
+        >>> DemoConfig.quick().num_qubits
+        4
+        """
+        settings = {"num_qubits": 4, "shots": 16, "budget": 4000, "batch_size": 2,
+                    "test_size": 60, "eval_every": 2}
+        settings.update(changes)
+        return cls(**settings)
+
 
 def _models(cfg: DemoConfig):
     n = cfg.num_qubits
@@ -58,7 +74,7 @@ def _models(cfg: DemoConfig):
 
 
 def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
-             verbose: bool = True, plot: bool = True) -> dict:
+             verbose: bool = True, plot: bool = True, progress: bool | None = None) -> dict:
     """Run the demo; returns the numbers it prints.
 
     Parameters
@@ -67,7 +83,11 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     output_dir : path
         Where ``qdensity-demo.png`` is written.
     verbose : bool
+        Print the resource table and the results.
     plot : bool
+    progress : bool, optional
+        Progress bars on a terminal (transpiling the resource table, then one training bar per
+        model, see :mod:`qdensity.progress`); default: ``verbose``.
 
     Returns
     -------
@@ -76,6 +96,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     """
     cfg = config or DemoConfig()
     say = print if verbose else (lambda *a, **k: None)
+    progress = verbose if progress is None else bool(progress)
     t0 = time.perf_counter()
     X_tr, X_te, y_tr, y_te = load_digits_features(cfg.num_qubits, cfg.test_size, cfg.seed)
     pure, dens = _models(cfg)
@@ -83,9 +104,14 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     say(f"qdensity demo: round-robin OrthoQNN on {cfg.num_qubits} qubits vs its layer-by-layer "
         f"density version (K = {dens.num_subunitaries})")
     say(f"target: {target.label} ({target.num_qubits} qubits, noisy, seed {cfg.seed})\n")
-    reports = {"pure": resource_report(pure.circuit(0), target)}
-    for k in range(dens.num_subunitaries):
-        reports[f"density k={k}"] = resource_report(dens.circuit(k), target)
+    circuits = {"pure": pure.circuit(0)}
+    circuits.update({f"density k={k}": dens.circuit(k) for k in range(dens.num_subunitaries)})
+    reports = {}
+    with progress_bar(len(circuits), desc="transpile", unit="circuit", verbose=progress,
+                      leave=True) as bar:
+        for key, circuit in circuits.items():
+            reports[key] = resource_report(circuit, target)
+            bar.update()
     worst = max(range(dens.num_subunitaries),
                 key=lambda k: reports[f"density k={k}"].two_qubit_count)
     say(compare_reports({"pure (loader + 28 RBS)": reports["pure"],
@@ -94,7 +120,8 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     say("")
     results = {}
     for name, model, method in (("pure", pure, "shift"), ("density", dens, "commuting")):
-        engine = SamplerEngine(target=target, seed=cfg.seed)
+        # the training bar reports circuits and shots; the engine's own bars would repeat it
+        engine = SamplerEngine(target=target, seed=cfg.seed, progress=False)
         curve = []
 
         def checkpoint(est, step, curve=curve, model=model):
@@ -104,7 +131,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
         clf = QNNClassifier(model, post=Linear(cfg.num_qubits, 10, seed=cfg.seed),
                             learning_rate=cfg.learning_rate, epochs=100,
                             batch_size=cfg.batch_size, engine=engine, shots=cfg.shots,
-                            gradient=method, seed=cfg.seed, verbose=verbose,
+                            gradient=method, seed=cfg.seed, verbose=progress,
                             max_shots=cfg.budget, callback=checkpoint)
         t = time.perf_counter()
         clf.fit(X_tr, y_tr)
