@@ -40,5 +40,22 @@ def test_readme_example_runs_and_its_comments_hold():
     exec(compile(code, str(readme), "exec"), scope)  # noqa: S102 - our own README
     assert scope["model"].predict(scope["X"]).shape == (16, 8)
     assert scope["plan"].meta["gradient_circuits"] == 7
-    assert scope["grads"].jacobians[0].shape == (16, 8, 4)
+    assert scope["grads"].jacobians[0].shape == (2, 8, 4)  # the 2 sampled points
+    # per point: 7 forward circuits (one per sub-unitary) + 7 commuting gradient circuits
+    assert scope["engine"].ledger.total_circuits == 2 * 14
+    assert scope["engine"].ledger.total_shots == 2 * 14 * 500
     assert scope["grad"].num_gradient_circuits == 25
+
+
+def test_readme_classification_example_runs_and_scores_what_it_says():
+    """The README's observable-model classifiers (a read-out head; one output per class) fit."""
+    readme = Path(__file__).resolve().parents[1] / "README.md"
+    code = [c for c in re.findall(r"```python\n(.*?)```", readme.read_text(), re.S)
+            if "QNNClassifier" in c][0]
+    scope: dict = {}
+    exec(compile(code, str(readme), "exec"), scope)  # noqa: S102 - our own README
+    X, y = scope["X"], scope["y"]
+    assert scope["scalar"].predict(X[:2]).shape == (2,)          # one output per input
+    assert scope["multi"].predict(X[:2]).shape == (2, 4)         # one per class
+    assert scope["head"].score(X, y % 2) >= 0.9
+    assert scope["direct"].score(X, y) >= 0.95

@@ -47,14 +47,14 @@ class DemoConfig:
     @classmethod
     def quick(cls, **changes) -> DemoConfig:
         """Small settings for smoke tests (``qdensity demo --quick``, the test suite): 4 qubits,
-        a 4000-shot budget per model, 60 test digits; the same code path as the full demo.
+        a 2400-shot budget per model, 60 test digits; the same code path as the full demo.
 
         Examples
         --------
         >>> DemoConfig.quick().num_qubits
         4
         """
-        settings = {"num_qubits": 4, "shots": 16, "budget": 4000, "batch_size": 2,
+        settings = {"num_qubits": 4, "shots": 16, "budget": 2400, "batch_size": 2,
                     "test_size": 60, "eval_every": 2}
         settings.update(changes)
         return cls(**settings)
