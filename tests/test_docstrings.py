@@ -43,7 +43,7 @@ def test_readme_example_runs_and_its_comments_hold():
     assert scope["grads"].jacobians[0].shape == (2, 8, 4)  # the 2 sampled points
     # per point: 7 forward circuits (one per sub-unitary) + 7 commuting gradient circuits
     assert scope["engine"].ledger.total_circuits == 2 * 14
-    assert scope["engine"].ledger.total_shots == 2 * 14 * 500
+    assert scope["engine"].ledger.total_shots == 2 * 14 * 200
     assert scope["grad"].num_gradient_circuits == 25
 
 
