@@ -179,15 +179,8 @@ def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> Q
 
 def _print_json(obj) -> None:
     """One JSON document on stdout (numpy scalars and arrays as plain numbers and lists)."""
-
-    def plain(o):
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        if isinstance(o, np.generic):
-            return o.item()
-        raise TypeError(f"{type(o).__name__} is not JSON serialisable")
-
-    print(json.dumps(obj, indent=2, default=plain))
+    print(json.dumps(obj, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist")
+                     else str(o)))
 
 
 def _cmd_build(args) -> int:
@@ -364,7 +357,7 @@ def _cmd_sweep(args) -> int:
     summary = {"study": study.study_name, "complete": len(done),
                "best_value": study.best_value if done else None,
                "best_params": study.best_params if done else None}
-    print(json.dumps(summary, indent=2))
+    _print_json(summary)
     return 0
 
 
@@ -467,10 +460,10 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--dataset", default="digits", help=f"one of: {', '.join(_SWEEP_DATASETS)}")
     sw.add_argument("--samples", type=int, help="use only the first SAMPLES rows")
     sw.add_argument("--num-qubits", type=int, default=8, help="PCA to this many qubits")
-    sw.add_argument("--ansatz", default="round_robin")
-    sw.add_argument("--decomposition", default="layers")
-    sw.add_argument("--mixture", default="softmax")
-    sw.add_argument("--epochs", type=int, default=10)
+    sw.add_argument("--ansatz", default="round_robin", help="QNNClassifier's ansatz")
+    sw.add_argument("--decomposition", default="layers", help="how it is cut into sub-unitaries")
+    sw.add_argument("--mixture", default="softmax", help="distribution over the sub-unitaries")
+    sw.add_argument("--epochs", type=int, default=10, help="training epochs per trial")
     sw.add_argument("--n-trials", type=int, default=32, help="trials of the whole study")
     sw.add_argument("--storage", default=None,
                     help="optuna storage URL (default sqlite:///qdensity-sweep.db; "
@@ -481,6 +474,8 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--export", nargs="*", default=[], metavar="FILE",
                     help="write the trials to FILE.json and/or FILE.csv")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.add_argument("--json", action="store_true",
+                    help="print the summary as JSON (its only output; accepted for symmetry)")
     sw.set_defaults(func=_cmd_sweep)
     return p
 
