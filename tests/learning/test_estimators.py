@@ -222,3 +222,18 @@ def test_bad_data_and_unknown_names():
                         readout="unary_probabilities")
     with pytest.raises(ValueError, match="no trainable parameters"):
         QNNClassifier(frozen, verbose=False).fit(X, y)
+
+
+def test_one_output_model_without_head_names_both_fixes():
+    """Issue "first hour": a one-output (observable) model cannot classify without a head; the
+    error says what to do: a read-out head, or one output per class."""
+    from qiskit.quantum_info import SparsePauliOp
+
+    X, y = make_blobs(20, n_features=4, centers=2, random_state=0)
+    model = DensityQNN([round_robin(4)], encoding=Encoding.unary(4),
+                       observable=SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4))
+    clf = QNNClassifier(model=model, post=None, epochs=1, verbose=False)
+    with pytest.raises(ValueError, match=r"1 output\(s\).*post='linear'.*unary_probabilities"):
+        clf.fit(X, y)
+    clf.set_params(post="linear").fit(X, y)  # the first fix works
+    assert clf.predict(X).shape == (20,)
