@@ -167,11 +167,9 @@ class _QNNEstimator(BaseEstimator):
             self.post_ = Linear(width, self._num_targets, seed=rng)
         elif self.post is None:
             if width != self._num_targets:
-                raise ValueError(
-                    f"post=None needs the model's {width} output(s) to equal the "
-                    f"{self._num_targets} targets; add a read-out head (post='linear', the "
-                    "default) or give the model one output per class (readout="
-                    "'unary_probabilities' on a unary model with at least as many qubits)")
+                raise ValueError(f"post=None needs the model's {width} output(s) to equal the "
+                                 f"{self._num_targets} targets; add a read-out head (post='linear'"
+                                 ") or one output per class (readout='unary_probabilities')")
             self.post_ = None
         else:
             self.post_ = copy.deepcopy(self.post)
