@@ -42,8 +42,8 @@ from qdensity.learning._spec import (
 from qdensity.learning.layer import BudgetExhausted, History, QuantumLayer
 from qdensity.learning.nn import Linear
 from qdensity.learning.parameters import get_flat, load_parameters, save_parameters, set_flat
-from qdensity.learning.progress import progress_bar
 from qdensity.models.mixtures import softmax
+from qdensity.progress import progress_bar
 from qdensity.validation import as_rng
 
 __all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION"]

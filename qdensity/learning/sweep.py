@@ -32,7 +32,7 @@ import numpy as np
 from sklearn.base import clone, is_classifier
 from sklearn.model_selection import train_test_split
 
-from qdensity.learning.progress import progress_bar
+from qdensity.progress import progress_bar
 from qdensity.validation import check_positive_int
 
 __all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "run_sweep", "open_study", "export_trials",

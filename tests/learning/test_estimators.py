@@ -125,7 +125,7 @@ def test_progress_bar_only_on_a_terminal(monkeypatch):
     X, y = _blobs(30)
     import functools
 
-    from qdensity.learning import progress
+    from qdensity import progress
 
     # draw on every step (tqdm redraws at most every 0.1 s by default)
     monkeypatch.setattr(progress, "tqdm", functools.partial(progress.tqdm, mininterval=0))
