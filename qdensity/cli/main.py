@@ -1,4 +1,4 @@
-"""The ``qdensity`` command: build, transpile, run, table1, export, demo, sweep.
+"""The ``qdensity`` command: build, transpile, run, table1, export, demo, sweep, experiment.
 
 Every sub-command has ``--help`` (with help text for every option) and ``--json``, which prints
 one JSON document on stdout whose field names are those of the Python result (a circuit's
@@ -362,6 +362,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from qdensity.cli import experiment
     from qdensity.execution.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
@@ -477,6 +478,7 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--json", action="store_true",
                     help="print the summary as JSON (its only output; accepted for symmetry)")
     sw.set_defaults(func=_cmd_sweep)
+    experiment.add_parser(sub)
     return p
 
 

@@ -219,6 +219,13 @@ class ExperimentResult:
         Metrics of each seed (scalars and curves).
     summary : dict
         Scalar metric -> mean and confidence interval (:func:`summarise`).
+    curves : dict
+        Curve name -> point-by-point mean and confidence interval over seeds
+        (:func:`qdensity.experiments.registry.curve_summary`).
+    figures : list of str
+        Paths of the PNG figures written beside the JSON.
+    seconds : float or None
+        Wall time of the whole run.
     versions : dict
         :func:`package_versions` at the time of the run.
     created : str
@@ -231,6 +238,9 @@ class ExperimentResult:
     seeds: list[int]
     per_seed: list[dict]
     summary: dict = field(default_factory=dict)
+    curves: dict = field(default_factory=dict)
+    figures: list[str] = field(default_factory=list)
+    seconds: float | None = None
     versions: dict = field(default_factory=package_versions)
     created: str = field(
         default_factory=lambda: _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))

@@ -1,0 +1,91 @@
+"""``qdensity experiment NAME``: the paper's experiments (:func:`qdensity.experiments.run`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+__all__ = ["add_parser"]
+
+
+def _setting(text: str) -> tuple[str, object]:
+    """An argparse ``type``: ``KEY=VALUE`` with VALUE read as JSON (else kept as text)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+def _seeds(text: str) -> list[int] | int:
+    """An argparse ``type``: a count (``5``) or a comma-separated list (``0,3,7``)."""
+    try:
+        values = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a count or a list like 0,1,2, got "
+                                         f"{text!r}") from None
+    return values[0] if "," not in text else values
+
+
+def _cmd_experiment(args) -> int:
+    from qdensity.experiments.registry import EXPERIMENTS, get_experiment, run
+
+    if args.list:
+        rows = []
+        for name in EXPERIMENTS:
+            exp = get_experiment(name)
+            rows.append({"name": name, "title": exp.title, "paper": exp.paper})
+        if args.json:
+            print(json.dumps(rows, indent=2))
+        else:
+            for row in rows:
+                print(f"{row['name']:<15} {row['title']}  [{row['paper']}]")
+        return 0
+    if args.name is None:
+        raise ValueError(f"name an experiment (one of: {', '.join(EXPERIMENTS)}) or --list")
+    mode = "full" if args.full else "quick"
+    result = run(args.name, mode=mode, seeds=args.seeds, config=dict(args.set) or None,
+                 out=args.out, jobs=args.jobs, plot=not args.no_plot, progress=True)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+        return 0
+    print(f"{args.name} ({mode}, seeds {result.seeds}, {result.seconds:.0f} s)")
+    for key, ci in result.summary.items():
+        print(f"  {key:<40} {ci['mean']:.4g}  [{ci['low']:.4g}, {ci['high']:.4g}]")
+    if args.out is not None:
+        print(f"results: {args.out}/{args.name}-{mode}.json")
+        for path in result.figures:
+            print(f"figure: {path}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Add the ``experiment`` sub-command to ``qdensity``'s sub-parsers."""
+    from qdensity.experiments.registry import EXPERIMENTS
+
+    x = sub.add_parser("experiment", help="run one of the paper's experiments over seeds: "
+                                          "results JSON with 95%% confidence intervals and "
+                                          "figures")
+    x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}")
+    size = x.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true",
+                      help="small settings, at most a minute on two cores (the default)")
+    size.add_argument("--full", action="store_true",
+                      help="the paper's protocol as far as two cores allow (see EXPERIMENTS.md "
+                           "for each experiment's reductions)")
+    x.add_argument("--seeds", type=_seeds, default=None,
+                   help="number of seeds (runs 0..S-1) or a list like 0,3,7 (default: 2 for "
+                        "--quick, 5 for --full)")
+    x.add_argument("--out", default=None, metavar="DIR",
+                   help="write DIR/NAME-MODE.json and the PNG figures there")
+    x.add_argument("--jobs", type=int, default=1, help="run seeds in this many processes")
+    x.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
+                   help="override one setting (VALUE read as JSON), e.g. --set epochs=3")
+    x.add_argument("--no-plot", action="store_true", help="do not draw the figures")
+    x.add_argument("--list", action="store_true", help="list the experiments and exit")
+    x.add_argument("--json", action="store_true",
+                   help="print the results JSON (what ExperimentResult.to_dict gives) instead "
+                        "of the summary")
+    x.set_defaults(func=_cmd_experiment)

@@ -1,0 +1,266 @@
+"""The paper's experiments by name: ``qdensity.experiments.run(name, ...)`` and
+``qdensity experiment NAME``.
+
+Each experiment is a module of this package that defines ``EXPERIMENT``, an
+:class:`Experiment`: its settings at two sizes (``quick``: at most a minute on two cores, what
+the tests and notebooks run; ``full``: the paper's protocol as far as two cores allow, reduced
+where its docstring says), a function that runs one seed and returns that seed's metrics, and
+a function that draws the figure. :func:`run` runs the seeds (one after another, or in
+``jobs`` processes), writes the results JSON (:class:`~.results.ExperimentResult`: settings,
+seeds, per-seed metrics, mean and 95% confidence interval over seeds, package versions) and the
+PNG figures, and returns the result.
+
+Metrics of one seed are a flat dict of scalars (``"density/test_accuracy": 0.81``) plus an
+optional ``"curves"`` dict: curve name -> ``{"x": [...], "y": [...], "x_label": ...,
+"y_label": ...}`` (test accuracy against epochs or shots). :func:`run` summarises the scalars
+with :func:`~.results.mean_ci` and each curve point by point with :func:`curve_summary`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from qdensity.experiments.results import ExperimentResult, mean_ci
+from qdensity.progress import progress_bar
+
+__all__ = ["Experiment", "EXPERIMENTS", "MODES", "get_experiment", "run", "curve_summary",
+           "resolve_seeds", "resolve_config"]
+
+#: Experiment name -> module of :mod:`qdensity.experiments` that defines ``EXPERIMENT``.
+EXPERIMENTS: dict[str, str] = {
+    "equivariant": "equivariant",
+    "orthoqnn-depth": "orthoqnn_depth",
+    "pyramid-shots": "pyramid_shots",
+    "moe": "moe",
+    "reuploading": "reuploading",
+    "lcu-vs-single": "lcu_vs_single",
+    "mixing-lemma": "mixing_lemma",
+    "noise": "noise",
+}
+
+#: Sizes every experiment offers.
+MODES = ("quick", "full")
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One of the paper's experiments.
+
+    Attributes
+    ----------
+    name : str
+        The name ``qdensity experiment`` takes (a key of :data:`EXPERIMENTS`).
+    title : str
+        One line: what is compared.
+    paper : str
+        Where the paper reports it (figure, section, appendix).
+    quick, full : dict
+        Settings at each size; every key may be overridden through ``run(config=...)``.
+    seeds : dict
+        Default number of seeds per mode, e.g. ``{"quick": 2, "full": 5}``.
+    run_seed : callable
+        ``run_seed(config, seed, progress) -> dict``: one seed's metrics (scalars and an
+        optional ``"curves"`` dict, see the module docstring). Must be a module-level function
+        (it runs in worker processes when ``jobs > 1``).
+    plot : callable
+        ``plot(result, directory) -> list[Path]``: writes the PNG figures.
+    reductions : str
+        Where ``full`` departs from the paper's protocol, and why (also printed in
+        ``EXPERIMENTS.md``).
+    """
+
+    name: str
+    title: str
+    paper: str
+    quick: Mapping[str, Any]
+    full: Mapping[str, Any]
+    run_seed: Callable[[dict, int, bool], dict]
+    plot: Callable[[ExperimentResult, Path], list[Path]]
+    seeds: Mapping[str, int] = field(default_factory=lambda: {"quick": 2, "full": 5})
+    reductions: str = ""
+
+
+def get_experiment(name: str) -> Experiment:
+    """The :class:`Experiment` called ``name``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name; the message lists the known ones.
+    """
+    if not isinstance(name, str) or name not in EXPERIMENTS:
+        raise ValueError(f"unknown experiment {name!r}; known: {', '.join(EXPERIMENTS)}")
+    module = importlib.import_module(f"qdensity.experiments.{EXPERIMENTS[name]}")
+    return module.EXPERIMENT
+
+
+def resolve_seeds(seeds, default: int) -> list[int]:
+    """Seeds to run: ``None`` -> ``range(default)``, an int ``S`` -> ``range(S)``, a sequence
+    of distinct non-negative ints -> itself.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For a non-positive count, negative or repeated seeds, or non-integers.
+    """
+    if seeds is None:
+        return list(range(default))
+    if isinstance(seeds, bool):
+        raise TypeError(f"seeds must be an int or a sequence of ints, got {seeds!r}")
+    if isinstance(seeds, (int, np.integer)):
+        if seeds < 1:
+            raise ValueError(f"seeds must be at least 1 (a number of seeds), got {seeds}")
+        return list(range(int(seeds)))
+    if not isinstance(seeds, Sequence) or isinstance(seeds, str):
+        raise TypeError(f"seeds must be an int or a sequence of ints, got {seeds!r}")
+    out = []
+    for s in seeds:
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)):
+            raise TypeError(f"seeds must hold ints, got {s!r}")
+        if s < 0:
+            raise ValueError(f"seeds must be non-negative, got {s}")
+        out.append(int(s))
+    if not out:
+        raise ValueError("seeds is empty: give at least one seed")
+    if len(set(out)) != len(out):
+        raise ValueError(f"seeds must be distinct, got {out}")
+    return out
+
+
+def resolve_config(experiment: Experiment, mode: str, config: Mapping | None) -> dict:
+    """The settings of ``mode`` with ``config``'s overrides; unknown keys are refused."""
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    base = dict(getattr(experiment, mode))
+    if config is None:
+        return base
+    if not isinstance(config, Mapping):
+        raise TypeError(f"config must be a mapping of settings, got {type(config).__name__}")
+    unknown = sorted(set(config) - set(base))
+    if unknown:
+        raise ValueError(f"config has unknown settings {unknown} for experiment "
+                         f"{experiment.name!r}; known: {sorted(base)}")
+    base.update(config)
+    return base
+
+
+def curve_summary(per_seed: Sequence[Mapping], confidence: float = 0.95) -> dict:
+    """Point-by-point mean and confidence interval of every curve shared by all seeds.
+
+    Parameters
+    ----------
+    per_seed : sequence of dict
+        Seeds' metrics; curves under ``"curves"``.
+    confidence : float
+
+    Returns
+    -------
+    dict
+        curve name -> ``{"x", "mean", "low", "high", "x_label", "y_label"}``, lists of the
+        length of the shortest seed's curve; ``x`` is the mean over seeds of the seeds' x
+        values (equal for epochs and fixed shot schedules).
+    """
+    names = set.intersection(*(set(r.get("curves", {})) for r in per_seed)) if per_seed else set()
+    out = {}
+    for name in sorted(names):
+        curves = [r["curves"][name] for r in per_seed]
+        length = min(len(c["y"]) for c in curves)
+        if length == 0:
+            continue
+        xs = np.array([c["x"][:length] for c in curves], dtype=float)
+        ys = np.array([c["y"][:length] for c in curves], dtype=float)
+        cis = [mean_ci(ys[:, i], confidence) for i in range(length)]
+        out[name] = {"x": xs.mean(axis=0).tolist(), "mean": [c["mean"] for c in cis],
+                     "low": [c["low"] for c in cis], "high": [c["high"] for c in cis],
+                     "x_label": curves[0].get("x_label", "x"),
+                     "y_label": curves[0].get("y_label", "y")}
+    return out
+
+
+def _run_one(name: str, config: dict, seed: int, progress: bool) -> dict:
+    t = time.perf_counter()
+    metrics = get_experiment(name).run_seed(dict(config), seed, progress)
+    if not isinstance(metrics, Mapping):
+        raise TypeError(f"experiment {name!r} returned {type(metrics).__name__}, not a dict")
+    metrics = dict(metrics)
+    metrics.setdefault("seconds", time.perf_counter() - t)
+    return metrics
+
+
+def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = None,
+        out: str | os.PathLike | None = None, jobs: int = 1, plot: bool = True,
+        progress: bool | None = None) -> ExperimentResult:
+    """Run one of the paper's experiments over seeds; write its JSON and figures.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`EXPERIMENTS` (``equivariant``, ``orthoqnn-depth``, ``pyramid-shots``,
+        ``moe``, ``reuploading``, ``lcu-vs-single``, ``mixing-lemma``, ``noise``).
+    mode : {"quick", "full"}
+        ``quick``: at most a minute on two cores (tests, notebooks); ``full``: the paper's
+        protocol as far as two cores allow (see the experiment's ``reductions``).
+    seeds : int or sequence of int, optional
+        Number of seeds (``0..S-1``) or the seeds themselves; default per mode.
+    config : mapping, optional
+        Overrides of the mode's settings (unknown keys are refused).
+    out : path, optional
+        Directory for ``<name>-<mode>.json`` and the PNG figures; nothing is written if None.
+    jobs : int
+        Seeds run in this many processes at once (1: in this process).
+    plot : bool
+        Draw the figures (only with ``out``).
+    progress : bool, optional
+        Progress bars on a terminal (default: on; they stay silent when stderr is not a
+        terminal).
+
+    Returns
+    -------
+    ExperimentResult
+        ``per_seed`` metrics, ``summary`` (scalar metric -> mean and 95% CI), ``curves``
+        (:func:`curve_summary`), ``figures`` (paths written) and the settings.
+
+    Examples
+    --------
+    >>> from qdensity.experiments import run
+    >>> result = run("mixing-lemma", seeds=1, progress=False)  # doctest: +SKIP
+    """
+    experiment = get_experiment(name)
+    settings = resolve_config(experiment, mode, config)
+    seed_list = resolve_seeds(seeds, int(experiment.seeds[mode]))
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
+        raise ValueError(f"jobs must be a positive int, got {jobs!r}")
+    show = True if progress is None else bool(progress)
+    t0 = time.perf_counter()
+    per_seed: list[dict] = []
+    with progress_bar(len(seed_list), desc=f"{name} ({mode})", unit="seed", verbose=show,
+                      leave=True) as bar:
+        if jobs == 1 or len(seed_list) == 1:
+            for seed in seed_list:
+                per_seed.append(_run_one(name, settings, seed, show))
+                bar.update()
+        else:
+            with ProcessPoolExecutor(max_workers=min(int(jobs), len(seed_list))) as pool:
+                futures = [pool.submit(_run_one, name, settings, s, False) for s in seed_list]
+                for fut in futures:
+                    per_seed.append(fut.result())
+                    bar.update()
+    result = ExperimentResult(name=name, mode=mode, config=settings, seeds=seed_list,
+                              per_seed=per_seed, curves=curve_summary(per_seed),
+                              seconds=time.perf_counter() - t0)
+    if out is not None:
+        directory = Path(out)
+        result.save(directory)
+        if plot:
+            result.figures = [str(p) for p in experiment.plot(result, directory)]
+            result.save(directory)
+    return result
