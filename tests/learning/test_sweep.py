@@ -54,7 +54,9 @@ def test_two_workers_share_one_sqlite_study(tmp_path):
     storage = f"sqlite:///{tmp_path / 'study.db'}"
     open_study("qdensity", storage)  # create the tables before two processes race for them
     n = 8
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # keep whatever else is on the path (packages installed with --target, say)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
     a, b = tmp_path / "a", tmp_path / "b"
     procs = [subprocess.Popen([sys.executable, "-c", WORKER, storage, str(me), str(other),
                                str(n)], env=env, stderr=subprocess.PIPE, text=True)
