@@ -10,17 +10,26 @@ the combination differs. The density model mixes the *outputs*,
 (:func:`~qdensity.circuits.preparation.lcu_circuit` builds that circuit gate by gate).
 The paper leaves the success probability out of its LCU numerics; :meth:`LCUQNN.success_probability`
 reports it, since it multiplies the shots an LCU model costs.
+
+:meth:`LCUQNN.sampling_plan` / :meth:`LCUQNN.sample` run the same model through the gate-level
+LCU circuit (:func:`~qdensity.circuits.preparation.lcu_template`, the mixing angles bound per
+data point so a data-dependent ``alpha`` needs one template) on any ``SamplerV2``, post-select
+``mix = 0...0`` on the measured bits and estimate the unary probabilities and the success
+probability (:func:`~qdensity.execution.postselection.postselected_unary`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.execution.plans import CircuitJob, JobResult, Plan, measured
+from qdensity.execution.postselection import PostselectedUnary, postselected_unary
 from qdensity.execution.unary import vjp
-from qdensity.models.density import DensityQNN
+from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
 
 __all__ = ["LCUQNN"]
@@ -169,6 +178,96 @@ class LCUQNN:
             raise ValueError(f"post-selection never succeeds for rows {rows} of X (A x = 0)")
         return v**2 / norm2[:, None]
 
+    def template(self) -> QuantumCircuit:
+        """The unmeasured LCU circuit with ``V(x)``, angles and mixing angles as parameters.
+
+        Returns
+        -------
+        QuantumCircuit
+            ``K + n`` qubits (``mix`` then ``data``), built once and kept.
+        """
+        if getattr(self, "_template", None) is None:
+            from qdensity.circuits.preparation import lcu_template
+
+            if self.num_subunitaries < 2:
+                raise ValueError("the sampled LCU circuit needs K >= 2 sub-unitaries (with "
+                                 "K = 1 the model is its single circuit)")
+            self._template = lcu_template(self.density.sub_unitaries,
+                                          self.density.encoding.circuit)
+        return self._template
+
+    def circuit_rows(self, X) -> np.ndarray:
+        """Parameter rows of :meth:`template` for data ``X``: ``V(x)``'s angles, the current
+        ``theta`` and ``loader_angles(sqrt(alpha(x)))``.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, template().num_parameters)
+        """
+        from qdensity.circuits.loaders import loader_angles
+
+        tpl = self.template()
+        X = self.density._check_X(X)
+        enc = self.density.encoding
+        cols = dict(zip(enc.circuit.parameters, enc.values(X).T, strict=True))
+        by_name = {p.name: p for p in tpl.parameters}
+        alpha = np.broadcast_to(self.mixture.alpha(X), (X.shape[0], self.num_subunitaries))
+        angles = loader_angles(np.sqrt(np.clip(alpha, 0.0, None)))
+        for j, name in enumerate(tpl.metadata["alpha_parameters"]):
+            cols[by_name[name]] = angles[:, j]
+        for p in tpl.parameters:
+            if p not in cols:
+                cols[p] = np.full(X.shape[0], self.theta[self.density._index[p]])
+        return bind_rows(tpl, cols)
+
+    def sampling_plan(self, X, shots: int | None) -> Plan:
+        """Plan: the LCU circuit for every row of ``X`` (one template, one PUB), post-selected.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+        shots : int or None
+            Shots per data point (None: exact probabilities, for checks on small circuits).
+
+        Returns
+        -------
+        Plan
+            Post-processing returns a :class:`~qdensity.execution.postselection.PostselectedUnary`
+            (estimates of :meth:`predict` and :meth:`success_probability` with standard errors).
+        """
+        K, n = self.num_subunitaries, self.num_qubits
+        job = CircuitJob(measured(self.template()), self.circuit_rows(X), shots, "lcu")
+        return Plan([job], partial(_lcu_post, K, n),
+                    f"LCU QNN, K = {K}, n = {n}, post-select mix = 0")
+
+    def sample(self, X, shots: int, *, engine=None, seed=None) -> PostselectedUnary:
+        """Estimate :meth:`predict` and :meth:`success_probability` from ``shots`` per data point.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, n)
+        shots : int
+            Shots per data point; only the successful ones estimate the probabilities.
+        engine : SamplerEngine, optional
+            Default: noiseless Aer ``SamplerV2`` seeded with ``seed``.
+        seed : int or numpy.random.Generator, optional
+
+        Returns
+        -------
+        PostselectedUnary
+        """
+        from qdensity.execution.engines import SamplerEngine
+        from qdensity.validation import check_positive_int
+
+        check_positive_int(shots, "shots")
+        if engine is None:
+            engine = SamplerEngine(seed=seed, progress=False)
+        return self.sampling_plan(X, shots).run(engine)
+
     def vjp(self, X, grad_P) -> tuple[np.ndarray, np.ndarray]:
         """Gradient of ``sum_bj grad_P[b, j] p_bj`` w.r.t. the angles and the mixture parameters.
 
@@ -204,3 +303,8 @@ class LCUQNN:
         grad_alpha = np.einsum("bn,bkn->bk", gv, Y)
         grad_mixture = self.mixture.vjp(X, grad_alpha)
         return grad_theta, np.asarray(grad_mixture, dtype=float)
+
+
+def _lcu_post(num_mix: int, num_data: int, results: list[JobResult]) -> PostselectedUnary:
+    """Post-select ``mix`` (clbits ``0..K-1``) on zeros; data on clbits ``K..K+n-1``."""
+    return postselected_unary(results[0], range(num_mix), range(num_mix, num_mix + num_data))

@@ -44,6 +44,7 @@ from qdensity.circuits.preparation.lcu import (
     lcu_circuit,
     lcu_postselected_state,
     lcu_success_probability,
+    lcu_template,
 )
 from qdensity.circuits.preparation.randomised import randomised_circuits
 
@@ -52,6 +53,7 @@ __all__ = [
     "randomised_circuits",
     "deterministic_circuit",
     "lcu_circuit",
+    "lcu_template",
     "lcu_success_probability",
     "lcu_postselected_state",
     "hw_generative_circuit",

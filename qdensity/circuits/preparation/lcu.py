@@ -10,21 +10,24 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from qiskit.circuit import QuantumCircuit
+from qiskit.circuit import QuantumCircuit, QuantumRegister
 from qiskit.quantum_info import Operator, Statevector
 
-from qdensity.circuits.loaders import distribution_loader
+from qdensity.circuits.loaders import distribution_loader, unary_loader_template
 from qdensity.circuits.preparation._common import (
+    DATA_REGISTER,
     MIX_REGISTER,
     _append_circuit,
     _check_alpha,
     _check_loader,
+    _check_parameter_names,
     _check_sub_unitaries,
 )
+from qdensity.circuits.preparation._controlled import _append_controlled_circuit
 from qdensity.circuits.preparation.deterministic import deterministic_circuit
 from qdensity.validation import check_circuit
 
-__all__ = ["lcu_circuit", "lcu_success_probability", "lcu_postselected_state"]
+__all__ = ["lcu_circuit", "lcu_template", "lcu_success_probability", "lcu_postselected_state"]
 
 
 def lcu_circuit(
@@ -65,6 +68,72 @@ def lcu_circuit(
     _append_circuit(qc, distribution_loader(arr).inverse(), list(mix))
     qc.name = "density_lcu"
     qc.metadata = {"alpha": arr.tolist(), "mix_register": MIX_REGISTER, "postselect": {"mix": 0}}
+    return qc
+
+
+def lcu_template(
+    sub_unitaries: Sequence[QuantumCircuit],
+    loader: QuantumCircuit | None = None,
+    *,
+    parameter_prefix: str = "ψ",
+) -> QuantumCircuit:
+    """:func:`lcu_circuit` with ``Load(sqrt(alpha))`` left as parameters: one template for
+    every data point when ``alpha`` depends on the data (the MoE gate of Supp. C / H).
+
+    ``Load(sqrt(alpha))`` is the parallel unary loader
+    (:func:`~qdensity.circuits.loaders.unary_loader_template`) on ``mix`` with ``K - 1`` RBS
+    angles in the vector ``parameter_prefix``; the closing ``Load(sqrt(alpha))^dagger`` uses the
+    same parameters. Bound with ``loader_angles(sqrt(alpha))`` it is, gate for gate,
+    :func:`lcu_circuit` ``(sub_unitaries, alpha, loader)``.
+
+    Parameters
+    ----------
+    sub_unitaries : sequence of QuantumCircuit, length K >= 2
+        ``U_1 .. U_K`` on ``n`` qubits, parameterised or bound.
+    loader : QuantumCircuit, optional
+        ``V(x)`` on the ``n`` data qubits (parameterised or bound). None: ``|0...0>``.
+    parameter_prefix : str
+        Name of the ``ParameterVector`` of the ``K - 1`` mixing angles.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``K + n`` qubits, registers ``"mix"`` then ``"data"``; ``metadata`` holds
+        ``"mix_register"``, ``"postselect": {"mix": 0}`` and ``"alpha_parameters"`` (the names
+        of the mixing angles in binding order).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.loaders import loader_angles
+    >>> subs = [pyramid(3, parameter_prefix="a"), pyramid(3, parameter_prefix="b")]
+    >>> tpl = lcu_template(subs)
+    >>> tpl.num_qubits, len(tpl.metadata["alpha_parameters"])
+    (5, 1)
+    """
+    circuits = _check_sub_unitaries(sub_unitaries)
+    if len(circuits) < 2:
+        raise ValueError("lcu_template needs K >= 2 sub-unitaries (with K = 1 there is no "
+                         "mixing register to parameterise: use lcu_circuit)")
+    loader = _check_loader(loader, circuits[0].num_qubits)
+    mix_loader = unary_loader_template(len(circuits), parameter_prefix=parameter_prefix)
+    named = [(f"sub_unitaries[{k}]", c) for k, c in enumerate(circuits)]
+    named.append(("the mixing loader", mix_loader))
+    if loader is not None:
+        named.append(("loader", loader))
+    _check_parameter_names(named)
+    mix = QuantumRegister(len(circuits), MIX_REGISTER)
+    data = QuantumRegister(circuits[0].num_qubits, DATA_REGISTER)
+    qc = QuantumCircuit(mix, data, name="density_lcu")
+    _append_circuit(qc, mix_loader, list(mix))
+    if loader is not None:
+        _append_circuit(qc, loader, list(data))
+    for k, circ in enumerate(circuits):
+        _append_controlled_circuit(qc, mix[k], list(data), circ)
+    _append_circuit(qc, mix_loader.inverse(), list(mix))
+    qc.metadata = {"mix_register": MIX_REGISTER, "postselect": {"mix": 0},
+                   "alpha_parameters": [p.name for p in mix_loader.parameters]}
     return qc
 
 
