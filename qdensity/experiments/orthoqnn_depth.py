@@ -1,0 +1,209 @@
+"""``orthoqnn-depth``: round-robin OrthoQNN vs its density versions of sub-unitary depth D
+(paper Fig. 7, "Numerical results: Orthogonal quantum neural networks"; Fig. 6; Methods).
+
+The pure model is the round-robin OrthoQNN on ``n`` qubits (``n (n - 1) / 2`` RBS gates in
+``n - 1`` layers) reading the unary probabilities ``y_j^2`` into a linear ``n -> 10`` read-out.
+A density version of depth D has ``K = n - 1`` sub-unitaries, sub-unitary ``k`` holding the
+round-robin layers ``k, ..., k + D - 1 (mod n - 1)`` with its own angles
+(:func:`qdensity.models.decompositions.cyclic_moments`): D = 1 is the shallow, commuting-
+generator model; D = n - 1 has ``K`` full round-robin circuits. As the paper does, the ``K``
+sub-unitaries are first trained in parallel as models of their own (``pretrain_epochs``), then
+the density model ``f = W (sum_k alpha_k p_k) + b`` is initialised from them
+(:func:`qdensity.models.warm_start`, uniform trainable softmax alpha, read-out ``W, b`` the mean
+of the sub-models' read-outs) and trained further (``epochs``). The pure model trains for
+``pretrain_epochs + epochs`` epochs, so every curve has the same length.
+
+Training is exact (the unary engine's reverse mode). **Shots** are what the same training would
+spend on hardware: every training row of every epoch runs the circuits of the model's gradient
+plan (:func:`qdensity.experiments._common.circuits_per_row`) with ``shots_per_circuit`` shots
+each. The pure model needs the four-term parameter-shift rule for every RBS angle,
+``4 n (n - 1) / 2 + 1`` circuits per row (181 for n = 10); the density model needs, per
+sub-unitary, one circuit per commuting block plus one forward circuit (D = 1: ``2 (n - 1)``
+= 18; for D >= 2 the blocks are single gates, so parameter shift per gate). Pretraining spends
+the sum of its sub-models' circuits. Test-set evaluation is not counted.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from qdensity.circuits.ansatze import round_robin
+from qdensity.experiments._common import circuits_per_row, curve, plot_curves
+from qdensity.experiments._ortho_data import check_float, check_int, load_data
+from qdensity.experiments.registry import Experiment
+from qdensity.experiments.results import ExperimentResult
+from qdensity.learning.estimators import QNNClassifier
+from qdensity.learning.nn import Linear
+from qdensity.models.decompositions import cyclic_moments
+from qdensity.models.density import DensityQNN
+from qdensity.models.encoding import Encoding
+from qdensity.models.warm_start import warm_start
+
+__all__ = ["EXPERIMENT", "run_seed", "plot"]
+
+_READOUT = "unary_probabilities"
+
+
+def _check(config: dict) -> dict:
+    n = check_int(config, "num_qubits", 3)
+    layers = n - 1 if n % 2 == 0 else n
+    depths = config["depths"]
+    if not isinstance(depths, (list, tuple)) or not depths:
+        raise ValueError(f"setting 'depths' must be a non-empty list of ints, got {depths!r}")
+    for d in depths:
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer)) or not 1 <= d <= layers:
+            raise ValueError(f"setting 'depths' holds {d!r}; each depth must be an int between 1 "
+                             f"and the {layers} round-robin layers of n = {n}")
+    if len(set(depths)) != len(depths):
+        raise ValueError(f"setting 'depths' must not repeat a depth, got {depths!r}")
+    check_int(config, "pretrain_epochs", 1)
+    check_int(config, "epochs", 1)
+    check_int(config, "batch_size", 1)
+    check_int(config, "shots_per_circuit", 1)
+    check_float(config, "learning_rate")
+    return config
+
+
+def _fit(model: DensityQNN, data, epochs: int, config: dict, seed: int, progress: bool,
+         post=None) -> QNNClassifier:
+    X_tr, X_te, y_tr, y_te = data
+    clf = QNNClassifier(model, post="linear" if post is None else post, optimizer="adam",
+                        learning_rate=float(config["learning_rate"]), epochs=int(epochs),
+                        batch_size=int(config["batch_size"]), seed=int(seed), verbose=progress)
+    return clf.fit(X_tr, y_tr, eval_set=(X_te, y_te))
+
+
+def _mean_post(clfs: list[QNNClassifier], n: int) -> Linear:
+    post = Linear(n, clfs[0].classes_.size, seed=0)
+    for key in post.params:
+        post.params[key][...] = np.mean([c.post_.params[key] for c in clfs], axis=0)
+    return post
+
+
+def _accuracies(clf: QNNClassifier) -> list[float]:
+    return [float(r["test_metric"]) for r in clf.history_.epochs]
+
+
+def run_seed(config: dict, seed: int, progress: bool) -> dict:
+    """One seed: the pure round-robin OrthoQNN and each density depth, trained exactly.
+
+    Parameters
+    ----------
+    config : dict
+        ``dataset``, ``mnist_dir``, ``num_qubits``, ``depths``, ``pretrain_epochs``, ``epochs``,
+        ``train_size``, ``test_size``, ``batch_size``, ``learning_rate``, ``shots_per_circuit``.
+    seed : int
+    progress : bool
+
+    Returns
+    -------
+    dict
+        ``pure/test_accuracy``, ``D{d}/test_accuracy`` (end of training),
+        ``D{d}/best_subunitary_accuracy`` (best sub-model after pretraining),
+        ``*/circuits_per_row``, ``*/shots`` and the curves ``*/test_vs_epoch`` and
+        ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean over sub-models).
+    """
+    config = _check(dict(config))
+    n = int(config["num_qubits"])
+    e1, e2 = int(config["pretrain_epochs"]), int(config["epochs"])
+    shots = int(config["shots_per_circuit"])
+    data = load_data(config, seed, n)
+    rows = len(data[2])
+    row = data[0][:1]
+    seeds = iter(np.random.default_rng(seed).integers(0, 2**31 - 1, size=10_000).tolist())
+    enc = Encoding.unary(n)
+    out: dict = {"train_rows": rows, "test_rows": len(data[3])}
+    curves: dict = {}
+
+    pure = DensityQNN([round_robin(n)], encoding=enc, readout=_READOUT, seed=next(seeds))
+    cpr = circuits_per_row(pure, row, "shift")
+    clf = _fit(pure, data, e1 + e2, config, next(seeds), progress)
+    acc = _accuracies(clf)
+    per_epoch = cpr * rows * shots
+    out.update({"pure/test_accuracy": acc[-1], "pure/circuits_per_row": cpr,
+                "pure/shots": per_epoch * len(acc)})
+    epochs = list(range(1, len(acc) + 1))
+    curves["pure/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
+    curves["pure/test_vs_shots"] = curve([per_epoch * e for e in epochs], acc,
+                                         "shots spent in training", "test accuracy")
+
+    for depth in config["depths"]:
+        name = f"D{depth}"
+        dec = cyclic_moments(round_robin(n), int(depth))
+        subs, sub_cpr = [], 0
+        for circuit in dec.sub_unitaries:
+            sub = DensityQNN([circuit], encoding=enc, readout=_READOUT, seed=next(seeds))
+            sub_cpr += circuits_per_row(sub, row, "auto")
+            subs.append(_fit(sub, data, e1, config, next(seeds), progress))
+        sub_acc = np.array([_accuracies(c) for c in subs])  # (K, e1)
+        dens = warm_start([c.model_ for c in subs], np.full(len(subs), 1.0 / len(subs)))
+        dens_cpr = circuits_per_row(dens, row, "auto")
+        clf = _fit(dens, data, e2, config, next(seeds), progress, post=_mean_post(subs, n))
+        acc = list(sub_acc.mean(axis=0)) + _accuracies(clf)
+        spent = np.cumsum([sub_cpr * rows * shots] * e1 + [dens_cpr * rows * shots] * e2)
+        epochs = list(range(1, len(acc) + 1))
+        out.update({f"{name}/test_accuracy": acc[-1],
+                    f"{name}/best_subunitary_accuracy": float(sub_acc[:, -1].max()),
+                    f"{name}/mean_subunitary_accuracy": float(sub_acc[:, -1].mean()),
+                    f"{name}/circuits_per_row": dens_cpr,
+                    f"{name}/pretrain_circuits_per_row": sub_cpr,
+                    f"{name}/num_parameters": dens.num_parameters,
+                    f"{name}/shots": int(spent[-1])})
+        curves[f"{name}/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
+        curves[f"{name}/test_vs_shots"] = curve(spent, acc, "shots spent in training",
+                                                "test accuracy")
+    out["curves"] = curves
+    return out
+
+
+def plot(result: ExperimentResult, directory: Path) -> list[Path]:
+    """Fig. 7 in two figures: pure vs D = 1 (top row), and all depths (bottom row), each
+    against epochs and against shots (log scale)."""
+    depths = result.config["depths"]
+    labels = {"pure/test_vs_epoch": "OrthoQNN (round-robin)",
+              "pure/test_vs_shots": "OrthoQNN (round-robin)"}
+    for d in depths:
+        for kind in ("epoch", "shots"):
+            labels[f"D{d}/test_vs_{kind}"] = f"density, D = {d}"
+    first = f"D{min(depths)}"
+    top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
+                                                            f"{first}/test_vs_epoch"]),
+                               ("test accuracy vs shots", ["pure/test_vs_shots",
+                                                           f"{first}/test_vs_shots"])],
+                      Path(directory) / "orthoqnn-depth-shallow.png",
+                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top)",
+                      labels=labels, log_x=(False, True))
+    names = ["pure"] + [f"D{d}" for d in depths]
+    bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
+                                                               for m in names]),
+                                  ("test accuracy vs shots", [f"{m}/test_vs_shots"
+                                                              for m in names])],
+                         Path(directory) / "orthoqnn-depth-depths.png",
+                         title="density QNN sub-unitary depth D (Fig. 7 bottom)",
+                         labels=labels, log_x=(False, True))
+    return [top, bottom]
+
+
+_COMMON = {"dataset": "digits", "mnist_dir": None, "batch_size": 64, "learning_rate": 0.05,
+           "shots_per_circuit": 1000}
+
+EXPERIMENT = Experiment(
+    name="orthoqnn-depth",
+    title="round-robin OrthoQNN vs density versions of sub-unitary depth D in {1, 2, 3, 4, n-1}",
+    paper="Fig. 7 (Numerical results, Orthogonal QNNs); Fig. 6; Methods 'Orthogonal density QNN'",
+    quick={**_COMMON, "num_qubits": 6, "depths": [1, 5], "pretrain_epochs": 1, "epochs": 1,
+           "train_size": 150, "test_size": 100},
+    full={**_COMMON, "num_qubits": 10, "depths": [1, 2, 3, 4, 9], "pretrain_epochs": 20,
+          "epochs": 20, "train_size": None, "test_size": 300},
+    run_seed=run_seed,
+    plot=plot,
+    seeds={"quick": 2, "full": 5},
+    reductions=(
+        "scikit-learn's 8x8 digits (1497 train / 300 test, PCA to 10 features) instead of MNIST "
+        "(60,000 / 10,000; set dataset='mnist', mnist_dir=... to use it); fixed hyperparameters "
+        "(Adam, learning rate 0.05, batch 32) instead of an optuna sweep; a trainable softmax "
+        "alpha (uniform start) instead of the MoE gate; the density read-out starts as the mean "
+        "of the pretrained sub-models' read-outs (the paper does not say); 5 seeds."),
+)

@@ -1,0 +1,156 @@
+"""``pyramid-shots``: pure pyramid OrthoQNN vs its odd-even density version vs the compressed
+odd-even version, test accuracy against the measurement shots spent in training (paper
+Fig. 11 "Pure state Hamming weight preserving (orthogonal) QNN with a pyramid ansatz, and the
+density QNNs derived from it", Supp. H.1, hyperparameters appendix).
+
+Each model is the paper's hybrid network (Fig. 11a) in PyTorch: ``pixels -> Linear(d, n) ->
+ReLU -> unary loader -> OrthoQNN -> Linear(n, 10) -> softmax`` (cross entropy), with the
+OrthoQNN one of
+
+* ``pure``: the pyramid on ``n`` qubits, ``n (n - 1) / 2`` RBS angles;
+* ``odd_even``: the pyramid split into ``U_even`` and ``U_odd`` (Supp. H.1, eq. 27), a density
+  QNN with K = 2 and a trainable softmax alpha starting uniform; same angles as the pyramid;
+* ``compressed``: each pair's run of RBS gates in ``U_even`` / ``U_odd`` merged into one gate
+  (:func:`qdensity.models.compression.compressed_odd_even`), ``n - 1`` angles.
+
+Training is exact (the unary engine's reverse mode through
+:class:`qdensity.learning.torch.DensityQNNLayer`, in a ``torch.nn.Sequential``). **Shots** are
+what the same training would spend on hardware for the OrthoQNN's gradient, as the paper
+counts them: every training row of every step runs the circuits of the quantum layer's gradient
+plan (:func:`qdensity.experiments._common.circuits_per_row`) with ``shots_per_circuit`` shots
+each: the four-term parameter-shift rule for the pure pyramid (``4 n (n - 1) / 2 + 1``
+circuits per row, 113 for n = 8), one commuting-generator circuit plus one forward circuit per
+sub-unitary for both density models (4 per row). Not counted, for any model: the loader's own
+gradient circuits (which training the ``Linear(d, n)`` before the loader would need on
+hardware; the same for all three models) and test-set evaluation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from qdensity.experiments._common import circuits_per_row, curve, plot_curves, require_torch
+from qdensity.experiments._ortho_data import check_float, check_int, load_data
+from qdensity.experiments.registry import Experiment
+from qdensity.experiments.results import ExperimentResult
+
+__all__ = ["EXPERIMENT", "run_seed", "plot", "MODEL_NAMES"]
+
+#: The three models, in the paper's order (Fig. 11a i, ii, iii).
+MODEL_NAMES = ("pure", "odd_even", "compressed")
+
+_LABELS = {"pure": "OrthoQNN - pyramid (parameter shift)",
+           "odd_even": "density OrthoQNN - pyramid (odd-even)",
+           "compressed": "density OrthoQNN - pyramid (compressed)"}
+
+
+def _check(config: dict) -> dict:
+    check_int(config, "num_qubits", 2)
+    for key in ("epochs", "batch_size", "shots_per_circuit", "evals_per_epoch"):
+        check_int(config, key, 1)
+    check_float(config, "learning_rate")
+    models = config["models"]
+    if not isinstance(models, (list, tuple)) or not models or \
+            any(m not in MODEL_NAMES for m in models) or len(set(models)) != len(models):
+        raise ValueError(f"setting 'models' must be a non-empty list of distinct names from "
+                         f"{MODEL_NAMES}, got {models!r}")
+    return config
+
+
+def run_seed(config: dict, seed: int, progress: bool) -> dict:
+    """One seed: train each hybrid model from the same classical initialisation.
+
+    Parameters
+    ----------
+    config : dict
+        ``dataset``, ``mnist_dir``, ``num_qubits``, ``models``, ``epochs``, ``train_size``,
+        ``test_size``, ``batch_size``, ``learning_rate``, ``shots_per_circuit``,
+        ``evals_per_epoch``.
+    seed : int
+    progress : bool
+        Unused (training prints nothing).
+
+    Returns
+    -------
+    dict
+        Per model ``m``: ``m/test_accuracy`` (end), ``m/best_test_accuracy`` (best evaluation of
+        the last 10 epochs, the paper's inset), ``m/circuits_per_row``, ``m/shots``,
+        ``m/num_angles``; ``pure/test_accuracy_at_density_budget`` (the pure model's accuracy at
+        the last evaluation within the odd-even model's total shots); curves
+        ``m/test_vs_shots`` and ``m/test_vs_epoch``.
+    """
+    require_torch("pyramid-shots")
+    from qdensity.experiments import _pyramid_shots_models as hm
+
+    config = _check(dict(config))
+    n = int(config["num_qubits"])
+    epochs = int(config["epochs"])
+    data = load_data(config, seed, None)
+    classes = int(np.unique(np.concatenate([data[2], data[3]])).size)
+    num_classes = int(max(data[2].max(), data[3].max())) + 1
+    rng = np.random.default_rng(seed)
+    net_seed, angle_seed, order_seed = (int(s) for s in rng.integers(0, 2**31 - 1, size=3))
+    out: dict = {"train_rows": len(data[2]), "test_rows": len(data[3]), "classes": classes}
+    curves: dict = {}
+    logs: dict = {}
+    for name in config["models"]:
+        qnn = hm.quantum_model(name, n, angle_seed)
+        cpr = circuits_per_row(qnn, np.ones((1, n)), hm.MODELS[name])
+        net = hm.hybrid(qnn, data[0].shape[1], num_classes, net_seed)
+        log = hm.train_hybrid(net, data, epochs=epochs, batch_size=int(config["batch_size"]),
+                              learning_rate=float(config["learning_rate"]),
+                              shots_per_row=cpr * int(config["shots_per_circuit"]),
+                              evals_per_epoch=int(config["evals_per_epoch"]), seed=order_seed)
+        logs[name] = log
+        acc = log["accuracy"]
+        last = [a for e, a in zip(log["epoch"], acc, strict=True) if e > epochs - 10]
+        out.update({f"{name}/test_accuracy": acc[-1], f"{name}/best_test_accuracy": max(last),
+                    f"{name}/circuits_per_row": cpr, f"{name}/shots": log["shots"][-1],
+                    f"{name}/num_angles": qnn.num_parameters})
+        curves[f"{name}/test_vs_shots"] = curve(log["shots"], acc, "shots spent in training",
+                                                "test accuracy")
+        curves[f"{name}/test_vs_epoch"] = curve(log["epoch"], acc, "epoch", "test accuracy")
+    if "pure" in logs and "odd_even" in logs:
+        budget = logs["odd_even"]["shots"][-1]
+        within = [a for s, a in zip(logs["pure"]["shots"], logs["pure"]["accuracy"], strict=True)
+                  if s <= budget]
+        # before its first evaluation the pure model is at its untrained accuracy; use chance
+        out["pure/test_accuracy_at_density_budget"] = within[-1] if within else 1.0 / classes
+    out["curves"] = curves
+    return out
+
+
+def plot(result: ExperimentResult, directory: Path) -> list[Path]:
+    """Fig. 11b: test accuracy against shots spent in training (log scale), and against
+    epochs."""
+    names = [m for m in MODEL_NAMES if m in result.config["models"]]
+    labels = {f"{m}/test_vs_{k}": _LABELS[m] for m in names for k in ("shots", "epoch")}
+    path = plot_curves(result, [("test accuracy vs shots", [f"{m}/test_vs_shots" for m in names]),
+                                ("test accuracy vs epochs", [f"{m}/test_vs_epoch" for m in names])],
+                       Path(directory) / "pyramid-shots.png",
+                       title="pyramid OrthoQNN vs density versions (Fig. 11b)", labels=labels,
+                       log_x=(True, False))
+    return [path]
+
+
+_COMMON = {"dataset": "digits", "mnist_dir": None, "num_qubits": 8,
+           "models": list(MODEL_NAMES), "batch_size": 32, "learning_rate": 0.01,
+           "shots_per_circuit": 1000}
+
+EXPERIMENT = Experiment(
+    name="pyramid-shots",
+    title="pyramid OrthoQNN (parameter shift) vs density odd-even vs compressed: accuracy vs shots",
+    paper="Fig. 11 (Supp. H.1, odd-even pyramid decomposition); hyperparameters appendix",
+    quick={**_COMMON, "epochs": 2, "train_size": 200, "test_size": 100, "evals_per_epoch": 2},
+    full={**_COMMON, "epochs": 30, "train_size": None, "test_size": 300, "evals_per_epoch": 4},
+    run_seed=run_seed,
+    plot=plot,
+    seeds={"quick": 2, "full": 5},
+    reductions=(
+        "scikit-learn's 8x8 digits (64 pixels, 1497 train / 300 test) instead of MNIST "
+        "(784 pixels, 60,000 / 10,000; set dataset='mnist', mnist_dir=... to use it); fixed "
+        "hyperparameters (Adam, learning rate 0.01, batch 32) and 5 seeds instead of the best "
+        "runs of a 32-trial optuna sweep; 30 epochs."),
+)
