@@ -66,7 +66,8 @@ def train_hybrid(net: nn.Sequential, data, *, epochs: int, batch_size: int, lear
     -------
     dict
         ``epoch`` (fractional), ``shots`` (cumulative, ``shots_per_row`` per training row) and
-        ``accuracy`` (exact test accuracy) at each evaluation.
+        ``accuracy`` (exact test accuracy) at each evaluation; ``initial``: the test accuracy
+        before training.
     """
     X_tr, X_te, y_tr, y_te = (torch.as_tensor(np.asarray(a)) for a in data)
     X_tr, X_te = X_tr.to(torch.float64), X_te.to(torch.float64)
@@ -76,7 +77,12 @@ def train_hybrid(net: nn.Sequential, data, *, epochs: int, batch_size: int, lear
     steps = -(-len(y_tr) // batch_size)
     marks = set(np.linspace(0, steps, evals_per_epoch + 1).round().astype(int)[1:].tolist())
     spent = 0
-    log: dict = {"epoch": [], "shots": [], "accuracy": []}
+
+    def accuracy() -> float:
+        with torch.no_grad():
+            return float((net(X_te).argmax(dim=1) == y_te).double().mean())
+
+    log: dict = {"epoch": [], "shots": [], "accuracy": [], "initial": accuracy()}
     for epoch in range(epochs):
         order = torch.randperm(len(y_tr), generator=gen)
         for step in range(steps):
@@ -86,9 +92,7 @@ def train_hybrid(net: nn.Sequential, data, *, epochs: int, batch_size: int, lear
             opt.step()
             spent += shots_per_row * len(idx)
             if step + 1 in marks:
-                with torch.no_grad():
-                    acc = float((net(X_te).argmax(dim=1) == y_te).double().mean())
                 log["epoch"].append(epoch + (step + 1) / steps)
                 log["shots"].append(spent)
-                log["accuracy"].append(acc)
+                log["accuracy"].append(accuracy())
     return log

@@ -75,7 +75,8 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     Returns
     -------
     dict
-        Per model ``m``: ``m/test_accuracy`` (end), ``m/best_test_accuracy`` (best evaluation of
+        Per model ``m``: ``m/initial_test_accuracy`` (before training),
+        ``m/test_accuracy`` (end), ``m/best_test_accuracy`` (best evaluation of
         the last 10 epochs, the paper's inset), ``m/circuits_per_row``, ``m/shots``,
         ``m/num_angles``; ``pure/test_accuracy_at_density_budget`` (the pure model's accuracy at
         the last evaluation within the odd-even model's total shots); curves
@@ -106,7 +107,8 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         logs[name] = log
         acc = log["accuracy"]
         last = [a for e, a in zip(log["epoch"], acc, strict=True) if e > epochs - 10]
-        out.update({f"{name}/test_accuracy": acc[-1], f"{name}/best_test_accuracy": max(last),
+        out.update({f"{name}/initial_test_accuracy": log["initial"],
+                    f"{name}/test_accuracy": acc[-1], f"{name}/best_test_accuracy": max(last),
                     f"{name}/circuits_per_row": cpr, f"{name}/shots": log["shots"][-1],
                     f"{name}/num_angles": qnn.num_parameters})
         curves[f"{name}/test_vs_shots"] = curve(log["shots"], acc, "shots spent in training",
@@ -116,8 +118,9 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         budget = logs["odd_even"]["shots"][-1]
         within = [a for s, a in zip(logs["pure"]["shots"], logs["pure"]["accuracy"], strict=True)
                   if s <= budget]
-        # before its first evaluation the pure model is at its untrained accuracy; use chance
-        out["pure/test_accuracy_at_density_budget"] = within[-1] if within else 1.0 / classes
+        # before its first evaluation the pure model is still at its initial accuracy
+        out["pure/test_accuracy_at_density_budget"] = (within[-1] if within
+                                                       else logs["pure"]["initial"])
     out["curves"] = curves
     return out
 

@@ -1,0 +1,103 @@
+"""orthoqnn-depth at a size far below quick: shapes, invariants, shot accounting, settings."""
+
+import json
+
+import numpy as np
+import pytest
+
+from qdensity.experiments import run
+
+N = 4  # round-robin on 4 qubits: 6 RBS gates in 3 layers
+TINY = {"num_qubits": N, "depths": [1, 3], "pretrain_epochs": 2, "epochs": 1,
+        "train_size": 40, "test_size": 20, "batch_size": 20, "shots_per_circuit": 10}
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("orthoqnn")
+    return run("orthoqnn-depth", seeds=[0, 3], config=TINY, out=out, progress=False), out
+
+
+def test_seeds_files_and_cis(tiny):
+    result, out = tiny
+    assert result.seeds == [0, 3] and len(result.per_seed) == 2
+    saved = json.loads((out / "orthoqnn-depth-quick.json").read_text())
+    assert saved["seeds"] == [0, 3]
+    assert {p.rsplit("/", 1)[-1] for p in result.figures} == {
+        "orthoqnn-depth-shallow.png", "orthoqnn-depth-depths.png"}
+    for path in result.figures:
+        assert open(path, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+    for name, s in result.summary.items():
+        assert s["low"] <= s["mean"] <= s["high"], name
+    for name in ("pure", "D1", "D3"):
+        acc = result.summary[f"{name}/test_accuracy"]["mean"]
+        assert 0.0 <= acc <= 1.0
+
+
+def test_circuit_counts_match_the_gradient_rules(tiny):
+    result, _ = tiny
+    gates = N * (N - 1) // 2
+    seed = result.per_seed[0]
+    # pure: four-term shift rule per RBS angle plus one forward circuit
+    assert seed["pure/circuits_per_row"] == 4 * gates + 1
+    # D = 1: each of the n - 1 sub-unitaries is one commuting block: 1 gradient + 1 forward
+    assert seed["D1/circuits_per_row"] == 2 * (N - 1)
+    assert seed["D1/pretrain_circuits_per_row"] == 2 * (N - 1)
+    # D = n - 1: n - 1 full round-robin circuits, each by parameter shift
+    assert seed["D3/circuits_per_row"] == (N - 1) * (4 * gates + 1)
+    assert seed["D1/num_parameters"] == (N - 1) * (N // 2)
+    assert seed["D3/num_parameters"] == (N - 1) * gates
+
+
+def test_curves_lengths_and_shots(tiny):
+    result, _ = tiny
+    e1, e2 = TINY["pretrain_epochs"], TINY["epochs"]
+    for seed in result.per_seed:
+        rows, shots = seed["train_rows"], TINY["shots_per_circuit"]
+        assert rows == TINY["train_size"] and seed["test_rows"] == TINY["test_size"]
+        curves = seed["curves"]
+        pure = curves["pure/test_vs_shots"]["x"]
+        assert len(pure) == e1 + e2
+        assert pure == [seed["pure/circuits_per_row"] * rows * shots * e
+                        for e in range(1, e1 + e2 + 1)]
+        for d in (1, 3):
+            c = curves[f"D{d}/test_vs_shots"]
+            assert len(c["x"]) == len(c["y"]) == e1 + e2
+            assert np.all(np.diff(c["x"]) > 0)
+            per_epoch = seed[f"D{d}/circuits_per_row"] * rows * shots
+            assert c["x"][-1] == seed[f"D{d}/shots"] == (e1 + e2) * per_epoch
+            assert curves[f"D{d}/test_vs_epoch"]["x"] == list(range(1, e1 + e2 + 1))
+    for name, c in result.curves.items():
+        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"])), name
+
+
+def test_reproducible():
+    config = dict(TINY, depths=[1], pretrain_epochs=1)
+    a = run("orthoqnn-depth", seeds=[5], config=config, progress=False).per_seed[0]
+    b = run("orthoqnn-depth", seeds=[5], config=config, progress=False).per_seed[0]
+    a.pop("seconds"), b.pop("seconds")
+    assert a == b
+
+
+def test_mnist_files(tmp_path):
+    rng = np.random.default_rng(0)
+    path = tmp_path / "mnist.npz"
+    np.savez(path, x_train=rng.integers(0, 256, (50, 28, 28), dtype=np.uint8),
+             y_train=np.arange(50) % 10, x_test=rng.integers(0, 256, (20, 28, 28), dtype=np.uint8),
+             y_test=np.arange(20) % 10)
+    config = dict(TINY, depths=[1], pretrain_epochs=1, dataset="mnist", mnist_dir=str(path),
+                  train_size=None)
+    seed = run("orthoqnn-depth", seeds=1, config=config, progress=False).per_seed[0]
+    assert seed["train_rows"] == 50 and seed["test_rows"] == 20
+
+
+@pytest.mark.parametrize("change, setting", [
+    ({"depths": [0]}, "depths"), ({"depths": [4]}, "depths"), ({"depths": []}, "depths"),
+    ({"depths": [1, 1]}, "depths"), ({"dataset": "cifar"}, "dataset"),
+    ({"dataset": "mnist"}, "mnist_dir"), ({"learning_rate": -1.0}, "learning_rate"),
+    ({"epochs": 0}, "epochs"), ({"num_qubits": 2}, "num_qubits"),
+    ({"shots_per_circuit": 1.5}, "shots_per_circuit"),
+])
+def test_bad_settings(change, setting):
+    with pytest.raises(ValueError, match=setting):
+        run("orthoqnn-depth", seeds=1, config=dict(TINY, **change), progress=False)

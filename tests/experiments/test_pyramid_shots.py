@@ -1,0 +1,83 @@
+"""pyramid-shots at a size far below quick: shapes, invariants, shot accounting, settings."""
+
+import json
+
+import numpy as np
+import pytest
+
+from qdensity.experiments import run
+
+N = 4  # pyramid on 4 qubits: 6 RBS gates
+TINY = {"num_qubits": N, "epochs": 2, "train_size": 40, "test_size": 20, "batch_size": 16,
+        "evals_per_epoch": 2, "shots_per_circuit": 10}
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pyramid")
+    return run("pyramid-shots", seeds=[0, 2], config=TINY, out=out, progress=False), out
+
+
+def test_seeds_files_and_cis(tiny):
+    result, out = tiny
+    assert result.seeds == [0, 2] and len(result.per_seed) == 2
+    saved = json.loads((out / "pyramid-shots-quick.json").read_text())
+    assert saved["seeds"] == [0, 2]
+    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots.png"]
+    assert open(result.figures[0], "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+    for name, s in result.summary.items():
+        assert s["low"] <= s["mean"] <= s["high"], name
+    for name, c in result.curves.items():
+        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"])), name
+
+
+def test_circuit_counts_and_angles(tiny):
+    result, _ = tiny
+    gates = N * (N - 1) // 2
+    seed = result.per_seed[0]
+    assert seed["pure/circuits_per_row"] == 4 * gates + 1      # four-term shift + forward
+    assert seed["odd_even/circuits_per_row"] == 2 * 2          # K = 2 commuting blocks
+    assert seed["compressed/circuits_per_row"] == 2 * 2
+    assert seed["pure/num_angles"] == seed["odd_even/num_angles"] == gates
+    assert seed["compressed/num_angles"] == N - 1
+
+
+def test_shots_curves(tiny):
+    result, _ = tiny
+    for seed in result.per_seed:
+        rows = seed["train_rows"]
+        assert rows == TINY["train_size"] and seed["test_rows"] == TINY["test_size"]
+        for m in ("pure", "odd_even", "compressed"):
+            c = seed["curves"][f"{m}/test_vs_shots"]
+            assert len(c["x"]) == TINY["epochs"] * TINY["evals_per_epoch"]
+            assert np.all(np.diff(c["x"]) > 0)
+            total = seed[f"{m}/circuits_per_row"] * TINY["shots_per_circuit"] * rows * TINY["epochs"]
+            assert c["x"][-1] == seed[f"{m}/shots"] == total
+            assert all(0.0 <= a <= 1.0 for a in c["y"])
+            epochs = seed["curves"][f"{m}/test_vs_epoch"]["x"]
+            assert epochs[-1] == TINY["epochs"] and np.all(np.diff(epochs) > 0)
+        pure = seed["curves"]["pure/test_vs_shots"]
+        budget = seed["odd_even/shots"]
+        within = [a for s, a in zip(pure["x"], pure["y"]) if s <= budget]
+        want = within[-1] if within else seed["pure/initial_test_accuracy"]
+        assert seed["pure/test_accuracy_at_density_budget"] == want
+
+
+def test_reproducible_and_models_subset():
+    config = dict(TINY, epochs=1, models=["compressed"])
+    a = run("pyramid-shots", seeds=[4], config=config, progress=False).per_seed[0]
+    b = run("pyramid-shots", seeds=[4], config=config, progress=False).per_seed[0]
+    a.pop("seconds"), b.pop("seconds")
+    assert a == b
+    assert set(a["curves"]) == {"compressed/test_vs_shots", "compressed/test_vs_epoch"}
+
+
+@pytest.mark.parametrize("change, setting", [
+    ({"models": ["pyramid"]}, "models"), ({"models": []}, "models"),
+    ({"models": ["pure", "pure"]}, "models"), ({"evals_per_epoch": 0}, "evals_per_epoch"),
+    ({"learning_rate": 0}, "learning_rate"), ({"dataset": "svhn"}, "dataset"),
+    ({"test_size": 5}, "test_size"), ({"batch_size": True}, "batch_size"),
+])
+def test_bad_settings(change, setting):
+    with pytest.raises(ValueError, match=setting):
+        run("pyramid-shots", seeds=1, config=dict(TINY, **change), progress=False)
