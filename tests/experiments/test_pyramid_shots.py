@@ -28,7 +28,7 @@ def test_seeds_files_and_cis(tiny):
     for name, s in result.summary.items():
         assert s["low"] <= s["mean"] <= s["high"], name
     for name, c in result.curves.items():
-        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"])), name
+        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"], strict=True)), name
 
 
 def test_circuit_counts_and_angles(tiny):
@@ -51,14 +51,15 @@ def test_shots_curves(tiny):
             c = seed["curves"][f"{m}/test_vs_shots"]
             assert len(c["x"]) == TINY["epochs"] * TINY["evals_per_epoch"]
             assert np.all(np.diff(c["x"]) > 0)
-            total = seed[f"{m}/circuits_per_row"] * TINY["shots_per_circuit"] * rows * TINY["epochs"]
+            per_row = seed[f"{m}/circuits_per_row"] * TINY["shots_per_circuit"]
+            total = per_row * rows * TINY["epochs"]
             assert c["x"][-1] == seed[f"{m}/shots"] == total
             assert all(0.0 <= a <= 1.0 for a in c["y"])
             epochs = seed["curves"][f"{m}/test_vs_epoch"]["x"]
             assert epochs[-1] == TINY["epochs"] and np.all(np.diff(epochs) > 0)
         pure = seed["curves"]["pure/test_vs_shots"]
         budget = seed["odd_even/shots"]
-        within = [a for s, a in zip(pure["x"], pure["y"]) if s <= budget]
+        within = [a for s, a in zip(pure["x"], pure["y"], strict=True) if s <= budget]
         want = within[-1] if within else seed["pure/initial_test_accuracy"]
         assert seed["pure/test_accuracy_at_density_budget"] == want
 
