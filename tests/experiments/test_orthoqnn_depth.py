@@ -68,7 +68,8 @@ def test_curves_lengths_and_shots(tiny):
             assert c["x"][-1] == seed[f"D{d}/shots"] == (e1 + e2) * per_epoch
             assert curves[f"D{d}/test_vs_epoch"]["x"] == list(range(1, e1 + e2 + 1))
     for name, c in result.curves.items():
-        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"], strict=True)), name
+        bands = zip(c["low"], c["mean"], c["high"], strict=True)
+        assert all(lo <= m <= hi for lo, m, hi in bands), name
 
 
 def test_reproducible():

@@ -28,7 +28,8 @@ def test_seeds_files_and_cis(tiny):
     for name, s in result.summary.items():
         assert s["low"] <= s["mean"] <= s["high"], name
     for name, c in result.curves.items():
-        assert all(lo <= m <= hi for lo, m, hi in zip(c["low"], c["mean"], c["high"], strict=True)), name
+        bands = zip(c["low"], c["mean"], c["high"], strict=True)
+        assert all(lo <= m <= hi for lo, m, hi in bands), name
 
 
 def test_circuit_counts_and_angles(tiny):
