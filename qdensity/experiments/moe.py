@@ -1,0 +1,248 @@
+"""``moe``: density QNNs as a mixture of experts (paper Supp. H, Fig. 15; Methods "Orthogonal
+density QNN").
+
+Claim (Supp. H.2, Fig. 15b-d): over an optuna sweep of the paper's hyperparameter space
+(batch size, log learning rate, Adam / SGD / RMSProp, l2 or none; 32 trials, accuracy at the
+end of 100 epochs, mean with a 95% bootstrap interval, best run in the inset), a data-dependent
+mixture ``alpha(x) = softmax(Linear(x))`` ("MoE") or ``softmax(GELU(Linear(x)))`` ("MoE*")
+does not help the shallow decompositions (butterfly by layers, compressed odd-even pyramid)
+but does help the odd-even pyramid decomposition, whose sub-unitaries have more parameters,
+bringing it up to the pure OrthoQNN; the MoE also narrows the spread over hyperparameters.
+
+Models (Fig. 11a, hybrid): ``Linear(d -> n)``, ReLU, unary loader, quantum layer (the
+probabilities of the ``n`` unary outcomes), ``Linear(n -> 10)``, softmax, trained end to end
+in PyTorch with exact unary simulation. Per decomposition: the pure source circuit (butterfly
+or pyramid; the pure pyramid serves both odd-even panels), the density QNN with a trainable
+data-independent ``alpha``, MoE and MoE*. Each seed runs its own sweep (TPE sampler seeded by
+the seed) of ``trials`` trials per model, scored on a validation split; the test accuracy after
+the last epoch is recorded for every trial. Data: scikit-learn's bundled 8x8 digits (64
+pixels) in place of MNIST.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from qdensity.experiments._common import circuits_per_row, curve, plot_curves, require_torch
+from qdensity.experiments._moe_models import (
+    DECOMPOSITIONS,
+    VARIANTS,
+    build_classifier,
+    train_classifier,
+)
+from qdensity.experiments.registry import Experiment
+from qdensity.experiments.results import ExperimentResult, bootstrap_ci
+from qdensity.learning.sweep import PAPER_SPACE
+from qdensity.progress import progress_bar
+
+__all__ = ["EXPERIMENT", "run_seed", "plot", "model_names"]
+
+_LABELS = {"pure": "pure OrthoQNN", "density": "density", "moe": "MoE", "moe_gelu": "MoE* (GELU)"}
+
+
+def model_names(decompositions) -> list[tuple[str, str, str]]:
+    """``(metric prefix, decomposition, variant)`` of every model trained: the pure circuit once
+    per source (``butterfly/pure``, ``pyramid/pure``), the other variants per decomposition."""
+    out, pures = [], set()
+    for dec in decompositions:
+        src = "butterfly" if dec == "butterfly" else "pyramid"
+        if src not in pures:
+            pures.add(src)
+            out.append((f"{src}/pure", dec, "pure"))
+        out.extend((f"{dec}/{v}", dec, v) for v in VARIANTS if v != "pure")
+    return out
+
+
+def _check(config: dict) -> dict:
+    cfg = dict(config)
+    decs = cfg["decompositions"]
+    if not isinstance(decs, (list, tuple)) or not decs or any(d not in DECOMPOSITIONS
+                                                               for d in decs):
+        raise ValueError(f"decompositions must be a non-empty list from {DECOMPOSITIONS}, got "
+                         f"{decs!r}")
+    for key, low in (("num_qubits", 2), ("trials", 1), ("epochs", 1), ("num_train", 20),
+                     ("num_test", 10), ("shots_per_circuit", 1)):
+        v = cfg[key]
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+            raise ValueError(f"{key} must be an int >= {low}, got {v!r}")
+    n = cfg["num_qubits"]
+    if "butterfly" in decs and n & (n - 1):
+        raise ValueError(f"num_qubits must be a power of two for the butterfly, got {n}")
+    if cfg["num_train"] + cfg["num_test"] > 1797:
+        raise ValueError(f"num_train + num_test must be at most 1797 (the digits), got "
+                         f"{cfg['num_train'] + cfg['num_test']}")
+    vf = cfg["validation_fraction"]
+    if not isinstance(vf, float) or not 0 < vf < 0.5:
+        raise ValueError(f"validation_fraction must be a float in (0, 0.5), got {vf!r}")
+    return cfg
+
+
+def _data(cfg: dict, seed: int):
+    from sklearn.datasets import load_digits
+    from sklearn.model_selection import train_test_split
+
+    X, y = load_digits(return_X_y=True)
+    X = X / 16.0
+    X_rest, X_te, y_rest, y_te = train_test_split(X, y, test_size=int(cfg["num_test"]),
+                                                  random_state=seed, stratify=y)
+    X_tr, _, y_tr, _ = train_test_split(X_rest, y_rest, train_size=int(cfg["num_train"]),
+                                        random_state=seed, stratify=y_rest) \
+        if cfg["num_train"] < len(y_rest) else (X_rest, None, y_rest, None)
+    X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr,
+                                              test_size=float(cfg["validation_fraction"]),
+                                              random_state=seed, stratify=y_tr)
+    return X_tr, y_tr, X_va, y_va, X_te, y_te
+
+
+def _suggest(trial) -> dict:
+    out = {}
+    for name, spec in PAPER_SPACE.items():
+        if spec[0] == "int":
+            out[name] = trial.suggest_int(name, spec[1], spec[2], step=spec[3])
+        elif spec[0] == "log":
+            out[name] = trial.suggest_float(name, spec[1], spec[2], log=True)
+        else:
+            out[name] = trial.suggest_categorical(name, list(spec[1]))
+    return out
+
+
+def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
+    """One seed: a sweep of ``trials`` trials for every model; per-model accuracy statistics.
+
+    Returns
+    -------
+    dict
+        Per model (``butterfly/pure``, ``pyramid/pure``, ``{decomposition}/{density|moe|
+        moe_gelu}``): ``mean_accuracy``, ``best_accuracy``, ``std_accuracy``,
+        ``ci_low``/``ci_high`` (bootstrap over this seed's trials), ``shots_per_trial``; curves
+        ``trials`` (test accuracy per trial), ``test_vs_epoch`` and ``test_vs_shots`` (mean over
+        trials).
+    """
+    require_torch("moe")
+    import optuna
+    import torch
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    cfg = _check(config)
+    torch.set_num_threads(1)
+    data = _data(cfg, seed)
+    n, epochs = int(cfg["num_qubits"]), int(cfg["epochs"])
+    names = model_names(cfg["decompositions"])
+    out: dict = {"seed": seed, "curves": {}}
+    with progress_bar(len(names) * int(cfg["trials"]), desc=f"moe seed {seed}", unit="trial",
+                      verbose=progress) as bar:
+        for m, (prefix, dec, variant) in enumerate(names):
+            sampler = optuna.samplers.TPESampler(seed=seed * 1000 + m)
+            study = optuna.create_study(direction="maximize", sampler=sampler)
+            runs = []
+            for t in range(int(cfg["trials"])):
+                trial = study.ask()
+                params = _suggest(trial)
+                model, layer = build_classifier(dec, variant, data[0].shape[1], n, 10,
+                                                seed=seed * 10_000 + m * 100 + t)
+                res = train_classifier(model, data, params, epochs, seed=seed * 100 + t)
+                study.tell(trial, res["val_accuracy"])
+                runs.append(res)
+                bar.update()
+            acc = np.array([r["test_accuracy"] for r in runs])
+            ci = bootstrap_ci(acc, seed=seed) if acc.size > 1 else {"low": acc[0],
+                                                                      "high": acc[0]}
+            per_row = circuits_per_row(layer.model, np.full((1, n), 1.0 / np.sqrt(n)))
+            shots = per_row * len(data[1]) * int(cfg["shots_per_circuit"])
+            out.update({f"{prefix}/mean_accuracy": float(acc.mean()),
+                        f"{prefix}/best_accuracy": float(acc.max()),
+                        f"{prefix}/std_accuracy": float(acc.std()),
+                        f"{prefix}/ci_low": float(ci["low"]),
+                        f"{prefix}/ci_high": float(ci["high"]),
+                        f"{prefix}/shots_per_trial": float(shots * epochs),
+                        f"{prefix}/circuits_per_row": per_row,
+                        f"{prefix}/quantum_parameters": int(layer.model.num_parameters)})
+            mean_curve = np.mean([r["test_by_epoch"] for r in runs], axis=0)
+            ep = np.arange(1, epochs + 1)
+            out["curves"].update({
+                f"{prefix}/trials": curve(np.arange(acc.size), acc, "trial", "test accuracy"),
+                f"{prefix}/test_vs_epoch": curve(ep, mean_curve, "epoch",
+                                                 "test accuracy (mean over trials)"),
+                f"{prefix}/test_vs_shots": curve(ep * shots, mean_curve, "shots",
+                                                 "test accuracy (mean over trials)")})
+    return out
+
+
+def _panels(decompositions) -> list[tuple[str, list[str]]]:
+    out = []
+    for dec in decompositions:
+        src = "butterfly" if dec == "butterfly" else "pyramid"
+        out.append((dec.replace("_", "-"), [f"{src}/pure"] + [f"{dec}/{v}" for v in VARIANTS
+                                                              if v != "pure"]))
+    return out
+
+
+def plot(result: ExperimentResult, directory: Path) -> list[Path]:
+    """Fig. 15b-d: per decomposition, violins of the final test accuracy of every trial (all
+    seeds pooled) with the mean and its 95% bootstrap interval (black) and the best trial (star);
+    and the mean-over-trials test accuracy against epochs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    panels = _panels(result.config["decompositions"])
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8), squeeze=False)
+    for ax, (title, names) in zip(axes[0], panels, strict=True):
+        pooled = [np.concatenate([r["curves"][f"{name}/trials"]["y"] for r in result.per_seed])
+                  for name in names]
+        pos = np.arange(1, len(names) + 1)
+        ax.violinplot(pooled, pos, showextrema=False)
+        for p, vals in zip(pos, pooled, strict=True):
+            ci = bootstrap_ci(vals, seed=0) if vals.size > 1 else {"estimate": vals[0],
+                                                                   "low": vals[0],
+                                                                   "high": vals[0]}
+            ax.errorbar([p], [vals.mean()], yerr=[[vals.mean() - ci["low"]],
+                                                  [ci["high"] - vals.mean()]],
+                        fmt="o", color="k", capsize=4, ms=4)
+            ax.plot([p], [vals.max()], marker="*", color="tab:red", ms=9)
+        ax.set_xticks(pos, [_LABELS[n.split("/")[1]] for n in names], rotation=20, fontsize=8)
+        ax.set_ylabel("test accuracy after training")
+        ax.set_title(title)
+        ax.grid(alpha=0.3, axis="y")
+    n = len(result.seeds)
+    fig.suptitle(f"moe ({result.mode}): {result.config['trials']} trials x {n} seed"
+                 f"{'s' * (n != 1)} per model; mean, 95% bootstrap CI, best (star)", fontsize=10)
+    fig.tight_layout()
+    violin = directory / "moe-violins.png"
+    fig.savefig(violin, dpi=110)
+    plt.close(fig)
+    labels = {f"{dec}/{v}": _LABELS[v] for dec in (*DECOMPOSITIONS, "pyramid") for v in VARIANTS}
+    curves = plot_curves(result, [(t, [f"{nm}/test_vs_epoch" for nm in names])
+                                  for t, names in panels],
+                         directory / "moe-epochs.png", title="moe: mean over trials",
+                         labels={f"{k}/test_vs_epoch": v for k, v in labels.items()})
+    return [violin, curves]
+
+
+EXPERIMENT = Experiment(
+    name="moe",
+    title="butterfly, odd-even and compressed odd-even density QNNs with and without a "
+          "mixture-of-experts gate (MoE, MoE*): accuracy over a hyperparameter sweep",
+    paper="Supp. H.2, Fig. 15b-d (Methods 'Orthogonal density QNN'; Supp. 'Hyperparameters')",
+    quick={"decompositions": list(DECOMPOSITIONS), "num_qubits": 4, "trials": 2, "epochs": 1,
+           "num_train": 120, "num_test": 60, "validation_fraction": 0.25,
+           "shots_per_circuit": 1000},
+    full={"decompositions": list(DECOMPOSITIONS), "num_qubits": 8, "trials": 8, "epochs": 40,
+          "num_train": 1497, "num_test": 300, "validation_fraction": 0.2,
+          "shots_per_circuit": 1000},
+    run_seed=run_seed,
+    plot=plot,
+    seeds={"quick": 2, "full": 4},
+    reductions="scikit-learn's 8x8 digits (1197 train, 300 validation, 300 test; Linear 64 -> 8) "
+               "instead of MNIST (60000/10000, Linear 784 -> 8), so that a sweep fits on a CPU; "
+               "40 epochs per trial instead of 100 (about 22 core-minutes for the 4 seeds); "
+               "8 TPE trials per model and seed, 4 seeds "
+               "(32 trials per model pooled, as the paper's 32, but in 4 independent studies). "
+               "l2 is torch's weight decay 1e-4. Exact simulation; shots are those the "
+               "gradient circuits would need (1000 per circuit).",
+)

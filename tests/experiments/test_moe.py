@@ -1,0 +1,104 @@
+"""The ``moe`` experiment (Supp. H.2, Fig. 15) at a tiny size, and its compressed odd-even
+decomposition against an independent oracle (RBS angles on one pair add up)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from qiskit.quantum_info import Operator
+
+from qdensity.circuits.ansatze import pyramid
+from qdensity.experiments import run
+from qdensity.experiments._moe_models import compressed_odd_even
+from qdensity.models.decompositions import odd_even, trainable_parameters
+
+pytest.importorskip("torch")
+pytest.importorskip("optuna")
+
+TINY = {"decompositions": ["butterfly", "compressed"], "num_qubits": 4, "trials": 2,
+        "epochs": 2, "num_train": 60, "num_test": 30}
+
+
+@pytest.mark.parametrize("n", [4, 5, 6])
+def test_compressed_odd_even_equals_odd_even_with_summed_angles(n):
+    rng = np.random.default_rng(n)
+    full = odd_even(pyramid(n))
+    comp = compressed_odd_even(pyramid(n))
+    assert comp.num_subunitaries == 2
+    assert comp.parameter_counts() == [n // 2, (n - 1) // 2]
+    for sub, csub in zip(full.sub_unitaries, comp.sub_unitaries, strict=True):
+        params = trainable_parameters(sub)
+        values = dict(zip(params, rng.uniform(-np.pi, np.pi, len(params)), strict=True))
+        # oracle: the compressed gate on a pair carries the sum of that pair's angles
+        sums: dict = {}
+        for inst in sub.data:
+            pair = tuple(sub.find_bit(q).index for q in inst.qubits)
+            sums[pair] = sums.get(pair, 0.0) + values[inst.operation.params[0]]
+        cvalues = {}
+        for inst in csub.data:
+            pair = tuple(csub.find_bit(q).index for q in inst.qubits)
+            cvalues[inst.operation.params[0]] = sums[pair]
+        assert len(cvalues) == len(csub.data) == len(sums)
+        u = Operator(sub.assign_parameters(values)).data
+        v = Operator(csub.assign_parameters(cvalues)).data
+        assert np.allclose(u, v, atol=1e-10)
+
+
+def test_compressed_refuses_circuits_that_do_not_compress():
+    from qdensity.circuits.ansatze import butterfly
+
+    with pytest.raises(ValueError, match="overlapping"):
+        compressed_odd_even(butterfly(4))
+
+
+def test_tiny_run_shape_and_invariants(tmp_path):
+    res = run("moe", seeds=[0, 3], config=TINY, out=tmp_path, progress=False)
+    assert res.seeds == [0, 3] and len(res.per_seed) == 2
+    models = ["butterfly/pure", "butterfly/density", "butterfly/moe", "butterfly/moe_gelu",
+              "pyramid/pure", "compressed/density", "compressed/moe", "compressed/moe_gelu"]
+    for m in models:
+        for row in res.per_seed:
+            trials = row["curves"][f"{m}/trials"]["y"]
+            assert len(trials) == TINY["trials"]
+            assert all(0.0 <= a <= 1.0 for a in trials)
+            assert row[f"{m}/mean_accuracy"] == pytest.approx(np.mean(trials))
+            assert row[f"{m}/best_accuracy"] == pytest.approx(max(trials))
+            assert row[f"{m}/ci_low"] <= row[f"{m}/mean_accuracy"] <= row[f"{m}/ci_high"]
+            shots = row["curves"][f"{m}/test_vs_shots"]["x"]
+            assert len(shots) == TINY["epochs"] and np.all(np.diff(shots) > 0)
+            assert shots[-1] == pytest.approx(row[f"{m}/shots_per_trial"])
+        s = res.summary[f"{m}/mean_accuracy"]
+        assert s["low"] <= s["mean"] <= s["high"] and s["n"] == 2
+    # shots: 45 training rows x circuits per row x 1000 shots x 2 epochs; the pure butterfly
+    # needs one parameter-shift pair per RBS (4 gates, 2 x 4 + 1) and its density version one
+    # commuting-generator circuit plus one forward circuit per layer (2 x 2)
+    row = res.per_seed[0]
+    assert row["butterfly/density/circuits_per_row"] < row["butterfly/pure/circuits_per_row"]
+    assert row["butterfly/density/shots_per_trial"] == pytest.approx(
+        row["butterfly/density/circuits_per_row"] * 45 * 1000 * 2)
+    doc = json.loads((tmp_path / "moe-quick.json").read_text())
+    assert doc["seeds"] == [0, 3]
+    assert {p.rsplit("/", 1)[-1] for p in res.figures} == {"moe-violins.png", "moe-epochs.png"}
+    assert all((tmp_path / p.rsplit("/", 1)[-1]).stat().st_size > 0 for p in res.figures)
+
+
+def test_seed_is_reproducible():
+    small = dict(TINY, decompositions=["butterfly"], trials=1, epochs=1)
+    a = run("moe", seeds=[1], config=small, progress=False).per_seed[0]
+    b = run("moe", seeds=[1], config=small, progress=False).per_seed[0]
+    assert a["butterfly/moe/mean_accuracy"] == b["butterfly/moe/mean_accuracy"]
+    assert a["curves"] == b["curves"]
+
+
+@pytest.mark.parametrize("override, match", [
+    ({"decompositions": ["pyramid"]}, "decompositions"),
+    ({"num_qubits": 6}, "num_qubits"),
+    ({"trials": 0}, "trials"),
+    ({"validation_fraction": 0.7}, "validation_fraction"),
+    ({"num_train": 1790}, "num_train"),
+])
+def test_bad_settings_are_refused(override, match):
+    with pytest.raises(ValueError, match=match):
+        run("moe", seeds=[0], config=dict(TINY, **override), progress=False)
