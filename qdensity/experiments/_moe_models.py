@@ -1,17 +1,16 @@
-"""Models of the ``moe`` experiment (Supp. H, Fig. 15): the compressed odd-even decomposition,
-the hybrid PyTorch classifier of Fig. 11a with a pure, density or mixture-of-experts quantum
-layer, and one training run of it under one set of the paper's hyperparameters."""
+"""Models of the ``moe`` experiment (Supp. H, Fig. 15): the decompositions compared, the
+hybrid PyTorch classifier of Fig. 11a with a pure, density or mixture-of-experts quantum layer,
+and one training run of it under one set of the paper's hyperparameters."""
 
 from __future__ import annotations
 
 import numpy as np
-from qiskit.circuit import QuantumCircuit
 
 from qdensity.circuits.ansatze import butterfly, pyramid
-from qdensity.models.decompositions import Decomposition, by_moments, odd_even
-from qdensity.validation import check_circuit
+from qdensity.models.compression import compressed_odd_even
+from qdensity.models.decompositions import by_moments, odd_even
 
-__all__ = ["compressed_odd_even", "DECOMPOSITIONS", "VARIANTS", "source_of", "sub_unitaries",
+__all__ = ["DECOMPOSITIONS", "VARIANTS", "source_of", "sub_unitaries",
            "build_classifier", "train_classifier"]
 
 #: Decompositions compared (Fig. 15b, c, d) and the circuit each is cut from.
@@ -19,54 +18,6 @@ DECOMPOSITIONS = ("butterfly", "odd_even", "compressed")
 #: Models per decomposition: the pure source circuit, the density QNN with a trainable
 #: data-independent alpha, and the two gates of Supp. H.2 eq. 28 ("MoE", "MoE*").
 VARIANTS = ("pure", "density", "moe", "moe_gelu")
-
-
-def compressed_odd_even(circuit: QuantumCircuit) -> Decomposition:
-    """The compressed odd-even decomposition (Fig. 11a iii): :func:`odd_even`, then each run of
-    RBS gates on one pair merged into a single gate.
-
-    Inside ``U_even`` (and ``U_odd``) of the pyramid every gate acts on a pair that is either
-    disjoint from or equal to another gate's pair, and ``RBS(a) RBS(b) = RBS(a + b)`` on the
-    same pair, so keeping one gate (its first parameter) per pair spans the same unitaries with
-    one angle per pair: ``floor(n / 2)`` and ``floor((n - 1) / 2)`` parameters.
-
-    Parameters
-    ----------
-    circuit : QuantumCircuit
-        A pyramid of RBS gates (:func:`qdensity.ansatze.pyramid`).
-
-    Returns
-    -------
-    Decomposition
-        ``[U_even, U_odd]``, one gate per pair, keeping the first gate's parameter.
-
-    Raises
-    ------
-    ValueError
-        If a sub-unitary holds a gate other than RBS, or gates on overlapping but different
-        pairs (then merging would change the unitary).
-    """
-    check_circuit(circuit)
-    parts = []
-    for sub in odd_even(circuit).sub_unitaries:
-        out = sub.copy_empty_like(name=f"{sub.name}_compressed")
-        seen: set[tuple[int, ...]] = set()
-        used: set[int] = set()
-        for inst in sub.data:
-            if inst.operation.name != "rbs":
-                raise ValueError(f"compressed_odd_even needs RBS gates only, got "
-                                 f"{inst.operation.name!r}")
-            pair = tuple(sub.find_bit(q).index for q in inst.qubits)
-            if pair in seen:
-                continue
-            if used & set(pair):
-                raise ValueError(f"gates on overlapping pairs around {pair}: the odd-even parts "
-                                 f"of this circuit do not compress")
-            seen.add(pair)
-            used |= set(pair)
-            out.append(inst)
-        parts.append(out)
-    return Decomposition(f"{circuit.name}_odd_even_compressed", parts, circuit, independent=True)
 
 
 def source_of(decomposition: str, num_qubits: int):

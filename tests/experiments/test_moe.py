@@ -7,50 +7,14 @@ import json
 
 import numpy as np
 import pytest
-from qiskit.quantum_info import Operator
 
-from qdensity.circuits.ansatze import pyramid
 from qdensity.experiments import run
-from qdensity.experiments._moe_models import compressed_odd_even
-from qdensity.models.decompositions import odd_even, trainable_parameters
 
 pytest.importorskip("torch")
 pytest.importorskip("optuna")
 
 TINY = {"decompositions": ["butterfly", "compressed"], "num_qubits": 4, "trials": 2,
         "epochs": 2, "num_train": 60, "num_test": 30}
-
-
-@pytest.mark.parametrize("n", [4, 5, 6])
-def test_compressed_odd_even_equals_odd_even_with_summed_angles(n):
-    rng = np.random.default_rng(n)
-    full = odd_even(pyramid(n))
-    comp = compressed_odd_even(pyramid(n))
-    assert comp.num_subunitaries == 2
-    assert comp.parameter_counts() == [n // 2, (n - 1) // 2]
-    for sub, csub in zip(full.sub_unitaries, comp.sub_unitaries, strict=True):
-        params = trainable_parameters(sub)
-        values = dict(zip(params, rng.uniform(-np.pi, np.pi, len(params)), strict=True))
-        # oracle: the compressed gate on a pair carries the sum of that pair's angles
-        sums: dict = {}
-        for inst in sub.data:
-            pair = tuple(sub.find_bit(q).index for q in inst.qubits)
-            sums[pair] = sums.get(pair, 0.0) + values[inst.operation.params[0]]
-        cvalues = {}
-        for inst in csub.data:
-            pair = tuple(csub.find_bit(q).index for q in inst.qubits)
-            cvalues[inst.operation.params[0]] = sums[pair]
-        assert len(cvalues) == len(csub.data) == len(sums)
-        u = Operator(sub.assign_parameters(values)).data
-        v = Operator(csub.assign_parameters(cvalues)).data
-        assert np.allclose(u, v, atol=1e-10)
-
-
-def test_compressed_refuses_circuits_that_do_not_compress():
-    from qdensity.circuits.ansatze import butterfly
-
-    with pytest.raises(ValueError, match="overlapping"):
-        compressed_odd_even(butterfly(4))
 
 
 def test_tiny_run_shape_and_invariants(tmp_path):
