@@ -113,7 +113,7 @@ def test_second_sub_unitary_is_yy_and_independent():
 
 @pytest.mark.parametrize("key, value", [
     ("num_qubits", 3), ("train_size", 0), ("learning_rate", 0.0), ("noise_std", -1.0),
-    ("families", ["xx", "mlp"]), ("families", []), ("alpha_init", [0.5, 0.6]),
+    ("angle_scale", 0.0), ("families", ["xx", "mlp"]), ("families", []), ("alpha_init", [0.5, 0.6]),
     ("alpha_init", [1.0, 0.0]), ("batch_size", 100), ("max_weight", 9), ("eval_every", 0),
     ("tail", 50),
 ])
@@ -128,3 +128,16 @@ def test_full_settings_follow_the_paper():
             full["batch_size"]) == (10, 1.8, 1000, 100, 20)
     assert full["alpha_init"] == [0.99, 0.01] and EXPERIMENT.seeds["full"] == 5
     assert "learning rate" in EXPERIMENT.reductions
+
+
+def test_angle_scale_sets_the_encoding_angle():
+    from qdensity.datasets.bars_and_dots import bars_and_dots
+    from qdensity.experiments.equivariant import _data
+
+    cfg = {**EXPERIMENT.quick, "angle_scale": np.pi / 2}
+    X, y, Xt, yt = _data(cfg, np.random.default_rng(5))
+    rng = np.random.default_rng(5)
+    X0, y0 = bars_and_dots(cfg["train_size"], cfg["num_qubits"], cfg["noise_std"], seed=rng)
+    assert np.allclose(X, X0) and np.array_equal(y, y0)   # pi/2: the data go in unchanged
+    X2, *_ = _data({**cfg, "angle_scale": 0.5}, np.random.default_rng(5))
+    assert np.allclose(np.pi / 2 * X2, 0.5 * X0)          # R_y(pi x'/2) = R_y(0.5 x)
