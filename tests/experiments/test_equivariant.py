@@ -1,0 +1,143 @@
+"""The ``equivariant`` experiment (paper Fig. 5) at a tiny size: output shape and invariants,
+shot accounting against Bowles et al.'s circuit counts, refused settings. The scientific
+result is not asserted here (it needs the full run)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from qdensity.experiments import run
+from qdensity.experiments._common import circuits_per_row
+from qdensity.experiments._equivariant_models import LABELS, single_model
+from qdensity.experiments.equivariant import EXPERIMENT, gradient_circuits
+from qdensity.models.warm_start import warm_start
+
+TINY = {"num_qubits": 4, "train_size": 12, "test_size": 8, "batch_size": 4,
+        "pretrain_steps": 2, "density_steps": 2, "eval_every": 1, "tail": 1,
+        "shots_per_circuit": 10, "layers": 1, "max_weight": 2}
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("equivariant")
+    return run("equivariant", seeds=[0, 3], config=TINY, out=out, progress=False), out
+
+
+def test_files_seeds_and_confidence_intervals(tiny):
+    result, out = tiny
+    assert result.seeds == [0, 3]
+    saved = json.loads((out / "equivariant-quick.json").read_text())
+    assert saved["seeds"] == [0, 3] and len(saved["per_seed"]) == 2
+    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["equivariant-epoch.png",
+                                                              "equivariant-shots.png"]
+    assert all((out / p.rsplit("/", 1)[-1]).stat().st_size > 1000 for p in result.figures)
+    for fam in ("xx", "noncommuting", "qcnn"):
+        for key in ("base_test_accuracy", "density_test_accuracy", "density_gain"):
+            s = result.summary[f"{fam}/{key}"]
+            assert s["n"] == 2 and s["low"] <= s["mean"] <= s["high"]
+        for seed_metrics in result.per_seed:
+            acc = [seed_metrics[f"{fam}/{k}_test_accuracy"] for k in ("base", "density")]
+            assert all(0.0 <= a <= 1.0 for a in acc)
+            assert np.isclose(seed_metrics[f"{fam}/density_gain"], acc[1] - acc[0])
+            assert 0.0 < seed_metrics[f"{fam}/density_alpha_2"] < 1.0
+
+
+def test_curves_lengths_and_shots(tiny):
+    result, _ = tiny
+    pre, post, batch, spc = 2, 2, 4, 10
+    for fam, (base, dens) in LABELS.items():
+        c_base = gradient_circuits(fam, 4, False, max_weight=2, layers=1)
+        c_second = gradient_circuits(fam, 4, True, max_weight=2, layers=1)
+        for m in result.per_seed:
+            curves = m["curves"]
+            assert curves[f"{base}/test_vs_epoch"]["x"] == [0, 1, 2, 3, 4]
+            assert curves[f"{dens}/test_vs_epoch"]["x"] == [2, 3, 4]
+            b_shots = curves[f"{base}/test_vs_shots"]["x"]
+            d_shots = curves[f"{dens}/test_vs_shots"]["x"]
+            # shots of a step: circuits per row x rows x shots per circuit (Bowles et al.)
+            assert b_shots == [s * c_base * batch * spc for s in (1, 2, 3, 4)]
+            start = pre * (c_base + c_second) * batch * spc   # the gap of Fig. 5b
+            assert d_shots == [start + s * (c_base + c_second) * batch * spc
+                               for s in range(post + 1)]
+            assert np.all(np.diff(b_shots) > 0) and np.all(np.diff(d_shots) > 0)
+            assert m[f"{fam}/density_shots"] == d_shots[-1]
+            # the density phase starts from the base model at the switch
+            base_acc = curves[f"{base}/test_vs_epoch"]["y"]
+            assert m[f"{fam}/base_test_accuracy_at_switch"] == base_acc[pre]
+        summary = result.curves[f"{dens}/test_vs_epoch"]
+        assert len(summary["mean"]) == post + 1
+        assert all(lo <= mu <= hi for lo, mu, hi in zip(summary["low"], summary["mean"],
+                                                        summary["high"], strict=True))
+
+
+def test_reproducible(tiny):
+    result, _ = tiny
+    again = run("equivariant", seeds=[3], config=TINY, progress=False)
+    assert again.per_seed[0]["curves"] == result.per_seed[1]["curves"]
+
+
+@pytest.mark.parametrize("n", [4, 6])
+def test_gradient_circuits_match_bowles_counts(n):
+    # commuting XX model: one circuit per Z_i of the observable sum (Bowles et al.'s
+    # num_circuits_commuting = qubits), plus one forward circuit
+    assert gradient_circuits("xx", n, False) == n + 1
+    assert gradient_circuits("xx", n, True) == n + 1
+    # non-commuting: two shifted circuits per generator, layers * n/2 * (n + 3) generators
+    for layers in (1, 2):
+        gens = layers * n // 2 * (n + 3)
+        assert gradient_circuits("noncommuting", n, False, layers=layers) == 2 * gens + 1
+    # QCNN: two-term rule per rx / rz, four-term rule per controlled rotation, plus forward
+    circ = single_model("qcnn", n, False, None).sub_unitaries[0]
+    ops = circ.count_ops()
+    expected = 2 * (ops["rx"] + ops["rz"]) + 4 * (ops["crz"] + ops["crx"]) + 1
+    assert gradient_circuits("qcnn", n, False) == expected
+
+
+def test_density_circuits_are_the_sum_over_sub_unitaries():
+    a = single_model("xx", 4, False, 0, max_weight=2)
+    b = single_model("xx", 4, True, 1, max_weight=2)
+    dens = warm_start([a, b], [0.99, 0.01])
+    total = circuits_per_row(dens, np.zeros((1, 4)), "commuting")
+    assert total == (gradient_circuits("xx", 4, False, max_weight=2)
+                     + gradient_circuits("xx", 4, True, max_weight=2))
+
+
+def test_second_sub_unitary_is_yy_and_independent():
+    a = single_model("xx", 4, False, 0).sub_unitaries[0]
+    b = single_model("xx", 4, True, 0).sub_unitaries[0]
+    assert {g.operation.operator.paulis[0].to_label().replace("I", "")[0] for g in a.data} == {"X"}
+    assert {g.operation.operator.paulis[0].to_label().replace("I", "")[0] for g in b.data} == {"Y"}
+    assert not set(a.parameters) & set(b.parameters)
+
+
+@pytest.mark.parametrize("key, value", [
+    ("num_qubits", 3), ("train_size", 0), ("learning_rate", 0.0), ("noise_std", -1.0),
+    ("angle_scale", 0.0), ("families", ["xx", "mlp"]), ("families", []), ("alpha_init", [0.5, 0.6]),
+    ("alpha_init", [1.0, 0.0]), ("batch_size", 100), ("max_weight", 9), ("eval_every", 0),
+    ("tail", 50),
+])
+def test_bad_settings_are_refused(key, value):
+    with pytest.raises(ValueError, match=key):
+        run("equivariant", seeds=1, config={**TINY, key: value}, progress=False)
+
+
+def test_full_settings_follow_the_paper():
+    full = EXPERIMENT.full
+    assert (full["num_qubits"], full["noise_std"], full["train_size"], full["test_size"],
+            full["batch_size"]) == (10, 1.8, 1000, 100, 20)
+    assert full["alpha_init"] == [0.99, 0.01] and EXPERIMENT.seeds["full"] == 5
+    assert "learning rate" in EXPERIMENT.reductions
+
+
+def test_angle_scale_sets_the_encoding_angle():
+    from qdensity.datasets.bars_and_dots import bars_and_dots
+    from qdensity.experiments.equivariant import _data
+
+    cfg = {**EXPERIMENT.quick, "angle_scale": np.pi / 2}
+    X, y, Xt, yt = _data(cfg, np.random.default_rng(5))
+    rng = np.random.default_rng(5)
+    X0, y0 = bars_and_dots(cfg["train_size"], cfg["num_qubits"], cfg["noise_std"], seed=rng)
+    assert np.allclose(X, X0) and np.array_equal(y, y0)   # pi/2: the data go in unchanged
+    X2, *_ = _data({**cfg, "angle_scale": 0.5}, np.random.default_rng(5))
+    assert np.allclose(np.pi / 2 * X2, 0.5 * X0)          # R_y(pi x'/2) = R_y(0.5 x)
