@@ -249,9 +249,8 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
 def _values(compiled: UnaryCircuit, values, name: str = "values") -> np.ndarray:
     if values is None:
         if compiled.num_parameters:
-            raise ValueError(
-                f"{name} is required: the circuit has {compiled.num_parameters} parameters"
-            )
+            raise ValueError(f"{name} is required: the circuit has {compiled.num_parameters} "
+                             "parameters")
         values = np.zeros(0)
     return check_parameter_values(values, compiled.num_parameters, name)
 
@@ -265,10 +264,8 @@ def _inputs(compiled: UnaryCircuit, X, name: str = "X") -> np.ndarray:
         raise TypeError(f"{name} must be an array of real numbers, got {X!r}") from exc
     n = compiled.num_qubits
     if arr.ndim not in (1, 2) or arr.shape[-1] != n:
-        raise ValueError(
-            f"{name} must have shape ({n},) or (batch, {n}) for a {n}-qubit circuit, "
-            f"got {arr.shape}"
-        )
+        raise ValueError(f"{name} must have shape ({n},) or (batch, {n}) for a {n}-qubit "
+                         f"circuit, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
     return arr
@@ -330,10 +327,8 @@ def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np
     compiled = compile_unary(circuit)
     v = _values(compiled, values)
     if v.ndim != 1:
-        raise ValueError(
-            f"values must have shape ({compiled.num_parameters},) for orthogonal_matrix, "
-            f"got {v.shape}"
-        )
+        raise ValueError(f"values must have shape ({compiled.num_parameters},) for "
+                         f"orthogonal_matrix, got {v.shape}")
     Z = np.eye(compiled.num_qubits)
     _rotate(Z, compiled, compiled.angles(v))
     return Z
@@ -389,6 +384,7 @@ def vjp(
     grad_Y,
     *,
     reduce: str = "none",
+    outputs=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Vector-Jacobian product (backpropagation) of :func:`forward`.
 
@@ -415,6 +411,9 @@ def vjp(
         for a single input). ``"sum"``: summed over the batch, shape ``(P,)`` -- the gradient
         of a loss that adds the per-example losses, and the right one for shared values;
         it never allocates the per-example ``(B, P)`` array.
+    outputs : array_like, optional
+        ``forward(circuit, X, values)`` if the caller has it: the backward pass starts there
+        instead of running the forward pass again (only its shape is checked).
 
     Returns
     -------
@@ -444,8 +443,13 @@ def vjp(
     if not np.all(np.isfinite(gy)):
         raise ValueError("grad_Y must be finite (no NaN or inf)")
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
-    # forward to the outputs
-    if angles.ndim == 1 and B > n:
+    # forward to the outputs (or start from the caller's)
+    if outputs is not None:
+        if np.shape(outputs) != expected:
+            raise ValueError(f"outputs must have the output's shape {expected}, got "
+                             f"{np.shape(outputs)}")
+        Y = np.array(np.atleast_2d(outputs).T, dtype=float, order="C")
+    elif angles.ndim == 1 and B > n:
         O = np.eye(n)
         _rotate(O, compiled, angles)
         Y = O @ Z

@@ -177,7 +177,8 @@ class QuantumLayer:
                 dY = 2.0 * a * grad_F * y
             else:
                 dY = 2.0 * a * grad_F[:, :1] * m._z_readout_matrix()[None, :] * y
-            gv, gx = vjp(c, Xn, m._sub_theta(k, None), dY, reduce="sum")
+            # the reverse pass starts from the forward's outputs y (not run again)
+            gv, gx = vjp(c, Xn, m._sub_theta(k, None), dY, reduce="sum", outputs=y)
             np.add.at(g_theta, m.subunitary_parameter_indices(k), gv)
             g_Xn += gx
         grad_alpha = np.einsum("bm,bkm->bk", grad_F, outs)

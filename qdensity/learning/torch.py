@@ -67,8 +67,8 @@ class _Experts(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, x, theta, layer, need_grad):
-        X = x.detach().cpu().numpy().astype(np.float64)
-        th = theta.detach().cpu().numpy().astype(np.float64)
+        X = np.asarray(x.detach().cpu().numpy(), dtype=np.float64)
+        th = np.array(theta.detach().cpu().numpy(), dtype=np.float64)  # a copy: steps change it
         outs, state = layer._run(X, th, need_grad=need_grad)
         ctx.layer, ctx.state, ctx.theta = layer, state, th
         return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
@@ -76,7 +76,7 @@ class _Experts(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad_outs):
         g = grad_outs.detach().cpu().numpy().astype(np.float64)
-        g_theta, g_x = ctx.layer._vjp(ctx.state, ctx.theta, g)
+        g_theta, g_x = ctx.layer._vjp(ctx.state, ctx.theta, g, ctx.needs_input_grad[0])
         if ctx.needs_input_grad[0] and g_x is None:
             raise RuntimeError("the input gradient needs the exact unary engine (RBS/FBS "
                                "sub-unitaries on a unary encoding with engine='exact'); "
@@ -163,11 +163,19 @@ class DensityQNNLayer(nn.Module):
             raise ValueError("model has no trainable parameters (no angles, fixed mixture)")
         if self.model.num_parameters == 0:
             self.theta.requires_grad_(False)
+        # fixed per model, so found once: each sub-unitary's angles in theta, whether the
+        # mixture is trivially alpha = 1 (one sub-unitary, no gate), the unary circuits
+        K = self.model.num_subunitaries
+        self._indices = [self.model.subunitary_parameter_indices(k) for k in range(K)]
+        self._single = K == 1 and self.gate is None and (
+            hasattr(self, "logits") or float(self.alpha[0]) == 1.0)
         self._unary = (engine == "exact" and self.model._use_unary())
         if self._unary:  # the Givens rotations of each sub-unitary, extracted once
             from qdensity.execution.unary import compile_unary
 
             self._compiled = [compile_unary(c) for c in self.model.sub_unitaries]
+            self._zdiag = (self.model._z_readout_matrix()
+                           if self.model.readout == "observable" else None)
 
     @property
     def num_features(self) -> int:
@@ -195,6 +203,8 @@ class DensityQNNLayer(nn.Module):
                              f"1, got {tuple(x.shape)}")
         need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
         outs = _Experts.apply(x, self.theta, self, need_grad)
+        if self._single:  # alpha = 1: f = f_1, without mixing ops in the graph
+            return outs[:, 0]
         alpha = self.mixture_weights(x).to(outs.dtype)
         return torch.einsum("bk,bkm->bm", alpha, outs)
 
@@ -210,15 +220,14 @@ class DensityQNNLayer(nn.Module):
                 raise ValueError(f"input rows {rows} are all-zero; a unary encoding cannot "
                                  f"load them")
             Xn = X / norms
-            Ys = [forward(c, Xn, theta[m.subunitary_parameter_indices(k)])
-                  for k, c in enumerate(self._compiled)]
+            Ys = [forward(c, Xn, theta[idx])
+                  for c, idx in zip(self._compiled, self._indices, strict=True)]
             if m.readout == "unary_amplitudes":
                 outs = np.stack(Ys, axis=1)
             elif m.readout == "unary_probabilities":
                 outs = np.stack([y**2 for y in Ys], axis=1)
             else:
-                d = m._z_readout_matrix()
-                outs = np.stack([(y**2 @ d)[:, None] for y in Ys], axis=1)
+                outs = np.stack([(y**2 @ self._zdiag)[:, None] for y in Ys], axis=1)
             return outs, ("unary", Xn, norms, Ys)
         m.set_params(theta=theta)
         if not need_grad:
@@ -233,31 +242,32 @@ class DensityQNNLayer(nn.Module):
         self.circuits += plan.num_circuits
         return grad.outputs, ("plan", grad)
 
-    def _vjp(self, state, theta, g):
+    def _vjp(self, state, theta, g, need_input: bool = True):
         m = self.model
         g_theta = np.zeros(m.num_parameters)
         if state is None:
             raise RuntimeError("backward through outputs computed without gradients")
         if state[0] == "plan":
             for k, jac in enumerate(state[1].jacobians):
-                np.add.at(g_theta, m.subunitary_parameter_indices(k),
-                          np.einsum("bm,bmp->p", g[:, k, :], jac))
+                np.add.at(g_theta, self._indices[k], np.einsum("bm,bmp->p", g[:, k, :], jac))
             return g_theta, None
         from qdensity.execution.unary import vjp
 
         _, Xn, norms, Ys = state
         g_Xn = np.zeros_like(Xn)
-        for k, (c, y) in enumerate(zip(self._compiled, Ys, strict=True)):
+        for k, (c, y, idx) in enumerate(zip(self._compiled, Ys, self._indices, strict=True)):
             if m.readout == "unary_amplitudes":
                 dY = g[:, k, :]
             elif m.readout == "unary_probabilities":
                 dY = 2.0 * g[:, k, :] * y
             else:
-                dY = 2.0 * g[:, k, :1] * m._z_readout_matrix()[None, :] * y
-            idx = m.subunitary_parameter_indices(k)
-            gv, gx = vjp(c, Xn, theta[idx], dY, reduce="sum")
-            np.add.at(g_theta, idx, gv)
+                dY = 2.0 * g[:, k, :1] * self._zdiag[None, :] * y
+            # start the reverse pass from the forward's outputs y (not run again)
+            gv, gx = vjp(c, Xn, theta[idx], dY, reduce="sum", outputs=y)
+            g_theta[idx] += gv  # a sub-unitary's parameters are distinct
             g_Xn += gx
+        if not need_input:
+            return g_theta, None
         return g_theta, (g_Xn - Xn * (Xn * g_Xn).sum(axis=1, keepdims=True)) / norms
 
     def to_model(self) -> DensityQNN:

@@ -56,6 +56,24 @@ def test_gradcheck_exact_unary_path_including_the_input(mixture, readout):
     assert gradcheck(f, (x, *params))
 
 
+@pytest.mark.parametrize("mixture", ["fixed", "softmax"])
+def test_one_sub_unitary_skips_the_mixture_and_keeps_exact_gradients(mixture):
+    """K = 1 (the pure model): the output is f_1 itself (no mixing ops), equal to Aer
+    statevector predictions; gradcheck through the angles and the input."""
+    mix = SoftmaxMixture(1) if mixture == "softmax" else None
+    model = DensityQNN([round_robin(4)], mix, encoding=Encoding.unary(4),
+                       readout="unary_probabilities", seed=6)
+    layer = DensityQNNLayer(model)
+    assert layer._single
+    X = np.random.default_rng(7).normal(size=(5, 4))
+    with torch.no_grad():
+        np.testing.assert_allclose(layer(torch.tensor(X)).numpy(),
+                                   model.predict(X, method="statevector"), atol=1e-12)
+    x = (torch.rand(3, 4, dtype=torch.float64) + 0.1).requires_grad_()
+    f, params = _functional(layer)
+    assert gradcheck(f, (x, *params))
+
+
 def test_gradcheck_exact_plan_path_for_a_non_unary_model():
     circ = hardware_efficient(2, 1)
     model = DensityQNN(copies(circ, 2).sub_unitaries, SoftmaxMixture(2),
