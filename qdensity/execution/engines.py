@@ -26,6 +26,7 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
 from qdensity.execution._device import check_for_device, check_width, device_of
+from qdensity.execution._independent import run_independent
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
@@ -438,6 +439,10 @@ class SamplerEngine:
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).
 
+        On a seeded Aer ``SamplerV2`` PUBs of different shot counts go in one call per count,
+        each with its own seed (:mod:`qdensity.execution._independent`: Aer would give them
+        the same random stream, correlating their shots).
+
         When the sampler names its device (a provider's primitive), every template is checked
         against it first: a job wider than the device or holding an instruction it cannot run
         raises ``ValueError`` before anything is submitted. The ledger is written only once
@@ -468,7 +473,7 @@ class SamplerEngine:
         rows = sum(job.rows for job, _ in metas)
         with self._bar(rows, "sample", "circuit") as bar:
             bar.set_postfix(shots=sum(job.rows * shots for job, shots in metas), refresh=False)
-            raw = wait_for(self.sampler.run(pubs), bar)
+            raw = run_independent(self.sampler, pubs, lambda job: wait_for(job, bar))
             bar.update(rows)
         results = []
         for (job, shots), pub_result in zip(metas, raw, strict=True):

@@ -13,6 +13,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
+from qdensity.execution._independent import run_independent
 from qdensity.execution.schedulers._common import _check_shots
 from qdensity.execution.schedulers.base import ShotSource
 from qdensity.validation import (
@@ -222,7 +223,7 @@ def sampler_source(
         else:
             runner = sampler
         pubs = [(circuits[k], bound[k], int(shots[k])) for k in active]
-        result = runner.run(pubs).result()
+        result = run_independent(runner, pubs)  # Aer would correlate PUBs of different shots
         if len(result) != len(pubs):
             raise ValueError(f"sampler returned {len(result)} PUB results for {len(pubs)} PUBs")
         for k, pub_result in zip(active, result, strict=True):
