@@ -233,6 +233,8 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
                             max_shots=c["budget"], callback=checkpoint)
         clf.fit(X_tr, y_tr)
         acc, dev, exact = _scores(clf, X_te, y_te, evaluator, c["eval_shots"], mitigator)
+        if points[-1][0] == clf.layer_.shots_spent:  # the last step was a checkpoint already
+            points.pop()
         points.append((clf.layer_.shots_spent, acc))
         for s in scores:
             curves[f"{name}/{s}_vs_shots"] = curve([p for p, _ in points],
@@ -250,12 +252,16 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         out[f"{name}/train_shots"] = clf.layer_.shots_spent
         out[f"{name}/train_circuits"] = engine.ledger.total_circuits
         out[f"{name}/steps"] = len(clf.history_)
-        sweep = [_scores(clf, X_te, y_te, evaluator, int(s), mitigator)[0]
+        sweep = [_scores(clf, X_te, y_te, evaluator, int(s), mitigator)
                  for s in c["eval_shots_sweep"]]
         for s in scores:
             curves[f"{name}/{s}_vs_eval_shots"] = curve(c["eval_shots_sweep"],
-                                                        [a[s] for a in sweep],
+                                                        [a[s] for a, _, _ in sweep],
                                                         "shots per test point", "test accuracy")
+        for v in dev.values:
+            curves[f"{name}/{v}_error_vs_eval_shots"] = curve(
+                c["eval_shots_sweep"], [np.abs(d.values[v] - e).sum(1).mean() for _, d, e in sweep],
+                "shots per test point", "mean L1 error of f(x)")
         if c["ceiling_epochs"]:
             ref = QNNClassifier(model, post=Linear(n, c["classes"], seed=seed),
                                 learning_rate=c["learning_rate"], epochs=c["ceiling_epochs"],
@@ -268,8 +274,9 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
 
 
 def plot(result: ExperimentResult, directory: Path) -> list[Path]:
-    """Three figures: accuracy against training shots per model (five scores), pure vs density
-    on the device and exactly, and accuracy against shots per test point."""
+    """Four figures: accuracy against training shots per model (five scores), pure vs density
+    on the device and exactly, accuracy against shots per test point, and the L1 error of
+    each device estimate of the model output against shots per test point."""
     directory = Path(directory)
     tgt = result.config.get("target", "")
     labels = {f"{m}/{s}_vs_{x}": LABELS[s] for m, _ in MODELS for s in SCORES
@@ -290,6 +297,14 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                              directory / f"{result.name}-{result.mode}-eval-shots.png",
                              title=f"noise on {tgt}: accuracy vs shots per prediction",
                              labels=labels, log_x=(True, True)))
+    errors = {f"{m}/{v}_error_vs_eval_shots": LABELS[v].replace("device, ", "")
+              for m, _ in MODELS for v in VARIANTS}
+    paths.append(plot_curves(result, [(f"{m}: device output vs exact output",
+                                       [f"{m}/{v}_error_vs_eval_shots" for v in VARIANTS])
+                                      for m, _ in MODELS],
+                             directory / f"{result.name}-{result.mode}-output-error.png",
+                             title=f"noise on {tgt}: error of the estimated model output",
+                             labels=errors, log_x=(True, True)))
     return paths
 
 

@@ -17,9 +17,9 @@ from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
 from qdensity.models.mixtures import SoftmaxMixture
 
-TINY = {"num_qubits": 3, "classes": 3, "train_size": 60, "test_size": 6, "shots": 4,
-        "budget": 400, "batch_size": 2, "checkpoints": 2, "eval_shots": 12,
-        "eval_shots_sweep": [6, 48], "calibration_shots": 200, "ceiling_epochs": 1}
+TINY = {"num_qubits": 3, "classes": 3, "train_size": 40, "test_size": 6, "shots": 4,
+        "budget": 240, "batch_size": 2, "checkpoints": 2, "eval_shots": 12,
+        "eval_shots_sweep": [6, 48], "calibration_shots": 100, "ceiling_epochs": 1}
 
 
 # ------------------------------------------------------------------ allocate_shots
@@ -142,9 +142,12 @@ def test_noise_experiment_small(tmp_path):
             assert all(lo - 1e-9 <= m <= hi + 1e-9
                        for lo, m, hi in zip(e["low"], e["mean"], e["high"], strict=True))
         assert len(set(result.curves[f"{model}/exact_vs_eval_shots"]["mean"])) == 1
+        for v in ("raw", "ps", "m3", "m3_ps"):
+            err = result.curves[f"{model}/{v}_error_vs_eval_shots"]
+            assert len(err["x"]) == 2 and all(0 <= y <= 2 + 1e-9 for y in err["mean"])
     saved = json.loads((tmp_path / "noise-quick.json").read_text())
     assert saved["seeds"] == [0, 3]
-    assert len(result.figures) == 3
+    assert len(result.figures) == 4
     for path in result.figures:
         assert (tmp_path / path.split("/")[-1]).stat().st_size > 0
 
