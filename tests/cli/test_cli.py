@@ -158,12 +158,21 @@ def test_demo_quick_json(tmp_path, capsys):
     assert main(["demo", "--quick", "--json", "--output", str(tmp_path)]) == 0
     res = json.loads(capsys.readouterr().out)
     cfg = DemoConfig.quick()
+    per_point = {"pure": 4 * 6 + 1, "density": 3 + 3}
     for name in ("pure", "density"):
-        assert res[name]["shots"] <= cfg.budget
-        assert 0.0 <= res[name]["accuracy"] <= 1.0
+        r = res[name]
+        assert 0 < r["shots"] <= cfg.budget
+        assert 0.0 <= r["accuracy"] <= 1.0 and 0.0 <= r["ceiling"] <= 1.0
+        assert r["fraction_of_ceiling"] == pytest.approx(r["accuracy"] / r["ceiling"])
+        # every step samples batch x per-point circuits at cfg.shots each; one more step would
+        # have crossed the budget
+        step_shots = cfg.batch_size * per_point[name] * cfg.shots
+        assert r["shots"] == r["steps"] * step_shots == r["circuits"] * cfg.shots
+        assert r["shots"] + step_shots > cfg.budget
     # per data point on 4 qubits: 4 x 6 shift + 1 forward = 25 circuits for the pure model,
     # 3 forward + 3 commuting = 6 for the density model: ~4x more steps for the same shots
     assert res["density"]["steps"] >= 3 * res["pure"]["steps"]
+    assert res["config"]["budget"] == cfg.budget and res["config"]["seed"] == 7
     assert (tmp_path / "qdensity-demo.png").stat().st_size > 1000
     assert res["plot"] == str((tmp_path / "qdensity-demo.png").resolve())
     assert np.isfinite(res["density"]["curve"][-1][1])
