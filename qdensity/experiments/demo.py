@@ -27,6 +27,7 @@ from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.resources import compare_reports, resource_report
 from qdensity.execution.targets import get_target
+from qdensity.gradients.density import density_gradient_plan
 from qdensity.learning.nn import Linear
 from qdensity.learning.training import QNNClassifier
 from qdensity.models.decompositions import by_moments
@@ -222,9 +223,13 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
             if not curve or shots >= curve[-1][0] + every:
                 curve.append((int(shots), float(est.score(X_te, y_te))))
 
+        # the steps the budget allows (so the progress bar has the right length)
+        step_shots = density_gradient_plan(models[name], X_tr[:cfg.batch_size], method=method,
+                                           shots=cfg.shots).total_shots
         clf = _classifier(cfg, models[name], epochs=1000, batch_size=cfg.batch_size,
                           engine=engine, shots=cfg.shots, gradient=method, verbose=progress,
-                          max_shots=cfg.budget, callback=checkpoint)
+                          max_shots=cfg.budget, max_steps=max(1, cfg.budget // step_shots),
+                          callback=checkpoint)
         t = time.perf_counter()
         clf.fit(X_tr, y_tr)
         acc = float(clf.score(X_te, y_te))
