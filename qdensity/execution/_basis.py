@@ -1,13 +1,14 @@
 """Gate-name sets of the hardware targets in :mod:`qdensity.targets`.
 
 The instructions that are not gates (measure, reset, delay, barrier), the basis of the
-``ideal`` target (every standard gate Aer simulates natively) and the check of a user's
-``basis_gates`` for ``get_target``.
+``ideal`` target (every standard gate Aer simulates natively) and the checks of a user's
+``basis_gates`` and ``optimization_level`` for ``get_target``.
 """
 
 from __future__ import annotations
 
 import functools
+import numbers
 from collections.abc import Sequence
 
 from qiskit.circuit.library import get_standard_gate_name_mapping
@@ -41,3 +42,8 @@ def _check_basis(basis_gates) -> tuple[str, ...] | None:
             )
     return names
 
+
+def _check_level(level) -> int:
+    if isinstance(level, bool) or not isinstance(level, numbers.Integral) or not 0 <= level <= 3:
+        raise ValueError(f"optimization_level must be an int in 0..3, got {level!r}")
+    return int(level)

@@ -6,8 +6,14 @@ A trapped-ion-like all-to-all device whose native two-qubit gate is the beam spl
 holds the pieces :func:`qdensity.targets.get_target` and :class:`qdensity.targets.HardwareTarget`
 assemble for it: the basis :data:`RBS_NATIVE_BASIS` and noise :data:`RBS_NATIVE_NOISE` (both
 re-exported by :mod:`qdensity.targets`), the transpiler ``Target``, the exact rewriting of RBS
-gates as native gates, and the Aer simulator that lowers native gates at run time (see the
-:mod:`qdensity.targets` docstring for why and how).
+gates as native gates, and the Aer simulator that lowers native gates at run time:
+
+Aer has no ``xx_plus_yy`` instruction. The ``rbs_native`` simulator therefore lowers each native
+gate at run time to ``rz(beta) . ryy(theta/2) . rxx(theta/2) . rz(-beta)`` (an exact identity)
+and tags the ``rxx`` with the label ``"xx_plus_yy"``; Aer looks noise up by label, so the native
+gate's error is applied exactly once, right after the interaction. The error (depolarizing, then
+thermal relaxation) commutes with the trailing ``rz``, so this equals the error after the whole
+native gate.
 """
 
 from __future__ import annotations

@@ -28,18 +28,10 @@ map and native gates to transpile against, a noise model, and factories for a se
     A calibrated device snapshot (:mod:`qdensity.execution.snapshots`): the real coupling map,
     native gates, T1/T2, gate and readout errors of an IBM device. Needs the optional extra
     ``ibm``; ``num_qubits`` may be omitted (the device's size) and ``basis_gates`` is refused.
-
-Aer has no ``xx_plus_yy`` instruction. The ``rbs_native`` simulator therefore lowers each native
-gate at run time to ``rz(beta) . ryy(theta/2) . rxx(theta/2) . rz(-beta)`` (an exact identity)
-and tags the ``rxx`` with the label ``"xx_plus_yy"``; Aer looks noise up by label, so the native
-gate's error is applied exactly once, right after the interaction. The error (depolarizing, then
-thermal relaxation) commutes with the trailing ``rz``, so this equals the error after the whole
-native gate.
 """
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -54,7 +46,7 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.execution._basis import _NON_GATES, _check_basis, _ideal_basis
+from qdensity.execution._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
 from qdensity.execution._native import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
@@ -62,6 +54,7 @@ from qdensity.execution._native import (
     _rbs_native_target,
     _rbs_to_native,
 )
+from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
 from qdensity.execution.noise import noise_from_backend, noise_model
 from qdensity.execution.snapshots import (
     is_snapshot_name,
@@ -80,6 +73,7 @@ __all__ = [
     "RBS_NATIVE_NOISE",
     "RBS_NATIVE_BASIS",
     "SIMULATION_METHODS",
+    "FAST_SAMPLER_OPTIONS",
 ]
 
 #: Simulation methods accepted by :meth:`HardwareTarget.simulator`.
@@ -323,9 +317,10 @@ class HardwareTarget:
         self,
         seed: SeedLike = None,
         shots: int | None = None,
-        method: str = "automatic",
+        method: str = "auto",
         device: str = "CPU",
         fast: bool = True,
+        options: dict | None = None,
     ) -> SamplerV2:
         """A qiskit-aer ``SamplerV2`` running on :meth:`simulator` (noise, coupling, seed).
 
@@ -336,10 +331,19 @@ class HardwareTarget:
             None uses the target's seed. The same seed and PUBs give the same counts.
         shots : int or None
             Default shots per PUB; None means 1024.
-        method, device : str
+        method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
+            ``"auto"``: an :class:`~qdensity.execution.aer_sampling.AdaptiveSampler`, choosing
+            per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
+            active qubits from ``2 ** (a - 2)`` shots, the measured crossover; otherwise one
+            trajectory per shot; the table is in :mod:`~qdensity.execution.aer_sampling`).
+            Any other value fixes Aer's method, as :meth:`simulator`.
+        device : str
             As :meth:`simulator`.
         fast : bool
-            Apply ``FAST_SAMPLER_OPTIONS``; counts repeat for a seed, not across ``fast``.
+            With a fixed ``method``: apply ``FAST_SAMPLER_OPTIONS`` (shot branching, all
+            threads; the default before ``"auto"``). Counts repeat for a seed, not across it.
+        options : dict or None
+            Aer options set last, overriding the chosen ones (``{"max_parallel_threads": 1}``).
 
         Returns
         -------
@@ -359,15 +363,20 @@ class HardwareTarget:
         """
         sim_seed = self.seed if seed is None else seed_int(seed)
         default_shots = 1024 if shots is None else check_positive_int(shots, "shots")
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"options must be a dict of Aer options or None, got {options!r}")
+        if method == "auto":
+            def make(m: str) -> AerSimulator:
+                return self.simulator(method=m, device=device, seed=sim_seed)
+
+            return AdaptiveSampler(make, self.is_noisy, seed=sim_seed,
+                                   default_shots=default_shots, options=options)
         sim = self.simulator(method=method, device=device, seed=sim_seed)
         if fast:
             sim.set_options(**FAST_SAMPLER_OPTIONS)
+        if options:
+            sim.set_options(**options)
         return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
-
-
-# sampler(fast=True): shot branching for noise, parameter rows bound inside Aer, all cores.
-FAST_SAMPLER_OPTIONS = {"shot_branching_enable": True, "runtime_parameter_bind_enable": True,
-                        "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 
 def get_target(
@@ -486,13 +495,3 @@ def get_target(
         basis_gates=gates, noise_model=noise_from_backend(backend) if noise else None,
         target=backend.target, seed=seed_value,
     )
-
-
-# ----------------------------------------------------------------------------------------------
-# checks
-
-
-def _check_level(level) -> int:
-    if isinstance(level, bool) or not isinstance(level, numbers.Integral) or not 0 <= level <= 3:
-        raise ValueError(f"optimization_level must be an int in 0..3, got {level!r}")
-    return int(level)

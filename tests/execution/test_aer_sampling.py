@@ -1,0 +1,116 @@
+"""The default Aer sampler of a target: method per PUB, reproducible, statistically unchanged."""
+
+import numpy as np
+import pytest
+from qiskit import QuantumCircuit
+from qiskit.circuit import Parameter
+
+from qdensity.execution.aer_sampling import (
+    DENSITY_MATRIX_MAX_QUBITS,
+    AdaptiveSampler,
+    active_qubits,
+    aer_options,
+)
+from qdensity.execution.targets import get_target
+
+
+def _ghz_ry(n: int) -> QuantumCircuit:
+    theta = Parameter("t")
+    qc = QuantumCircuit(n)
+    qc.ry(theta, 0)
+    for q in range(n - 1):
+        qc.cx(q, q + 1)
+    qc.measure_all()
+    return qc
+
+
+def test_active_qubits_ignore_idle_wires_and_barriers():
+    qc = QuantumCircuit(19, 2)
+    qc.barrier()
+    qc.h(4)
+    qc.cx(4, 11)
+    qc.measure([4, 11], [0, 1])
+    assert active_qubits(qc) == 2
+    with pytest.raises(TypeError, match="circuit"):
+        active_qubits("qc")
+
+
+def test_rule_is_the_documented_crossover():
+    # noisy: density matrix from 2 ** (a - 2) shots up to DENSITY_MATRIX_MAX_QUBITS active
+    for a in range(1, DENSITY_MATRIX_MAX_QUBITS + 3):
+        at = 2 ** max(a - 2, 0)
+        expect = "density_matrix" if a <= DENSITY_MATRIX_MAX_QUBITS else "statevector"
+        assert aer_options(a, at, True)["method"] == expect
+        if at > 1:
+            assert aer_options(a, at - 1, True)["method"] == "statevector"
+    for opts in (aer_options(6, 16, True), aer_options(10, 64, True), aer_options(6, 99, False)):
+        assert opts["shot_branching_enable"] is False
+        assert opts["runtime_parameter_bind_enable"] is True
+    assert aer_options(10, 64, True)["max_parallel_shots"] == 0
+    assert aer_options(20, 10, False)["max_parallel_threads"] == 0
+    with pytest.raises(ValueError, match="shots"):
+        aer_options(3, 0, True)
+
+
+def test_default_sampler_chooses_per_pub_and_accepts_overrides():
+    tgt = get_target("heavy_hex", 5, seed=1)
+    sampler = tgt.sampler(seed=3)
+    assert isinstance(sampler, AdaptiveSampler)
+    tqc = tgt.transpile(_ghz_ry(5))
+    assert tqc.num_qubits == 19 and active_qubits(tqc) == 5
+    assert sampler.choose(tqc, 1000)["method"] == "density_matrix"
+    assert sampler.choose(tqc, 4)["method"] == "statevector"
+    assert tgt.sampler(options={"method": "statevector"}).choose(tqc, 1000)["method"] == \
+        "statevector"
+    clean = get_target("heavy_hex", 5, seed=1, noise=False).sampler()
+    assert clean.choose(tqc, 1000)["method"] == "automatic"
+    with pytest.raises(TypeError, match="options"):
+        tgt.sampler(options=["method"])
+
+
+def _counts(sampler, pubs):
+    return [r.data.meas.get_counts() for r in sampler.run(pubs).result()]
+
+
+def test_same_seed_same_counts_across_mixed_methods():
+    tgt = get_target("line", 4, seed=2)
+    wide, narrow = tgt.transpile(_ghz_ry(4)), tgt.transpile(_ghz_ry(2))
+    vals = np.array([[0.3], [1.9]])
+    # one run call, two methods: 2 active qubits at 8 shots -> density matrix,
+    # 4 active qubits at 3 shots -> trajectories
+    pubs = [(wide, vals, 3), (narrow, vals, 8), (wide, vals, 3)]
+    a = tgt.sampler(seed=11)
+    assert a.choose(narrow, 8)["method"] == "density_matrix"
+    assert a.choose(wide, 3)["method"] == "statevector"
+    first = _counts(a, pubs)
+    assert first == _counts(tgt.sampler(seed=11), pubs)
+    assert first != _counts(tgt.sampler(seed=12), pubs)
+
+
+def _frequencies(sampler, circuit, vals, shots):
+    res = sampler.run([(circuit, vals, shots)]).result()[0].data.meas
+    bits = res.array  # (rows, shots, bytes): 4 measured qubits fit one byte
+    out = np.zeros((len(vals), 16))
+    for r in range(len(vals)):
+        out[r] = np.bincount(bits[r, :, -1].astype(int), minlength=16) / shots
+    return out
+
+
+@pytest.mark.parametrize("forced", ["statevector", "density_matrix"])
+def test_estimates_agree_with_the_other_method_within_standard_errors(forced):
+    # the default picks the density matrix at 2000 shots (4 active qubits); a fixed-method
+    # sampler of the old kind (trajectories with shot branching, or Aer's density matrix)
+    # samples the same noisy distribution: every outcome frequency within 5 standard errors
+    tgt = get_target("heavy_hex", 4, seed=5)
+    circuit = tgt.transpile(_ghz_ry(4))
+    vals = np.array([[0.4], [2.2]])
+    shots = 2000
+    auto = tgt.sampler(seed=7)
+    assert auto.choose(circuit, shots)["method"] == "density_matrix"
+    p = _frequencies(auto, circuit, vals, shots)
+    q = _frequencies(tgt.sampler(seed=8, method=forced), circuit, vals, shots)
+    pooled = (p + q) / 2
+    se = np.sqrt(np.maximum(pooled * (1 - pooled), 1 / shots) * 2 / shots)
+    assert np.all(np.abs(p - q) <= 5 * se)
+    # and noise is there: the GHZ-like state leaks outside {0000, 1111}
+    assert p[:, [i for i in range(16) if i not in (0, 15)]].sum() > 0.02
