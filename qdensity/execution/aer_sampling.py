@@ -21,14 +21,16 @@ qubits                               per shot
 ==========  ======================  ==========================  =================
 
 A noisy statevector trajectory costs far more than a noiseless sweep (every gate samples its
-error), so the density matrix pays from about ``2 ** (a - 2)`` shots on ``a`` active qubits,
-four times sooner than Aer's own ``automatic`` rule (``shots > 2 ** a``). Hence, for a noisy
-target:
+error), so the density matrix pays from about :func:`density_matrix_from` shots on ``a`` active
+qubits (``2 ** (a - 1)`` up to 6, ``2 ** (a - 2)`` from 7: 8, 32, 64 and 256 shots at 4, 6, 8
+and 10), 2 to 4 times sooner than Aer's own ``automatic`` rule (``shots > 2 ** a``). Hence, for
+a noisy target:
 
-* ``density_matrix``, one thread, when ``a <= 12`` and ``shots >= 2 ** (a - 2)``: exact noise,
-  one simulation per row whatever the shots (memory ``16 * 4 ** a`` bytes: 256 MB at 12);
-* otherwise ``statevector`` trajectories, one per shot, shots spread over all threads
-  (``max_parallel_shots``), each shot on one thread.
+* ``density_matrix``, one thread, when ``a <= 12`` and ``shots >= density_matrix_from(a)``:
+  exact noise, one simulation per row whatever the shots (``16 * 4 ** a`` bytes: 256 MB at 12);
+* otherwise ``statevector`` trajectories, one per shot: on one thread below 8 active qubits
+  (threads cost more CPU than they save there: 394 vs 250 ms for 16 rows x 16 shots at 6),
+  from 8 spread over all threads (``max_parallel_shots``), each shot on one thread.
 
 Shot branching (``shot_branching_enable``, the previous default) is off: at 6 active qubits it
 cost 2x the plain trajectories at 16 and at 1000 shots (the errors of these devices are frequent
@@ -48,8 +50,8 @@ from qiskit.circuit import QuantumCircuit
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
-__all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "DENSITY_MATRIX_MAX_QUBITS",
-           "FAST_SAMPLER_OPTIONS"]
+__all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
+           "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS"]
 
 #: Widest circuit (active qubits) the default sampler simulates with the density matrix.
 DENSITY_MATRIX_MAX_QUBITS = 12
@@ -61,6 +63,7 @@ FAST_SAMPLER_OPTIONS = {"shot_branching_enable": True, "runtime_parameter_bind_e
                         "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 _PARALLEL_STATE_QUBITS = 14
+_PARALLEL_SHOT_QUBITS = 8
 _NOT_QUBIT_WORK = frozenset({"barrier"})
 
 
@@ -91,6 +94,28 @@ def active_qubits(circuit: QuantumCircuit) -> int:
         if inst.operation.name not in _NOT_QUBIT_WORK:
             used.update(inst.qubits)
     return len(used)
+
+
+def density_matrix_from(num_active: int) -> int:
+    """Shots per row from which the density matrix is cheaper than trajectories (measured).
+
+    Parameters
+    ----------
+    num_active : int
+        Active qubits ``a``.
+
+    Returns
+    -------
+    int
+        ``2 ** (a - 1)`` for ``a <= 6``, ``2 ** (a - 2)`` above (at least 1).
+
+    Examples
+    --------
+    >>> [density_matrix_from(a) for a in (4, 6, 8, 10)]
+    [8, 32, 64, 256]
+    """
+    a = int(num_active)
+    return 2 ** max(a - 1 if a <= 6 else a - 2, 0)
 
 
 def aer_options(num_active: int, shots: int, noisy: bool) -> dict:
@@ -126,8 +151,10 @@ def aer_options(num_active: int, shots: int, noisy: bool) -> dict:
     if not noisy:
         return {**options, "method": "automatic",
                 "max_parallel_threads": 1 if a < _PARALLEL_STATE_QUBITS else 0}
-    if a <= DENSITY_MATRIX_MAX_QUBITS and s >= 2 ** max(a - 2, 0):
+    if a <= DENSITY_MATRIX_MAX_QUBITS and s >= density_matrix_from(a):
         return {**options, "method": "density_matrix", "max_parallel_threads": 1}
+    if a < _PARALLEL_SHOT_QUBITS:
+        return {**options, "method": "statevector", "max_parallel_threads": 1}
     return {**options, "method": "statevector", "max_parallel_threads": 0,
             "max_parallel_shots": 0}
 

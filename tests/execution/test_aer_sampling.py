@@ -36,9 +36,10 @@ def test_active_qubits_ignore_idle_wires_and_barriers():
 
 
 def test_rule_is_the_documented_crossover():
-    # noisy: density matrix from 2 ** (a - 2) shots up to DENSITY_MATRIX_MAX_QUBITS active
+    # noisy: density matrix from 2 ** (a - 1) shots (a <= 6), 2 ** (a - 2) (a > 6), up to
+    # DENSITY_MATRIX_MAX_QUBITS active qubits
     for a in range(1, DENSITY_MATRIX_MAX_QUBITS + 3):
-        at = 2 ** max(a - 2, 0)
+        at = 2 ** max(a - 1 if a <= 6 else a - 2, 0)
         expect = "density_matrix" if a <= DENSITY_MATRIX_MAX_QUBITS else "statevector"
         assert aer_options(a, at, True)["method"] == expect
         if at > 1:
@@ -47,6 +48,7 @@ def test_rule_is_the_documented_crossover():
         assert opts["shot_branching_enable"] is False
         assert opts["runtime_parameter_bind_enable"] is True
     assert aer_options(10, 64, True)["max_parallel_shots"] == 0
+    assert aer_options(6, 16, True)["max_parallel_threads"] == 1
     assert aer_options(20, 10, False)["max_parallel_threads"] == 0
     with pytest.raises(ValueError, match="shots"):
         aer_options(3, 0, True)
