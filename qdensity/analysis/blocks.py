@@ -126,6 +126,32 @@ def _stacked(gens: Sequence[SparsePauliOp]) -> tuple[np.ndarray, np.ndarray, np.
     return x, z, starts
 
 
+def _span_basis(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A basis of the GF(2) span of the rows ``(x | z)``, by elimination on packed bits.
+
+    At most ``2 n`` rows however many terms: the symplectic form is bilinear, so every pair of
+    terms commutes iff every pair of basis vectors does.
+    """
+    n = x.shape[1]
+    rows = np.packbits(np.concatenate([x, z], axis=1), axis=1)
+    live = np.arange(rows.shape[0])
+    basis = []
+    for c in range(2 * n):
+        if not live.size:
+            break
+        has = np.flatnonzero(rows[live, c >> 3] & (0x80 >> (c & 7)))
+        if not has.size:
+            continue
+        pivot = live[has[0]]
+        rows[live[has[1:]]] ^= rows[pivot]
+        basis.append(rows[pivot])
+        live = np.delete(live, has[0])
+    if not basis:
+        return np.zeros((0, n), bool), np.zeros((0, n), bool)
+    bits = np.unpackbits(np.array(basis), axis=1, count=2 * n).astype(bool)
+    return bits[:, :n], bits[:, n:]
+
+
 def _first_noncommuting(gens: Sequence[SparsePauliOp]) -> tuple[int, int] | None:
     """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
 
@@ -136,6 +162,8 @@ def _first_noncommuting(gens: Sequence[SparsePauliOp]) -> tuple[int, int] | None
     if len(gens) < 2:
         return None
     x, z, starts = _stacked(gens)
+    if not anticommutation(*_span_basis(x, z)).any():  # every term commutes with every term
+        return None
     anti = anticommutation(x, z).astype(np.int64)
     flags = np.add.reduceat(np.add.reduceat(anti, starts, axis=0), starts, axis=1) > 0
     for a, b in np.argwhere(np.triu(flags, k=1)):
@@ -156,6 +184,12 @@ def _trainable_of(
     key = None
     if op.name in _CACHED_GENERATORS:
         key = (op.name, circuit.num_qubits, tuple(_qubits(inst, circuit)))
+    elif (op.name == "PauliEvolution" and isinstance(getattr(op, "operator", None), SparsePauliOp)
+          and op.operator.coeffs.dtype != object):
+        o = op.operator  # keyed by its content: equal operators on equal qubits, one generator
+        key = (op.name, circuit.num_qubits, tuple(_qubits(inst, circuit)), o.paulis.x.tobytes(),
+               o.paulis.z.tobytes(), o.paulis.phase.tobytes(), o.coeffs.tobytes(), o.size)
+    if key is not None:
         gen = _GENERATOR_CACHE.get(key)
         if gen is not None:
             return _Trainable(index, op.name, label, param, coeff, gen)
@@ -227,28 +261,43 @@ def _analyse_block(
 
 
 class _Stack:
-    """The terms of several generators as one ``PauliList``, evolved by a Clifford at once."""
+    """The terms of several generators as one ``PauliList``, evolved by a Clifford at once.
+
+    Appended generators wait in a list and are joined into the ``PauliList`` only when it is
+    needed (one concatenation, not one per gate)."""
 
     def __init__(self):
-        self.paulis: PauliList | None = None
+        self._paulis: PauliList | None = None
+        self._pending: list[PauliList] = []
         self.coeffs: list[np.ndarray] = []
         self.sizes: list[int] = []
 
+    @property
+    def paulis(self) -> PauliList | None:
+        if self._pending:
+            parts = ([self._paulis] if self._paulis is not None else []) + self._pending
+            self._paulis = PauliList.from_symplectic(
+                np.concatenate([p.z for p in parts]), np.concatenate([p.x for p in parts]),
+                np.concatenate([p.phase for p in parts]))
+            self._pending = []
+        return self._paulis
+
     def append(self, gen: SparsePauliOp) -> None:
-        self.paulis = gen.paulis.copy() if self.paulis is None else self.paulis + gen.paulis
+        self._pending.append(gen.paulis)
         self.coeffs.append(gen.coeffs)
         self.sizes.append(gen.size)
 
     def evolve(self, cliff: Clifford, qubits: list[int]) -> None:
         if self.paulis is not None:
-            self.paulis = self.paulis.evolve(cliff, qargs=qubits, frame="s")
+            self._paulis = self.paulis.evolve(cliff, qargs=qubits, frame="s")
 
     def commutes_with(self, gen: SparsePauliOp) -> bool:
         """Whether ``gen`` commutes with every generator: one GF(2) product against all terms,
         an exact commutator only with generators that have an anticommuting term."""
-        if self.paulis is None:
+        paulis = self.paulis
+        if paulis is None:
             return True
-        anti = anticommutation(gen.paulis.x, gen.paulis.z, self.paulis.x, self.paulis.z)
+        anti = anticommutation(gen.paulis.x, gen.paulis.z, paulis.x, paulis.z)
         hit = np.flatnonzero(anti.any(axis=0))
         if not hit.size:
             return True
@@ -256,17 +305,18 @@ class _Stack:
         coeffs = np.concatenate(self.coeffs)
         for owner in np.unique(np.searchsorted(ends, hit, side="right")):
             e, k = ends[owner], self.sizes[owner]
-            other = SparsePauliOp(self.paulis[e - k:e], coeffs[e - k:e])
+            other = SparsePauliOp(paulis[e - k:e], coeffs[e - k:e])
             if not _is_zero(_commutator(gen, other)):
                 return False
         return True
 
     def generators(self) -> list[SparsePauliOp]:
-        if self.paulis is None:
+        paulis = self.paulis
+        if paulis is None:
             return []
         coeffs = np.concatenate(self.coeffs)
         ends = np.cumsum(self.sizes)
-        return [SparsePauliOp(self.paulis[e - k:e], coeffs[e - k:e])
+        return [SparsePauliOp(paulis[e - k:e], coeffs[e - k:e])
                 for e, k in zip(ends, self.sizes, strict=True)]
 
 

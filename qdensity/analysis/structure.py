@@ -225,10 +225,22 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
         op = inst.operation.operator
         if isinstance(op, list):
             raise ValueError("PauliEvolutionGate with a list of operators is not supported")
-        return SparsePauliOp(op).apply_layout(q, n)
+        return _placed(op if isinstance(op, SparsePauliOp) else SparsePauliOp(op), q, n)
     raise ValueError(
         f"no Pauli generator known for gate {name!r}; supported: {', '.join(GENERATOR_GATES)}"
     )
+
+
+def _placed(op: SparsePauliOp, qubits: list[int], n: int) -> SparsePauliOp:
+    """``op.apply_layout(qubits, n)`` from the symplectic bits directly (no compose)."""
+    if op.num_qubits != len(qubits):
+        return op.apply_layout(qubits, n)  # raises Qiskit's own error
+    pl = op.paulis
+    x = np.zeros((op.size, n), dtype=bool)
+    z = np.zeros((op.size, n), dtype=bool)
+    x[:, qubits] = pl.x
+    z[:, qubits] = pl.z
+    return SparsePauliOp(PauliList.from_symplectic(z, x, pl.phase), op.coeffs.copy())
 
 
 def is_hamming_weight_preserving(circuit: QuantumCircuit) -> bool:

@@ -168,9 +168,16 @@ def equivariant_commuting(
     classes = translation_classes(n, max_weight)
     theta = ParameterVector(parameter_prefix, len(classes))
     qc = QuantumCircuit(n, name=name or f"equivariant_{p.lower() * 2}_{n}")
+    ops: dict[int, SparsePauliOp] = {}
     for c, cls in enumerate(classes):
+        # one gate per class, copied per string: equal gates at a fraction of the cost of
+        # building a SparsePauliOp and a PauliEvolutionGate for each of the C(n, k) strings
+        k = len(cls[0])
+        if k not in ops:
+            ops[k] = SparsePauliOp(p * k)
+        gate = PauliEvolutionGate(ops[k], time=theta[c])
         for support in cls:
-            _append_string(qc, p, support, theta[c])
+            qc.append(gate.copy(), support, copy=False)
     return qc
 
 
