@@ -194,7 +194,9 @@ def _trainable_of(
         if gen is not None:
             return _Trainable(index, op.name, label, param, coeff, gen)
     try:
-        gen = instruction_generator(inst, circuit).simplify(atol=_ATOL)
+        gen = instruction_generator(inst, circuit)
+        if gen.size > 1 or not abs(gen.coeffs[0]) > _ATOL:  # one non-zero term: already simple
+            gen = gen.simplify(atol=_ATOL)
     except ValueError as exc:
         raise ValueError(f"trainable gate {label}: {exc}") from exc
     if key is not None and len(_GENERATOR_CACHE) < 100_000:
@@ -247,8 +249,9 @@ def _analyse_block(
                 "with fixed Clifford gates (use commuting_block_gradient for several blocks)"
             )
         stack.evolve(cliff, _qubits(inst, circuit))
-    for t, gen in zip(live, stack.generators(), strict=True):
-        t.generator = gen
+    if stack.evolved:  # else the generators are the ones read off the gates
+        for t, gen in zip(live, stack.generators(), strict=True):
+            t.generator = gen
     pair = _first_noncommuting([t.generator for t in live])
     if pair is not None:
         a, b = pair
@@ -271,6 +274,7 @@ class _Stack:
         self._pending: list[PauliList] = []
         self.coeffs: list[np.ndarray] = []
         self.sizes: list[int] = []
+        self.evolved = False  # whether a Clifford has acted on the terms
 
     @property
     def paulis(self) -> PauliList | None:
@@ -290,6 +294,7 @@ class _Stack:
     def evolve(self, cliff: Clifford, qubits: list[int]) -> None:
         if self.paulis is not None:
             self._paulis = self.paulis.evolve(cliff, qargs=qubits, frame="s")
+            self.evolved = True
 
     def commutes_with(self, gen: SparsePauliOp) -> bool:
         """Whether ``gen`` commutes with every generator: one GF(2) product against all terms,

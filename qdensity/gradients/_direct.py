@@ -179,6 +179,22 @@ def _group_terms(per_term, params):
     return groups
 
 
+def _evolve_all(ops: dict, cliff: Clifford, n: int) -> dict:
+    """``{p: (C op C^dagger).simplify()}``, the terms of every ``op`` evolved in one call."""
+    items = list(ops.items())
+    if len(items) < 2:
+        return {p: _evolve(op, cliff, list(range(n))).simplify(atol=_ATOL) for p, op in items}
+    sizes = [op.size for _, op in items]
+    paulis = PauliList.from_symplectic(
+        np.concatenate([op.paulis.z for _, op in items]),
+        np.concatenate([op.paulis.x for _, op in items]),
+        np.concatenate([op.paulis.phase for _, op in items]),
+    ).evolve(cliff, qargs=list(range(n)), frame="s")
+    ends = np.cumsum(sizes)
+    return {p: SparsePauliOp(paulis[e - k:e], op.coeffs).simplify(atol=_ATOL)
+            for (p, op), e, k in zip(items, ends, sizes, strict=True)}
+
+
 def _direct_gradient(
     circuit: QuantumCircuit,
     trainables: Sequence[_Trainable],
@@ -219,9 +235,7 @@ def _direct_gradient(
             diagonalising_clifford(strings)[0] if strings else QuantumCircuit(n, name="diagonalise")
         )
         cliff = Clifford(diag_circ)
-        diag = {
-            p: _evolve(op, cliff, list(range(n))).simplify(atol=_ATOL) for p, op in g["ops"].items()
-        }
+        diag = _evolve_all(g["ops"], cliff, n)
         circuits.append(_measured(circuit, diag_circ))
         values.append(_diagonal_matrix([diag[p] for p in params], n))
         diag_circs.append(diag_circ)

@@ -46,8 +46,12 @@ PAULIS = ("X", "Y", "Z")
 
 
 def _canonical(support: tuple[int, ...], n: int) -> tuple[int, ...]:
-    """Smallest sorted tuple among the cyclic shifts of ``support``."""
-    return min(tuple(sorted((q + s) % n for q in support)) for s in range(n))
+    """Smallest sorted tuple among the cyclic shifts of ``support``.
+
+    The smallest shift starts at 0, so only the ``len(support)`` shifts that move one of its
+    members to 0 are candidates.
+    """
+    return min(tuple(sorted((q - s) % n for q in support)) for s in support)
 
 
 def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int, ...]]]:
