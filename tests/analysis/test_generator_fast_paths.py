@@ -1,0 +1,72 @@
+"""Fast paths of the commuting analysis against Qiskit's own operations and brute force."""
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.circuit.library import PauliEvolutionGate
+from qiskit.quantum_info import Clifford, Operator, PauliList, SparsePauliOp, random_clifford
+
+from qdensity.analysis.blocks import _evolve, _first_noncommuting, _span_basis
+from qdensity.analysis.pauli import anticommutation
+from qdensity.analysis.structure import _placed, instruction_generator
+from qdensity.circuits.ansatze import equivariant_commuting, translation_classes
+from qdensity.gradients._direct import _evolve_all
+
+
+def test_placed_matches_apply_layout():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        k, n = rng.integers(1, 4), 6
+        labels = ["".join(rng.choice(list("IXYZ"), size=k)) for _ in range(rng.integers(1, 4))]
+        op = SparsePauliOp(labels, rng.normal(size=len(labels)) + 1j * rng.normal(size=len(labels)))
+        qubits = [int(q) for q in rng.permutation(n)[:k]]
+        assert _placed(op, qubits, n) == op.apply_layout(qubits, n)
+
+
+def test_instruction_generator_pauli_evolution_exponentiates_to_gate():
+    qc = QuantumCircuit(4)
+    qc.append(PauliEvolutionGate(SparsePauliOp(["XY", "ZZ"], [0.3, -0.2]), time=0.7), [3, 1])
+    gen = instruction_generator(qc.data[0], qc).to_matrix()
+    w, v = np.linalg.eigh(gen)
+    assert np.allclose(v @ np.diag(np.exp(-0.7j * w)) @ v.conj().T, Operator(qc).data)
+
+
+def test_span_basis_commutation_matches_pairwise():
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        n, m = 5, int(rng.integers(2, 12))
+        if trial % 2:  # a commuting family: products of Z strings conjugated by a Clifford
+            pl = PauliList.from_symplectic(rng.random((m, n)) < 0.5, np.zeros((m, n), bool))
+            pl = pl.evolve(random_clifford(n, seed=trial), frame="s")
+        else:
+            pl = PauliList.from_symplectic(rng.random((m, n)) < 0.4, rng.random((m, n)) < 0.4)
+        pairwise = not anticommutation(pl.x, pl.z).any()
+        assert (not anticommutation(*_span_basis(pl.x, pl.z)).any()) == pairwise
+        gens = [SparsePauliOp(pl[i]) for i in range(m)]
+        brute = next(((a, b) for a in range(m) for b in range(a + 1, m)
+                      if not pl[a].commutes(pl[b])), None)
+        assert _first_noncommuting(gens) == brute
+
+
+def test_evolve_all_matches_one_by_one():
+    cliff = Clifford(random_clifford(3, seed=1))
+    ops = {"a": SparsePauliOp(["XY", "ZI"], [0.5, 1j]), "b": SparsePauliOp(["YZ"], [2.0])}
+    ops = {p: op.apply_layout([0, 2], 3) for p, op in ops.items()}
+    got = _evolve_all(ops, cliff, 3)
+    for p, op in ops.items():
+        assert got[p] == _evolve(op, cliff, [0, 1, 2]).simplify()
+
+
+def test_equivariant_circuit_is_one_evolution_per_string():
+    n = 6
+    qc = equivariant_commuting(n, "Y", max_weight=3)
+    supports = [s for cls in translation_classes(n, 3) for s in cls]
+    assert len(qc.data) == len(supports)
+    theta = qc.parameters
+    for inst, s in zip(qc.data, supports, strict=True):
+        assert [qc.find_bit(q).index for q in inst.qubits] == list(s)
+        assert inst.operation.operator == SparsePauliOp("Y" * len(s))
+    # classes: brute force over all n shifts
+    for cls in translation_classes(n, 3):
+        orbit = {tuple(sorted((q + t) % n for q in cls[0])) for t in range(n)}
+        assert set(cls) == orbit
+    assert qc.num_parameters == len(theta) == len(translation_classes(n, 3))
