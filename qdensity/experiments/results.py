@@ -12,6 +12,7 @@ import datetime as _dt
 import json
 import math
 import platform
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
@@ -144,13 +145,19 @@ def bootstrap_ci(
 
 
 def package_versions() -> dict[str, str | None]:
-    """Versions of Python and of the packages a result depends on (``None`` if absent)."""
+    """Versions of Python and of the packages a result depends on (``None`` if absent).
+
+    qdensity itself is read from ``qdensity.__version__`` when it runs from a source tree that
+    is not installed (on ``PYTHONPATH``).
+    """
     out: dict[str, str | None] = {"python": platform.python_version()}
     for name in _PACKAGES:
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = None
+    if out["qdensity"] is None:  # the parent package is always loaded before this module
+        out["qdensity"] = getattr(sys.modules.get("qdensity"), "__version__", None)
     return out
 
 

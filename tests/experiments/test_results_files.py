@@ -1,0 +1,36 @@
+"""The full runs EXPERIMENTS.md quotes (results/*.json): readable, one per experiment, and their
+summaries recomputed from the per-seed metrics (Student-t 95% intervals), figures present."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from qdensity.experiments.registry import EXPERIMENTS
+from qdensity.experiments.results import ExperimentResult
+
+RESULTS = Path(__file__).resolve().parents[2] / "results"
+FILES = sorted(RESULTS.glob("*-full.json"))
+
+
+def test_one_full_run_per_experiment():
+    assert sorted(p.name for p in FILES) == sorted(f"{name}-full.json" for name in EXPERIMENTS)
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_summary_recomputed_from_seeds(path):
+    result = ExperimentResult.load(path)
+    assert result.mode == "full" and len(result.seeds) == len(result.per_seed) >= 4
+    assert len(set(result.seeds)) == len(result.seeds)
+    assert result.versions["qiskit"] and result.versions["qdensity"]
+    for key, ci in result.summary.items():
+        values = np.array([row[key] for row in result.per_seed], dtype=float)
+        assert ci["mean"] == pytest.approx(values.mean(), rel=1e-9, abs=1e-12), key
+        if np.ptp(values) > 0:
+            low, high = stats.t.interval(0.95, df=values.size - 1, loc=values.mean(),
+                                         scale=stats.sem(values))
+            assert ci["low"] == pytest.approx(low, rel=1e-6, abs=1e-9), key
+            assert ci["high"] == pytest.approx(high, rel=1e-6, abs=1e-9), key
+    for name in result.figures:
+        assert (RESULTS / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
