@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from qiskit import QuantumCircuit
 from qiskit.circuit import Parameter
+from scipy import stats
 
 from qdensity.execution.aer_sampling import (
     DENSITY_MATRIX_MAX_QUBITS,
@@ -111,8 +112,11 @@ def test_estimates_agree_with_the_other_method_within_standard_errors(forced):
     assert auto.choose(circuit, shots)["method"] == "density_matrix"
     p = _frequencies(auto, circuit, vals, shots)
     q = _frequencies(tgt.sampler(seed=8, method=forced), circuit, vals, shots)
-    pooled = (p + q) / 2
-    se = np.sqrt(np.maximum(pooled * (1 - pooled), 1 / shots) * 2 / shots)
-    assert np.all(np.abs(p - q) <= 5 * se)
+    # homogeneity of the two samples' counts, row by row (chi-square on the 2 x outcomes
+    # table; a per-outcome normal bound fails for outcomes seen a handful of times)
+    for row_p, row_q in zip(p, q, strict=True):
+        table = np.rint(np.array([row_p, row_q]) * shots)
+        table = table[:, table.sum(axis=0) > 0]
+        assert stats.chi2_contingency(table).pvalue > 1e-5
     # and noise is there: the GHZ-like state leaks outside {0000, 1111}
     assert p[:, [i for i in range(16) if i not in (0, 15)]].sum() > 0.02
