@@ -340,8 +340,9 @@ class HardwareTarget:
         device : str
             As :meth:`simulator`.
         fast : bool
-            With a fixed ``method``: apply ``FAST_SAMPLER_OPTIONS`` (shot branching, all
-            threads; the default before ``"auto"``). Counts repeat for a seed, not across it.
+            With a fixed ``method``: apply ``FAST_SAMPLER_OPTIONS`` (parameter rows bound
+            inside Aer, all threads; never shot branching, which samples wrong distributions
+            with noise in qiskit-aer 0.18.2). Counts repeat for a seed, not across it.
         options : dict or None
             Aer options set last, overriding the chosen ones (``{"max_parallel_threads": 1}``).
 
