@@ -37,7 +37,9 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
-from qdensity.execution._unary_layers import Layer, backward, check_gate_list, rotate, schedule
+from qdensity.execution._unary_layers import Layer, check_gate_list, schedule
+from qdensity.execution._unary_plan import Plan, make_plan, reverse
+from qdensity.execution._unary_plan import rotate_columns as _rotate
 from qdensity.validation import check_circuit, check_parameter_values
 
 __all__ = [
@@ -98,6 +100,10 @@ class UnaryCircuit:
         of work of the vectorised kernels; ``len(layers)`` is the circuit's RBS depth."""
         return schedule(self.num_qubits, self.first, self.second, self.parameter_index,
                         self.coefficient)
+
+    @cached_property
+    def _plan(self) -> Plan:  # the layers as sparse matrices (kernels for shared angles)
+        return make_plan(self.num_qubits, self.layers, self.num_gates)
 
     @classmethod
     def from_gates(
@@ -288,11 +294,6 @@ def _batch(compiled: UnaryCircuit, X, values, xname: str = "X"):
     return np.array(x2.T, dtype=float, order="C"), compiled.angles(v), single
 
 
-def _rotate(Z: np.ndarray, compiled: UnaryCircuit, angles: np.ndarray) -> None:
-    """Apply every gate in order to the columns of ``Z`` (n, B), in place (layer by layer)."""
-    rotate(Z, compiled.layers, angles)
-
-
 def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np.ndarray:
     """The orthogonal matrix ``O`` of a circuit on unary states: ``y = O @ x``.
 
@@ -329,9 +330,7 @@ def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np
     if v.ndim != 1:
         raise ValueError(f"values must have shape ({compiled.num_parameters},) for "
                          f"orthogonal_matrix, got {v.shape}")
-    Z = np.eye(compiled.num_qubits)
-    _rotate(Z, compiled, compiled.angles(v))
-    return Z
+    return _rotate(np.eye(compiled.num_qubits), compiled, compiled.angles(v))
 
 
 def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarray:
@@ -369,11 +368,9 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     compiled = compile_unary(circuit)
     Z, angles, single = _batch(compiled, X, values)
     if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
-        O = np.eye(compiled.num_qubits)
-        _rotate(O, compiled, angles)
-        Z = O @ Z
+        Z = _rotate(np.eye(compiled.num_qubits), compiled, angles) @ Z
     else:
-        _rotate(Z, compiled, angles)
+        Z = _rotate(Z, compiled, angles)
     return Z[:, 0].copy() if single else np.ascontiguousarray(Z.T)
 
 
@@ -450,14 +447,11 @@ def vjp(
                              f"{np.shape(outputs)}")
         Y = np.array(np.atleast_2d(outputs).T, dtype=float, order="C")
     elif angles.ndim == 1 and B > n:
-        O = np.eye(n)
-        _rotate(O, compiled, angles)
-        Y = O @ Z
+        Y = _rotate(np.eye(n), compiled, angles) @ Z
     else:
-        Y = Z
-        _rotate(Y, compiled, angles)
+        Y = _rotate(Z, compiled, angles)
     per_example = reduce == "none" and not single
-    grad_p = backward(Y, G, compiled.layers, angles, compiled.num_parameters, per_example)
+    grad_p = reverse(Y, G, compiled, angles, per_example)
     grad_X = G.T
     if single:
         return grad_p, grad_X[0].copy()
