@@ -57,18 +57,19 @@ class Plan:
     n: int
     n_pad: int
     steps: list[Step]  # reverse pass, one per layer
-    fwd: list[tuple]  # forward pass: (rows, nnz per row, offset, scatter or None)
+    fwd: list[tuple]  # forward pass: (rows, indptr, indices, start, stop, scatter or None)
     indptr: dict  # nnz per row -> arange(0, k n_pad + 1, k)
     fwd_cols: np.ndarray
     fwd_src: np.ndarray  # (2, nnz) factors of each value in [cos (G), sin (G), -sin (G), 1, 0]
     bwd_cols: np.ndarray
     bwd_src: np.ndarray
     final: np.ndarray  # (n_pad,) qubit at each position after the last layer
-    final_pos: np.ndarray  # (n,) position of each qubit after the last layer
+    final_pos: np.ndarray | None  # (n,) row of each qubit after the forward pass (None: q)
     dot_pidx: np.ndarray  # parameter index of each trainable gate's dot, in dot order
     dot_keep: np.ndarray  # which dots are those
     dot_coef: np.ndarray  # their coefficients
     num_dots: int  # gates
+    num_dense: int  # dense layers
 
 
 def _slots(n_pad, layer, dense, one, zero):
@@ -178,10 +179,19 @@ def make_plan(n: int, layers, num_gates: int) -> Plan:
         return np.ascontiguousarray(np.concatenate(parts, axis=-1) if parts
                                     else np.zeros(shape), dtype)
 
-    return Plan(n, n_pad, steps, fwd, {k: np.arange(0, k * n_pad + 1, k, dtype=itype)
-                                       for k in (2, 4)},
-                cat(fc, itype), cat(fs, np.intp, (2, 0)), cat(bc, itype), cat(bs, np.intp),
-                order, pos[:n].copy(), pidx[keep], keep, coef[keep], dots)
+    final_pos = pos[:n].copy()
+    if fwd and fwd[-1][3] is None:  # the last product writes its rows in qubit order
+        rows, k = fwd[-1][:2]
+        fc[-1] = fc[-1].reshape(rows, k)[pos].ravel()
+        fs[-1] = fs[-1].reshape(2, rows, k)[:, pos].reshape(2, -1)
+        final_pos = None
+    ptrs = {k: np.arange(0, k * n_pad + 1, k, dtype=itype) for k in (2, 4)}
+    fwd_cols = cat(fc, itype)
+    fwd = [(rows, ptrs[k][:rows + 1], fwd_cols[o:o + k * rows], o, o + k * rows, scatter)
+           for rows, k, o, scatter in fwd]
+    return Plan(n, n_pad, steps, fwd, ptrs, fwd_cols, cat(fs, np.intp, (2, 0)), cat(bc, itype),
+                cat(bs, np.intp), order, final_pos, pidx[keep], keep, coef[keep], dots,
+                sum(st.dense for st in steps))
 
 
 def _table(angles: np.ndarray) -> np.ndarray:
@@ -209,20 +219,37 @@ def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
     tab = _table(angles)
     data = np.take(tab, plan.fwd_src[0])
     data *= np.take(tab, plan.fwd_src[1])
-    cur = np.zeros((n_pad, Z.shape[1]))
+    B = Z.shape[1]
+    cur = np.zeros((n_pad, B))
     cur[:n] = Z
     nxt = np.empty_like(cur)
-    cols, ptrs = plan.fwd_cols, plan.indptr
-    for rows, k, o, scatter in plan.fwd:
-        e = o + k * rows
-        if scatter is None:
-            _product(ptrs[k], n_pad, n_pad, cols[o:e], data[o:e], cur, nxt)
-            cur, nxt = nxt, cur
+    if _csr_matvecs is None:  # pragma: no cover - exercised by a test that hides it
+        for rows, ptr, ind, o, e, scatter in plan.fwd:
+            out = nxt[:rows]
+            _product(ptr, rows, n_pad, ind, data[o:e], cur, out)
+            if scatter is None:
+                cur, nxt = nxt, cur
+            else:
+                cur[scatter] = out
+        return _natural(cur, plan)
+    cf, nf = cur.reshape(-1), nxt.reshape(-1)
+    for rows, ptr, ind, o, e, scatter in plan.fwd:
+        if scatter is None:  # the hot loop: one compiled call per two layers
+            nf.fill(0.0)
+            _csr_matvecs(n_pad, n_pad, B, ptr, ind, data[o:e], cf, nf)
+            cur, nxt, cf, nf = nxt, cur, nf, cf
         else:
             out = nxt[:rows]
-            _product(ptrs[2][:rows + 1], rows, n_pad, cols[o:e], data[o:e], cur, out)
+            out.fill(0.0)
+            _csr_matvecs(rows, n_pad, B, ptr, ind, data[o:e], cf, out.reshape(-1))
             cur[scatter] = out
-    return cur[plan.final_pos]
+    return _natural(cur, plan)
+
+
+def _natural(cur: np.ndarray, plan: Plan) -> np.ndarray:
+    if plan.final_pos is not None:
+        return cur[plan.final_pos]
+    return cur if plan.n == plan.n_pad else cur[:plan.n].copy()
 
 
 def plan_backward(Y: np.ndarray, G: np.ndarray, plan: Plan, angles: np.ndarray,
@@ -241,7 +268,7 @@ def plan_backward(Y: np.ndarray, G: np.ndarray, plan: Plan, angles: np.ndarray,
     W = np.zeros((n_pad, 2 * B))
     W[:n, :B] = Y
     W[:n, B:] = G
-    chunk = max(2, _CHUNK_BYTES // W.nbytes)
+    chunk = max(2, min(_CHUNK_BYTES // W.nbytes, plan.num_dense + 1))
     buf = np.empty((chunk, n_pad, 2 * B))
     np.take(W, plan.final, axis=0, out=buf[0])
     tmp = np.empty_like(W)
