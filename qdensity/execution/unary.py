@@ -161,17 +161,23 @@ class UnaryCircuit:
         numpy.ndarray, shape (G,) or (G, B)
         """
         values = np.asarray(values, dtype=float)
-        idx = np.where(self.parameter_index >= 0, self.parameter_index, 0)
+        idx, scale = self._angle_map
         if values.shape[-1] == 0:
             picked = np.zeros((self.num_gates,) + values.shape[:-1])
         elif values.ndim == 1:
             picked = values[idx]
         else:
             picked = values[:, idx].T
-        free = (self.parameter_index >= 0).astype(float)
         if picked.ndim == 2:
-            return (self.coefficient * free)[:, None] * picked + self.offset[:, None]
-        return self.coefficient * free * picked + self.offset
+            return scale[:, None] * picked + self.offset[:, None]
+        picked *= scale  # a fresh array (fancy index or zeros)
+        picked += self.offset
+        return picked
+
+    @cached_property
+    def _angle_map(self) -> tuple[np.ndarray, np.ndarray]:  # parameter of each gate, scale
+        free = self.parameter_index >= 0
+        return np.where(free, self.parameter_index, 0), self.coefficient * free
 
 
 def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
