@@ -20,7 +20,7 @@ import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _evolve, _is_zero, _Trainable
+from qdensity.analysis.blocks import _ATOL, _evolve, _is_zero, _terms_of, _Trainable
 from qdensity.analysis.pauli import (
     anticommutation,
     diagonalising_clifford,
@@ -102,12 +102,8 @@ def _gradient_terms(
                                            for label, _ in terms]
     hl = PauliList([label for label, _ in terms])
     hc = np.array([h for _, h in terms])
-    gens = [t.generator for t in trainables]
-    gx = np.concatenate([g.paulis.x for g in gens])
-    gz = np.concatenate([g.paulis.z for g in gens])
-    gph = np.concatenate([g.paulis.phase for g in gens])
-    gc = np.concatenate([g.coeffs for g in gens])
-    owner = np.repeat(np.arange(len(gens)), [g.size for g in gens])
+    stack = _terms_of(trainables)  # every generator's terms, read once per block
+    gx, gz, gph, gc, owner = stack.x, stack.z, stack.phase, stack.coeffs, stack.owner
     ia, it = np.nonzero(anticommutation(gx, gz, hl.x, hl.z))
     prod = PauliList.from_symplectic(gz[ia], gx[ia], gph[ia]).dot(hl[it])
     pcol = {p: k for k, p in enumerate(params)}
