@@ -13,7 +13,7 @@ both so that each can use it without importing the other.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -84,10 +84,11 @@ class CommutingGradient(_GradientCircuits):
 
 def _gradient_terms(
     trainables: Sequence[_Trainable], observable: SparsePauliOp, params: Sequence[Parameter]
-) -> tuple[dict[Parameter, SparsePauliOp], list[tuple[str, dict[Parameter, SparsePauliOp],
-                                                       list[tuple[str, _Trainable]]]]]:
-    """Total ``O_p`` and, per non-constant Pauli term ``P_t`` of ``H``, its share ``O_{p,t}``
-    with the (term, gate) origin of each Pauli string.
+) -> tuple[dict[Parameter, SparsePauliOp], list[str], Callable[[], list[
+        tuple[str, dict[Parameter, SparsePauliOp], list[tuple[str, _Trainable]]]]]]:
+    """Total ``O_p``, the labels of the non-constant Pauli terms ``P_t`` of ``H`` and a function
+    giving, per term, its share ``O_{p,t}`` with the (term, gate) origin of each Pauli string
+    (built on call: only the Clifford diagonaliser needs them).
 
     ``i [G, h P_t] = 2 i h sum_{a: {P_a, P_t} = 0} c_a P_a P_t`` for ``G = sum_a c_a P_a``: the
     anticommuting (generator term, observable term) pairs come from one GF(2) product, their
@@ -98,8 +99,8 @@ def _gradient_terms(
     terms = [(label, h.real) for label, h in observable.to_list()
              if set(label) != {"I"} and abs(h) > _ATOL]
     if not terms or not trainables:
-        return {p: zero for p in params}, [(label, {p: zero for p in params}, [])
-                                           for label, _ in terms]
+        return {p: zero for p in params}, [label for label, _ in terms], lambda: [
+            (label, {p: zero for p in params}, []) for label, _ in terms]
     hl = PauliList([label for label, _ in terms])
     hc = np.array([h for _, h in terms])
     stack = _terms_of(trainables)  # every generator's terms, read once per block
@@ -122,28 +123,31 @@ def _gradient_terms(
     keep = np.abs(csum) > _ATOL
     uniq, first, csum = uniq[keep], first[keep], csum[keep]
     ux, uz = prod.x[first], prod.z[first]
-    labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
     u_term, u_par = uniq[:, 0], uniq[:, 1]
 
     def op(sel) -> SparsePauliOp:
         return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])
 
-    per_term = []
-    bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq is sorted by term
-    for t_idx, (label, _) in enumerate(terms):
-        lo, hi = bounds[t_idx], bounds[t_idx + 1]
-        shares = {p: zero for p in params}
-        pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
-        for k in np.flatnonzero(np.diff(pb)):
-            shares[params[k]] = op(slice(pb[k], pb[k + 1]))
-        origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
-        per_term.append((label, shares, origin))
+    def per_term() -> list:  # only the Clifford diagonaliser needs the per-term shares
+        labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
+        out = []
+        bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq sorted by term
+        for t_idx, (label, _) in enumerate(terms):
+            lo, hi = bounds[t_idx], bounds[t_idx + 1]
+            shares = {p: zero for p in params}
+            pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
+            for k in np.flatnonzero(np.diff(pb)):
+                shares[params[k]] = op(slice(pb[k], pb[k + 1]))
+            origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
+            out.append((label, shares, origin))
+        return out
+
     total = {p: zero for p in params}
     order = np.argsort(u_par, kind="stable")
     pb = np.searchsorted(u_par[order], np.arange(len(params) + 1))
     for k in np.flatnonzero(np.diff(pb)):
         total[params[k]] = op(order[pb[k]:pb[k + 1]]).simplify(atol=_ATOL)
-    return total, per_term
+    return total, [label for label, _ in terms], per_term
 
 
 def _group_terms(per_term, params):
@@ -199,8 +203,7 @@ def _direct_gradient(
     diagonaliser: str,
 ) -> CommutingGradient:
     n = circuit.num_qubits
-    total, per_term = _gradient_terms(trainables, observable, params)
-    all_labels = [label for label, _, _ in per_term]
+    total, all_labels, per_term = _gradient_terms(trainables, observable, params)
     if diagonaliser in ("auto", "rbs"):
         found = _rbs_layer_for(trainables, total, n)
         if found is not None:
@@ -221,7 +224,7 @@ def _direct_gradient(
                 "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
                 "'auto'"
             )
-    groups = _group_terms(per_term, params)
+    groups = _group_terms(per_term(), params)
     if not groups:  # H is a multiple of the identity: every derivative vanishes
         groups = [{"labels": [], "strings": [], "ops": dict(total)}]
     circuits, values, diag_circs, diags = [], [], [], []
