@@ -20,7 +20,14 @@ import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _evolve, _is_zero, _terms_of, _Trainable
+from qdensity.analysis.blocks import (
+    _ATOL,
+    _evolve,
+    _is_zero,
+    _span_basis,
+    _terms_of,
+    _Trainable,
+)
 from qdensity.analysis.pauli import (
     anticommutation,
     diagonalising_clifford,
@@ -150,13 +157,23 @@ def _gradient_terms(
     return total, [label for label, _ in terms], per_term
 
 
+def _first_anticommuting(strings: list[str]) -> tuple[int, int] | None:
+    """:func:`first_noncommuting_pair` of Pauli labels, after a test on a basis of their GF(2)
+    span (at most 2 n strings) that settles the usual all-commuting case without the full
+    pairwise matrix."""
+    pl = PauliList(strings)
+    if not anticommutation(*_span_basis(pl.x, pl.z)).any():
+        return None
+    return first_noncommuting_pair(pl)
+
+
 def _group_terms(per_term, params):
     """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute."""
     groups: list[dict] = []
     for label, shares, origin in per_term:
         strings = [lab for lab, _ in origin]
         if strings:
-            bad = first_noncommuting_pair(strings)
+            bad = _first_anticommuting(strings)
             if bad is not None:
                 (la, ta), (lb, tb) = origin[bad[0]], origin[bad[1]]
                 raise ValueError(
@@ -167,7 +184,7 @@ def _group_terms(per_term, params):
                     "(Bowles et al., Thm. 1)"
                 )
         for g in groups:
-            if not strings or first_noncommuting_pair(g["strings"] + strings) is None:
+            if not strings or _first_anticommuting(g["strings"] + strings) is None:
                 g["labels"].append(label)
                 g["strings"].extend(strings)
                 for p in params:
