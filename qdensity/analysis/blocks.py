@@ -13,7 +13,6 @@ them live in :mod:`qdensity.gradients.commuting` and :mod:`qdensity.gradients.bl
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from qiskit.circuit import (
@@ -24,9 +23,9 @@ from qiskit.circuit import (
 )
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
+from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
-from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.validation import check_circuit
 
 __all__ = ["commuting_blocks"]
@@ -36,16 +35,44 @@ _SKIP = frozenset({"barrier"})
 _NON_UNITARY = frozenset({"measure", "reset", "delay"})
 
 
-@dataclass
 class _Trainable:
-    """One trainable gate: its place, parameter, coefficient and (propagated) generator."""
+    """One trainable gate: its place, parameter, coefficient and (propagated) generator.
 
-    index: int
-    name: str
-    label: str
-    parameter: Parameter
-    coeff: float
-    generator: SparsePauliOp
+    The generator is row ``row`` of a shared :class:`_Terms` stack (built on first access) or
+    given outright; the label (for error messages) is built on first access.
+    """
+
+    __slots__ = ("index", "name", "parameter", "coeff", "_generator", "_terms", "_row",
+                 "_circuit", "_label")
+
+    def __init__(self, index: int, name: str, parameter: Parameter, coeff: float, *,
+                 generator: SparsePauliOp | None = None, terms: _Terms | None = None,
+                 row: int = 0, circuit: QuantumCircuit | None = None, label: str | None = None):
+        self.index, self.name, self.parameter, self.coeff = index, name, parameter, coeff
+        self._generator, self._terms, self._row = generator, terms, row
+        self._circuit, self._label = circuit, label
+
+    @property
+    def label(self) -> str:
+        if self._label is None:
+            self._label = _label(self._circuit.data[self.index], self._circuit, self.index)
+        return self._label
+
+    @property
+    def generator(self) -> SparsePauliOp:
+        if self._generator is None:
+            self._generator = self._terms.generator(self._row)
+        return self._generator
+
+
+def _terms_of(trainables: Sequence[_Trainable]) -> _Terms:
+    """The generators of ``trainables`` as one stack (the block's own when they are it)."""
+    if trainables:
+        terms = trainables[0]._terms
+        if (terms is not None and terms.num_gates == len(trainables)
+                and all(t._terms is terms and t._row == i for i, t in enumerate(trainables))):
+            return terms
+    return _Terms.from_generators([t.generator for t in trainables])
 
 
 def _check_parameters(circuit: QuantumCircuit, parameters) -> list[Parameter]:
@@ -81,7 +108,8 @@ def _label(inst: CircuitInstruction, circuit: QuantumCircuit, index: int) -> str
 
 def _is_trainable(inst: CircuitInstruction, params: set[Parameter]) -> bool:
     for p in inst.operation.params:
-        if isinstance(p, ParameterExpression) and p.parameters & params:
+        if isinstance(p, ParameterExpression) and (
+                p in params if isinstance(p, Parameter) else p.parameters & params):
             return True
     return False
 
@@ -117,15 +145,6 @@ def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
     return _is_zero(_commutator(a, b))
 
 
-def _stacked(gens: Sequence[SparsePauliOp]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Symplectic bits of every term of every generator and where each generator starts."""
-    sizes = [g.size for g in gens]
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
-    x = np.concatenate([g.paulis.x for g in gens]) if gens else np.zeros((0, 0), bool)
-    z = np.concatenate([g.paulis.z for g in gens]) if gens else np.zeros((0, 0), bool)
-    return x, z, starts
-
-
 def _span_basis(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A basis of the GF(2) span of the rows ``(x | z)``, by elimination on packed bits.
 
@@ -152,62 +171,50 @@ def _span_basis(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return bits[:, :n], bits[:, n:]
 
 
-def _first_noncommuting(gens: Sequence[SparsePauliOp]) -> tuple[int, int] | None:
+def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, int] | None:
     """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
 
     One GF(2) product gives the anticommutation of every pair of terms; summed over the terms
     of each generator it flags the pairs that *may* fail to commute (a generator pair all of
     whose terms commute does commute). Only flagged pairs get an exact commutator.
+    ``gens``: the generators, or their stacked terms.
     """
-    if len(gens) < 2:
+    terms = gens if isinstance(gens, _Terms) else _Terms.from_generators(gens)
+    if terms.num_gates < 2:
         return None
-    x, z, starts = _stacked(gens)
+    x, z, starts = terms.x, terms.z, terms.starts[:-1]
     if not anticommutation(*_span_basis(x, z)).any():  # every term commutes with every term
         return None
     anti = anticommutation(x, z).astype(np.int64)
     flags = np.add.reduceat(np.add.reduceat(anti, starts, axis=0), starts, axis=1) > 0
     for a, b in np.argwhere(np.triu(flags, k=1)):
-        if not _is_zero(_commutator(gens[a], gens[b])):
+        if not _is_zero(_commutator(terms.generator(a), terms.generator(b))):
             return int(a), int(b)
     return None
 
 
 def _trainable_of(
-    inst: CircuitInstruction, circuit: QuantumCircuit, index: int, params: set[Parameter]
+    inst: CircuitInstruction, circuit: QuantumCircuit, index: int, params: set[Parameter],
+    reader: _Reader | None = None,
 ) -> _Trainable:
-    label = _label(inst, circuit, index)
-    found = parameter_of(inst)
+    """One trainable gate with its generator on the whole register."""
+    reader = reader if reader is not None else _Reader(circuit, params)
+    param, coeff, tpl, qubits = _read(inst, circuit, index, params, reader)
+    gen = _place([tpl], [qubits], circuit.num_qubits).generator(0)
+    return _Trainable(index, inst.operation.name, param, coeff, generator=gen, circuit=circuit)
+
+
+def _read(inst, circuit, index, params, reader: _Reader):
+    """``(parameter, coefficient, local generator template, qubit indices)`` of a gate."""
+    found = reader.parameter(inst)
     if found is None or found[0] not in params:
-        raise ValueError(f"gate {label} mixes trainable and other parameters; not supported")
-    param, coeff = found
-    op = inst.operation
-    key = None
-    if op.name in _CACHED_GENERATORS:
-        key = (op.name, circuit.num_qubits, tuple(_qubits(inst, circuit)))
-    elif (op.name == "PauliEvolution" and isinstance(getattr(op, "operator", None), SparsePauliOp)
-          and op.operator.coeffs.dtype != object):
-        o = op.operator  # keyed by its content: equal operators on equal qubits, one generator
-        key = (op.name, circuit.num_qubits, tuple(_qubits(inst, circuit)), o.paulis.x.tobytes(),
-               o.paulis.z.tobytes(), o.paulis.phase.tobytes(), o.coeffs.tobytes(), o.size)
-    if key is not None:
-        gen = _GENERATOR_CACHE.get(key)
-        if gen is not None:
-            return _Trainable(index, op.name, label, param, coeff, gen)
+        raise ValueError(f"gate {_label(inst, circuit, index)} mixes trainable and other "
+                         "parameters; not supported")
     try:
-        gen = instruction_generator(inst, circuit)
-        if gen.size > 1 or not abs(gen.coeffs[0]) > _ATOL:  # one non-zero term: already simple
-            gen = gen.simplify(atol=_ATOL)
+        tpl = reader.template(inst.operation)
     except ValueError as exc:
-        raise ValueError(f"trainable gate {label}: {exc}") from exc
-    if key is not None and len(_GENERATOR_CACHE) < 100_000:
-        _GENERATOR_CACHE[key] = gen
-    return _Trainable(index, op.name, label, param, coeff, gen)
-
-
-# Generators of the fixed-form gates depend only on (name, width, qubits); reading them once
-# saves building a SparsePauliOp per gate (they are never mutated, only replaced).
-_CACHED_GENERATORS = frozenset({"rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "rbs"})
-_GENERATOR_CACHE: dict[tuple, SparsePauliOp] = {}
+        raise ValueError(f"trainable gate {_label(inst, circuit, index)}: {exc}") from exc
+    return found[0], found[1], tpl, reader.qubits(inst)
 
 
 def _check_unitary(inst: CircuitInstruction, circuit: QuantumCircuit, index: int) -> None:
@@ -225,19 +232,28 @@ def _analyse_block(
 
     Fixed gates before the block's first trainable gate are state preparation; after it they
     must be Clifford. Generators must commute pairwise (ValueError naming both gates).
+    Each gate's parameter and generator template are read once (:class:`_Reader`); the
+    templates are placed on their qubits in one batch per run of gates between Cliffords.
     """
+    reader = _Reader(circuit, params)
+    n = circuit.num_qubits
     live: list[_Trainable] = []
-    stack = _Stack()  # every live generator's terms, propagated through the Cliffords
+    done: list[_Terms] = []  # the terms placed so far, propagated through the Cliffords
+    tpls: list = []  # gates read since the last Clifford, not yet placed
+    qubs: list[tuple[int, ...]] = []
+    data = circuit.data
     for idx in range(start, stop):
-        inst = circuit.data[idx]
-        name = inst.operation.name
+        inst = data[idx]
+        op = inst.operation
+        name = op.name
         if name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)
-        if _is_trainable(inst, params):
-            t = _trainable_of(inst, circuit, idx, params)
-            stack.append(t.generator)
-            live.append(t)
+        if reader.is_trainable(op):
+            param, coeff, tpl, qubits = _read(inst, circuit, idx, params, reader)
+            live.append(_Trainable(idx, name, param, coeff, row=len(live), circuit=circuit))
+            tpls.append(tpl)
+            qubs.append(qubits)
             continue
         if not live:
             continue
@@ -248,11 +264,19 @@ def _analyse_block(
                 "neither trainable nor Clifford; a commuting block may only be interleaved "
                 "with fixed Clifford gates (use commuting_block_gradient for several blocks)"
             )
-        stack.evolve(cliff, _qubits(inst, circuit))
-    if stack.evolved:  # else the generators are the ones read off the gates
-        for t, gen in zip(live, stack.generators(), strict=True):
-            t.generator = gen
-    pair = _first_noncommuting([t.generator for t in live])
+        if tpls:
+            done.append(_place(tpls, qubs, n))
+            tpls, qubs = [], []
+        terms = _joined(done, n)
+        paulis = PauliList.from_symplectic(terms.z, terms.x, terms.phase).evolve(
+            cliff, qargs=reader.qubits(inst), frame="s")
+        done = [_Terms(paulis.x, paulis.z, paulis.phase, terms.coeffs, terms.starts)]
+    if tpls:
+        done.append(_place(tpls, qubs, n))
+    terms = _joined(done, n)
+    for t in live:
+        t._terms = terms
+    pair = _first_noncommuting(terms)
     if pair is not None:
         a, b = pair
         raise ValueError(
@@ -359,12 +383,13 @@ def commuting_blocks(
     blocks: list[tuple[int, int]] = []
     start: int | None = None
     stack = _Stack()
+    reader = _Reader(circuit, params)
     for idx, inst in enumerate(circuit.data):
         if inst.operation.name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)
         if _is_trainable(inst, params):
-            gen = _trainable_of(inst, circuit, idx, params).generator
+            gen = _trainable_of(inst, circuit, idx, params, reader).generator
             if start is not None and stack.commutes_with(gen):
                 stack.append(gen)
                 continue

@@ -13,14 +13,21 @@ both so that each can use it without importing the other.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _evolve, _is_zero, _Trainable
+from qdensity.analysis.blocks import (
+    _ATOL,
+    _evolve,
+    _is_zero,
+    _span_basis,
+    _terms_of,
+    _Trainable,
+)
 from qdensity.analysis.pauli import (
     anticommutation,
     diagonalising_clifford,
@@ -84,10 +91,11 @@ class CommutingGradient(_GradientCircuits):
 
 def _gradient_terms(
     trainables: Sequence[_Trainable], observable: SparsePauliOp, params: Sequence[Parameter]
-) -> tuple[dict[Parameter, SparsePauliOp], list[tuple[str, dict[Parameter, SparsePauliOp],
-                                                       list[tuple[str, _Trainable]]]]]:
-    """Total ``O_p`` and, per non-constant Pauli term ``P_t`` of ``H``, its share ``O_{p,t}``
-    with the (term, gate) origin of each Pauli string.
+) -> tuple[dict[Parameter, SparsePauliOp], list[str], Callable[[], list[
+        tuple[str, dict[Parameter, SparsePauliOp], list[tuple[str, _Trainable]]]]]]:
+    """Total ``O_p``, the labels of the non-constant Pauli terms ``P_t`` of ``H`` and a function
+    giving, per term, its share ``O_{p,t}`` with the (term, gate) origin of each Pauli string
+    (built on call: only the Clifford diagonaliser needs them).
 
     ``i [G, h P_t] = 2 i h sum_{a: {P_a, P_t} = 0} c_a P_a P_t`` for ``G = sum_a c_a P_a``: the
     anticommuting (generator term, observable term) pairs come from one GF(2) product, their
@@ -98,16 +106,12 @@ def _gradient_terms(
     terms = [(label, h.real) for label, h in observable.to_list()
              if set(label) != {"I"} and abs(h) > _ATOL]
     if not terms or not trainables:
-        return {p: zero for p in params}, [(label, {p: zero for p in params}, [])
-                                           for label, _ in terms]
+        return {p: zero for p in params}, [label for label, _ in terms], lambda: [
+            (label, {p: zero for p in params}, []) for label, _ in terms]
     hl = PauliList([label for label, _ in terms])
     hc = np.array([h for _, h in terms])
-    gens = [t.generator for t in trainables]
-    gx = np.concatenate([g.paulis.x for g in gens])
-    gz = np.concatenate([g.paulis.z for g in gens])
-    gph = np.concatenate([g.paulis.phase for g in gens])
-    gc = np.concatenate([g.coeffs for g in gens])
-    owner = np.repeat(np.arange(len(gens)), [g.size for g in gens])
+    stack = _terms_of(trainables)  # every generator's terms, read once per block
+    gx, gz, gph, gc, owner = stack.x, stack.z, stack.phase, stack.coeffs, stack.owner
     ia, it = np.nonzero(anticommutation(gx, gz, hl.x, hl.z))
     prod = PauliList.from_symplectic(gz[ia], gx[ia], gph[ia]).dot(hl[it])
     pcol = {p: k for k, p in enumerate(params)}
@@ -126,28 +130,41 @@ def _gradient_terms(
     keep = np.abs(csum) > _ATOL
     uniq, first, csum = uniq[keep], first[keep], csum[keep]
     ux, uz = prod.x[first], prod.z[first]
-    labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
     u_term, u_par = uniq[:, 0], uniq[:, 1]
 
     def op(sel) -> SparsePauliOp:
         return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])
 
-    per_term = []
-    bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq is sorted by term
-    for t_idx, (label, _) in enumerate(terms):
-        lo, hi = bounds[t_idx], bounds[t_idx + 1]
-        shares = {p: zero for p in params}
-        pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
-        for k in np.flatnonzero(np.diff(pb)):
-            shares[params[k]] = op(slice(pb[k], pb[k + 1]))
-        origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
-        per_term.append((label, shares, origin))
+    def per_term() -> list:  # only the Clifford diagonaliser needs the per-term shares
+        labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
+        out = []
+        bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq sorted by term
+        for t_idx, (label, _) in enumerate(terms):
+            lo, hi = bounds[t_idx], bounds[t_idx + 1]
+            shares = {p: zero for p in params}
+            pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
+            for k in np.flatnonzero(np.diff(pb)):
+                shares[params[k]] = op(slice(pb[k], pb[k + 1]))
+            origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
+            out.append((label, shares, origin))
+        return out
+
     total = {p: zero for p in params}
     order = np.argsort(u_par, kind="stable")
     pb = np.searchsorted(u_par[order], np.arange(len(params) + 1))
     for k in np.flatnonzero(np.diff(pb)):
         total[params[k]] = op(order[pb[k]:pb[k + 1]]).simplify(atol=_ATOL)
-    return total, per_term
+    return total, [label for label, _ in terms], per_term
+
+
+def _first_anticommuting(strings: list[str]) -> tuple[int, int] | None:
+    """:func:`first_noncommuting_pair` of Pauli labels, after a test on a basis of their GF(2)
+    span (at most 2 n strings) that settles the usual all-commuting case without the full
+    pairwise matrix."""
+    pl = PauliList(strings)
+    if not anticommutation(*_span_basis(pl.x, pl.z)).any():
+        return None
+    return first_noncommuting_pair(pl)
 
 
 def _group_terms(per_term, params):
@@ -156,7 +173,7 @@ def _group_terms(per_term, params):
     for label, shares, origin in per_term:
         strings = [lab for lab, _ in origin]
         if strings:
-            bad = first_noncommuting_pair(strings)
+            bad = _first_anticommuting(strings)
             if bad is not None:
                 (la, ta), (lb, tb) = origin[bad[0]], origin[bad[1]]
                 raise ValueError(
@@ -167,7 +184,7 @@ def _group_terms(per_term, params):
                     "(Bowles et al., Thm. 1)"
                 )
         for g in groups:
-            if not strings or first_noncommuting_pair(g["strings"] + strings) is None:
+            if not strings or _first_anticommuting(g["strings"] + strings) is None:
                 g["labels"].append(label)
                 g["strings"].extend(strings)
                 for p in params:
@@ -203,8 +220,7 @@ def _direct_gradient(
     diagonaliser: str,
 ) -> CommutingGradient:
     n = circuit.num_qubits
-    total, per_term = _gradient_terms(trainables, observable, params)
-    all_labels = [label for label, _, _ in per_term]
+    total, all_labels, per_term = _gradient_terms(trainables, observable, params)
     if diagonaliser in ("auto", "rbs"):
         found = _rbs_layer_for(trainables, total, n)
         if found is not None:
@@ -225,7 +241,7 @@ def _direct_gradient(
                 "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
                 "'auto'"
             )
-    groups = _group_terms(per_term, params)
+    groups = _group_terms(per_term(), params)
     if not groups:  # H is a multiple of the identity: every derivative vanishes
         groups = [{"labels": [], "strings": [], "ops": dict(total)}]
     circuits, values, diag_circs, diags = [], [], [], []

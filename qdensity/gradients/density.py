@@ -101,7 +101,8 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     if model.readout == "unary_amplitudes":
         raise ValueError("gradients on hardware need a probability or observable readout; "
                          "unary_amplitudes are trained on the unary engine")
-    circ = model.circuit(k)
+    # read, never changed, by the analyses below (gradient circuits are copies): no copy of U_k
+    circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
     params = trainable_parameters(model.sub_unitaries[k])
     rows = model.rows(k, X)
     if method in ("auto", "commuting"):

@@ -13,13 +13,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 import numpy as np
-from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.circuit import ClassicalRegister, Parameter, QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _is_zero, _Trainable
+from qdensity.analysis.blocks import _ATOL, _is_zero, _terms_of, _Trainable
 from qdensity.analysis.pauli import ZStringTable, conjugate_two_qubit
 from qdensity.circuits.gates import RBSGate, rbs_matrix
-from qdensity.execution.plans import measured
 from qdensity.validation import check_positive_int
 
 __all__ = ["rbs_diagonalising_layer"]
@@ -73,11 +72,15 @@ def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> ZStr
 
 
 def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCircuit:
+    """``measured(circuit + barrier + tail)``, with one copy of ``circuit`` (not two)."""
     out = circuit.copy()
     if tail is not None and tail.size():
         out.barrier()
         out.compose(tail, qubits=range(tail.num_qubits), inplace=True)
-    return measured(out)
+    creg = ClassicalRegister(out.num_qubits, "meas")  # as measured(): qubit j -> clbit j
+    out.add_register(creg)
+    out.measure(out.qubits, creg)
+    return out
 
 
 def _rbs_layer_for(
@@ -87,14 +90,11 @@ def _rbs_layer_for(
     disjoint and the layer diagonalises every gradient observable; else None."""
     if not trainables or any(t.name != "rbs" for t in trainables):
         return None
-    pairs: list[tuple[int, int]] = []
-    for t in trainables:
-        support = np.flatnonzero(np.any(t.generator.paulis.x | t.generator.paulis.z, axis=0))
-        if len(support) != 2:
-            return None
-        pair = (int(support[0]), int(support[1]))
-        if pair not in pairs:
-            pairs.append(pair)
+    stack = _terms_of(trainables)  # each gate's support: OR of its terms' bits, at once
+    support = np.logical_or.reduceat(stack.x | stack.z, stack.starts[:-1], axis=0)
+    if np.any(support.sum(axis=1) != 2):
+        return None
+    pairs = list(dict.fromkeys(map(tuple, np.nonzero(support)[1].reshape(-1, 2).tolist())))
     used = [q for p in pairs for q in p]
     if len(used) != len(set(used)):
         return None

@@ -17,6 +17,7 @@ from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution.plans import Plan, check_observable, expectation_plan
+from qdensity.models._rows import _parameter_holder, bind_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
@@ -25,29 +26,6 @@ from qdensity.validation import as_rng, check_circuit, check_finite_array, check
 __all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
 
 READOUTS = ("observable", "unary_probabilities", "unary_amplitudes")
-
-
-def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
-    """Parameter rows in ``circuit.parameters`` order from ``{Parameter: column}``.
-
-    Parameters
-    ----------
-    circuit : QuantumCircuit
-    columns : dict
-        Maps each of the circuit's parameters to an array of shape (B,) or a scalar.
-
-    Returns
-    -------
-    numpy.ndarray, shape (B, P)
-    """
-    params = list(circuit.parameters)
-    missing = [p.name for p in params if p not in columns]
-    if missing:
-        raise ValueError(f"no values given for parameters {missing}")
-    cols = [np.atleast_1d(np.asarray(columns[p], dtype=float)) for p in params]
-    rows = max((c.size for c in cols), default=1)
-    return np.stack([np.broadcast_to(c, (rows,)) for c in cols], axis=1) if cols else np.zeros(
-        (rows, 0))
 
 
 class DensityQNN:
@@ -240,7 +218,8 @@ class DensityQNN:
         -------
         numpy.ndarray, shape (B, P_circuit)
         """
-        circ = circuit if circuit is not None else self.circuit(k)
+        circ = (circuit if circuit is not None  # parameters only: no copy of U_k
+                else _parameter_holder(self.encoding, self.sub_unitaries[k]))
         theta = self.theta if theta is None else self._check_theta(theta)
         cols: dict = {}
         B = 1

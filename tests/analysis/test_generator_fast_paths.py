@@ -70,3 +70,74 @@ def test_equivariant_circuit_is_one_evolution_per_string():
         orbit = {tuple(sorted((q + t) % n for q in cls[0])) for t in range(n)}
         assert set(cls) == orbit
     assert qc.num_parameters == len(theta) == len(translation_classes(n, 3))
+
+
+def test_block_reader_matches_instruction_generator_per_gate():
+    """The batched reader (templates placed by numpy indexing, coefficients without symbolic
+    gradients) against instruction_generator and parameter_of, gate by gate; and through
+    Cliffords against _evolve applied one gate at a time."""
+    from qiskit.circuit import Parameter
+
+    from qdensity.analysis.blocks import _analyse_block, _clifford_of
+    from qdensity.analysis.structure import parameter_of
+    from qdensity.circuits.gates import FBSGate, RBSGate
+
+    a, b, c, d = (Parameter(s) for s in "abcd")
+    params = {a, b, c, d}
+    qc = QuantumCircuit(5)
+    qc.append(PauliEvolutionGate(SparsePauliOp(["XY", "ZZ"], [0.3, -0.2]), time=2 * a + 1),
+              [3, 1])
+    qc.append(PauliEvolutionGate(SparsePauliOp(["XY", "ZZ"], [0.3, -0.2]), time=b), [0, 4])
+    qc.append(RBSGate(c), [2, 0])
+    qc.append(FBSGate(d, 3), [1, 2, 4])
+    qc.rzz(-0.5 * a, 0, 3)
+    qc.cp(b, 2, 3)
+    qc.crx(c, 4, 1)
+    qc.ry(d, 2)
+    for inst in qc.data:  # each gate alone: a one-gate block ending the circuit
+        single = QuantumCircuit(5)
+        single.append(inst)
+        (t,) = _analyse_block(single, 0, 1, params)
+        assert (t.parameter, t.coeff) == parameter_of(inst)
+        assert t.generator == instruction_generator(single.data[0], single).simplify()
+        assert t.label.startswith(inst.operation.name)
+    # a commuting (Z-type) block through Cliffords that keep it Z-type
+    blk = QuantumCircuit(4)
+    blk.h(0)  # state preparation
+    blk.append(PauliEvolutionGate(SparsePauliOp(["ZZ", "IZ"], [0.5, 0.25]), time=a), [0, 2])
+    blk.cx(0, 1)
+    blk.rzz(3 * b, 1, 3)
+    blk.s(2)
+    blk.cp(c, 3, 0)
+    blk.cz(1, 2)
+    blk.append(PauliEvolutionGate(SparsePauliOp(["ZZ", "IZ"], [0.5, 0.25]), time=d), [3, 1])
+    blk.cx(2, 3)
+    expect = []
+    for inst in blk.data[1:]:
+        po = parameter_of(inst)
+        if po is not None:
+            expect.append((po, instruction_generator(inst, blk).simplify()))
+            continue
+        cliff, qubits = _clifford_of(inst), [blk.find_bit(q).index for q in inst.qubits]
+        expect = [(p, _evolve(g, cliff, qubits)) for p, g in expect]
+    got = _analyse_block(blk, 1, len(blk.data), params)
+    assert [(t.parameter, t.coeff) for t in got] == [p for p, _ in expect]
+    for t, (_, g) in zip(got, expect, strict=True):
+        assert t.generator == g
+
+
+def test_equivariant_builder_matches_plain_construction():
+    from qiskit.circuit import ParameterVector
+
+    for n, pauli in [(5, "X"), (6, "Y")]:
+        qc = equivariant_commuting(n, pauli)
+        theta = ParameterVector("θ", len(translation_classes(n, 3)))
+        ref = QuantumCircuit(n, name=qc.name)
+        for cls, t in zip(translation_classes(n, 3), theta, strict=True):
+            for s in cls:
+                ref.append(PauliEvolutionGate(SparsePauliOp(pauli * len(s)), time=t), s)
+        assert qc.assign_parameters(list(range(len(theta)))) == ref.assign_parameters(
+            list(range(len(theta))))
+        ops = [inst.operation for inst in qc.data]
+        assert len({id(op) for op in ops}) == len(ops)
+        assert len({id(op.params) for op in ops}) == len(ops)

@@ -21,10 +21,11 @@ generator off the circuit and every transpiler turns it into a CNOT ladder.
 
 from __future__ import annotations
 
+import copy
 from itertools import combinations
 
 import numpy as np
-from qiskit.circuit import ParameterVector, QuantumCircuit
+from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
@@ -173,15 +174,21 @@ def equivariant_commuting(
     theta = ParameterVector(parameter_prefix, len(classes))
     qc = QuantumCircuit(n, name=name or f"equivariant_{p.lower() * 2}_{n}")
     ops: dict[int, SparsePauliOp] = {}
+    bits = qc.qubits
     for c, cls in enumerate(classes):
         # one gate per class, copied per string: equal gates at a fraction of the cost of
-        # building a SparsePauliOp and a PauliEvolutionGate for each of the C(n, k) strings
+        # building a SparsePauliOp and a PauliEvolutionGate for each of the C(n, k) strings.
+        # The copy is what Instruction.copy makes of a gate without a definition yet (shallow,
+        # with its own parameter list; the operator is shared as there), appended unchecked:
+        # the qubits are distinct and in range by construction.
         k = len(cls[0])
         if k not in ops:
             ops[k] = SparsePauliOp(p * k)
         gate = PauliEvolutionGate(ops[k], time=theta[c])
         for support in cls:
-            qc.append(gate.copy(), support, copy=False)
+            g = copy.copy(gate)
+            g._params = [theta[c]]
+            qc._append(CircuitInstruction(g, tuple(bits[q] for q in support)))
     return qc
 
 
