@@ -36,7 +36,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from qiskit import transpile as qiskit_transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.providers import BackendV2
 from qiskit.providers.fake_provider import GenericBackendV2
@@ -54,6 +53,7 @@ from qdensity.execution._native import (
     _rbs_native_target,
     _rbs_to_native,
 )
+from qdensity.execution._passmanagers import transpile_with
 from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
 from qdensity.execution.noise import noise_from_backend, noise_model
 from qdensity.execution.snapshots import (
@@ -266,7 +266,8 @@ class HardwareTarget:
         -------
         QuantumCircuit or list of QuantumCircuit
             Same shape as given. On devices with a coupling map the output has the device's
-            width and a ``layout``.
+            width and a ``layout``. As ``qiskit.transpile``; its preset pass manager is built
+            once per target, level and seed and reused (pass a list to compile a batch).
 
         Examples
         --------
@@ -301,11 +302,10 @@ class HardwareTarget:
             return []
         if self.name == "rbs_native":
             batch = [_rbs_to_native(c) for c in batch]
-        where = ({"target": self.target} if self.target is not None
-                 else {"basis_gates": list(self.basis_gates)})
         try:
-            out = qiskit_transpile(batch, optimization_level=level,
-                                   seed_transpiler=seed_transpiler, **where)
+            # qiskit.transpile with the preset pass manager built once per (level, seed)
+            out = transpile_with(self, batch, level, seed_transpiler, self.target,
+                                 self.basis_gates)
         except TranspilerError as exc:
             raise ValueError(
                 f"circuits cannot run on target {self.name!r} (native gates "
