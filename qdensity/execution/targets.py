@@ -46,6 +46,7 @@ from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
 from qdensity.execution._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
+from qdensity.execution._lazy_noise import LazyNoise, NoiseModelField
 from qdensity.execution._native import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
@@ -55,7 +56,7 @@ from qdensity.execution._native import (
 )
 from qdensity.execution._passmanagers import transpile_with
 from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
-from qdensity.execution.noise import noise_from_backend, noise_model
+from qdensity.execution.noise import noise_model
 from qdensity.execution.snapshots import (
     is_snapshot_name,
     snapshot_fields,
@@ -158,7 +159,7 @@ class HardwareTarget:
     basis_gates : tuple of str
         Native gate names (without ``measure``, ``reset``, ``delay``).
     noise_model : qiskit_aer.noise.NoiseModel or None
-        None when the target is noiseless (``ideal``, or ``noise=False``).
+        None when noiseless (``ideal``, ``noise=False``); else built on first read, then kept.
     target : qiskit.transpiler.Target or None
         What :meth:`transpile` compiles against (None for ``ideal``: basis only).
     seed : int or None
@@ -266,8 +267,7 @@ class HardwareTarget:
         -------
         QuantumCircuit or list of QuantumCircuit
             Same shape as given. On devices with a coupling map the output has the device's
-            width and a ``layout``. As ``qiskit.transpile``; its preset pass manager is built
-            once per target, level and seed and reused (pass a list to compile a batch).
+            width and a ``layout``. As ``qiskit.transpile`` (pass manager built once per seed).
 
         Examples
         --------
@@ -378,6 +378,9 @@ class HardwareTarget:
         if options:
             sim.set_options(**options)
         return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
+
+
+HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
 
 
 def get_target(
@@ -493,6 +496,6 @@ def get_target(
     gates = tuple(g for g in backend.operation_names if g not in _NON_GATES)
     return HardwareTarget(
         name=name, num_qubits=width, backend=backend, coupling_map=backend.coupling_map,
-        basis_gates=gates, noise_model=noise_from_backend(backend) if noise else None,
+        basis_gates=gates, noise_model=LazyNoise(backend) if noise else None,
         target=backend.target, seed=seed_value,
     )

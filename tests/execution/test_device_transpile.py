@@ -5,6 +5,7 @@ one-pass resource counts against ``QuantumCircuit.depth`` (issue "Scale", device
 from __future__ import annotations
 
 import copy
+import dataclasses
 import pickle
 
 import numpy as np
@@ -15,7 +16,9 @@ from qiskit.circuit.library import CCXGate
 from qiskit.quantum_info import SparsePauliOp
 from qiskit.transpiler import PassManager
 from qiskit.transpiler.passes import CheckMap, GatesInBasis
+from qiskit_aer.noise import NoiseModel
 
+import qdensity.execution._lazy_noise as lazy_mod
 import qdensity.execution._passmanagers as pm_mod
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.ansatze import round_robin
@@ -172,3 +175,32 @@ def test_counts_of_control_flow_circuits_defer_to_qiskit_depth():
 
     assert report.depth == qc.depth() == 4
     assert report.two_qubit_depth == qc.depth(filter_function=two_qubit)
+
+
+def _noise_content(model) -> list:
+    """to_dict() without the random per-error ids, for comparing two models."""
+    return [{k: v for k, v in err.items() if k != "id"}
+            for err in model.to_dict(serializable=True)["errors"]]
+
+
+def test_noise_model_is_built_on_first_read_and_kept(monkeypatch):
+    built = []
+    original = lazy_mod.noise_from_backend
+    monkeypatch.setattr(lazy_mod, "noise_from_backend", lambda b: built.append(b) or original(b))
+    tgt = get_target("heavy_hex", 5, seed=3)
+    qc = _rbs_circuit(5, 4, seed=1)
+    tgt.transpile(qc)
+    resource_report(qc, tgt)
+    assert built == [] and "_noise_model" not in repr(tgt)
+    twin = pickle.loads(pickle.dumps(tgt))  # pickled before the first read
+    model = tgt.noise_model
+    assert built == [tgt.backend] and tgt.noise_model is model and tgt.is_noisy
+    assert built == [tgt.backend]
+    assert _noise_content(model) == _noise_content(NoiseModel.from_backend(tgt.backend))
+    assert _noise_content(twin.noise_model) == _noise_content(model)
+    assert _noise_content(copy.deepcopy(tgt).noise_model) == _noise_content(model)
+    assert tgt.simulator().options.noise_model is model
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        tgt.noise_model = None
+    assert get_target("heavy_hex", 5, noise=False).noise_model is None
+    assert not get_target("line", 3, noise=False).is_noisy
