@@ -1,4 +1,5 @@
-"""Preset pass managers built once per hardware target, optimisation level and seed.
+"""Preset pass managers built once per hardware target, optimisation level and seed (and the
+checks of the circuits given to ``HardwareTarget.transpile``).
 
 ``qiskit.transpile`` builds Qiskit's preset pass manager on every call (``generate_preset_pass_
 manager`` then ``run``). :meth:`~qdensity.execution.targets.HardwareTarget.transpile` is called
@@ -17,15 +18,41 @@ from __future__ import annotations
 
 import threading
 import weakref
+from collections.abc import Sequence
 
 from qiskit import transpile as qiskit_transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.transpiler import PassManager, Target, generate_preset_pass_manager
 
+from qdensity.validation import check_circuit
+
 __all__: list[str] = []
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _LOCK = threading.Lock()
+
+
+def check_batch(circuits, num_qubits: int, name: str) -> tuple[bool, list[QuantumCircuit]]:
+    """``(single, batch)`` of ``HardwareTarget.transpile``'s ``circuits``, each checked and at
+    most ``num_qubits`` wide (the message names target ``name``)."""
+    single = isinstance(circuits, QuantumCircuit)
+    if single:
+        batch = [circuits]
+    else:
+        if isinstance(circuits, (str, bytes)) or not isinstance(circuits, Sequence):
+            raise TypeError(
+                f"circuits must be a QuantumCircuit or a sequence of them, "
+                f"got {type(circuits).__name__}"
+            )
+        batch = list(circuits)
+    for k, circ in enumerate(batch):
+        check_circuit(circ, "circuits" if single else f"circuits[{k}]")
+        if circ.num_qubits > num_qubits:
+            raise ValueError(
+                f"circuit {circ.name!r} has {circ.num_qubits} qubits but target "
+                f"{name!r} has {num_qubits}; use a target with >= {circ.num_qubits} qubits"
+            )
+    return single, batch
 
 
 def _pass_manager(owner: object, level: int, seed: int, target: Target | None,

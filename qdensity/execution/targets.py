@@ -54,7 +54,7 @@ from qdensity.execution._native import (
     _rbs_native_target,
     _rbs_to_native,
 )
-from qdensity.execution._passmanagers import transpile_with
+from qdensity.execution._passmanagers import check_batch, transpile_with
 from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
 from qdensity.execution.noise import noise_model
 from qdensity.execution.snapshots import (
@@ -62,7 +62,7 @@ from qdensity.execution.snapshots import (
     snapshot_fields,
     snapshot_names,
 )
-from qdensity.validation import SeedLike, check_circuit, check_positive_int, seed_int
+from qdensity.validation import SeedLike, check_positive_int, seed_int
 
 __all__ = [
     "HardwareTarget",
@@ -278,24 +278,7 @@ class HardwareTarget:
         >>> dict(get_target("rbs_native", 3).transpile(qc).count_ops())
         {'xx_plus_yy': 1}
         """
-        single = isinstance(circuits, QuantumCircuit)
-        if single:
-            batch = [circuits]
-        else:
-            if isinstance(circuits, (str, bytes)) or not isinstance(circuits, Sequence):
-                raise TypeError(
-                    f"circuits must be a QuantumCircuit or a sequence of them, "
-                    f"got {type(circuits).__name__}"
-                )
-            batch = list(circuits)
-        for k, circ in enumerate(batch):
-            check_circuit(circ, "circuits" if single else f"circuits[{k}]")
-            if circ.num_qubits > self.num_qubits:
-                raise ValueError(
-                    f"circuit {circ.name!r} has {circ.num_qubits} qubits but target "
-                    f"{self.name!r} has {self.num_qubits}; use a target with >= "
-                    f"{circ.num_qubits} qubits"
-                )
+        single, batch = check_batch(circuits, self.num_qubits, self.name)
         level = _check_level(optimization_level)
         seed_transpiler = self.seed if seed is None else seed_int(seed)
         if not batch:
@@ -303,8 +286,7 @@ class HardwareTarget:
         if self.name == "rbs_native":
             batch = [_rbs_to_native(c) for c in batch]
         try:
-            # qiskit.transpile with the preset pass manager built once per (level, seed)
-            out = transpile_with(self, batch, level, seed_transpiler, self.target,
+                out = transpile_with(self, batch, level, seed_transpiler, self.target,
                                  self.basis_gates)
         except TranspilerError as exc:
             raise ValueError(
