@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from qiskit.circuit import QuantumCircuit
+from qiskit.circuit import ControlFlowOp, QuantumCircuit, Store
 
 from qdensity.execution.targets import HardwareTarget, get_target
 from qdensity.validation import SeedLike, check_circuit
@@ -212,29 +212,59 @@ def compare_reports(reports: Mapping[str, ResourceReport]) -> str:
 
 
 def _count(circuit: QuantumCircuit, *, name: str, target: str) -> ResourceReport:
-    """Read the metrics off a compiled circuit."""
+    """Read the metrics off a compiled circuit in one pass over its instructions.
+
+    The depths are ``QuantumCircuit.depth`` (directives such as barriers do not add a layer but
+    still synchronise their wires) and ``QuantumCircuit.depth`` filtered to two-qubit gates,
+    computed together on integer wire indices; a circuit with classical conditions, control
+    flow or stores is handed to ``QuantumCircuit.depth`` itself.
+    """
+    wire = {bit: k for k, bit in enumerate(circuit.qubits)}
+    num_qubits = len(wire)
+    wire.update((bit, num_qubits + k) for k, bit in enumerate(circuit.clbits))
+    level = [0] * len(wire)      # depth so far on each wire
+    level_2q = [0] * len(wire)   # two-qubit depth so far on each wire
     active: set[int] = set()
     two_qubit = 0
     counts: dict[str, int] = {}
+    plain = True
     for inst in circuit.data:
-        op_name = inst.operation.name
-        if op_name in _IGNORED:
-            continue
-        counts[op_name] = counts.get(op_name, 0) + 1
-        active.update(circuit.find_bit(q).index for q in inst.qubits)
-        if len(inst.qubits) == 2:
+        op = inst.operation
+        if plain and (isinstance(op, (ControlFlowOp, Store))
+                      or getattr(op, "_condition", None) is not None):
+            plain = False  # wires beyond qubits and clbits: let Qiskit count the depths
+        wires = [wire[q] for q in inst.qubits]
+        op_name = op.name
+        if op_name not in _IGNORED:
+            counts[op_name] = counts.get(op_name, 0) + 1
+            active.update(wires)
+        is_2q = len(wires) == 2 and op_name not in _IGNORED
+        if is_2q:
             two_qubit += 1
+        if not plain:
+            continue
+        wires += [wire[c] for c in inst.clbits]
+        if not wires:
+            continue
+        new = max(level[w] for w in wires) + (0 if getattr(op, "_directive", False) else 1)
+        new_2q = max(level_2q[w] for w in wires) + is_2q
+        for w in wires:
+            level[w] = new
+            level_2q[w] = new_2q
+    if plain:
+        depth, depth_2q = max(level, default=0), max(level_2q, default=0)
+    else:
+        def is_two_qubit_gate(inst) -> bool:
+            return len(inst.qubits) == 2 and inst.operation.name not in _IGNORED
 
-    def is_two_qubit_gate(inst) -> bool:
-        return len(inst.qubits) == 2 and inst.operation.name not in _IGNORED
-
+        depth, depth_2q = circuit.depth(), circuit.depth(filter_function=is_two_qubit_gate)
     return ResourceReport(
         name=name,
         target=target,
         num_qubits=len(active),
-        depth=circuit.depth(),
+        depth=depth,
         two_qubit_count=two_qubit,
-        two_qubit_depth=circuit.depth(filter_function=is_two_qubit_gate),
+        two_qubit_depth=depth_2q,
         gate_counts=dict(sorted(counts.items())),
     )
 

@@ -36,7 +36,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from qiskit import transpile as qiskit_transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.providers import BackendV2
 from qiskit.providers.fake_provider import GenericBackendV2
@@ -47,6 +46,7 @@ from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
 from qdensity.execution._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
+from qdensity.execution._lazy_noise import LazyNoise, NoiseModelField
 from qdensity.execution._native import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
@@ -54,14 +54,15 @@ from qdensity.execution._native import (
     _rbs_native_target,
     _rbs_to_native,
 )
+from qdensity.execution._passmanagers import check_batch, transpile_with
 from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
-from qdensity.execution.noise import noise_from_backend, noise_model
+from qdensity.execution.noise import noise_model
 from qdensity.execution.snapshots import (
     is_snapshot_name,
     snapshot_fields,
     snapshot_names,
 )
-from qdensity.validation import SeedLike, check_circuit, check_positive_int, seed_int
+from qdensity.validation import SeedLike, check_positive_int, seed_int
 
 __all__ = [
     "HardwareTarget",
@@ -158,7 +159,7 @@ class HardwareTarget:
     basis_gates : tuple of str
         Native gate names (without ``measure``, ``reset``, ``delay``).
     noise_model : qiskit_aer.noise.NoiseModel or None
-        None when the target is noiseless (``ideal``, or ``noise=False``).
+        None when noiseless (``ideal``, ``noise=False``); else built on first read, then kept.
     target : qiskit.transpiler.Target or None
         What :meth:`transpile` compiles against (None for ``ideal``: basis only).
     seed : int or None
@@ -266,7 +267,7 @@ class HardwareTarget:
         -------
         QuantumCircuit or list of QuantumCircuit
             Same shape as given. On devices with a coupling map the output has the device's
-            width and a ``layout``.
+            width and a ``layout``. As ``qiskit.transpile`` (pass manager built once per seed).
 
         Examples
         --------
@@ -277,35 +278,16 @@ class HardwareTarget:
         >>> dict(get_target("rbs_native", 3).transpile(qc).count_ops())
         {'xx_plus_yy': 1}
         """
-        single = isinstance(circuits, QuantumCircuit)
-        if single:
-            batch = [circuits]
-        else:
-            if isinstance(circuits, (str, bytes)) or not isinstance(circuits, Sequence):
-                raise TypeError(
-                    f"circuits must be a QuantumCircuit or a sequence of them, "
-                    f"got {type(circuits).__name__}"
-                )
-            batch = list(circuits)
-        for k, circ in enumerate(batch):
-            check_circuit(circ, "circuits" if single else f"circuits[{k}]")
-            if circ.num_qubits > self.num_qubits:
-                raise ValueError(
-                    f"circuit {circ.name!r} has {circ.num_qubits} qubits but target "
-                    f"{self.name!r} has {self.num_qubits}; use a target with >= "
-                    f"{circ.num_qubits} qubits"
-                )
+        single, batch = check_batch(circuits, self.num_qubits, self.name)
         level = _check_level(optimization_level)
         seed_transpiler = self.seed if seed is None else seed_int(seed)
         if not batch:
             return []
         if self.name == "rbs_native":
             batch = [_rbs_to_native(c) for c in batch]
-        where = ({"target": self.target} if self.target is not None
-                 else {"basis_gates": list(self.basis_gates)})
         try:
-            out = qiskit_transpile(batch, optimization_level=level,
-                                   seed_transpiler=seed_transpiler, **where)
+                out = transpile_with(self, batch, level, seed_transpiler, self.target,
+                                 self.basis_gates)
         except TranspilerError as exc:
             raise ValueError(
                 f"circuits cannot run on target {self.name!r} (native gates "
@@ -378,6 +360,9 @@ class HardwareTarget:
         if options:
             sim.set_options(**options)
         return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
+
+
+HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
 
 
 def get_target(
@@ -493,6 +478,6 @@ def get_target(
     gates = tuple(g for g in backend.operation_names if g not in _NON_GATES)
     return HardwareTarget(
         name=name, num_qubits=width, backend=backend, coupling_map=backend.coupling_map,
-        basis_gates=gates, noise_model=noise_from_backend(backend) if noise else None,
+        basis_gates=gates, noise_model=LazyNoise(backend) if noise else None,
         target=backend.target, seed=seed_value,
     )
