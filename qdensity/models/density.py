@@ -277,12 +277,16 @@ class DensityQNN:
         return theta[..., self.subunitary_parameter_indices(k)]
 
     def _z_readout_matrix(self) -> np.ndarray:
-        """``<e_j| O |e_j>`` for a diagonal observable: f_k = sum_j y_j^2 * this[j]."""
-        n = self.num_qubits
-        from qdensity.execution.plans import diagonal_values
+        """``<e_j| O |e_j>`` for a diagonal observable: f_k = sum_j y_j^2 * this[j], shape (n,).
 
-        diag = diagonal_values(self.observable.paulis, np.real(self.observable.coeffs), n)
-        return diag[1 << np.arange(n)]
+        ``sum_t c_t s_t (1 - 2 z_t[j])`` for Z-type terms ``s_t Z^{z_t}`` (``s_t`` the Pauli's
+        phase): ``e_j`` has its one 1 on qubit j. O(terms x n), no 2^n table.
+        """
+        paulis = self.observable.paulis
+        if np.any(paulis.x):
+            raise ValueError("the unary readout needs a diagonal (I/Z) observable")
+        coeff = np.real(np.asarray(self.observable.coeffs) * (-1j) ** paulis.phase)
+        return coeff @ (1.0 - 2.0 * paulis.z)
 
     def expert_outputs(self, X=None, theta=None, *, method: str = "auto") -> np.ndarray:
         """Exact per-sub-unitary outputs ``f_k(x)``.

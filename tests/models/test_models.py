@@ -6,7 +6,7 @@ central finite differences of the exact model.
 
 import numpy as np
 import pytest
-from qiskit.quantum_info import DensityMatrix, Operator, SparsePauliOp, Statevector
+from qiskit.quantum_info import DensityMatrix, Operator, PauliList, SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import (
     angle_encoding,
@@ -291,3 +291,26 @@ def test_sample_ledger_labels_pilot_apart_from_allocation(scheduler):
     expected_pilot = [0, 0, 0] if scheduler != "neyman" else res.pilot_allocation.tolist()
     assert pilot == expected_pilot
     assert sum(main) + sum(pilot) == res.shots_used == engine.ledger.total_shots == 1000
+
+
+
+def test_unary_readout_diagonal_against_the_dense_observable():
+    # <e_j|O|e_j> read from the Pauli terms equals the dense matrix's diagonal at 2**j,
+    # a Pauli phase (-1) included
+    n = 5
+    obs = SparsePauliOp(PauliList(["ZIZII", "IIIIZ", "-IZZZI", "IIIII"]), [0.7, -1.3, 2.0, 0.4])
+    model = DensityQNN([pyramid(n)], encoding=Encoding.unary(n), observable=obs, seed=0)
+    dense = np.real(np.diag(obs.to_matrix()))
+    np.testing.assert_allclose(model._z_readout_matrix(), dense[1 << np.arange(n)],
+                               atol=1e-12)
+
+
+def test_unary_prediction_at_width_40_needs_no_2n_table():
+    # all RBS angles 0: U = 1, so y = x / |x| and Z_0 reads sum_j y_j^2 (1 - 2 [j = 0])
+    n = 40
+    obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], n)
+    model = DensityQNN([pyramid(n)], encoding=Encoding.unary(n), observable=obs, seed=0)
+    X = np.random.default_rng(1).normal(size=(3, n))
+    expect = 1 - 2 * X[:, 0] ** 2 / np.sum(X**2, axis=1)
+    got = model.predict(X, np.zeros(model.num_parameters), method="unary")
+    np.testing.assert_allclose(got, expect, atol=1e-12)
