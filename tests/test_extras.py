@@ -1,4 +1,4 @@
-"""CI installs the optional extras (torch, sweep) so that their tests run there, never skip:
+"""CI installs the optional extras (torch, sweep, ibm) so that their tests run there, never skip:
 ``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then fails if one is missing. The
 core package imports without them."""
 
@@ -10,7 +10,7 @@ import sys
 
 def test_extras_are_installed_where_required():
     if os.environ.get("QDENSITY_REQUIRE_EXTRAS") == "1":
-        for name in ("torch", "optuna"):
+        for name in ("torch", "optuna", "qiskit_ibm_runtime", "mthree"):
             importlib.import_module(name)
 
 
