@@ -55,8 +55,12 @@ def check_batch(circuits, num_qubits: int, name: str) -> tuple[bool, list[Quantu
     return single, batch
 
 
-def _pass_manager(owner: object, level: int, seed: int, target: Target | None,
-                  basis_gates: tuple[str, ...]) -> PassManager:
+def _where(target: Target | None, basis_gates: tuple[str, ...]) -> dict:
+    """What the circuits are compiled for: the ``target``, else the ``basis_gates``."""
+    return {"target": target} if target is not None else {"basis_gates": list(basis_gates)}
+
+
+def _pass_manager(owner: object, level: int, seed: int, where: dict) -> PassManager:
     """The preset pass manager of ``owner`` at ``(level, seed)``, built on first use."""
     with _LOCK:
         per_owner = _CACHE.get(owner)
@@ -64,8 +68,6 @@ def _pass_manager(owner: object, level: int, seed: int, target: Target | None,
             per_owner = _CACHE[owner] = {}
         pm = per_owner.get((level, seed))
     if pm is None:
-        where = ({"target": target} if target is not None
-                 else {"basis_gates": list(basis_gates)})
         pm = generate_preset_pass_manager(level, seed_transpiler=seed, **where)
         with _LOCK:
             pm = per_owner.setdefault((level, seed), pm)
@@ -80,11 +82,10 @@ def transpile_with(owner: object, batch: list[QuantumCircuit], level: int, seed:
     A seed of None keeps ``qiskit.transpile`` itself (its seed then comes from the environment
     or the user's Qiskit configuration, read per call).
     """
+    where = _where(target, basis_gates)
     if seed is None:
-        where = ({"target": target} if target is not None
-                 else {"basis_gates": list(basis_gates)})
         return list(qiskit_transpile(batch, optimization_level=level, **where))
-    pm = _pass_manager(owner, level, seed, target, basis_gates)
+    pm = _pass_manager(owner, level, seed, where)
     out = pm.run(batch)
     for circ, compiled in zip(batch, out, strict=True):
         compiled.name = circ.name  # as qiskit.transpile does
