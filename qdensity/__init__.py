@@ -4,36 +4,57 @@
 mixtures, decompositions), which compile questions to plans that ``execution`` runs (engines,
 schedulers, targets); ``gradients``, ``learning``, ``experiments`` and ``cli`` build on them,
 ``analysis`` and ``datasets`` lie underneath. Imports only go down this list (CONTRIBUTING.md).
+
+The names below are loaded on first use (PEP 562), so ``import qdensity`` and the command line
+start without importing scikit-learn, Aer or the subpackages a task does not touch;
+``from qdensity import DensityQNN`` works as usual.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from qdensity import _aliases
-from qdensity.analysis.structure import is_hamming_weight_preserving, moments
-from qdensity.circuits.gates import FBSGate, RBSGate
-from qdensity.circuits.loaders import (
-    distribution_loader,
-    loader_angles,
-    matrix_loader,
-    unary_loader,
-    unary_loader_template,
-)
-from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
-from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
-from qdensity.execution.resources import compare_reports, resource_report
-from qdensity.execution.targets import get_target, known_targets
-from qdensity.learning.estimators import QNNClassifier, QNNRegressor
-from qdensity.models.decompositions import (
-    Decomposition,
-    by_moments,
-    copies,
-    cyclic_moments,
-    odd_even,
-)
-from qdensity.models.density import DensityQNN, Encoding
-from qdensity.models.mixtures import FixedMixture, GatedMixture, SoftmaxMixture
 
 _aliases.install()
 
 __version__ = "0.1.0"
+
+#: public name -> the module that defines it
+_EXPORTS: dict[str, str] = {
+    "RBSGate": "qdensity.circuits.gates",
+    "FBSGate": "qdensity.circuits.gates",
+    "moments": "qdensity.analysis.structure",
+    "is_hamming_weight_preserving": "qdensity.analysis.structure",
+    "unary_loader": "qdensity.circuits.loaders",
+    "unary_loader_template": "qdensity.circuits.loaders",
+    "loader_angles": "qdensity.circuits.loaders",
+    "matrix_loader": "qdensity.circuits.loaders",
+    "distribution_loader": "qdensity.circuits.loaders",
+    "DensityQNN": "qdensity.models.density",
+    "Encoding": "qdensity.models.density",
+    "FixedMixture": "qdensity.models.mixtures",
+    "SoftmaxMixture": "qdensity.models.mixtures",
+    "GatedMixture": "qdensity.models.mixtures",
+    "Decomposition": "qdensity.models.decompositions",
+    "by_moments": "qdensity.models.decompositions",
+    "cyclic_moments": "qdensity.models.decompositions",
+    "odd_even": "qdensity.models.decompositions",
+    "copies": "qdensity.models.decompositions",
+    "Plan": "qdensity.execution.plans",
+    "expectation_plan": "qdensity.execution.plans",
+    "probabilities_plan": "qdensity.execution.plans",
+    "ExactEngine": "qdensity.execution.engines",
+    "SamplerEngine": "qdensity.execution.engines",
+    "ShotLedger": "qdensity.execution.engines",
+    "get_target": "qdensity.execution.targets",
+    "known_targets": "qdensity.execution.targets",
+    "resource_report": "qdensity.execution.resources",
+    "compare_reports": "qdensity.execution.resources",
+    "QNNClassifier": "qdensity.learning.estimators",
+    "QNNRegressor": "qdensity.learning.estimators",
+}
 
 __all__ = [
     "RBSGate",
@@ -68,14 +89,49 @@ __all__ = [
     "QNNClassifier",
     "QNNRegressor",
     "__version__",
-]
+]  # the names of _EXPORTS, spelled out for linters
+
+_SUBMODULES = frozenset({"analysis", "circuits", "cli", "datasets", "execution", "experiments",
+                         "gradients", "learning", "models", "progress", "validation"})
+
+if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
+    from qdensity.analysis.structure import is_hamming_weight_preserving, moments
+    from qdensity.circuits.gates import FBSGate, RBSGate
+    from qdensity.circuits.loaders import (
+        distribution_loader,
+        loader_angles,
+        matrix_loader,
+        unary_loader,
+        unary_loader_template,
+    )
+    from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+    from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
+    from qdensity.execution.resources import compare_reports, resource_report
+    from qdensity.execution.targets import get_target, known_targets
+    from qdensity.learning.estimators import QNNClassifier, QNNRegressor
+    from qdensity.models.decompositions import (
+        Decomposition,
+        by_moments,
+        copies,
+        cyclic_moments,
+        odd_even,
+    )
+    from qdensity.models.density import DensityQNN, Encoding
+    from qdensity.models.mixtures import FixedMixture, GatedMixture, SoftmaxMixture
 
 
 def __getattr__(name: str):
-    """``qdensity.ansatze`` and the other short module paths resolve without an explicit import."""
-    real = _aliases.resolve(f"qdensity.{name}")
-    if real is None:
+    """Public names load their module on first use; ``qdensity.ansatze`` and the other short
+    module paths (``qdensity._aliases``) and the subpackages resolve without an explicit import."""
+    module = _EXPORTS.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(module), name)
+        globals()[name] = value  # later lookups skip this function
+        return value
+    if name not in _SUBMODULES and _aliases.resolve(f"qdensity.{name}") is None:
         raise AttributeError(f"module 'qdensity' has no attribute {name!r}")
-    import importlib
-
     return importlib.import_module(f"qdensity.{name}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -315,3 +315,22 @@ def test_importing_a_submodule_by_its_short_path_keeps_the_package_functions():
         "assert hardware_efficient(2, 1).num_qubits == 2\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+
+
+def test_package_names_load_lazily_and_are_the_defining_modules_objects():
+    """``import qdensity`` imports no subpackage, scikit-learn or Aer (fresh interpreter); each
+    public name, on first use, is the object its defining module exports."""
+    code = (
+        "import sys, qdensity\n"
+        "heavy = [m for m in ('sklearn', 'qiskit_aer', 'qdensity.learning', 'qdensity.models')\n"
+        "         if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+        "from qdensity import DensityQNN\n"
+        "assert 'qdensity.models.density' in sys.modules and 'sklearn' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    assert set(qdensity.__all__) - {"__version__"} == set(qdensity._EXPORTS)
+    for name, module in qdensity._EXPORTS.items():
+        assert getattr(qdensity, name) is getattr(importlib.import_module(module), name)
+        assert name in dir(qdensity)
+    assert qdensity.circuits is importlib.import_module("qdensity.circuits")
