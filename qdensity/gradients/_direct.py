@@ -149,11 +149,22 @@ def _gradient_terms(
             out.append((label, shares, origin))
         return out
 
+    # totals: equal strings of one parameter from different terms of H add (what simplify()
+    # of each parameter's terms gives, in its order: first occurrence, zeros dropped)
+    pkey = np.concatenate([u_par[:, None], uniq[:, 2:]], axis=1)
+    _, tfirst, tinv = np.unique(pkey, axis=0, return_index=True, return_inverse=True)
+    tinv = tinv.ravel()
+    tsum = (np.bincount(tinv, weights=csum.real, minlength=len(tfirst))
+            + 1j * np.bincount(tinv, weights=csum.imag, minlength=len(tfirst)))
+    tkeep = np.flatnonzero(np.abs(tsum) > _ATOL)
+    tkeep = tkeep[np.lexsort((tfirst[tkeep], u_par[tfirst[tkeep]]))]
+    rows, tpar, tcoef = tfirst[tkeep], u_par[tfirst[tkeep]], tsum[tkeep]
     total = {p: zero for p in params}
-    order = np.argsort(u_par, kind="stable")
-    pb = np.searchsorted(u_par[order], np.arange(len(params) + 1))
+    pb = np.searchsorted(tpar, np.arange(len(params) + 1))
     for k in np.flatnonzero(np.diff(pb)):
-        total[params[k]] = op(order[pb[k]:pb[k + 1]]).simplify(atol=_ATOL)
+        sel = rows[pb[k]:pb[k + 1]]
+        total[params[k]] = SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]),
+                                         tcoef[pb[k]:pb[k + 1]])
     return total, [label for label, _ in terms], per_term
 
 

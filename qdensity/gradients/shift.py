@@ -122,21 +122,20 @@ def expand_occurrences(
     wanted = set(circuit.parameters if parameters is None else parameters)
     occurrences = []
     out = circuit.copy_empty_like()
-    fresh = ParameterVector("_occ", sum(
-        1 for inst in circuit.data
-        if (po := parameter_of(inst)) is not None and po[0] in wanted))
-    for inst in circuit.data:
-        po = parameter_of(inst)
+    found = [parameter_of(inst) for inst in circuit.data]
+    fresh = ParameterVector("_occ", sum(1 for po in found if po is not None and po[0] in wanted))
+    # the instructions come from a valid circuit on the same bits: appended unchecked
+    for inst, po in zip(circuit.data, found, strict=True):
         if po is None or po[0] not in wanted:
-            out.append(inst)
+            out._append(inst)
             continue
         p, a = po
         q = fresh[len(occurrences)]
-        new_params = [e.subs({p: q}) if hasattr(e, "parameters") and p in getattr(
+        new_params = [q if e is p else e.subs({p: q}) if hasattr(e, "parameters") and p in getattr(
             e, "parameters", ()) else e for e in inst.operation.params]
         op = inst.operation.copy()
         op.params = new_params
-        out.append(inst.replace(operation=op))
+        out._append(inst.replace(operation=op))
         occurrences.append((p, q, a, inst))
     return out, occurrences
 
@@ -198,17 +197,20 @@ def parameter_shift_plan(
         [vals[:, src[fresh_of.get(p, p)]] for p in exp_params], axis=1
     ) if exp_params else np.zeros((vals.shape[0], 0))
     exp_index = {p: i for i, p in enumerate(exp_params)}
-    blocks, weights = [], []  # weights[(row block)] -> (occurrence index, coefficient)
+    weights = []  # per block of B rows: (occurrence index, coefficient)
+    cols, moves = [], []  # per block: the occurrence's column and its parameter's shift
     for o, ((_p, q, a, _), rule) in enumerate(zip(occ, rules, strict=True)):
         if a == 0:
             raise ValueError(f"parameter {_p.name} enters a gate with coefficient 0")
         for s, c in zip(rule.shifts, rule.coeffs, strict=True):
-            shifted = base.copy()
-            shifted[:, exp_index[q]] += s / a  # the gate angle a*p + b moves by s
-            blocks.append(shifted)
+            cols.append(exp_index[q])
+            moves.append(s / a)  # the gate angle a*p + b moves by s
             weights.append((o, c))
     B = vals.shape[0]
-    rows = np.concatenate(blocks, axis=0) if blocks else np.zeros((0, len(exp_params)))
+    blocks = np.tile(base, (len(weights), 1, 1))  # (blocks, B, P): one copy of base each
+    if weights:
+        blocks[np.arange(len(weights)), :, np.asarray(cols)] += np.asarray(moves)[:, None]
+    rows = blocks.reshape(len(weights) * B, len(exp_params))
     if observable is not None:
         inner = expectation_plan(expanded, observable, rows, shots=shots, label=label)
     else:
