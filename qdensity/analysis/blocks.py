@@ -24,6 +24,7 @@ from qiskit.circuit import (
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
 from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
+from qdensity.analysis._gf2 import span_basis
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
 from qdensity.validation import check_circuit
@@ -145,32 +146,6 @@ def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
     return _is_zero(_commutator(a, b))
 
 
-def _span_basis(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A basis of the GF(2) span of the rows ``(x | z)``, by elimination on packed bits.
-
-    At most ``2 n`` rows however many terms: the symplectic form is bilinear, so every pair of
-    terms commutes iff every pair of basis vectors does.
-    """
-    n = x.shape[1]
-    rows = np.packbits(np.concatenate([x, z], axis=1), axis=1)
-    live = np.arange(rows.shape[0])
-    basis = []
-    for c in range(2 * n):
-        if not live.size:
-            break
-        has = np.flatnonzero(rows[live, c >> 3] & (0x80 >> (c & 7)))
-        if not has.size:
-            continue
-        pivot = live[has[0]]
-        rows[live[has[1:]]] ^= rows[pivot]
-        basis.append(rows[pivot])
-        live = np.delete(live, has[0])
-    if not basis:
-        return np.zeros((0, n), bool), np.zeros((0, n), bool)
-    bits = np.unpackbits(np.array(basis), axis=1, count=2 * n).astype(bool)
-    return bits[:, :n], bits[:, n:]
-
-
 def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, int] | None:
     """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
 
@@ -183,7 +158,7 @@ def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, in
     if terms.num_gates < 2:
         return None
     x, z, starts = terms.x, terms.z, terms.starts[:-1]
-    if not anticommutation(*_span_basis(x, z)).any():  # every term commutes with every term
+    if not anticommutation(*span_basis(x, z)).any():  # every term commutes with every term
         return None
     anti = anticommutation(x, z).astype(np.int64)
     flags = np.add.reduceat(np.add.reduceat(anti, starts, axis=0), starts, axis=1) > 0

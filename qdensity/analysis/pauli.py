@@ -23,6 +23,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
 
+from qdensity.analysis._gf2 import independent_rows, span_basis
 from qdensity.validation import MAX_DENSE_QUBITS, check_width
 
 __all__ = [
@@ -251,8 +252,10 @@ def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     (int, int) or None
         Lexicographically first pair (row-major over ``s < t``).
     """
-    anti = np.triu(commutation_matrix(paulis), k=1)
-    hits = np.argwhere(anti)
+    pl = as_pauli_list(paulis)
+    if not anticommutation(*span_basis(pl.x, pl.z)).any():  # settled on a basis of the span
+        return None
+    hits = np.argwhere(np.triu(anticommutation(pl.x, pl.z), k=1))
     if hits.size == 0:
         return None
     s, t = hits[0]
@@ -334,7 +337,7 @@ def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
             f"paulis[{t}] = {pl[t].to_label()} anticommute"
         )
     circ = QuantumCircuit(n, name="diagonalise")
-    gens = _independent_rows(pl)
+    gens = independent_rows(pl)
     pivots: list[int] = []
     for r in range(len(gens)):
         # Strip Z factors on earlier pivots (the generator has no X there: it commutes with Z_q).
@@ -368,28 +371,6 @@ def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
     if z_paulis.x.any():  # a guard on the algebra above, never expected to fire
         raise RuntimeError("diagonalisation left an X component; please report this input")
     return circ, z_paulis
-
-
-def _independent_rows(pl: PauliList) -> PauliList:
-    """A maximal GF(2)-independent subset of the rows (phases dropped)."""
-    n = pl.num_qubits
-    mat = np.concatenate([pl.x, pl.z], axis=1).astype(np.uint8)
-    basis: list[np.ndarray] = []
-    pivcols: list[int] = []
-    keep: list[int] = []
-    for idx, row in enumerate(mat):
-        v = row.copy()
-        for b, c in zip(basis, pivcols, strict=True):
-            if v[c]:
-                v ^= b
-        nz = np.flatnonzero(v)
-        if nz.size:
-            basis.append(v)
-            pivcols.append(int(nz[0]))
-            keep.append(idx)
-    if not keep:
-        return PauliList.from_symplectic(np.zeros((0, n), bool), np.zeros((0, n), bool))
-    return PauliList.from_symplectic(pl.z[keep], pl.x[keep])
 
 
 def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:

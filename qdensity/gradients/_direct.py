@@ -24,7 +24,6 @@ from qdensity.analysis.blocks import (
     _ATOL,
     _evolve,
     _is_zero,
-    _span_basis,
     _terms_of,
     _Trainable,
 )
@@ -168,23 +167,13 @@ def _gradient_terms(
     return total, [label for label, _ in terms], per_term
 
 
-def _first_anticommuting(strings: list[str]) -> tuple[int, int] | None:
-    """:func:`first_noncommuting_pair` of Pauli labels, after a test on a basis of their GF(2)
-    span (at most 2 n strings) that settles the usual all-commuting case without the full
-    pairwise matrix."""
-    pl = PauliList(strings)
-    if not anticommutation(*_span_basis(pl.x, pl.z)).any():
-        return None
-    return first_noncommuting_pair(pl)
-
-
 def _group_terms(per_term, params):
     """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute."""
     groups: list[dict] = []
     for label, shares, origin in per_term:
         strings = [lab for lab, _ in origin]
         if strings:
-            bad = _first_anticommuting(strings)
+            bad = first_noncommuting_pair(PauliList(strings))
             if bad is not None:
                 (la, ta), (lb, tb) = origin[bad[0]], origin[bad[1]]
                 raise ValueError(
@@ -195,7 +184,7 @@ def _group_terms(per_term, params):
                     "(Bowles et al., Thm. 1)"
                 )
         for g in groups:
-            if not strings or _first_anticommuting(g["strings"] + strings) is None:
+            if not strings or first_noncommuting_pair(PauliList(g["strings"] + strings)) is None:
                 g["labels"].append(label)
                 g["strings"].extend(strings)
                 for p in params:
@@ -208,7 +197,10 @@ def _group_terms(per_term, params):
 
 
 def _evolve_all(ops: dict, cliff: Clifford, n: int) -> dict:
-    """``{p: (C op C^dagger).simplify()}``, the terms of every ``op`` evolved in one call."""
+    """``{p: C op C^dagger}``, the terms of every ``op`` evolved in one call.
+
+    Conjugation by a Clifford permutes Pauli strings (up to sign), so an ``op`` with distinct
+    strings and non-zero coefficients (every ``op`` here) stays simplified, in its order."""
     items = list(ops.items())
     if len(items) < 2:
         return {p: _evolve(op, cliff, list(range(n))).simplify(atol=_ATOL) for p, op in items}
@@ -219,7 +211,7 @@ def _evolve_all(ops: dict, cliff: Clifford, n: int) -> dict:
         np.concatenate([op.paulis.phase for _, op in items]),
     ).evolve(cliff, qargs=list(range(n)), frame="s")
     ends = np.cumsum(sizes)
-    return {p: SparsePauliOp(paulis[e - k:e], op.coeffs).simplify(atol=_ATOL)
+    return {p: SparsePauliOp(paulis[e - k:e], op.coeffs)
             for (p, op), e, k in zip(items, ends, sizes, strict=True)}
 
 

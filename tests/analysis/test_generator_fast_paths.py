@@ -5,8 +5,9 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, Operator, PauliList, SparsePauliOp, random_clifford
 
-from qdensity.analysis.blocks import _evolve, _first_noncommuting, _span_basis
-from qdensity.analysis.pauli import anticommutation
+from qdensity.analysis._gf2 import span_basis
+from qdensity.analysis.blocks import _evolve, _first_noncommuting
+from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
 from qdensity.analysis.structure import _placed, instruction_generator
 from qdensity.circuits.ansatze import equivariant_commuting, translation_classes
 from qdensity.gradients._direct import _evolve_all
@@ -40,11 +41,12 @@ def test_span_basis_commutation_matches_pairwise():
         else:
             pl = PauliList.from_symplectic(rng.random((m, n)) < 0.4, rng.random((m, n)) < 0.4)
         pairwise = not anticommutation(pl.x, pl.z).any()
-        assert (not anticommutation(*_span_basis(pl.x, pl.z)).any()) == pairwise
+        assert (not anticommutation(*span_basis(pl.x, pl.z)).any()) == pairwise
         gens = [SparsePauliOp(pl[i]) for i in range(m)]
         brute = next(((a, b) for a in range(m) for b in range(a + 1, m)
                       if not pl[a].commutes(pl[b])), None)
         assert _first_noncommuting(gens) == brute
+        assert first_noncommuting_pair(pl) == brute  # the span test first, then the pairs
 
 
 def test_evolve_all_matches_one_by_one():
