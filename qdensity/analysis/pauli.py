@@ -420,6 +420,7 @@ _PAULI_1Q = {
     "Z": np.array([[1, 0], [0, -1]], dtype=complex),
 }
 _LABELS_2Q = [a + b for a in "IXYZ" for b in "IXYZ"]  # label "ab": a on the first qubit
+_X_OF, _Z_OF = np.array([0, 1, 1, 0], bool), np.array([0, 0, 1, 1], bool)  # I, X, Y, Z
 
 
 _TRANSFER_CACHE: dict[bytes, np.ndarray] = {}
@@ -466,16 +467,17 @@ def conjugate_two_qubit(
     tm = _TRANSFER_CACHE.get(key)
     if tm is None:
         tm = _TRANSFER_CACHE.setdefault(key, _transfer_matrix(mat))
-    labels: list[str] = []
-    coeffs: list[complex] = []
-    for label, coeff in op.to_list():
-        chars = list(label[::-1])  # chars[q] is the Pauli on qubit q
-        b = _LABELS_2Q.index(chars[q0] + chars[q1])
-        for a in np.flatnonzero(np.abs(tm[:, b]) > atol):
-            new = chars.copy()
-            new[q0], new[q1] = _LABELS_2Q[a][0], _LABELS_2Q[a][1]
-            labels.append("".join(new[::-1]))
-            coeffs.append(coeff * tm[a, b])
-    if not labels:
+    # all terms at once: each term's Pauli pair on (q0, q1) indexes a column of the transfer
+    # matrix, and each of its non-zero rows is one output term (term by term, rows ascending)
+    x, z = op.paulis.x, op.paulis.z
+    coeffs = op.coeffs * (-1j) ** op.paulis.phase  # the labels' phases into the coefficients
+    code = (x.astype(np.intp) + 3 * z - 2 * (x & z))[:, [q0, q1]]  # I, X, Y, Z -> 0, 1, 2, 3
+    b = 4 * code[:, 0] + code[:, 1]
+    t, a = np.nonzero(np.abs(tm[:, b]).T > atol)
+    if not t.size:
         return SparsePauliOp(["I" * op.num_qubits], [0.0])
-    return SparsePauliOp(labels, coeffs).simplify(atol=atol)
+    nx, nz = x[t], z[t]
+    nx[:, q0], nz[:, q0] = _X_OF[a // 4], _Z_OF[a // 4]
+    nx[:, q1], nz[:, q1] = _X_OF[a % 4], _Z_OF[a % 4]
+    return SparsePauliOp(PauliList.from_symplectic(nz, nx),
+                         coeffs[t] * tm[a, b[t]]).simplify(atol=atol)
