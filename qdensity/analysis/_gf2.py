@@ -9,7 +9,49 @@ from __future__ import annotations
 import numpy as np
 from qiskit.quantum_info import PauliList
 
-__all__: list[str] = []
+__all__ = ["anticommutation"]
+
+
+def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None,
+                    zb: np.ndarray | None = None) -> np.ndarray:
+    """Anticommutation of every pair of Pauli operators as one GF(2) product.
+
+    ``A[s, t] = x_s . z'_t + z_s . x'_t (mod 2)``, computed as one floating-point matrix
+    product of the symplectic bit matrices (exact: the sums are integers below ``2^53``).
+
+    Parameters
+    ----------
+    xa, za : numpy.ndarray of bool, shape (m, n)
+        Symplectic bits of the first set.
+    xb, zb : numpy.ndarray of bool, shape (k, n), optional
+        Of the second set; default the first.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (m, k)
+        True where the operators anticommute.
+
+    Examples
+    --------
+    >>> from qiskit.quantum_info import PauliList
+    >>> pl = PauliList(["XI", "ZI", "IZ"])
+    >>> anticommutation(pl.x, pl.z).astype(int).tolist()
+    [[0, 1, 0], [1, 0, 0], [0, 0, 0]]
+    """
+    if xb is None:
+        xb, zb = xa, za
+    a = np.concatenate([xa, za], axis=1).astype(np.float64)
+    b = np.concatenate([zb, xb], axis=1).astype(np.float64)
+    return (np.rint(a @ b.T).astype(np.int64) & 1).astype(bool)
+
+
+def all_commute(x: np.ndarray, z: np.ndarray) -> bool:
+    """Whether the Paulis with rows ``(x | z)`` (m, n) commute pairwise: the m x m product, or,
+    for many more rows than qubits, the product of a basis of their span (:func:`span_basis`),
+    which decides the same (the symplectic form is bilinear) at ``O(m n)``."""
+    if x.shape[0] > 8 * max(x.shape[1], 1):
+        x, z = span_basis(x, z)
+    return not anticommutation(x, z).any()
 
 
 def span_basis(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

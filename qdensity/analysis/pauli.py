@@ -23,7 +23,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
 
-from qdensity.analysis._gf2 import independent_rows, span_basis
+from qdensity.analysis._gf2 import all_commute, anticommutation, independent_rows
 from qdensity.validation import MAX_DENSE_QUBITS, check_width
 
 __all__ = [
@@ -76,42 +76,6 @@ def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
 # MAX_DENSE_QUBITS (qdensity.validation, shared by every dense path) is the widest register for
 # which a dense ``2**n`` table of outcome values is built; wider registers are evaluated on
 # observed outcomes only (:class:`ZStringTable`).
-
-
-def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None,
-                    zb: np.ndarray | None = None) -> np.ndarray:
-    """Anticommutation of every pair of Pauli operators as one GF(2) product.
-
-    ``A[s, t] = x_s . z'_t + z_s . x'_t (mod 2)``, computed as one floating-point matrix
-    product of the symplectic bit matrices (exact: the sums are integers below ``2^53``).
-
-    Parameters
-    ----------
-    xa, za : numpy.ndarray of bool, shape (m, n)
-        Symplectic bits of the first set.
-    xb, zb : numpy.ndarray of bool, shape (k, n), optional
-        Of the second set; default the first.
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (m, k)
-        True where the operators anticommute.
-
-    Examples
-    --------
-    >>> pl = PauliList(["XI", "ZI", "IZ"])
-    >>> anticommutation(pl.x, pl.z).astype(int).tolist()
-    [[0, 1, 0], [1, 0, 0], [0, 0, 0]]
-    """
-    if xb is None:
-        xb, zb = xa, za
-    if xa.shape[0] * xb.shape[0] * xa.shape[1] <= 1 << 22:  # small: no BLAS call
-        a = np.concatenate([xa, za], axis=1).astype(np.int32)
-        b = np.concatenate([zb, xb], axis=1).astype(np.int32)
-        return ((a @ b.T) & 1).astype(bool)
-    a = np.concatenate([xa, za], axis=1).astype(np.float64)
-    b = np.concatenate([zb, xb], axis=1).astype(np.float64)
-    return (np.rint(a @ b.T).astype(np.int64) & 1).astype(bool)
 
 
 class ZStringTable:
@@ -253,7 +217,7 @@ def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
         Lexicographically first pair (row-major over ``s < t``).
     """
     pl = as_pauli_list(paulis)
-    if not anticommutation(*span_basis(pl.x, pl.z)).any():  # settled on a basis of the span
+    if all_commute(pl.x, pl.z):
         return None
     hits = np.argwhere(np.triu(anticommutation(pl.x, pl.z), k=1))
     if hits.size == 0:
