@@ -40,6 +40,10 @@ def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None
     """
     if xb is None:
         xb, zb = xa, za
+    if xa.shape[0] * xb.shape[0] * xa.shape[1] <= 1 << 22:  # small: no BLAS call (its threads
+        a = np.concatenate([xa, za], axis=1).astype(np.int32)  # cost more than they save)
+        b = np.concatenate([zb, xb], axis=1).astype(np.int32)
+        return ((a @ b.T) & 1).astype(bool)
     a = np.concatenate([xa, za], axis=1).astype(np.float64)
     b = np.concatenate([zb, xb], axis=1).astype(np.float64)
     return (np.rint(a @ b.T).astype(np.int64) & 1).astype(bool)
