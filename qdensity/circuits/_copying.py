@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from qiskit.circuit import (
+    CircuitInstruction,
     Parameter,
     ParameterExpression,
     QuantumCircuit,
@@ -49,24 +50,39 @@ def _no_vars(circuit: QuantumCircuit) -> bool:
     return not (circuit.num_vars or circuit.num_stretches)
 
 
+class _NotPlain(Exception):
+    """Raised inside ``map_nonstandard_ops`` by a gate :func:`copy_circuit` cannot copy."""
+
+
 def copy_circuit(circuit: QuantumCircuit) -> QuantumCircuit:
     """``circuit.copy()``: the same gates on the same qubits, each its own gate object.
 
-    Circuits of plain ``PauliEvolutionGate`` s (:func:`_plain`) are copied gate by gate with
-    :func:`_gate_copy`; any other circuit by ``QuantumCircuit.copy``.
+    A circuit of plain ``PauliEvolutionGate`` s (:func:`_plain`) is copied without copying its
+    gates (``CircuitData.copy(copy_instructions=False)``: the instruction list, bits and
+    parameter table), then each gate is replaced in the copy by its :func:`_gate_copy` with
+    the same parameters, so the parameter table stays right; any other circuit is copied by
+    ``QuantumCircuit.copy``.
     """
     if not _no_vars(circuit):
         return circuit.copy()
-    data = circuit.data
-    out = []
-    for inst in data:
-        op = inst.operation
+    seen = 0
+
+    def own(op):
+        nonlocal seen
         if not _plain(op):
-            return circuit.copy()
-        out.append(inst.replace(operation=_gate_copy(op, list(op._params))))
+            raise _NotPlain
+        seen += 1
+        return _gate_copy(op, list(op._params))
+
+    data = circuit._data.copy(copy_instructions=False)
+    try:
+        data.map_nonstandard_ops(own)  # standard gates are skipped: counted below
+    except _NotPlain:
+        return circuit.copy()
+    if seen != len(data):
+        return circuit.copy()
     cpy = circuit.copy_empty_like(vars_mode="drop")
-    for inst in out:
-        cpy._append(inst)
+    cpy._data = data
     return cpy
 
 
@@ -77,7 +93,8 @@ def assign_fresh(circuit: QuantumCircuit,
 
     Circuits of plain ``PauliEvolutionGate`` s whose parameters are ``Parameter`` s or numbers
     get one :func:`_gate_copy` per gate with the mapped parameters, and the name Qiskit gives
-    a copy (``circuit-<count>``); any other circuit goes through ``assign_parameters``.
+    a copy (``<base name>-<count of circuits made>``); any other circuit goes through
+    ``assign_parameters``.
     """
     mapping = dict(mapping)
     if (not _no_vars(circuit) or isinstance(circuit.global_phase, ParameterExpression)
@@ -98,7 +115,7 @@ def assign_fresh(circuit: QuantumCircuit,
                 params.append(p)
             else:  # an expression (or anything else): Qiskit substitutes it
                 return circuit.assign_parameters(mapping, inplace=False)
-        out.append(inst.replace(operation=_gate_copy(op, params)))
+        out.append(CircuitInstruction(_gate_copy(op, params), inst.qubits, inst.clbits))
     cpy = circuit.copy_empty_like(vars_mode="drop")
     for inst in out:
         cpy._append(inst)

@@ -196,21 +196,21 @@ def equivariant_commuting(
     classes = translation_classes(n, max_weight)
     theta = ParameterVector(parameter_prefix, len(classes))
     qc = QuantumCircuit(n, name=name or f"equivariant_{p.lower() * 2}_{n}")
-    ops: dict[int, SparsePauliOp] = {}
+    templates: dict[int, PauliEvolutionGate] = {}
     bits = qc.qubits
     for c, cls in enumerate(classes):
-        # one gate per class, copied per string: equal gates at a fraction of the cost of
-        # building a SparsePauliOp and a PauliEvolutionGate for each of the C(n, k) strings.
-        # The copy is what Instruction.copy makes of a gate without a definition yet (shallow,
-        # with its own parameter list; the operator is shared as there: _gate_copy), appended
-        # unchecked: the qubits are distinct and in range by construction.
-        k = len(cls[0])
-        if k not in ops:
-            ops[k] = SparsePauliOp(p * k)
-        t = theta[c]
-        gate = PauliEvolutionGate(ops[k], time=t)
+        # one gate per weight, copied per string with its class parameter: equal gates at a
+        # fraction of the cost of building a SparsePauliOp and a PauliEvolutionGate for each
+        # of the C(n, k) strings (or each class). The copy is what Instruction.copy makes of a
+        # gate without a definition yet (shallow, with its own parameter list; the operator is
+        # shared as there: _gate_copy), appended unchecked: the qubits are distinct and in
+        # range by construction.
+        k, t = len(cls[0]), theta[c]
+        gate = templates.get(k)
+        if gate is None:
+            gate = templates[k] = PauliEvolutionGate(SparsePauliOp(p * k), time=t)
         for support in cls:
-            qc._append(CircuitInstruction(_gate_copy(gate, [t]), tuple(bits[q] for q in support)))
+            qc._append(CircuitInstruction(_gate_copy(gate, [t]), tuple([bits[q] for q in support])))
     return qc
 
 
