@@ -1,18 +1,22 @@
 """Cheap copies of circuits of ``PauliEvolutionGate`` s (the equivariant models' gates).
 
-Qiskit's ``QuantumCircuit.copy`` and ``assign_parameters(..., inplace=False)`` deep-copy every
-Python-side gate (``Instruction.__deepcopy__``: a shallow copy, a deep copy of the parameter
-list and of the definition), about 13 us a gate: over half a second for the 43,744 gates of
-``equivariant_commuting(64)``. For a ``PauliEvolutionGate`` whose definition is not built yet
-that deep copy is a shallow copy with its own parameter list (Parameters and numbers are
-immutable and ``copy.deepcopy`` returns them as they are); :func:`_gate_copy` makes exactly
-that copy without the ``copy`` module's machinery. Every copy gets its own gate objects:
-sharing one between two circuits would be wrong, as ``assign_parameters(..., inplace=True)`` on
-one circuit rewrites the parameters of the shared gate in both.
+Qiskit's ``QuantumCircuit.copy`` deep-copies every Python-side gate (``Instruction.__deepcopy__``:
+a shallow copy, a deep copy of the parameter list and of the definition), about 10 us a gate:
+half a second for the 43,744 gates of ``equivariant_commuting(64)``; ``assign_parameters(...,
+inplace=False)`` adds a symbolic substitution per gate (about 1.5 s in all). For a
+``PauliEvolutionGate`` whose definition is not built yet that deep copy is a shallow copy with its
+own parameter list (Parameters and numbers are immutable and ``copy.deepcopy`` returns them as
+they are); :func:`_gate_copy` makes exactly that copy without the ``copy`` module's machinery.
+Every copy gets its own gate objects: sharing one between two circuits would be wrong, as
+``assign_parameters(..., inplace=True)`` on one circuit rewrites the parameters of the shared
+gate in both. What remains per gate is Qiskit reading the new Python gate into its circuit
+(about 5 us); measured at n = 64 on a loaded 2-core box (load 1.3-2, CPU seconds):
+``copy_circuit`` about 0.3 s against 0.45-0.55 s for ``QuantumCircuit.copy``, ``assign_fresh``
+about 0.55 s against 1.5 s.
 
 :func:`copy_circuit` and :func:`assign_fresh` take this path only when every instruction is
-such a gate (and the circuit has no realtime variables and a fixed global phase, for
-:func:`assign_fresh`); anything else goes through Qiskit.
+such a gate (and the circuit has no realtime variables, and for :func:`assign_fresh` a fixed
+global phase and a Parameter-to-Parameter mapping); anything else goes through Qiskit.
 """
 
 from __future__ import annotations
@@ -74,10 +78,10 @@ def copy_circuit(circuit: QuantumCircuit) -> QuantumCircuit:
         seen += 1
         return _gate_copy(op, list(op._params))
 
-    data = circuit._data.copy(copy_instructions=False)
     try:
+        data = circuit._data.copy(copy_instructions=False)
         data.map_nonstandard_ops(own)  # standard gates are skipped: counted below
-    except _NotPlain:
+    except (_NotPlain, AttributeError, TypeError):  # (the last two: another CircuitData API)
         return circuit.copy()
     if seen != len(data):
         return circuit.copy()
