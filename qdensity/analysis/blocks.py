@@ -21,6 +21,7 @@ from qiskit.circuit import (
     ParameterExpression,
     QuantumCircuit,
 )
+from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
 from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
@@ -216,11 +217,25 @@ def _analyse_block(
     done: list[_Terms] = []  # the terms placed so far, propagated through the Cliffords
     tpls: list = []  # gates read since the last Clifford, not yet placed
     qubs: list[tuple[int, ...]] = []
-    data = circuit.data
-    for idx in range(start, stop):
-        inst = data[idx]
+    qindex, by_operator = reader.qindex.__getitem__, reader._by_operator
+    trainable: dict[int, tuple[Parameter, bool]] = {}
+    for idx, inst in enumerate(circuit.data[start:stop], start):
         op = inst.operation
         name = op.name
+        if name == "PauliEvolution" and type(op) is PauliEvolutionGate and len(op._params) == 1:
+            # what _read gives a Pauli evolution whose time is a trainable Parameter (angle
+            # 1 p + 0) and whose operator's template the reader holds, without its dispatch;
+            # the gates of a class share their Parameter object, tested once
+            p, o = op._params[0], op.operator
+            seen = trainable.get(id(p))
+            if seen is None or seen[0] is not p:
+                seen = trainable[id(p)] = (p, isinstance(p, Parameter) and p in params)
+            hit = by_operator.get(id(o))
+            if seen[1] and hit is not None and hit[0] is o:
+                live.append(_Trainable(idx, name, p, 1.0, row=len(live), circuit=circuit))
+                tpls.append(hit[1])
+                qubs.append(tuple(map(qindex, inst.qubits)))
+                continue
         if name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)

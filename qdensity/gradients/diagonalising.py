@@ -18,6 +18,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _is_zero, _terms_of, _Trainable
 from qdensity.analysis.pauli import ZStringTable, conjugate_two_qubit
+from qdensity.circuits._copying import copy_circuit
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.validation import check_positive_int
 
@@ -72,8 +73,9 @@ def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> ZStr
 
 
 def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCircuit:
-    """``measured(circuit + barrier + tail)``, with one copy of ``circuit`` (not two)."""
-    out = circuit.copy()
+    """``measured(circuit + barrier + tail)``, with one copy of ``circuit`` (not two; a cheap
+    one for a circuit of Pauli evolutions, :func:`qdensity.circuits._copying.copy_circuit`)."""
+    out = copy_circuit(circuit)
     if tail is not None and tail.size():
         out.barrier()
         out.compose(tail, qubits=range(tail.num_qubits), inplace=True)

@@ -25,6 +25,7 @@ from qdensity.analysis.parameters import (  # re-exported: the helper lives belo
     trainable_parameters,
 )
 from qdensity.analysis.structure import moment_indices, moments
+from qdensity.circuits._copying import assign_fresh
 from qdensity.validation import check_circuit, check_positive_int
 
 __all__ = [
@@ -222,7 +223,8 @@ def _fresh_parameters(circuits: Sequence[QuantumCircuit],
     for k, qc in enumerate(circuits):
         params = trainable_parameters(qc)
         vec = ParameterVector(f"{prefix}{k}", len(params))
-        out.append(qc.assign_parameters(dict(zip(params, vec, strict=True)), inplace=False))
+        # = qc.assign_parameters(mapping, inplace=False), cheaper for Pauli evolutions
+        out.append(assign_fresh(qc, dict(zip(params, vec, strict=True))))
     return out
 
 

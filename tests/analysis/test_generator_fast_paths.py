@@ -1,6 +1,7 @@
 """Fast paths of the commuting analysis against Qiskit's own operations and brute force."""
 
 import numpy as np
+import pytest
 from qiskit.circuit import QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, Operator, PauliList, SparsePauliOp, random_clifford
@@ -143,3 +144,35 @@ def test_equivariant_builder_matches_plain_construction():
         ops = [inst.operation for inst in qc.data]
         assert len({id(op) for op in ops}) == len(ops)
         assert len({id(op.params) for op in ops}) == len(ops)
+
+
+def test_block_of_shared_pauli_evolutions_matches_instruction_generator():
+    """The run of Pauli evolutions sharing operators and Parameter objects (the equivariant
+    models and their copies) read without the reader's dispatch, against instruction_generator
+    and parameter_of gate by gate; data and fixed times are not trainable."""
+    from qiskit.circuit import ParameterVector
+
+    from qdensity.analysis.blocks import _analyse_block
+    from qdensity.analysis.parameters import trainable_parameters
+    from qdensity.analysis.structure import parameter_of
+    from qdensity.models.decompositions import copies
+
+    x = ParameterVector("x", 2)
+    model = equivariant_commuting(6, "X")
+    for qc in [model, *copies(model, 2).sub_unitaries]:
+        circ = QuantumCircuit(6)
+        zz = SparsePauliOp("ZZ")
+        circ.append(PauliEvolutionGate(zz, time=x[0]), [0, 1])  # data: state preparation
+        circ.append(PauliEvolutionGate(zz, time=0.4), [2, 3])  # fixed: state preparation
+        circ.compose(qc, inplace=True)
+        circ.append(PauliEvolutionGate(zz, time=x[1]), [4, 5])  # data after the block
+        params = set(trainable_parameters(circ))
+        got = _analyse_block(circ, 2, len(circ.data) - 1, params)
+        data = circ.data[2:-1]
+        assert [t.index for t in got] == list(range(2, len(circ.data) - 1))
+        for t, inst in zip(got, data, strict=True):
+            assert t.name == "PauliEvolution"
+            assert (t.parameter, t.coeff) == parameter_of(inst)
+            assert t.generator == instruction_generator(inst, circ).simplify()
+        with pytest.raises(ValueError, match="neither trainable nor Clifford"):
+            _analyse_block(circ, 2, len(circ.data), params)

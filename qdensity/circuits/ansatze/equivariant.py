@@ -21,7 +21,6 @@ generator off the circuit and every transpiler turns it into a CNOT ladder.
 
 from __future__ import annotations
 
-import copy
 from itertools import combinations
 
 import numpy as np
@@ -29,6 +28,7 @@ from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
+from qdensity.circuits._copying import _gate_copy
 from qdensity.datasets.bars_and_dots import bars_and_dots
 from qdensity.validation import check_layers, check_num_qubits, check_positive_int
 
@@ -46,13 +46,23 @@ __all__ = [
 PAULIS = ("X", "Y", "Z")
 
 
-def _canonical(support: tuple[int, ...], n: int) -> tuple[int, ...]:
-    """Smallest sorted tuple among the cyclic shifts of ``support``.
+def _canonical(supports: np.ndarray, n: int) -> np.ndarray:
+    """Smallest sorted tuple among the cyclic shifts of each row of ``supports``.
 
-    The smallest shift starts at 0, so only the ``len(support)`` shifts that move one of its
-    members to 0 are candidates.
+    ``supports`` (S, k): sorted supports, one a row. The smallest shift starts at 0, so only
+    the ``k`` shifts that move one member to 0 are candidates; moving member ``j`` to 0 maps
+    the sorted row ``a`` to the sorted row ``(a_j, .., a_{k-1}, a_0 + n, .., a_{j-1}) - a_j``
+    (a rotation). The candidates are compared lexicographically, all rows at once.
     """
-    return min(tuple(sorted((q - s) % n for q in support)) for s in support)
+    best = supports - supports[:, :1]
+    rows = np.arange(len(supports))
+    for j in range(1, supports.shape[1]):
+        cand = np.concatenate([supports[:, j:], supports[:, :j] + n], axis=1) - supports[:, j:j + 1]
+        diff = cand != best
+        first = np.argmax(diff, axis=1)  # first differing position (0 when none differs)
+        smaller = cand[rows, first] < best[rows, first]
+        best[smaller] = cand[smaller]
+    return best
 
 
 def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int, ...]]]:
@@ -96,10 +106,23 @@ def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int
         )
     classes: list[list[tuple[int, ...]]] = []
     for k in range(1, k_max + 1):
-        groups: dict[tuple[int, ...], list[tuple[int, ...]]] = {}
-        for support in combinations(range(n), k):
-            groups.setdefault(_canonical(support, n), []).append(support)
-        classes.extend(groups[key] for key in sorted(groups))
+        # every support of weight k in lexicographic order, one a row; its class is named by
+        # its canonical form, the class's smallest member (_canonical)
+        supports = list(combinations(range(n), k))
+        rows = np.array(supports, dtype=np.int64).reshape(len(supports), k)
+        canonical = _canonical(rows, n)
+        if k * np.log2(n) < 62:  # one integer a form, in the forms' lexicographic order
+            canonical = canonical @ (n ** np.arange(k - 1, -1, -1, dtype=np.int64))
+            _, owner = np.unique(canonical, return_inverse=True)
+        else:
+            _, owner = np.unique(canonical, axis=0, return_inverse=True)
+        owner = owner.ravel()
+        order = np.argsort(owner, kind="stable")  # by class, lexicographic inside
+        sizes = np.bincount(owner)
+        ends = np.cumsum(sizes)
+        starts = ends - sizes
+        members = [supports[i] for i in order.tolist()]
+        classes.extend(members[a:b] for a, b in zip(starts.tolist(), ends.tolist(), strict=True))
     return classes
 
 
@@ -173,22 +196,21 @@ def equivariant_commuting(
     classes = translation_classes(n, max_weight)
     theta = ParameterVector(parameter_prefix, len(classes))
     qc = QuantumCircuit(n, name=name or f"equivariant_{p.lower() * 2}_{n}")
-    ops: dict[int, SparsePauliOp] = {}
+    templates: dict[int, PauliEvolutionGate] = {}
     bits = qc.qubits
     for c, cls in enumerate(classes):
-        # one gate per class, copied per string: equal gates at a fraction of the cost of
-        # building a SparsePauliOp and a PauliEvolutionGate for each of the C(n, k) strings.
-        # The copy is what Instruction.copy makes of a gate without a definition yet (shallow,
-        # with its own parameter list; the operator is shared as there), appended unchecked:
-        # the qubits are distinct and in range by construction.
-        k = len(cls[0])
-        if k not in ops:
-            ops[k] = SparsePauliOp(p * k)
-        gate = PauliEvolutionGate(ops[k], time=theta[c])
+        # one gate per weight, copied per string with its class parameter: equal gates at a
+        # fraction of the cost of building a SparsePauliOp and a PauliEvolutionGate for each
+        # of the C(n, k) strings (or each class). The copy is what Instruction.copy makes of a
+        # gate without a definition yet (shallow, with its own parameter list; the operator is
+        # shared as there: _gate_copy), appended unchecked: the qubits are distinct and in
+        # range by construction.
+        k, t = len(cls[0]), theta[c]
+        gate = templates.get(k)
+        if gate is None:
+            gate = templates[k] = PauliEvolutionGate(SparsePauliOp(p * k), time=t)
         for support in cls:
-            g = copy.copy(gate)
-            g._params = [theta[c]]
-            qc._append(CircuitInstruction(g, tuple(bits[q] for q in support)))
+            qc._append(CircuitInstruction(_gate_copy(gate, [t]), tuple([bits[q] for q in support])))
     return qc
 
 
