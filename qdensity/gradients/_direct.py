@@ -105,8 +105,8 @@ def _gradient_terms(
     terms = [(label, h.real) for label, h in observable.to_list()
              if set(label) != {"I"} and abs(h) > _ATOL]
     if not terms or not trainables:
-        return {p: zero for p in params}, [label for label, _ in terms], lambda: [
-            (label, {p: zero for p in params}, []) for label, _ in terms]
+        return {p: zero for p in params}, [label for label, _ in terms], lambda: (
+            PauliList(["I" * n]), [(label, {p: zero for p in params}, []) for label, _ in terms])
     hl = PauliList([label for label, _ in terms])
     hc = np.array([h for _, h in terms])
     stack = _terms_of(trainables)  # every generator's terms, read once per block
@@ -134,8 +134,7 @@ def _gradient_terms(
     def op(sel) -> SparsePauliOp:
         return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])
 
-    def per_term() -> list:  # only the Clifford diagonaliser needs the per-term shares
-        labels = PauliList.from_symplectic(uz, ux).to_labels() if len(first) else []
+    def per_term() -> tuple[PauliList, list]:  # only the Clifford diagonaliser needs them
         out = []
         bounds = np.searchsorted(u_term, np.arange(len(terms) + 1))  # uniq sorted by term
         for t_idx, (label, _) in enumerate(terms):
@@ -144,9 +143,9 @@ def _gradient_terms(
             pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
             for k in np.flatnonzero(np.diff(pb)):
                 shares[params[k]] = op(slice(pb[k], pb[k + 1]))
-            origin = [(labels[r], trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
+            origin = [(r, trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
             out.append((label, shares, origin))
-        return out
+        return PauliList.from_symplectic(uz, ux), out
 
     # totals: equal strings of one parameter from different terms of H add (what simplify()
     # of each parameter's terms gives, in its order: first occurrence, zeros dropped)
@@ -168,14 +167,20 @@ def _gradient_terms(
 
 
 def _group_terms(per_term, params):
-    """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute."""
+    """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute.
+
+    ``per_term``: the gradient strings (a ``PauliList``) and, per term of ``H``, its label,
+    shares and the (string row, gate) origin of each string; a group's ``"strings"`` are rows.
+    """
+    paulis, entries = per_term
     groups: list[dict] = []
-    for label, shares, origin in per_term:
-        strings = [lab for lab, _ in origin]
+    for label, shares, origin in entries:
+        strings = [r for r, _ in origin]
         if strings:
-            bad = first_noncommuting_pair(PauliList(strings))
+            bad = first_noncommuting_pair(paulis[strings])
             if bad is not None:
-                (la, ta), (lb, tb) = origin[bad[0]], origin[bad[1]]
+                (ra, ta), (rb, tb) = origin[bad[0]], origin[bad[1]]
+                la, lb = paulis[ra].to_label(), paulis[rb].to_label()
                 raise ValueError(
                     f"gradient terms for observable term {label} do not commute: {la} from "
                     f"i[G, {label}] of {ta.label} (parameter {ta.parameter}) anticommutes with "
@@ -184,7 +189,7 @@ def _group_terms(per_term, params):
                     "(Bowles et al., Thm. 1)"
                 )
         for g in groups:
-            if not strings or first_noncommuting_pair(PauliList(g["strings"] + strings)) is None:
+            if not strings or first_noncommuting_pair(paulis[g["strings"] + strings]) is None:
                 g["labels"].append(label)
                 g["strings"].extend(strings)
                 for p in params:
@@ -193,7 +198,21 @@ def _group_terms(per_term, params):
                 break
         else:
             groups.append({"labels": [label], "strings": list(strings), "ops": dict(shares)})
-    return groups
+    return paulis, groups
+
+
+def _distinct_in_label_order(paulis: PauliList, rows: list[int]) -> PauliList:
+    """The distinct strings among ``paulis[rows]``, sorted as their labels sort (what
+    ``sorted(set(labels))`` gives) without making the labels: per qubit, from the last, the
+    codes I < X < Y < Z."""
+    x, z = paulis.x[rows], paulis.z[rows]
+    code = x.astype(np.int8) + 3 * z - 2 * (x & z)  # I, X, Y, Z -> 0, 1, 2, 3
+    order = np.lexsort(code.T)  # the last key (qubit n - 1, the label's first letter) leads
+    code = code[order]
+    keep = np.ones(len(order), dtype=bool)
+    keep[1:] = np.any(code[1:] != code[:-1], axis=1)
+    sel = order[keep]
+    return PauliList.from_symplectic(z[sel], x[sel])
 
 
 def _evolve_all(ops: dict, cliff: Clifford, n: int) -> dict:
@@ -244,14 +263,14 @@ def _direct_gradient(
                 "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
                 "'auto'"
             )
-    groups = _group_terms(per_term(), params)
+    paulis, groups = _group_terms(per_term(), params)
     if not groups:  # H is a multiple of the identity: every derivative vanishes
         groups = [{"labels": [], "strings": [], "ops": dict(total)}]
     circuits, values, diag_circs, diags = [], [], [], []
     for g in groups:
-        strings = sorted(set(g["strings"]))
         diag_circ = (
-            diagonalising_clifford(strings)[0] if strings else QuantumCircuit(n, name="diagonalise")
+            diagonalising_clifford(_distinct_in_label_order(paulis, g["strings"]))[0]
+            if g["strings"] else QuantumCircuit(n, name="diagonalise")
         )
         cliff = Clifford(diag_circ)
         diag = _evolve_all(g["ops"], cliff, n)

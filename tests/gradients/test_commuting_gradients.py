@@ -447,3 +447,21 @@ def test_sampled_gradients_within_standard_errors(case):
     # exact gradient itself against finite differences for the first row
     vals = dict(zip(qc.parameters, rows[0], strict=True))
     np.testing.assert_allclose(true[0], _fd_gradient(qc, obs, vals, grad.parameters), atol=TOL)
+
+
+def test_grouping_names_the_anticommuting_gradient_strings_and_sorts_like_labels():
+    """The grouping works on string rows; its error names the two strings by label, and a
+    group's distinct strings come out in the order of ``sorted(set(labels))``."""
+    from types import SimpleNamespace
+
+    from qiskit.quantum_info import PauliList
+
+    from qdensity.gradients._direct import _distinct_in_label_order, _group_terms
+
+    paulis = PauliList(["XZI", "ZZI", "IYX", "XZI", "IIZ", "YII"])
+    gate = SimpleNamespace(label="rx[0]", parameter="a")
+    with pytest.raises(ValueError, match="XZI from .* anticommutes with ZZI from"):
+        _group_terms((paulis, [("ZII", {}, [(0, gate), (1, gate)])]), [])
+    rows = [0, 1, 2, 3, 4, 5, 2]
+    got = _distinct_in_label_order(paulis, rows).to_labels()
+    assert got == sorted(set(paulis[rows].to_labels()))
