@@ -23,6 +23,10 @@ Hamming-weight-preserving rows.
 
 from __future__ import annotations
 
+import gc
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.circuits.ansatze import (
@@ -45,6 +49,25 @@ ANSATZE = ("hardware_efficient", "equivariant_xx", "pyramid", "butterfly", "roun
 
 def _z(n: int, qubits) -> SparsePauliOp:
     return SparsePauliOp.from_sparse_list([("Z", [q], 1.0) for q in qubits], n)
+
+
+@contextmanager
+def _cyclic_gc_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector (restored after, as it was).
+
+    A row at n = 64 creates a few hundred thousand gate objects that stay alive until it ends;
+    the collector re-scans them on every full collection as the heap grows, about a third of
+    the row's time (equivariant_xx at n = 64: 6.6 s with it, 4.7 s without). Nothing here
+    relies on it: reference counting frees the row's objects, and any cycles are collected
+    once it runs again.
+    """
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
 
 
 def _count(subs, observable, method: str) -> tuple[int, int, int]:
@@ -73,6 +96,13 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
         "density": {"params", "gradient_circuits", "sub_unitaries", "decomposition"}}``.
     """
     n = check_positive_int(num_qubits, "num_qubits", minimum=2)
+    if ansatz not in ANSATZE:
+        raise ValueError(f"ansatz must be one of {ANSATZE}, got {ansatz!r}")
+    with _cyclic_gc_paused():
+        return _row(ansatz, n, layers, copies_k)
+
+
+def _row(ansatz: str, n: int, layers: int, copies_k: int) -> dict:
     if ansatz == "hardware_efficient":
         circ, obs, obs_name = hardware_efficient(n, layers), _z(n, [0]), "Z0"
         dec, method = by_moments(circ), "shift"
@@ -85,11 +115,9 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
     elif ansatz == "butterfly":
         circ, obs, obs_name = butterfly(n), _z(n, range(n)), "sum Z"
         dec, method = by_moments(circ), "shift"
-    elif ansatz == "round_robin":
+    else:  # round_robin (table1_row checked the name)
         circ, obs, obs_name = round_robin(n), _z(n, range(n)), "sum Z"
         dec, method = by_moments(circ), "shift"
-    else:
-        raise ValueError(f"ansatz must be one of {ANSATZE}, got {ansatz!r}")
     p0, g0, _ = _count([circ], obs, method)
     p1, g1, k = _count(dec.sub_unitaries, obs, "commuting")
     return {

@@ -26,3 +26,20 @@ def test_table1_exact_statements(n):
         bf = table1_row("butterfly", n)
         assert bf["density"]["gradient_circuits"] == int(np.log2(n))
         assert bf["original"]["gradient_circuits"] == 4 * (n // 2) * int(np.log2(n))
+
+
+def test_table1_row_restores_the_garbage_collector_and_names_bad_ansatze():
+    import gc
+
+    assert gc.isenabled()
+    table1_row("butterfly", 4)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        table1_row("butterfly", 4)
+        assert not gc.isenabled()  # left as it was found
+    finally:
+        gc.enable()
+    with pytest.raises(ValueError, match="ansatz must be one of"):
+        table1_row("brickwork", 4)
+    assert gc.isenabled()
