@@ -24,6 +24,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from qdensity.execution._unary_layers import backward, rotate
+from qdensity.execution._unary_threads import blocks, run_blocks
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
@@ -214,14 +215,34 @@ def _product(indptr, rows, cols, indices, data, X, out) -> None:
 
 
 def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
-    """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept)."""
-    n, n_pad = plan.n, plan.n_pad
+    """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept).
+
+    A wide batch runs as contiguous column blocks in threads (:mod:`._unary_threads`): the
+    same arithmetic per column, so the same bits.
+    """
     tab = _table(angles)
-    data = np.take(tab, plan.fwd_src[0])
-    data *= np.take(tab, plan.fwd_src[1])
+    data = np.take(tab, plan.fwd_src, mode="clip")  # internal indices, all in range
+    data = np.multiply(data[0], data[1], out=data[0])
     B = Z.shape[1]
-    cur = np.zeros((n_pad, B))
+    ranges = blocks(B, plan.fwd_cols.size)
+    if len(ranges) == 1:
+        return _run(Z, plan, data)
+    out = np.empty((plan.n, B))
+
+    def part(lo, hi):
+        out[:, lo:hi] = _run(Z[:, lo:hi], plan, data)
+
+    run_blocks(part, ranges)
+    return out
+
+
+def _run(Z: np.ndarray, plan: Plan, data: np.ndarray) -> np.ndarray:
+    """The forward layer loop on the columns ``Z`` (n, B) with the nonzeros ``data``."""
+    n, n_pad = plan.n, plan.n_pad
+    B = Z.shape[1]
+    cur = np.empty((n_pad, B))
     cur[:n] = Z
+    cur[n:] = 0.0
     nxt = np.empty_like(cur)
     if _csr_matvecs is None:  # pragma: no cover - exercised by a test that hides it
         for rows, ptr, ind, o, e, scatter in plan.fwd:

@@ -1,0 +1,101 @@
+"""Threads for the unary engine's shared-angle forward pass (column blocks of the batch).
+
+The forward pass with angles shared by the batch is one compiled sparse product per two
+layers (``scipy``'s CSR kernel, which releases the GIL). The batch columns are independent,
+so a wide enough batch is cut into contiguous column blocks, each run through the whole layer
+loop in its own thread (the caller's thread takes one block): every column goes through the
+same arithmetic in the same order as in one thread, so the results are bit-for-bit those of
+the single-threaded path. Small work stays in the caller's thread (handing a block to another
+thread costs more than it saves below about ``MIN_WORK`` multiply-adds per thread).
+
+Threads: the usable cores (``os.sched_getaffinity``, else ``os.cpu_count()``), at most
+``MAX_THREADS``; the environment variable ``QDENSITY_NUM_THREADS`` overrides it (``1``: never
+use threads; read at every call, so it may be set at run time; not an integer >= 1 raises
+``ValueError``). Nothing here uses numpy's BLAS threads (the CSR kernel is a plain loop), so
+these threads do not multiply with an ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` setting;
+when several processes share the cores (multiprocessing), set ``QDENSITY_NUM_THREADS=1``.
+The worker threads live in one lazily created ``ThreadPoolExecutor`` (created again after a
+``fork``).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+__all__: list[str] = []
+
+ENV = "QDENSITY_NUM_THREADS"
+MAX_THREADS = 8  # default cap (the environment variable may ask for more)
+MIN_WORK = 1 << 21  # multiply-adds per thread below which a block stays in one thread
+MIN_COLUMNS = 4  # narrowest column block
+
+_lock = threading.Lock()
+_pool: ThreadPoolExecutor | None = None
+_pool_key: tuple[int, int] = (0, 0)  # (pid, workers) of _pool
+_cores: int | None = None
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS tells it)."""
+    global _cores
+    if _cores is None:
+        try:
+            _cores = len(os.sched_getaffinity(0))
+        except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+            _cores = os.cpu_count() or 1
+    return max(1, _cores)
+
+
+def num_threads() -> int:
+    """Threads the kernels may use: ``QDENSITY_NUM_THREADS`` or the usable cores (capped)."""
+    raw = os.environ.get(ENV)
+    if raw is None or not raw.strip():
+        return min(usable_cores(), MAX_THREADS)
+    try:
+        value = int(raw.strip())
+    except ValueError:
+        raise ValueError(f"{ENV} must be an integer >= 1 (1 disables the unary engine's "
+                         f"threads), got {raw!r}") from None
+    if value < 1:
+        raise ValueError(f"{ENV} must be an integer >= 1 (1 disables the unary engine's "
+                         f"threads), got {raw!r}")
+    return value
+
+
+def blocks(columns: int, work_per_column: int) -> list[tuple[int, int]]:
+    """Contiguous column ranges ``[lo, hi)``, one per thread (one range: no threads)."""
+    k = num_threads()
+    if k > 1:
+        k = min(k, columns // MIN_COLUMNS, work_per_column * columns // max(MIN_WORK, 1))
+    if k <= 1:
+        return [(0, columns)]
+    edges = [columns * i // k for i in range(k + 1)]
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def _executor(workers: int) -> ThreadPoolExecutor:
+    global _pool, _pool_key
+    with _lock:
+        pid = os.getpid()
+        if _pool is None or _pool_key[0] != pid or _pool_key[1] < workers:
+            if _pool is not None and _pool_key[0] == pid:
+                _pool.shutdown(wait=False)
+            _pool = ThreadPoolExecutor(workers, thread_name_prefix="qdensity-unary")
+            _pool_key = (pid, workers)
+        return _pool
+
+
+def run_blocks(fn, ranges: list[tuple[int, int]]) -> None:
+    """``fn(lo, hi)`` for every range: the first ranges in the pool, the last one here."""
+    if len(ranges) == 1:
+        fn(*ranges[0])
+        return
+    pool = _executor(len(ranges) - 1)
+    futures = [pool.submit(fn, lo, hi) for lo, hi in ranges[:-1]]
+    try:
+        fn(*ranges[-1])
+    finally:
+        for f in futures:
+            f.result()
