@@ -72,7 +72,7 @@ def blocks(columns: int, work_per_column: int) -> list[tuple[int, int]]:
     if k <= 1:
         return [(0, columns)]
     edges = [columns * i // k for i in range(k + 1)]
-    return list(zip(edges[:-1], edges[1:]))
+    return list(zip(edges[:-1], edges[1:], strict=True))
 
 
 def _executor(workers: int) -> ThreadPoolExecutor:
