@@ -76,14 +76,15 @@ def blocks(columns: int, work_per_column: int) -> list[tuple[int, int]]:
 
 
 def _executor(workers: int) -> ThreadPoolExecutor:
+    """The pool (threads are started on demand, up to its size). A pool too small for
+    ``workers`` is replaced, not shut down: calls already holding it finish on it."""
     global _pool, _pool_key
     with _lock:
         pid = os.getpid()
         if _pool is None or _pool_key[0] != pid or _pool_key[1] < workers:
-            if _pool is not None and _pool_key[0] == pid:
-                _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(workers, thread_name_prefix="qdensity-unary")
-            _pool_key = (pid, workers)
+            size = max(workers, 2 * MAX_THREADS)
+            _pool = ThreadPoolExecutor(size, thread_name_prefix="qdensity-unary")
+            _pool_key = (pid, size)
         return _pool
 
 
