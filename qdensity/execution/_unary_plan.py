@@ -217,16 +217,33 @@ def _product(indptr, rows, cols, indices, data, X, out) -> None:
 def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
     """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept).
 
-    A wide batch runs as contiguous column blocks in threads (:mod:`._unary_threads`): the
-    same arithmetic per column, so the same bits.
+    A wide batch runs in threads (:mod:`._unary_threads`): the cosines, sines and nonzeros
+    in slices, then the layer loop on contiguous column blocks; every number goes through
+    the same arithmetic as in one thread, so the results are the same bits.
     """
-    tab = _table(angles)
-    data = np.take(tab, plan.fwd_src, mode="clip")  # internal indices, all in range
-    data = np.multiply(data[0], data[1], out=data[0])
     B = Z.shape[1]
     ranges = blocks(B, plan.fwd_cols.size)
-    if len(ranges) == 1:
+    k = len(ranges)
+    G, nnz = angles.size, plan.fwd_cols.size
+    tab = np.empty(3 * G + 2)
+    tab[3 * G:] = (1.0, 0.0)
+    data = np.empty(nnz)
+
+    def trig(lo, hi):
+        np.cos(angles[lo:hi], out=tab[lo:hi])
+        np.sin(angles[lo:hi], out=tab[G + lo:G + hi])
+        np.negative(tab[G + lo:G + hi], out=tab[2 * G + lo:2 * G + hi])
+
+    def values(lo, hi):  # internal indices, all in range
+        pair = np.take(tab, plan.fwd_src[:, lo:hi], mode="clip")
+        np.multiply(pair[0], pair[1], out=data[lo:hi])
+
+    if k == 1:
+        trig(0, G)
+        values(0, nnz)
         return _run(Z, plan, data)
+    run_blocks(trig, _slices(G, k))
+    run_blocks(values, _slices(nnz, k))
     out = np.empty((plan.n, B))
 
     def part(lo, hi):
@@ -234,6 +251,11 @@ def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
 
     run_blocks(part, ranges)
     return out
+
+
+def _slices(size: int, k: int) -> list[tuple[int, int]]:
+    edges = [size * i // k for i in range(k + 1)]
+    return list(zip(edges[:-1], edges[1:], strict=True))
 
 
 def _run(Z: np.ndarray, plan: Plan, data: np.ndarray) -> np.ndarray:

@@ -89,14 +89,38 @@ def _executor(workers: int) -> ThreadPoolExecutor:
 
 
 def run_blocks(fn, ranges: list[tuple[int, int]]) -> None:
-    """``fn(lo, hi)`` for every range: the first ranges in the pool, the last one here."""
+    """``fn(lo, hi)`` for every range, shared out among the caller and pool threads.
+
+    Each thread (the caller included) takes ranges from a common list until it is empty, and
+    the caller returns once every range is done: a pool thread that starts late (a busy
+    machine) finds nothing left and nobody waits for it.
+    """
     if len(ranges) == 1:
         fn(*ranges[0])
         return
+    todo = list(reversed(ranges))
+    left = [len(ranges)]
+    lock, done, errors = threading.Lock(), threading.Event(), []
+
+    def work():
+        while True:
+            with lock:
+                if not todo:
+                    return
+                lo, hi = todo.pop()
+            try:
+                fn(lo, hi)
+            except BaseException as exc:  # raised in the caller's thread
+                errors.append(exc)
+            with lock:
+                left[0] -= 1
+                if not left[0]:
+                    done.set()
+
     pool = _executor(len(ranges) - 1)
-    futures = [pool.submit(fn, lo, hi) for lo, hi in ranges[:-1]]
-    try:
-        fn(*ranges[-1])
-    finally:
-        for f in futures:
-            f.result()
+    for _ in range(len(ranges) - 1):
+        pool.submit(work)
+    work()
+    done.wait()
+    if errors:
+        raise errors[0]
