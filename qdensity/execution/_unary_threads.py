@@ -3,19 +3,21 @@
 The forward pass with angles shared by the batch is one compiled sparse product per two
 layers (``scipy``'s CSR kernel, which releases the GIL). The batch columns are independent,
 so a wide enough batch is cut into contiguous column blocks, each run through the whole layer
-loop in its own thread (the caller's thread takes one block): every column goes through the
-same arithmetic in the same order as in one thread, so the results are bit-for-bit those of
-the single-threaded path. Small work stays in the caller's thread (handing a block to another
-thread costs more than it saves below about ``MIN_WORK`` multiply-adds per thread).
+loop by one thread (the caller's thread among them); the cosines, sines and nonzeros before it
+are computed in slices the same way. Every number goes through the same arithmetic in the
+same order as in one thread, so the results are bit-for-bit those of the single-threaded
+path. Small work stays in the caller's thread: below about ``MIN_WORK`` multiply-adds per
+thread, handing work to another thread costs more than it saves.
 
 Threads: the usable cores (``os.sched_getaffinity``, else ``os.cpu_count()``), at most
 ``MAX_THREADS``; the environment variable ``QDENSITY_NUM_THREADS`` overrides it (``1``: never
 use threads; read at every call, so it may be set at run time; not an integer >= 1 raises
 ``ValueError``). Nothing here uses numpy's BLAS threads (the CSR kernel is a plain loop), so
-these threads do not multiply with an ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` setting;
-when several processes share the cores (multiprocessing), set ``QDENSITY_NUM_THREADS=1``.
-The worker threads live in one lazily created ``ThreadPoolExecutor`` (created again after a
-``fork``).
+these threads do not multiply with an ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` setting
+(a batch wider than ``n`` ends in one ``O @ X`` product, which is BLAS's). They are no help
+on cores that other processes keep busy: when several processes share the cores
+(multiprocessing, a loaded machine), set ``QDENSITY_NUM_THREADS=1``. The worker threads
+live in one lazily created ``ThreadPoolExecutor`` (created again after a ``fork``).
 """
 
 from __future__ import annotations
@@ -28,7 +30,12 @@ __all__: list[str] = []
 
 ENV = "QDENSITY_NUM_THREADS"
 MAX_THREADS = 8  # default cap (the environment variable may ask for more)
-MIN_WORK = 1 << 21  # multiply-adds per thread below which a block stays in one thread
+# Multiply-adds per thread below which the work stays in one thread. Measured on a shared
+# 2-core box (round-robin circuits, batch 64, forward with 2 threads against 1): in windows
+# where other processes left the second core mostly free, 1.40x at n = 512 (1.7e7 per thread)
+# and 1.45x at n = 1024 (6.7e7), but 0.84x at n = 256 (4.2e6), 0.78x at n = 192 (2.3e6) and
+# 0.67x at n = 128 (1.0e6); under load (the second core busy) only n = 1024 gained (~1.2x).
+MIN_WORK = 1 << 23
 MIN_COLUMNS = 4  # narrowest column block
 
 _lock = threading.Lock()

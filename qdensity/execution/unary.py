@@ -25,7 +25,7 @@ several gates) or fixed numbers. Parameter values are given in ``circuit.paramet
 Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
 :func:`compile_unary`; compile once when calling repeatedly.
 
-Threads: with values shared by the batch, a wide enough batch (about ``2**21`` multiply-adds
+Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
 per thread) runs the forward pass as contiguous column blocks in threads, with results
 bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
 environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1`` disables the threads;
