@@ -55,7 +55,9 @@ def _interleaved(fns: dict, repeats: int, rounds: int = 3) -> dict:
     for _ in range(rounds):
         for key, fn in fns.items():
             time.sleep(0.05)
-            fn()  # warm-up
+            t = time.perf_counter()
+            while time.perf_counter() - t < 0.02:  # warm-up: >= 20 ms of calls
+                fn()
             for _ in range(repeats):
                 c, t = time.process_time(), time.perf_counter()
                 fn()

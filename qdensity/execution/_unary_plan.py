@@ -221,30 +221,34 @@ def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
     in slices, then the layer loop on contiguous column blocks; every number goes through
     the same arithmetic as in one thread, so the results are the same bits.
     """
-    B = Z.shape[1]
-    ranges = blocks(B, plan.fwd_cols.size)
-    k = len(ranges)
-    G, nnz = angles.size, plan.fwd_cols.size
+    ranges = blocks(Z.shape[1], plan.fwd_cols.size)
+    if len(ranges) > 1:
+        return _threaded(Z, plan, angles, ranges)
+    tab = _table(angles)
+    data = np.take(tab, plan.fwd_src[0])
+    data *= np.take(tab, plan.fwd_src[1])
+    return _run(Z, plan, data)
+
+
+def _threaded(Z: np.ndarray, plan: Plan, angles: np.ndarray, ranges) -> np.ndarray:
+    """:func:`plan_rotate` in ``len(ranges)`` threads, ``ranges`` the column blocks."""
+    k, G, nnz = len(ranges), angles.size, plan.fwd_cols.size
     tab = np.empty(3 * G + 2)
     tab[3 * G:] = (1.0, 0.0)
     data = np.empty(nnz)
 
-    def trig(lo, hi):
+    def trig(lo, hi):  # as _table
         np.cos(angles[lo:hi], out=tab[lo:hi])
         np.sin(angles[lo:hi], out=tab[G + lo:G + hi])
         np.negative(tab[G + lo:G + hi], out=tab[2 * G + lo:2 * G + hi])
 
-    def values(lo, hi):  # internal indices, all in range
-        pair = np.take(tab, plan.fwd_src[:, lo:hi], mode="clip")
-        np.multiply(pair[0], pair[1], out=data[lo:hi])
+    def values(lo, hi):
+        np.multiply(np.take(tab, plan.fwd_src[0, lo:hi]), np.take(tab, plan.fwd_src[1, lo:hi]),
+                    out=data[lo:hi])
 
-    if k == 1:
-        trig(0, G)
-        values(0, nnz)
-        return _run(Z, plan, data)
     run_blocks(trig, _slices(G, k))
     run_blocks(values, _slices(nnz, k))
-    out = np.empty((plan.n, B))
+    out = np.empty((plan.n, Z.shape[1]))
 
     def part(lo, hi):
         out[:, lo:hi] = _run(Z[:, lo:hi], plan, data)
@@ -262,9 +266,11 @@ def _run(Z: np.ndarray, plan: Plan, data: np.ndarray) -> np.ndarray:
     """The forward layer loop on the columns ``Z`` (n, B) with the nonzeros ``data``."""
     n, n_pad = plan.n, plan.n_pad
     B = Z.shape[1]
-    cur = np.empty((n_pad, B))
-    cur[:n] = Z
-    cur[n:] = 0.0
+    if n == n_pad:
+        cur = np.array(Z, dtype=float, order="C")
+    else:
+        cur = np.zeros((n_pad, B))
+        cur[:n] = Z
     nxt = np.empty_like(cur)
     if _csr_matvecs is None:  # pragma: no cover - exercised by a test that hides it
         for rows, ptr, ind, o, e, scatter in plan.fwd:

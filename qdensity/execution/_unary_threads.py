@@ -42,6 +42,7 @@ _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
 _pool_key: tuple[int, int] = (0, 0)  # (pid, workers) of _pool
 _cores: int | None = None
+_parsed: tuple[object, int] = (object(), 0)  # the variable's last value read, and its count
 
 
 def usable_cores() -> int:
@@ -57,17 +58,21 @@ def usable_cores() -> int:
 
 def num_threads() -> int:
     """Threads the kernels may use: ``QDENSITY_NUM_THREADS`` or the usable cores (capped)."""
+    global _parsed
     raw = os.environ.get(ENV)
+    if raw == _parsed[0]:
+        return _parsed[1]
     if raw is None or not raw.strip():
-        return min(usable_cores(), MAX_THREADS)
-    try:
-        value = int(raw.strip())
-    except ValueError:
-        raise ValueError(f"{ENV} must be an integer >= 1 (1 disables the unary engine's "
-                         f"threads), got {raw!r}") from None
-    if value < 1:
-        raise ValueError(f"{ENV} must be an integer >= 1 (1 disables the unary engine's "
-                         f"threads), got {raw!r}")
+        value = min(usable_cores(), MAX_THREADS)
+    else:
+        try:
+            value = int(raw.strip())
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise ValueError(f"{ENV} must be an integer >= 1 (1 disables the unary engine's "
+                             f"threads), got {raw!r}")
+    _parsed = (raw, value)
     return value
 
 
