@@ -17,6 +17,7 @@ the achieved rate is printed against it.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -24,6 +25,7 @@ import time
 import numpy as np
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
+from qdensity.execution._unary_threads import ENV, num_threads
 from qdensity.execution.unary import UnaryCircuit, forward, vjp
 
 
@@ -31,7 +33,9 @@ def rr_gate_list(n: int) -> np.ndarray:
     return np.array([p for rnd in round_robin_pairs(n) for p in rnd], dtype=np.intp)
 
 
-def _best(fn, repeats):
+def _best(fn, repeats, warmup: int = 3):
+    for _ in range(warmup):  # first calls run slow (caches, allocator, clock)
+        fn()
     best = np.inf
     out = None
     for _ in range(repeats):
@@ -41,7 +45,46 @@ def _best(fn, repeats):
     return out, best
 
 
-def qdensity_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict:
+def _interleaved(fns: dict, repeats: int, rounds: int = 3) -> dict:
+    """Best wall time of each callable over ``rounds`` rounds of ``repeats`` calls, the
+    callables taking turns round by round so that all see the same load (a shared box), with
+    a pause between them (XLA's worker threads spin a while after a call, slowing whatever
+    runs next); also process CPU time / wall summed over each one's timed calls."""
+    best = dict.fromkeys(fns, np.inf)
+    wall, cpu = dict.fromkeys(fns, 0.0), dict.fromkeys(fns, 0.0)
+    for _ in range(rounds):
+        for key, fn in fns.items():
+            time.sleep(0.05)
+            t = time.perf_counter()
+            while time.perf_counter() - t < 0.02:  # warm-up: >= 20 ms of calls
+                fn()
+            for _ in range(repeats):
+                c, t = time.process_time(), time.perf_counter()
+                fn()
+                dt = time.perf_counter() - t
+                cpu[key] += time.process_time() - c
+                wall[key] += dt
+                best[key] = min(best[key], dt)
+    return {key: (best[key], cpu[key] / wall[key]) for key in fns}
+
+
+def _single_thread(fn):
+    """``fn`` with the unary engine's threads off (``QDENSITY_NUM_THREADS=1``)."""
+    def call():
+        old = os.environ.get(ENV)
+        os.environ[ENV] = "1"
+        try:
+            return fn()
+        finally:
+            if old is None:
+                del os.environ[ENV]
+            else:
+                os.environ[ENV] = old
+    return call
+
+
+def qdensity_calls(n: int, batch: int, seed: int = 0) -> dict:
+    """The circuit, its build time and the timed calls: forward and reverse gradient."""
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
     uc = UnaryCircuit.from_gates(n, rr_gate_list(n))
@@ -51,14 +94,25 @@ def qdensity_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict:
     X /= np.linalg.norm(X, axis=1, keepdims=True)
     theta = rng.normal(size=uc.num_parameters)
     w = rng.normal(size=n)
-    Y, tf = _best(lambda: forward(uc, X, theta), repeats)
-    (g, _), tg = _best(lambda: vjp(uc, X, theta, np.broadcast_to(w, (batch, n)), reduce="sum"),
-                       repeats)
-    return {"gates": uc.num_gates, "layers": len(uc.layers), "build_s": build,
-            "forward_s": tf, "grad_s": tg, "loss": float(np.sum(Y @ w)), "grad": g}
+    W = np.broadcast_to(w, (batch, n))
+    return {"uc": uc, "build_s": build, "w": w,
+            "forward": lambda: forward(uc, X, theta),
+            "grad": lambda: vjp(uc, X, theta, W, reduce="sum")[0]}
 
 
-def jax_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict | None:
+def qdensity_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict:
+    q = qdensity_calls(n, batch, seed)
+    Y, tf = _best(q["forward"], repeats)
+    _, tf1 = _best(_single_thread(q["forward"]), repeats)
+    g, tg = _best(q["grad"], repeats)
+    uc = q["uc"]
+    return {"gates": uc.num_gates, "layers": len(uc.layers), "build_s": q["build_s"],
+            "forward_s": tf, "forward_1t_s": tf1, "grad_s": tg,
+            "loss": float(np.sum(Y @ q["w"])), "grad": g}
+
+
+def jax_calls(n: int, batch: int, seed: int = 0) -> dict | None:
+    """The JAX peer's jitted forward and gradient (compiled here), or None without JAX."""
     try:
         import jax
         import jax.numpy as jnp
@@ -111,10 +165,19 @@ def jax_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict | None:
     fwd(theta_j, X).block_until_ready()
     grad(theta_j, X, w_j).block_until_ready()
     compile_s = time.perf_counter() - t
-    Y, tf = _best(lambda: fwd(theta_j, X).block_until_ready(), repeats)
-    g, tg = _best(lambda: grad(theta_j, X, w_j).block_until_ready(), repeats)
-    return {"compile_s": compile_s, "forward_s": tf, "grad_s": tg,
-            "loss": float(np.sum(np.asarray(Y) @ w)), "grad": np.asarray(g)}
+    return {"compile_s": compile_s, "w": w,
+            "forward": lambda: fwd(theta_j, X).block_until_ready(),
+            "grad": lambda: grad(theta_j, X, w_j).block_until_ready()}
+
+
+def jax_times(n: int, batch: int, repeats: int, seed: int = 0) -> dict | None:
+    j = jax_calls(n, batch, seed)
+    if j is None:
+        return None
+    Y, tf = _best(j["forward"], repeats)
+    g, tg = _best(j["grad"], repeats)
+    return {"compile_s": j["compile_s"], "forward_s": tf, "grad_s": tg,
+            "loss": float(np.sum(np.asarray(Y) @ j["w"])), "grad": np.asarray(g)}
 
 
 _OLD = r"""
@@ -148,41 +211,56 @@ def old_times(path: str, n: int, batch: int) -> dict | None:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def run(sizes=(64, 256, 1024), batch: int = 64, repeats: int = 3, old: str | None = None,
-        old_max_n: int = 256) -> list[dict]:
+def run(sizes=(64, 256, 1024), batch: int = 64, repeats: int | None = None,
+        old: str | None = None, old_max_n: int = 256) -> list[dict]:
+    """One row per width (times in ms); ``repeats`` per round (3 rounds) defaults to 7 up to
+    n = 256, else 2."""
     rows = []
-    print(f"\n== unary engine: round-robin, forward + reverse gradient, batch {batch} ==")
-    print(f"{'n':>5}{'gates':>9}{'layers':>7} | {'fwd s':>8}{'grad s':>8}{'GF/s f':>7}"
-          f"{'GF/s g':>7} | {'jax fwd':>8}{'jax grad':>9}{'jax/qd f':>9}{'jax/qd g':>9}"
-          f"{'jit s':>7} | {'old fwd':>8}{'old grad':>9}{'old/qd g':>9}{'|dgrad|':>9}")
+    print(f"\n== unary engine: round-robin, forward + reverse gradient, batch {batch} "
+          f"(threads: {num_threads()}; 1t = QDENSITY_NUM_THREADS=1) ==")
+    print(f"{'n':>5}{'gates':>8}{'lay':>5} | {'fwd 1t':>8}{'fwd':>8}{'grad':>8}{'GF/s f':>7}"
+          f"{'GF/s g':>7} | {'jax fwd':>8}{'jax grad':>9}{'cpu f':>6}{'cpu g':>6}"
+          f"{'j/q f1':>7}{'j/q f':>6}{'j/q g':>6}{'jit s':>6} | {'old fwd':>8}{'old grad':>9}"
+          f"{'old/qd g':>9}{'|dgrad|':>9}")
     for n in sizes:
-        qd = qdensity_times(n, batch, repeats)
-        jx = jax_times(n, batch, repeats)
-        od = old_times(old, n, batch) if old and n <= old_max_n else None
-        flops = 6.0 * qd["gates"] * batch
-        row = {"n": n, "gates": qd["gates"], "layers": qd["layers"], "build_s": qd["build_s"],
-               "forward_s": qd["forward_s"], "grad_s": qd["grad_s"],
-               "gflops_forward": flops / qd["forward_s"] / 1e9,
-               "gflops_grad": 2 * flops / qd["grad_s"] / 1e9}
-        line = (f"{n:>5}{qd['gates']:>9}{qd['layers']:>7} | {qd['forward_s']:>8.4f}"
-                f"{qd['grad_s']:>8.4f}{row['gflops_forward']:>7.2f}{row['gflops_grad']:>7.2f} | ")
+        reps = repeats or (7 if n <= 256 else 2)
+        q = qdensity_calls(n, batch)
+        jx = jax_calls(n, batch)
+        fns = {"f1": _single_thread(q["forward"]), "f": q["forward"], "g": q["grad"]}
         if jx is not None:
-            row.update(jax_forward_s=jx["forward_s"], jax_grad_s=jx["grad_s"],
-                       jax_compile_s=jx["compile_s"],
-                       max_abs_grad_diff_vs_jax=float(np.max(np.abs(jx["grad"] - qd["grad"]))))
-            line += (f"{jx['forward_s']:>8.4f}{jx['grad_s']:>9.4f}"
-                     f"{jx['forward_s'] / qd['forward_s']:>9.2f}"
-                     f"{jx['grad_s'] / qd['grad_s']:>9.2f}{jx['compile_s']:>7.1f} | ")
+            fns.update(jf=jx["forward"], jg=jx["grad"])
+        t = _interleaved(fns, reps)
+        od = old_times(old, n, batch) if old and n <= old_max_n else None
+        uc = q["uc"]
+        flops = 6.0 * uc.num_gates * batch
+        row = {"n": n, "gates": uc.num_gates, "layers": len(uc.layers), "build_s": q["build_s"],
+               "forward_1t_s": t["f1"][0], "forward_s": t["f"][0], "grad_s": t["g"][0],
+               "gflops_forward": flops / t["f"][0] / 1e9,
+               "gflops_grad": 2 * flops / t["g"][0] / 1e9, "load": os.getloadavg()[0]}
+        line = (f"{n:>5}{uc.num_gates:>8}{len(uc.layers):>5} | {1e3 * t['f1'][0]:>8.3f}"
+                f"{1e3 * t['f'][0]:>8.3f}{1e3 * t['g'][0]:>8.2f}{row['gflops_forward']:>7.2f}"
+                f"{row['gflops_grad']:>7.2f} | ")
+        if jx is not None:
+            diff = np.max(np.abs(np.asarray(jx["grad"]()) - q["grad"]()))
+            row.update(jax_forward_s=t["jf"][0], jax_grad_s=t["jg"][0],
+                       jax_cpu_forward=t["jf"][1], jax_cpu_grad=t["jg"][1],
+                       jax_compile_s=jx["compile_s"], max_abs_grad_diff_vs_jax=float(diff))
+            line += (f"{1e3 * t['jf'][0]:>8.3f}{1e3 * t['jg'][0]:>9.2f}{t['jf'][1]:>6.2f}"
+                     f"{t['jg'][1]:>6.2f}"
+                     f"{t['jf'][0] / t['f1'][0]:>7.2f}{t['jf'][0] / t['f'][0]:>6.2f}"
+                     f"{t['jg'][0] / t['g'][0]:>6.2f}{jx['compile_s']:>6.1f} | ")
         else:
-            line += f"{'(no jax: pip install -e .[bench])':>42} | "
+            line += f"{'(no jax: pip install -e .[bench])':>59} | "
         if od is not None:
             row.update(old_forward_s=od["forward_s"], old_grad_s=od["grad_s"],
                        old_build_s=od["build_s"])
-            line += (f"{od['forward_s']:>8.3f}{od['grad_s']:>9.3f}"
-                     f"{od['grad_s'] / qd['grad_s']:>9.1f}")
+            line += (f"{1e3 * od['forward_s']:>8.1f}{1e3 * od['grad_s']:>9.1f}"
+                     f"{od['grad_s'] / t['g'][0]:>9.1f}")
         else:
             line += f"{'-':>8}{'-':>9}{'-':>9}"
         line += f"{row.get('max_abs_grad_diff_vs_jax', float('nan')):>9.1e}"
-        print(line, flush=True)
+        print(line + f"  (load {row['load']:.1f})", flush=True)
         rows.append(row)
+    print("times in ms; cpu f / cpu g: JAX's process CPU time / wall over its timed calls "
+          "(1: one core busy)")
     return rows

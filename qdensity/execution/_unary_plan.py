@@ -24,6 +24,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from qdensity.execution._unary_layers import backward, rotate
+from qdensity.execution._unary_threads import blocks, run_blocks
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
@@ -214,14 +215,62 @@ def _product(indptr, rows, cols, indices, data, X, out) -> None:
 
 
 def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
-    """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept)."""
-    n, n_pad = plan.n, plan.n_pad
+    """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept).
+
+    A wide batch runs in threads (:mod:`._unary_threads`): the cosines, sines and nonzeros
+    in slices, then the layer loop on contiguous column blocks; every number goes through
+    the same arithmetic as in one thread, so the results are the same bits.
+    """
+    ranges = blocks(Z.shape[1], plan.fwd_cols.size)
+    if len(ranges) > 1:
+        return _threaded(Z, plan, angles, ranges)
     tab = _table(angles)
     data = np.take(tab, plan.fwd_src[0])
     data *= np.take(tab, plan.fwd_src[1])
+    return _run(Z, plan, data)
+
+
+def _threaded(Z: np.ndarray, plan: Plan, angles: np.ndarray, ranges) -> np.ndarray:
+    """:func:`plan_rotate` in ``len(ranges)`` threads, ``ranges`` the column blocks."""
+    k, G, nnz = len(ranges), angles.size, plan.fwd_cols.size
+    tab = np.empty(3 * G + 2)
+    tab[3 * G:] = (1.0, 0.0)
+    data = np.empty(nnz)
+
+    def trig(lo, hi):  # as _table
+        np.cos(angles[lo:hi], out=tab[lo:hi])
+        np.sin(angles[lo:hi], out=tab[G + lo:G + hi])
+        np.negative(tab[G + lo:G + hi], out=tab[2 * G + lo:2 * G + hi])
+
+    def values(lo, hi):
+        np.multiply(np.take(tab, plan.fwd_src[0, lo:hi]), np.take(tab, plan.fwd_src[1, lo:hi]),
+                    out=data[lo:hi])
+
+    run_blocks(trig, _slices(G, k))
+    run_blocks(values, _slices(nnz, k))
+    out = np.empty((plan.n, Z.shape[1]))
+
+    def part(lo, hi):
+        out[:, lo:hi] = _run(Z[:, lo:hi], plan, data)
+
+    run_blocks(part, ranges)
+    return out
+
+
+def _slices(size: int, k: int) -> list[tuple[int, int]]:
+    edges = [size * i // k for i in range(k + 1)]
+    return list(zip(edges[:-1], edges[1:], strict=True))
+
+
+def _run(Z: np.ndarray, plan: Plan, data: np.ndarray) -> np.ndarray:
+    """The forward layer loop on the columns ``Z`` (n, B) with the nonzeros ``data``."""
+    n, n_pad = plan.n, plan.n_pad
     B = Z.shape[1]
-    cur = np.zeros((n_pad, B))
-    cur[:n] = Z
+    if n == n_pad:
+        cur = np.array(Z, dtype=float, order="C")
+    else:
+        cur = np.zeros((n_pad, B))
+        cur[:n] = Z
     nxt = np.empty_like(cur)
     if _csr_matvecs is None:  # pragma: no cover - exercised by a test that hides it
         for rows, ptr, ind, o, e, scatter in plan.fwd:

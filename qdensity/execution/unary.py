@@ -24,6 +24,13 @@ several gates) or fixed numbers. Parameter values are given in ``circuit.paramet
 
 Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
 :func:`compile_unary`; compile once when calling repeatedly.
+
+Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
+per thread) runs the forward pass as contiguous column blocks in threads, with results
+bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
+environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1`` disables the threads;
+anything else raises ``ValueError``). The layer loop is scipy's sparse kernel, not numpy's
+BLAS, so BLAS thread settings do not multiply with these threads.
 """
 
 from __future__ import annotations
@@ -37,10 +44,14 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution._unary_inputs import all_finite
+from qdensity.execution._unary_inputs import batch as _batch
+from qdensity.execution._unary_inputs import inputs as _inputs
+from qdensity.execution._unary_inputs import values as _values
 from qdensity.execution._unary_layers import Layer, check_gate_list, schedule
 from qdensity.execution._unary_plan import Plan, make_plan, reverse
 from qdensity.execution._unary_plan import rotate_columns as _rotate
-from qdensity.validation import check_circuit, check_parameter_values
+from qdensity.validation import check_circuit
 
 __all__ = [
     "UnaryCircuit",
@@ -165,7 +176,7 @@ class UnaryCircuit:
         if values.shape[-1] == 0:
             picked = np.zeros((self.num_gates,) + values.shape[:-1])
         elif values.ndim == 1:
-            picked = values[idx]
+            picked = np.take(values, idx)
         else:
             picked = values[:, idx].T
         if picked.ndim == 2:
@@ -256,48 +267,6 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
         coefficient=np.asarray(coeff, dtype=float),
         offset=np.asarray(offset, dtype=float),
     )
-
-
-def _values(compiled: UnaryCircuit, values, name: str = "values") -> np.ndarray:
-    if values is None:
-        if compiled.num_parameters:
-            raise ValueError(f"{name} is required: the circuit has {compiled.num_parameters} "
-                             "parameters")
-        values = np.zeros(0)
-    return check_parameter_values(values, compiled.num_parameters, name)
-
-
-def _inputs(compiled: UnaryCircuit, X, name: str = "X") -> np.ndarray:
-    if np.iscomplexobj(X):
-        raise TypeError(f"{name} must be real (the unary engine is real-orthogonal), got complex")
-    try:
-        arr = np.asarray(X, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of real numbers, got {X!r}") from exc
-    n = compiled.num_qubits
-    if arr.ndim not in (1, 2) or arr.shape[-1] != n:
-        raise ValueError(f"{name} must have shape ({n},) or (batch, {n}) for a {n}-qubit "
-                         f"circuit, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
-
-
-def _batch(compiled: UnaryCircuit, X, values, xname: str = "X"):
-    """Columns (n, B) of inputs, angles (G,) or (G, B), whether the output is 1-d."""
-    x = _inputs(compiled, X, xname)
-    v = _values(compiled, values)
-    single = x.ndim == 1 and v.ndim == 1
-    if v.ndim == 2:
-        if x.ndim == 1:
-            x = np.broadcast_to(x, (v.shape[0], x.size))
-        elif x.shape[0] != v.shape[0]:
-            raise ValueError(
-                f"values has {v.shape[0]} rows but {xname} has {x.shape[0]} rows; give one "
-                "parameter row per input, or values of shape (P,) shared by the batch"
-            )
-    x2 = np.atleast_2d(x)
-    return np.array(x2.T, dtype=float, order="C"), compiled.angles(v), single
 
 
 def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np.ndarray:
@@ -443,7 +412,7 @@ def vjp(
     expected = (n,) if single else (B, n)
     if gy.shape != expected:
         raise ValueError(f"grad_Y must have the output's shape {expected}, got {gy.shape}")
-    if not np.all(np.isfinite(gy)):
+    if not all_finite(gy):
         raise ValueError("grad_Y must be finite (no NaN or inf)")
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
     # forward to the outputs (or start from the caller's)

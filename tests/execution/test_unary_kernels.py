@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
-from qdensity.execution import _unary_plan
+from qdensity.execution import _unary_plan, _unary_threads
 from qdensity.execution.unary import UnaryCircuit, forward, orthogonal_matrix, vjp
 
 TOL = 1e-11
@@ -154,3 +154,81 @@ def test_inputs_untouched_and_outputs_fresh():
     for a, b in zip((X, v, G), keep, strict=True):
         np.testing.assert_array_equal(a, b)
     assert np.abs(Y2).max() > 0
+
+
+@pytest.fixture
+def threads(monkeypatch):
+    """Force column blocks in threads at any width; returns a setter of the thread count and
+    the list of block counts the forward passes used."""
+    monkeypatch.setattr(_unary_threads, "MIN_WORK", 0)
+    monkeypatch.setattr(_unary_threads, "MIN_COLUMNS", 1)
+    used = []
+    run_blocks = _unary_plan.run_blocks
+
+    def spy(fn, ranges):
+        used.append(len(ranges))
+        run_blocks(fn, ranges)
+
+    monkeypatch.setattr(_unary_plan, "run_blocks", spy)
+
+    def set_threads(k):
+        monkeypatch.setenv(_unary_threads.ENV, str(k))
+
+    return set_threads, used
+
+
+@pytest.mark.parametrize("n, pairs", [(8, rr(8, 2)), (9, rr(9) + [(0, 8), (2, 3)]),
+                                      (6, [(0, 1), (1, 2), (2, 3)] + rr(6))])
+@pytest.mark.parametrize("k", [2, 3, 5])
+def test_threaded_forward_bit_for_bit(threads, n, pairs, k):
+    """Column blocks in threads give exactly the single-thread bits, forward and gradient."""
+    set_threads, used = threads
+    uc = UnaryCircuit.from_gates(n, pairs)
+    rng = np.random.default_rng(k)
+    values = rng.normal(size=uc.num_parameters)
+    for batch in (37, 5):  # B > n: the columns of the identity in blocks; B < n: X's
+        X, GY = rng.normal(size=(batch, n)), rng.normal(size=(batch, n))
+        set_threads(1)
+        one = forward(uc, X, values), vjp(uc, X, values, GY), vjp(uc, X, values, GY, reduce="sum")
+        assert used == []
+        set_threads(k)
+        many = forward(uc, X, values), vjp(uc, X, values, GY), vjp(uc, X, values, GY, reduce="sum")
+        assert used and min(used) > 1
+        used.clear()
+        np.testing.assert_array_equal(many[0], one[0])
+        for a, b in zip(many[1:], one[1:], strict=True):
+            np.testing.assert_array_equal(a[0], b[0])
+            np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_threaded_forward_against_oracle(threads):
+    """Threaded paths (odd n padding, sparse in-place layers) against dense Givens products."""
+    set_threads, used = threads
+    set_threads(3)
+    check(5, rr(5, 2) + [(0, 1), (2, 4)], batch=13)
+    check(8, [(k, k + 1) for k in range(7)] + rr(8), batch=12)
+    check(12, rr(12) + [(0, 11), (3, 4)], batch=7)  # B < n: blocks of X's own columns
+    assert used and min(used) == 3
+
+
+def test_thread_count_from_environment(monkeypatch):
+    monkeypatch.delenv(_unary_threads.ENV, raising=False)
+    default = min(_unary_threads.usable_cores(), _unary_threads.MAX_THREADS)
+    assert _unary_threads.num_threads() == default
+    for raw, k in (("", default), (" 3 ", 3), ("1", 1), ("12", 12)):
+        monkeypatch.setenv(_unary_threads.ENV, raw)
+        assert _unary_threads.num_threads() == k
+    monkeypatch.setattr(_unary_threads, "MIN_WORK", 1000)
+    monkeypatch.setenv(_unary_threads.ENV, "8")
+    assert _unary_threads.blocks(10, 10**6) == [(0, 5), (5, 10)]  # at least 4 columns each
+    assert _unary_threads.blocks(64, 10) == [(0, 64)]  # too little work per thread
+    monkeypatch.setenv(_unary_threads.ENV, "1")
+    assert _unary_threads.blocks(64, 10**6) == [(0, 64)]
+
+
+@pytest.mark.parametrize("raw", ["abc", "2.5", "0", "-1", "two"])
+def test_thread_count_refuses_bad_environment(monkeypatch, raw):
+    monkeypatch.setenv(_unary_threads.ENV, raw)
+    uc = UnaryCircuit.from_gates(4, rr(4))
+    with pytest.raises(ValueError, match="QDENSITY_NUM_THREADS must be an integer >= 1"):
+        forward(uc, np.eye(4), np.zeros(6))
