@@ -48,13 +48,13 @@ def _best(fn, repeats, warmup: int = 3):
 def _interleaved(fns: dict, repeats: int, rounds: int = 3) -> dict:
     """Best wall time of each callable over ``rounds`` rounds of ``repeats`` calls, the
     callables taking turns round by round so that all see the same load (a shared box), with
-    a pause between them (XLA's worker threads spin a while after a call, slowing whatever
+    a pause of 0.3 s between them (XLA's worker threads spin a while after a call, slowing whatever
     runs next); also process CPU time / wall summed over each one's timed calls."""
     best = dict.fromkeys(fns, np.inf)
     wall, cpu = dict.fromkeys(fns, 0.0), dict.fromkeys(fns, 0.0)
     for _ in range(rounds):
         for key, fn in fns.items():
-            time.sleep(0.05)
+            time.sleep(0.3)
             t = time.perf_counter()
             while time.perf_counter() - t < 0.02:  # warm-up: >= 20 ms of calls
                 fn()
