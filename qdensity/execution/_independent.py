@@ -8,7 +8,10 @@ schedulers of Supp. I, one PUB per sub-unitary with ``n_k`` shots) then has a la
 than its standard error says. :func:`run_independent` submits each shot group on its own, the
 first with the sampler's seed (a run with one shot count is unchanged), every other one with a
 seed derived from it, so runs stay reproducible and groups independent. Other samplers (a
-provider's, or Aer's without a seed) get one call, as before.
+provider's, or Aer's without a seed) get one job per shot count too, all submitted before any
+is waited on: qiskit-ibm-runtime (0.48) deprecates PUBs of different shots in one job and
+asks for one job per shot count (inside a ``Batch`` to save overhead, which a caller may open
+around the engine).
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ def _reseeded(sampler, group: int):
 
 
 def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None) -> list:
-    """``sampler.run(pubs)``'s PUB results, with independent shots across shot counts.
+    """``sampler.run(pubs)``'s PUB results, one job per shot count (independent shots on a
+    seeded Aer sampler).
 
     Parameters
     ----------
@@ -57,11 +61,13 @@ def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None
     groups: dict = {}
     for i, pub in enumerate(pubs):
         groups.setdefault(pub[2] if len(pub) > 2 else None, []).append(i)
-    if len(groups) <= 1 or not _seeded_aer(sampler):
+    if len(groups) <= 1:
         return list(wait(sampler.run(pubs)))
+    aer = _seeded_aer(sampler)
+    jobs = [((_reseeded(sampler, g) if aer and g else sampler).run([pubs[i] for i in idx]), idx)
+            for g, idx in enumerate(groups.values())]
     out: list = [None] * len(pubs)
-    for g, idx in enumerate(groups.values()):
-        runner = sampler if g == 0 else _reseeded(sampler, g)
-        for i, res in zip(idx, wait(runner.run([pubs[i] for i in idx])), strict=True):
+    for job, idx in jobs:
+        for i, res in zip(idx, wait(job), strict=True):
             out[i] = res
     return out

@@ -78,3 +78,35 @@ def test_stratified_spread_matches_its_standard_error():
     sd = np.sqrt(np.sum(alpha**2 * np.sin(angles) ** 2 / alloc))   # 1 - cos^2 = sin^2
     assert abs(np.mean(est) - alpha @ np.cos(angles)) < 4 * sd / np.sqrt(150)
     assert 0.8 * sd < np.std(est) < 1.2 * sd
+
+
+def test_other_samplers_get_one_job_per_shot_count_in_order():
+    """A provider's sampler (qiskit-ibm-runtime deprecates mixed shots in one job): one run
+    per shot count, all submitted before the first result is read, results in PUB order."""
+    calls, events = [], []
+
+    class Recorder:
+        def __init__(self):
+            self.inner = SamplerV2(seed=5)
+
+        def run(self, pubs, shots=None):
+            calls.append([p[2] for p in pubs])
+            events.append("submit")
+            job = self.inner.run(pubs)
+
+            class Job:
+                def result(self_inner):
+                    events.append("wait")
+                    return job.result()
+
+            return Job()
+
+    pubs = [(_ry(), [2.0], 300), (_ry(), [2.1], 150), (_ry(), [0.5], 300)]
+    res = run_independent(Recorder(), pubs)
+    assert calls == [[300, 300], [150]]
+    assert events == ["submit", "submit", "wait", "wait"]
+    assert [r.data.meas.num_shots for r in res] == [300, 150, 300]
+    # exact outcome probabilities sin^2(t/2) within 5 binomial standard errors
+    for r, (_, (t,), shots) in zip(res, pubs, strict=True):
+        p = np.sin(t / 2) ** 2
+        assert abs(r.data.meas.bitcount().mean() - p) < 5 * np.sqrt(p * (1 - p) / shots)
