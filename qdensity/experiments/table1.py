@@ -1,9 +1,12 @@
-"""Table 1 of the paper, rebuilt from real gradient plans.
+"""Table 1 of the paper, counted by the gradient plans' own analyses.
 
 For each ansatz and size, the original circuit and its density version are turned into
-:class:`~qdensity.models.DensityQNN` s and their gradient plans are built (not run); the
-circuit count is read off each plan: distinct circuit executions for the full gradient of one
-data point, forward pass excluded.
+:class:`~qdensity.models.DensityQNN` s and their gradient circuits are counted by
+:func:`~qdensity.gradients.gradient_circuit_count`: the plans' method choice, block analysis,
+gradient-string grouping and shift rules, without building the circuits or parameter rows
+(``density_gradient_plan(...).meta["gradient_circuits"]`` gives the same numbers; a test holds
+them equal): distinct circuit executions for the full gradient of one data point, forward pass
+excluded.
 
 =================== ======================= ==================================================
 ansatz              original (method)       density version (method)
@@ -36,7 +39,7 @@ from qdensity.circuits.ansatze import (
     pyramid,
     round_robin,
 )
-from qdensity.gradients.density import density_gradient_plan
+from qdensity.gradients.density import gradient_circuit_count
 from qdensity.models.decompositions import by_moments, copies, odd_even
 from qdensity.models.density import DensityQNN
 from qdensity.progress import progress_bar
@@ -72,8 +75,8 @@ def _cyclic_gc_paused() -> Iterator[None]:
 
 def _count(subs, observable, method: str) -> tuple[int, int, int]:
     model = DensityQNN(subs, observable=observable)
-    plan = density_gradient_plan(model, None, method=method, forward=False)
-    return model.num_parameters, plan.meta["gradient_circuits"], model.num_subunitaries
+    return (model.num_parameters, gradient_circuit_count(model, method=method),
+            model.num_subunitaries)
 
 
 def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int = 2) -> dict:

@@ -166,11 +166,12 @@ def _gradient_terms(
     return total, [label for label, _ in terms], per_term
 
 
-def _group_terms(per_term, params):
+def _group_terms(per_term, params, merge: bool = True):
     """Greedy grouping of ``H``'s terms so that all gradient strings of a group commute.
 
     ``per_term``: the gradient strings (a ``PauliList``) and, per term of ``H``, its label,
     shares and the (string row, gate) origin of each string; a group's ``"strings"`` are rows.
+    ``merge=False``: the groups only, their ``"ops"`` not summed (for a count).
     """
     paulis, entries = per_term
     groups: list[dict] = []
@@ -192,7 +193,7 @@ def _group_terms(per_term, params):
             if not strings or first_noncommuting_pair(paulis[g["strings"] + strings]) is None:
                 g["labels"].append(label)
                 g["strings"].extend(strings)
-                for p in params:
+                for p in params if merge else ():
                     if not _is_zero(shares[p]):
                         g["ops"][p] = (g["ops"][p] + shares[p]).simplify(atol=_ATOL)
                 break
@@ -234,6 +235,23 @@ def _evolve_all(ops: dict, cliff: Clifford, n: int) -> dict:
             for (p, op), e, k in zip(items, ends, sizes, strict=True)}
 
 
+_RBS_ONLY = ("diagonaliser='rbs' needs RBS trainable gates on disjoint pairs whose gradient "
+             "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
+             "'auto'")
+
+
+def _circuit_count(trainables: Sequence[_Trainable], observable: SparsePauliOp,
+                   params: Sequence[Parameter], diagonaliser: str, n: int) -> int:
+    """``len(_direct_gradient(...).circuits)`` without the circuits: one when the ``RBS(pi/4)``
+    layer serves (or the strings form one group), else the number of groups (same errors)."""
+    total, _, per_term = _gradient_terms(trainables, observable, params)
+    if diagonaliser in ("auto", "rbs") and _rbs_layer_for(trainables, total, n) is not None:
+        return 1
+    if diagonaliser == "rbs":
+        raise ValueError(_RBS_ONLY)
+    return max(1, len(_group_terms(per_term(), params, merge=False)[1]))
+
+
 def _direct_gradient(
     circuit: QuantumCircuit,
     trainables: Sequence[_Trainable],
@@ -258,11 +276,7 @@ def _direct_gradient(
                 diagonaliser="rbs",
             )
         if diagonaliser == "rbs":
-            raise ValueError(
-                "diagonaliser='rbs' needs RBS trainable gates on disjoint pairs whose gradient "
-                "observables the RBS(pi/4) layer diagonalises (Supp. F.3); use 'clifford' or "
-                "'auto'"
-            )
+            raise ValueError(_RBS_ONLY)
     paulis, groups = _group_terms(per_term(), params)
     if not groups:  # H is a multiple of the identity: every derivative vanishes
         groups = [{"labels": [], "strings": [], "ops": dict(total)}]

@@ -36,7 +36,7 @@ from qiskit.quantum_info import SparsePauliOp
 from qdensity.analysis.blocks import _analyse_block, _is_trainable, commuting_blocks
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.gradients._circuits import _check_inputs
-from qdensity.gradients._direct import CommutingGradient, _direct_gradient
+from qdensity.gradients._direct import CommutingGradient, _circuit_count, _direct_gradient
 from qdensity.gradients.blocks import (
     BLOCK_METHODS,
     CommutingBlockGradient,
@@ -48,6 +48,7 @@ __all__ = [
     "CommutingGradient",
     "CommutingBlockGradient",
     "commuting_gradient",
+    "commuting_gradient_count",
     "commuting_block_gradient",
     "commuting_blocks",
     "trainable_parameters",
@@ -117,6 +118,12 @@ def commuting_gradient(
     >>> grad.num_gradient_circuits, grad.diagonaliser
     (1, 'rbs')
     """
+    params, obs, trainables = _one_block(circuit, observable, parameters, diagonaliser)
+    return _direct_gradient(circuit, trainables, obs, params, diagonaliser)
+
+
+def _one_block(circuit, observable, parameters, diagonaliser):
+    """Checked ``(params, observable, trainable gates)`` of a one-block circuit."""
     params, obs = _check_inputs(circuit, observable, parameters, diagonaliser)
     pset = set(params)
     first = next(
@@ -124,5 +131,39 @@ def commuting_gradient(
     )
     if first is None:
         raise ValueError(f"no gate of the circuit depends on the parameters {params}")
-    trainables = _analyse_block(circuit, first, len(circuit.data), pset)
-    return _direct_gradient(circuit, trainables, obs, params, diagonaliser)
+    return params, obs, _analyse_block(circuit, first, len(circuit.data), pset)
+
+
+def commuting_gradient_count(
+    circuit: QuantumCircuit,
+    observable: SparsePauliOp,
+    parameters: Sequence[Parameter] | None = None,
+    *,
+    diagonaliser: str = "auto",
+) -> int:
+    """``commuting_gradient(...).num_gradient_circuits`` without building the circuits.
+
+    The same analysis (blocks, gradient strings, their grouping, the ``RBS(pi/4)`` layer test)
+    and the same errors; no measured copies of ``circuit``, diagonalising circuits or estimator
+    tables are made (for a count at device widths, e.g. Table 1).
+
+    Parameters
+    ----------
+    circuit, observable, parameters, diagonaliser
+        As for :func:`commuting_gradient`.
+
+    Returns
+    -------
+    int
+        Distinct circuits per data point.
+
+    Examples
+    --------
+    >>> from qiskit.quantum_info import SparsePauliOp
+    >>> from qdensity.ansatze import pairs_circuit
+    >>> commuting_gradient_count(pairs_circuit(4, [[(0, 1), (2, 3)]]),
+    ...                          SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4))
+    1
+    """
+    params, obs, trainables = _one_block(circuit, observable, parameters, diagonaliser)
+    return _circuit_count(trainables, obs, params, diagonaliser, circuit.num_qubits)

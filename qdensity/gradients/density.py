@@ -39,11 +39,13 @@ from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     commuting_block_gradient,
     commuting_gradient,
+    commuting_gradient_count,
 )
-from qdensity.gradients.shift import parameter_shift_plan
+from qdensity.gradients.shift import parameter_shift_plan, shift_circuit_count
 from qdensity.models.decompositions import trainable_parameters
 
-__all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan", "METHODS"]
+__all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan",
+           "gradient_circuit_count", "METHODS"]
 
 METHODS = ("auto", "shift", "commuting")
 
@@ -235,6 +237,62 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     return Plan(combined.jobs, post, "density gradient",
                 {"gradient_circuits": per_point,
                  "methods": [p.meta.get("method") for p in jac_plans]})
+
+
+def gradient_circuit_count(model, *, method: str = "auto") -> int:
+    """``density_gradient_plan(model, method=method).meta["gradient_circuits"]``, counted.
+
+    Gradient circuits per data point (forward excluded), summed over the sub-unitaries, from
+    the same analyses and method choice as the plan, but without building its circuits or
+    parameter rows: a one-block commuting gradient is counted by
+    :func:`~qdensity.gradients.commuting.commuting_gradient_count`, a parameter-shift one by
+    :func:`~qdensity.gradients.shift.shift_circuit_count` (the others, several blocks or
+    unary outputs, by the plan's own analysis). Table 1 comes from it.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    method : {"auto", "shift", "commuting"}
+
+    Returns
+    -------
+    int
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if model.readout == "unary_amplitudes":
+        raise ValueError("gradients on hardware need a probability or observable readout; "
+                         "unary_amplitudes are trained on the unary engine")
+    total = 0
+    for k in range(model.num_subunitaries):
+        circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
+        params = trainable_parameters(model.sub_unitaries[k])
+        count = None
+        if method in ("auto", "commuting"):
+            count = _commuting_count(model, circ, params, k, method)
+        if count is None:
+            obs = model.observable if model.readout == "observable" else None
+            count = shift_circuit_count(circ, obs, params)
+        total += count
+    return total
+
+
+def _commuting_count(model, circ, params, k, method) -> int | None:
+    """Commuting circuits of sub-unitary ``k``, or None where the plan would take shifts."""
+    if model.readout == "observable" and "_commuting_cache" not in model.__dict__:
+        try:
+            return commuting_gradient_count(circ, model.observable, params)
+        except ValueError:
+            pass  # several blocks, or none: the plan's own analysis decides below
+    try:
+        shared, _ = _commuting_analysis(model, circ, params, k)
+    except ValueError:
+        if method == "commuting":
+            raise
+        return None
+    if method == "commuting" or _auto_prefers_commuting(model, circ, params, k, shared):
+        return shared.num_gradient_circuits
+    return None
 
 
 def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):

@@ -31,7 +31,13 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.execution.intervals import binomial_standard_error
-from qdensity.execution.plans import Estimate, Plan, expectation_plan, probabilities_plan
+from qdensity.execution.plans import (
+    Estimate,
+    Plan,
+    check_observable,
+    expectation_plan,
+    probabilities_plan,
+)
 from qdensity.validation import as_parameter_rows, check_circuit
 
 __all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "expand_occurrences"]
@@ -144,6 +150,24 @@ def shift_rules(circuit: QuantumCircuit, parameters=None, *, rbs_rule: str = "fo
     """The shift rule of every occurrence of ``parameters`` in ``circuit``, in circuit order."""
     _, occ = expand_occurrences(circuit, parameters)
     return [(p, a, _rule_for(inst, circuit, rbs_rule)) for p, _, a, inst in occ]
+
+
+def shift_circuit_count(circuit: QuantumCircuit, observable: SparsePauliOp | None,
+                        parameters=None, *, rbs_rule: str = "four_term") -> int:
+    """Circuits per parameter row of :func:`parameter_shift_plan`, without its shifted rows.
+
+    The sum of the rule terms over the occurrences of ``parameters``, times the qubit-wise
+    commuting measurement groups of ``observable``'s non-identity terms (one for the
+    probabilities, ``observable=None``): ``parameter_shift_plan(...).num_circuits / B``.
+    """
+    check_circuit(circuit)
+    terms = sum(len(rule.shifts) for _, _, rule in shift_rules(circuit, parameters,
+                                                               rbs_rule=rbs_rule))
+    if observable is None:
+        return terms
+    groups = check_observable(observable, circuit.num_qubits).simplify().group_commuting(
+        qubit_wise=True)
+    return terms * sum(1 for g in groups if (g.paulis.x | g.paulis.z).any())
 
 
 def parameter_shift_plan(
