@@ -141,6 +141,8 @@ def section_commuting(old: str | None) -> None:
         if n == 16:
             o = _sub(_PLAN, [n, 16, 100, 0], old) if old else {"build_s": 98.0}
             refs = f"{o['build_s']:>11.1f}{o['build_s'] / r['build_s']:>8.0f}x"
+            if old:
+                refs += f"   (the issue's 98 s: {98.0 / r['build_s']:.0f}x)"
         else:
             refs = f"{'goal ' + ('2' if n == 32 else '10') + ' s':>11}{'':>8}"
         print(f"{'':<52}{n:>4}{r['build_s']:>9.2f}{refs}", flush=True)
