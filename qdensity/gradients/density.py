@@ -78,6 +78,14 @@ def _readout_observables(model) -> list[SparsePauliOp]:
             for j in range(n)]
 
 
+def _check_method(model, method: str) -> None:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if model.readout == "unary_amplitudes":
+        raise ValueError("gradients on hardware need a probability or observable readout; "
+                         "unary_amplitudes are trained on the unary engine")
+
+
 def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
                              shots: int | None = None) -> Plan:
     """Plan for ``d f_k / d theta_k`` over the rows of ``X``.
@@ -98,11 +106,7 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
         Post-processing returns an :class:`~qdensity.plans.Estimate` of shape (B, m, P_k).
         ``plan.meta["method"]`` says which method was used.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if model.readout == "unary_amplitudes":
-        raise ValueError("gradients on hardware need a probability or observable readout; "
-                         "unary_amplitudes are trained on the unary engine")
+    _check_method(model, method)
     # read, never changed, by the analyses below (gradient circuits are copies): no copy of U_k
     circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
     params = trainable_parameters(model.sub_unitaries[k])
@@ -258,11 +262,7 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
     -------
     int
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if model.readout == "unary_amplitudes":
-        raise ValueError("gradients on hardware need a probability or observable readout; "
-                         "unary_amplitudes are trained on the unary engine")
+    _check_method(model, method)
     total = 0
     for k in range(model.num_subunitaries):
         circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
@@ -279,7 +279,7 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
 
 def _commuting_count(model, circ, params, k, method) -> int | None:
     """Commuting circuits of sub-unitary ``k``, or None where the plan would take shifts."""
-    if model.readout == "observable" and "_commuting_cache" not in model.__dict__:
+    if model.readout == "observable" and k not in model.__dict__.get("_commuting_cache", {}):
         try:
             return commuting_gradient_count(circ, model.observable, params)
         except ValueError:
