@@ -486,19 +486,21 @@ class SpySampler(BaseSamplerV2):
         return self.inner.run(pubs, shots=shots)
 
 
-def test_sampler_source_one_job_skips_empty_pubs():
+def test_sampler_source_one_job_per_shot_count_skips_empty_pubs():
     circuits = _ry_circuits()
     spy = SpySampler(seed=1)
     src = sampler_source(circuits, _z_value, sampler=spy)
     out = src(np.array([5, 0, 3]), np.random.default_rng(0))
     assert [v.shape for v in out] == [(5,), (0,), (3,)]
-    assert len(spy.jobs) == 1
-    (c0, n0), (c2, n2) = spy.jobs[0]  # one PUB per sub-unitary with shots, none for k = 1
-    assert c0 is circuits[0] and n0 == 5
-    assert c2 is circuits[2] and n2 == 3
+    # one PUB per sub-unitary with shots, none for k = 1; one job per shot count
+    assert [[(c is circuits[0], c is circuits[2], n) for c, n in job] for job in spy.jobs] == [
+        [(True, False, 5)], [(False, True, 3)]]
+    out = src(np.array([4, 0, 4]), np.random.default_rng(1))
+    assert [v.shape for v in out] == [(4,), (0,), (4,)]
+    assert [[n for _, n in job] for job in spy.jobs[2:]] == [[4, 4]]  # one count: one job
     out = src(np.array([0, 0, 0]), None)
     assert [v.shape for v in out] == [(0,), (0,), (0,)]
-    assert len(spy.jobs) == 1  # nothing to run: no job
+    assert len(spy.jobs) == 3  # nothing to run: no job
 
 
 @pytest.mark.parametrize("fn", SCHEDULERS)

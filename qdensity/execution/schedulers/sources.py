@@ -108,9 +108,11 @@ def sampler_source(
 ) -> ShotSource:
     """A shot source that runs the ``K`` sub-unitary circuits through a ``SamplerV2``.
 
-    Each call submits ONE ``sampler.run`` job with one PUB ``(circuit_k, values_k, n_k)`` per
-    sub-unitary that is asked for ``n_k > 0`` shots (PUBs with no shots are left out), and turns
-    each PUB's bit array into per-shot values: the outcome of every shot, as an integer whose
+    Each call submits one PUB ``(circuit_k, values_k, n_k)`` per sub-unitary that is asked for
+    ``n_k > 0`` shots (PUBs with no shots are left out), one ``sampler.run`` job per distinct
+    shot count, all submitted before any is waited on (independent shots across counts on a
+    seeded Aer sampler; one shot count per job as qiskit-ibm-runtime asks), and turns each
+    PUB's bit array into per-shot values: the outcome of every shot, as an integer whose
     bit ``j`` is clbit ``j`` of the circuit, goes through ``values_fn``. So every value comes
     from a shot that was really taken.
 
