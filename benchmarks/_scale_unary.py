@@ -56,7 +56,8 @@ def _interleaved(fns: dict, repeats: int, rounds: int = 3) -> dict:
         for key, fn in fns.items():
             time.sleep(0.3)
             t = time.perf_counter()
-            while time.perf_counter() - t < 0.02:  # warm-up: >= 20 ms of calls
+            # warm-up: >= 200 ms of calls (a core left idle in the pause runs slow at first)
+            while time.perf_counter() - t < 0.2:
                 fn()
             for _ in range(repeats):
                 c, t = time.process_time(), time.perf_counter()
