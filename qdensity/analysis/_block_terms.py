@@ -117,22 +117,9 @@ class _Reader:
     one class share it), so the content key is built once per operator, not once per gate.
     """
 
-    def __init__(self, circuit: QuantumCircuit, params: set[Parameter]):
-        self.n = circuit.num_qubits
-        self.params = params
+    def __init__(self, circuit: QuantumCircuit):
         self.qindex = {q: i for i, q in enumerate(circuit.qubits)}
         self._by_operator: dict[int, tuple[object, SparsePauliOp]] = {}
-
-    def is_trainable(self, op) -> bool:
-        params = self.params
-        for p in op.params:
-            if isinstance(p, ParameterExpression):
-                if isinstance(p, Parameter):
-                    if p in params:
-                        return True
-                elif p.parameters & params:
-                    return True
-        return False
 
     def qubits(self, inst: CircuitInstruction) -> tuple[int, ...]:
         qindex = self.qindex

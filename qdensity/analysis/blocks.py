@@ -174,7 +174,7 @@ def _trainable_of(
     reader: _Reader | None = None,
 ) -> _Trainable:
     """One trainable gate with its generator on the whole register."""
-    reader = reader if reader is not None else _Reader(circuit, params)
+    reader = reader if reader is not None else _Reader(circuit)
     param, coeff, tpl, qubits = _read(inst, circuit, index, params, reader)
     gen = _place([tpl], [qubits], circuit.num_qubits).generator(0)
     return _Trainable(index, inst.operation.name, param, coeff, generator=gen, circuit=circuit)
@@ -211,7 +211,7 @@ def _analyse_block(
     Each gate's parameter and generator template are read once (:class:`_Reader`); the
     templates are placed on their qubits in one batch per run of gates between Cliffords.
     """
-    reader = _Reader(circuit, params)
+    reader = _Reader(circuit)
     n = circuit.num_qubits
     live: list[_Trainable] = []
     done: list[_Terms] = []  # the terms placed so far, propagated through the Cliffords
@@ -239,7 +239,7 @@ def _analyse_block(
         if name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)
-        if reader.is_trainable(op):
+        if _is_trainable(inst, params):
             param, coeff, tpl, qubits = _read(inst, circuit, idx, params, reader)
             live.append(_Trainable(idx, name, param, coeff, row=len(live), circuit=circuit))
             tpls.append(tpl)
@@ -288,7 +288,6 @@ class _Stack:
         self._pending: list[PauliList] = []
         self.coeffs: list[np.ndarray] = []
         self.sizes: list[int] = []
-        self.evolved = False  # whether a Clifford has acted on the terms
 
     @property
     def paulis(self) -> PauliList | None:
@@ -308,7 +307,6 @@ class _Stack:
     def evolve(self, cliff: Clifford, qubits: list[int]) -> None:
         if self.paulis is not None:
             self._paulis = self.paulis.evolve(cliff, qargs=qubits, frame="s")
-            self.evolved = True
 
     def commutes_with(self, gen: SparsePauliOp) -> bool:
         """Whether ``gen`` commutes with every generator: one GF(2) product against all terms,
@@ -328,15 +326,6 @@ class _Stack:
             if not _is_zero(_commutator(gen, other)):
                 return False
         return True
-
-    def generators(self) -> list[SparsePauliOp]:
-        paulis = self.paulis
-        if paulis is None:
-            return []
-        coeffs = np.concatenate(self.coeffs)
-        ends = np.cumsum(self.sizes)
-        return [SparsePauliOp(paulis[e - k:e], coeffs[e - k:e])
-                for e, k in zip(ends, self.sizes, strict=True)]
 
 
 def commuting_blocks(
@@ -373,7 +362,7 @@ def commuting_blocks(
     blocks: list[tuple[int, int]] = []
     start: int | None = None
     stack = _Stack()
-    reader = _Reader(circuit, params)
+    reader = _Reader(circuit)
     for idx, inst in enumerate(circuit.data):
         if inst.operation.name in _SKIP:
             continue
