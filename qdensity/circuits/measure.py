@@ -8,7 +8,8 @@ from qiskit.circuit import ClassicalRegister, QuantumCircuit
 __all__ = ["measured"]
 
 
-def measured(circuit: QuantumCircuit, name: str = "meas") -> QuantumCircuit:
+def measured(circuit: QuantumCircuit, name: str = "meas", *,
+             inplace: bool = False) -> QuantumCircuit:
     """A copy of ``circuit`` measuring qubit ``j`` into clbit ``j`` of a new register.
 
     Parameters
@@ -17,11 +18,14 @@ def measured(circuit: QuantumCircuit, name: str = "meas") -> QuantumCircuit:
         Unmeasured circuit.
     name : str
         Classical register name.
+    inplace : bool
+        Add the register and measurements to ``circuit`` itself (a copy the caller just made)
+        instead of to a copy.
 
     Returns
     -------
     QuantumCircuit
-        ``circuit.num_qubits`` qubits and as many clbits.
+        ``circuit.num_qubits`` qubits and as many clbits (``circuit`` itself when ``inplace``).
 
     Examples
     --------
@@ -29,7 +33,7 @@ def measured(circuit: QuantumCircuit, name: str = "meas") -> QuantumCircuit:
     >>> measured(QuantumCircuit(3)).count_ops()["measure"]
     3
     """
-    out = circuit.copy()
+    out = circuit if inplace else circuit.copy()
     creg = ClassicalRegister(circuit.num_qubits, name)
     out.add_register(creg)
     out.measure(out.qubits, creg)

@@ -13,13 +13,14 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 import numpy as np
-from qiskit.circuit import ClassicalRegister, Parameter, QuantumCircuit
+from qiskit.circuit import Parameter, QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _is_zero, _terms_of, _Trainable
 from qdensity.analysis.pauli import ZStringTable, conjugate_two_qubit
 from qdensity.circuits._copying import copy_circuit
 from qdensity.circuits.gates import RBSGate, rbs_matrix
+from qdensity.circuits.measure import measured
 from qdensity.validation import check_positive_int
 
 __all__ = ["rbs_diagonalising_layer"]
@@ -79,10 +80,7 @@ def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCi
     if tail is not None and tail.size():
         out.barrier()
         out.compose(tail, qubits=range(tail.num_qubits), inplace=True)
-    creg = ClassicalRegister(out.num_qubits, "meas")  # as measured(): qubit j -> clbit j
-    out.add_register(creg)
-    out.measure(out.qubits, creg)
-    return out
+    return measured(out, inplace=True)
 
 
 def _rbs_layer_for(
