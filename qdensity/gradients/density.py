@@ -86,6 +86,13 @@ def _check_method(model, method: str) -> None:
                          "unary_amplitudes are trained on the unary engine")
 
 
+def _circuit_of(model, k: int):
+    """``V(x) U_k`` (``U_k`` itself, not a copy, without an encoding: the analyses only read it
+    and gradient circuits are copies) and ``U_k``'s trainable parameters."""
+    circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
+    return circ, trainable_parameters(model.sub_unitaries[k])
+
+
 def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
                              shots: int | None = None) -> Plan:
     """Plan for ``d f_k / d theta_k`` over the rows of ``X``.
@@ -107,9 +114,7 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
         ``plan.meta["method"]`` says which method was used.
     """
     _check_method(model, method)
-    # read, never changed, by the analyses below (gradient circuits are copies): no copy of U_k
-    circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
-    params = trainable_parameters(model.sub_unitaries[k])
+    circ, params = _circuit_of(model, k)
     rows = model.rows(k, X)
     if method in ("auto", "commuting"):
         try:
@@ -265,8 +270,7 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
     _check_method(model, method)
     total = 0
     for k in range(model.num_subunitaries):
-        circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
-        params = trainable_parameters(model.sub_unitaries[k])
+        circ, params = _circuit_of(model, k)
         count = None
         if method in ("auto", "commuting"):
             count = _commuting_count(model, circ, params, k, method)
