@@ -24,7 +24,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from qdensity.execution._unary_layers import backward, rotate
-from qdensity.execution._unary_threads import blocks, run_blocks
+from qdensity.execution._unary_threads import blocks, run_blocks, split
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
@@ -196,13 +196,19 @@ def make_plan(n: int, layers, num_gates: int) -> Plan:
 
 
 def _table(angles: np.ndarray) -> np.ndarray:
-    G = angles.size
-    tab = np.empty(3 * G + 2)
-    np.cos(angles, out=tab[:G])
-    np.sin(angles, out=tab[G:2 * G])
-    np.negative(tab[G:2 * G], out=tab[2 * G:3 * G])
-    tab[3 * G:] = (1.0, 0.0)
+    """The value table ``[cos (G), sin (G), -sin (G), 1, 0]`` of the gate angles."""
+    tab = np.empty(3 * angles.size + 2)
+    tab[3 * angles.size:] = (1.0, 0.0)
+    _trig(tab, angles, 0, angles.size)
     return tab
+
+
+def _trig(tab: np.ndarray, angles: np.ndarray, lo: int, hi: int) -> None:
+    """Gates ``[lo, hi)`` of the table's cosines, sines and negated sines."""
+    G = angles.size
+    np.cos(angles[lo:hi], out=tab[lo:hi])
+    np.sin(angles[lo:hi], out=tab[G + lo:G + hi])
+    np.negative(tab[G + lo:G + hi], out=tab[2 * G + lo:2 * G + hi])
 
 
 def _product(indptr, rows, cols, indices, data, X, out) -> None:
@@ -237,17 +243,12 @@ def _threaded(Z: np.ndarray, plan: Plan, angles: np.ndarray, ranges) -> np.ndarr
     tab[3 * G:] = (1.0, 0.0)
     data = np.empty(nnz)
 
-    def trig(lo, hi):  # as _table
-        np.cos(angles[lo:hi], out=tab[lo:hi])
-        np.sin(angles[lo:hi], out=tab[G + lo:G + hi])
-        np.negative(tab[G + lo:G + hi], out=tab[2 * G + lo:2 * G + hi])
-
     def values(lo, hi):
         np.multiply(np.take(tab, plan.fwd_src[0, lo:hi]), np.take(tab, plan.fwd_src[1, lo:hi]),
                     out=data[lo:hi])
 
-    run_blocks(trig, _slices(G, k))
-    run_blocks(values, _slices(nnz, k))
+    run_blocks(lambda lo, hi: _trig(tab, angles, lo, hi), split(G, k))
+    run_blocks(values, split(nnz, k))
     out = np.empty((plan.n, Z.shape[1]))
 
     def part(lo, hi):
@@ -255,11 +256,6 @@ def _threaded(Z: np.ndarray, plan: Plan, angles: np.ndarray, ranges) -> np.ndarr
 
     run_blocks(part, ranges)
     return out
-
-
-def _slices(size: int, k: int) -> list[tuple[int, int]]:
-    edges = [size * i // k for i in range(k + 1)]
-    return list(zip(edges[:-1], edges[1:], strict=True))
 
 
 def _run(Z: np.ndarray, plan: Plan, data: np.ndarray) -> np.ndarray:

@@ -83,7 +83,12 @@ def blocks(columns: int, work_per_column: int) -> list[tuple[int, int]]:
         k = min(k, columns // MIN_COLUMNS, work_per_column * columns // max(MIN_WORK, 1))
     if k <= 1:
         return [(0, columns)]
-    edges = [columns * i // k for i in range(k + 1)]
+    return split(columns, k)
+
+
+def split(size: int, k: int) -> list[tuple[int, int]]:
+    """``[0, size)`` cut into ``k`` contiguous ranges ``[lo, hi)`` of near-equal length."""
+    edges = [size * i // k for i in range(k + 1)]
     return list(zip(edges[:-1], edges[1:], strict=True))
 
 
