@@ -9,16 +9,6 @@ from qdensity.validation import check_parameter_values
 __all__: list[str] = []
 
 
-def all_finite(arr: np.ndarray) -> bool:
-    """No NaN or inf in the float array ``arr``.
-
-    A sum is non-finite whenever an entry is, so a finite sum (one vectorised pass, no
-    temporary) settles the usual case; only a non-finite sum (a bad entry, or finite entries
-    that overflow) needs the entry-wise check.
-    """
-    return bool(np.isfinite(arr.sum())) or bool(np.all(np.isfinite(arr)))
-
-
 def values(compiled, values, name: str = "values") -> np.ndarray:
     """Parameter values (P,) or (B, P) of a :class:`.unary.UnaryCircuit` (``None``: P = 0)."""
     if values is None:
@@ -41,7 +31,7 @@ def inputs(compiled, X, name: str = "X") -> np.ndarray:
     if arr.ndim not in (1, 2) or arr.shape[-1] != n:
         raise ValueError(f"{name} must have shape ({n},) or (batch, {n}) for a {n}-qubit "
                          f"circuit, got {arr.shape}")
-    if not all_finite(arr):
+    if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
     return arr
 

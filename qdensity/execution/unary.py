@@ -44,7 +44,6 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
-from qdensity.execution._unary_inputs import all_finite
 from qdensity.execution._unary_inputs import batch as _batch
 from qdensity.execution._unary_inputs import inputs as _inputs
 from qdensity.execution._unary_inputs import values as _values
@@ -412,7 +411,7 @@ def vjp(
     expected = (n,) if single else (B, n)
     if gy.shape != expected:
         raise ValueError(f"grad_Y must have the output's shape {expected}, got {gy.shape}")
-    if not all_finite(gy):
+    if not np.all(np.isfinite(gy)):
         raise ValueError("grad_Y must be finite (no NaN or inf)")
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
     # forward to the outputs (or start from the caller's)
