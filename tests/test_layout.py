@@ -25,6 +25,7 @@ ROOT = Path(qdensity.__file__).resolve().parent
 LAYERS = [
     "validation",
     "progress",
+    "cluster",
     "_aliases",
     "datasets",
     "analysis",

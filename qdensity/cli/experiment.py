@@ -47,7 +47,8 @@ def _cmd_experiment(args) -> int:
         raise ValueError(f"name an experiment (one of: {', '.join(EXPERIMENTS)}) or --list")
     mode = "full" if args.full else "quick"
     result = run(args.name, mode=mode, seeds=args.seeds, config=dict(args.set) or None,
-                 out=args.out, jobs=args.jobs, plot=not args.no_plot, progress=True)
+                 out=args.out, jobs=args.jobs, cluster=args.cluster, plot=not args.no_plot,
+                 progress=True)
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
         return 0
@@ -80,7 +81,15 @@ def add_parser(sub) -> None:
                         "--quick, 5 for --full)")
     x.add_argument("--out", default=None, metavar="DIR",
                    help="write DIR/NAME-MODE.json and the PNG figures there")
-    x.add_argument("--jobs", type=int, default=1, help="run seeds in this many processes")
+    x.add_argument("--jobs", type=int, default=1,
+                   help="run units (a seed, or a setting of a seed) in this many local worker "
+                        "processes at once (the same as --cluster local:N)")
+    x.add_argument("--cluster", default=None, metavar="ADDRESS",
+                   help="run the units on Dask: 'local' (a worker process per core), 'local:N' "
+                        "(N worker processes) or 'tcp://HOST:PORT' (a running 'dask scheduler' "
+                        "with 'dask worker' processes on any machines; --out then on a shared "
+                        "file system). Finished units are written under --out as they arrive; "
+                        "rerunning the command resumes; a unit whose worker is lost runs again")
     x.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
                    help="override one setting (VALUE read as JSON), e.g. --set epochs=3")
     x.add_argument("--no-plot", action="store_true", help="do not draw the figures")

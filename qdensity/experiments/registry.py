@@ -5,9 +5,12 @@ Each experiment is a module of this package that defines ``EXPERIMENT``, an
 :class:`Experiment`: its settings at two sizes (``quick``: at most a minute on two cores, what
 the tests and notebooks run; ``full``: the paper's protocol as far as two cores allow, reduced
 where its docstring says), a function that runs one seed and returns that seed's metrics, and
-a function that draws the figure. :func:`run` runs the seeds (one after another, or in
-``jobs`` processes), writes the results JSON (:class:`~.results.ExperimentResult`: settings,
-seeds, per-seed metrics, mean and 95% confidence interval over seeds, package versions) and the
+a function that draws the figure. :func:`run` runs the units of work (one seed, or one
+setting of one seed where the experiment splits its settings with ``units``), one after another
+in this process or on a Dask cluster (:mod:`qdensity.cluster`: ``jobs`` local worker processes,
+or ``cluster``), writes each finished unit under ``out`` as it arrives (a rerun resumes), writes
+the results JSON (:class:`~.results.ExperimentResult`: settings, seeds, per-seed metrics with
+the worker that ran them, mean and 95% confidence interval over seeds, package versions) and the
 PNG figures, and returns the result.
 
 Metrics of one seed are a flat dict of scalars (``"density/test_accuracy": 0.81``) plus an
@@ -22,18 +25,21 @@ import importlib
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from qdensity.cluster import IN_PROCESS, open_client, run_units
+from qdensity.experiments import _units
 from qdensity.experiments.results import ExperimentResult, mean_ci
 from qdensity.progress import progress_bar
 
 __all__ = ["Experiment", "EXPERIMENTS", "MODES", "get_experiment", "run", "curve_summary",
-           "resolve_seeds", "resolve_config"]
+           "resolve_seeds", "resolve_config", "work_directory"]
+
+work_directory = _units.work_directory
 
 #: Experiment name -> module of :mod:`qdensity.experiments` that defines ``EXPERIMENT``.
 EXPERIMENTS: dict[str, str] = {
@@ -70,12 +76,21 @@ class Experiment:
     run_seed : callable
         ``run_seed(config, seed, progress) -> dict``: one seed's metrics (scalars and an
         optional ``"curves"`` dict, see the module docstring). Must be a module-level function
-        (it runs in worker processes when ``jobs > 1``).
+        (it runs on Dask workers when ``jobs > 1`` or with a ``cluster``).
     plot : callable
         ``plot(result, directory) -> list[Path]``: writes the PNG figures.
     reductions : str
         Where ``full`` departs from the paper's protocol, and why (also printed in
         ``EXPERIMENTS.md``).
+    units : callable, optional
+        ``units(config) -> list[dict]``: the seed's work split into independent settings (one
+        sub-configuration per model or depth), each a unit of work that ``run_seed`` runs on
+        its own; the seed's metrics are the units' merged (:func:`~._units.merge_parts`), or
+        ``combine(config, parts)``. A unit must give the metrics it gives inside the whole
+        seed, bit for bit (its randomness may not depend on the units run before it).
+        Module-level functions. None: the seed is one unit.
+    combine : callable, optional
+        ``combine(config, parts) -> dict``: a seed's metrics from its units' (default: merged).
     """
 
     name: str
@@ -87,6 +102,8 @@ class Experiment:
     plot: Callable[[ExperimentResult, Path], list[Path]]
     seeds: Mapping[str, int] = field(default_factory=lambda: {"quick": 2, "full": 5})
     reductions: str = ""
+    units: Callable[[dict], list[dict]] | None = None
+    combine: Callable[[dict, list[dict]], dict] | None = None
 
 
 def get_experiment(name: str) -> Experiment:
@@ -186,19 +203,51 @@ def curve_summary(per_seed: Sequence[Mapping], confidence: float = 0.95) -> dict
     return out
 
 
-def _run_one(name: str, config: dict, seed: int, progress: bool) -> dict:
+def _run_unit(run_seed: Callable, name: str, config: dict, seed: int, progress: bool,
+              workdir: str | None) -> dict:
+    """One unit (a sub-configuration of one seed) wherever it runs: its metrics, normalised
+    as the checkpoint files keep them, with ``seconds`` of wall time."""
     t = time.perf_counter()
-    metrics = get_experiment(name).run_seed(dict(config), seed, progress)
+    with _units.working_in(None if workdir is None else Path(workdir)):
+        metrics = run_seed(dict(config), seed, progress)
     if not isinstance(metrics, Mapping):
         raise TypeError(f"experiment {name!r} returned {type(metrics).__name__}, not a dict")
     metrics = dict(metrics)
     metrics.setdefault("seconds", time.perf_counter() - t)
-    return metrics
+    return _units.normalise(metrics)
+
+
+def _check_parallel(jobs, cluster):
+    """The cluster the run uses (None: in this process)."""
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
+        raise ValueError(f"jobs must be a positive int, got {jobs!r}")
+    if cluster is None:
+        return None if jobs == 1 else f"local:{int(jobs)}"
+    if isinstance(cluster, str):
+        from qdensity.cluster import parse_cluster
+
+        parse_cluster(cluster)  # refuse a bad address before any work
+        if cluster.strip() == "local" and jobs > 1:
+            return f"local:{int(jobs)}"
+    if jobs != 1:
+        raise ValueError(f"give jobs ({jobs}) or cluster ({cluster!r}), not both: jobs=N "
+                         "means cluster='local:N'")
+    return cluster
+
+
+def _split(experiment: Experiment, settings: dict) -> list[dict]:
+    if experiment.units is None:
+        return [settings]
+    parts = experiment.units(dict(settings))
+    if not isinstance(parts, list) or not parts or not all(isinstance(p, dict) for p in parts):
+        raise TypeError(f"experiment {experiment.name!r}: units(config) must return a "
+                        f"non-empty list of dicts, got {parts!r}")
+    return parts
 
 
 def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = None,
-        out: str | os.PathLike | None = None, jobs: int = 1, plot: bool = True,
-        progress: bool | None = None) -> ExperimentResult:
+        out: str | os.PathLike | None = None, jobs: int = 1, cluster=None, retries: int = 2,
+        plot: bool = True, progress: bool | None = None) -> ExperimentResult:
     """Run one of the paper's experiments over seeds; write its JSON and figures.
 
     Parameters
@@ -214,9 +263,18 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     config : mapping, optional
         Overrides of the mode's settings (unknown keys are refused).
     out : path, optional
-        Directory for ``<name>-<mode>.json`` and the PNG figures; nothing is written if None.
+        Directory for ``<name>-<mode>.json``, the PNG figures and the finished units
+        (``<name>-<mode>.units/``: a rerun with the same settings resumes from them); nothing
+        is written if None.
     jobs : int
-        Seeds run in this many processes at once (1: in this process).
+        Units run in this many local worker processes at once (``cluster="local:<jobs>"``;
+        1: one after another in this process).
+    cluster : str or distributed.Client, optional
+        Where units run (:mod:`qdensity.cluster`): ``"local"``, ``"local:N"``,
+        ``"tcp://HOST:PORT"`` (a running ``dask scheduler``) or a ``distributed.Client``.
+    retries : int
+        Times a unit that raises is tried again on the cluster (a unit whose worker is lost
+        is rerun by the scheduler in any case).
     plot : bool
         Draw the figures (only with ``out``).
     progress : bool, optional
@@ -226,8 +284,16 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     Returns
     -------
     ExperimentResult
-        ``per_seed`` metrics, ``summary`` (scalar metric -> mean and 95% CI), ``curves``
-        (:func:`curve_summary`), ``figures`` (paths written) and the settings.
+        ``per_seed`` metrics (each with ``"worker"``: the Dask worker's address, several
+        joined by ``", "`` when a seed's units ran on several, or ``"in-process"``),
+        ``summary`` (scalar metric -> mean and 95% CI), ``curves`` (:func:`curve_summary`),
+        ``figures`` (paths written) and the settings. The metrics do not depend on where the
+        units ran.
+
+    Raises
+    ------
+    OSError
+        When no scheduler answers at a ``tcp://`` address within 10 s.
 
     Examples
     --------
@@ -237,23 +303,51 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     experiment = get_experiment(name)
     settings = resolve_config(experiment, mode, config)
     seed_list = resolve_seeds(seeds, int(experiment.seeds[mode]))
-    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
-        raise ValueError(f"jobs must be a positive int, got {jobs!r}")
+    target = _check_parallel(jobs, cluster)
+    if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
+        raise ValueError(f"retries must be a non-negative int, got {retries!r}")
     show = True if progress is None else bool(progress)
     t0 = time.perf_counter()
-    per_seed: list[dict] = []
-    with progress_bar(len(seed_list), desc=f"{name} ({mode})", unit="seed", verbose=show,
+    parts = _split(experiment, settings)
+    keys = [(seed, j) for seed in seed_list for j in range(len(parts))]
+    done: dict[tuple[int, int], tuple[dict, str]] = {}
+    store = None if out is None else _units.checkpoint_dir(out, name, mode, settings)
+    workdir = None if out is None else str(Path(out).resolve())
+    if store is not None:
+        for seed, j in keys:
+            record = _units.load_unit(store, seed, j, parts[j])
+            if record is not None:
+                done[seed, j] = record["metrics"], record["worker"]
+    pending = [k for k in keys if k not in done]
+
+    def finished(key, metrics, worker):
+        done[key] = metrics, worker
+        if store is not None:
+            _units.save_unit(store, key[0], key[1], parts[key[1]], metrics, worker)
+        bar.update()
+
+    with progress_bar(len(keys), desc=f"{name} ({mode})", unit="unit", verbose=show,
                       leave=True) as bar:
-        if jobs == 1 or len(seed_list) == 1:
-            for seed in seed_list:
-                per_seed.append(_run_one(name, settings, seed, show))
-                bar.update()
+        bar.update(len(keys) - len(pending))
+        if pending and (target is not None and (len(pending) > 1 or cluster is not None)):
+            arguments = [(experiment.run_seed, name, parts[j], seed, False, workdir)
+                         for seed, j in pending]
+            with open_client(target) as client:
+                for i, metrics, worker in run_units(client, _run_unit, arguments,
+                                                    retries=int(retries)):
+                    finished(pending[i], metrics, worker)
         else:
-            with ProcessPoolExecutor(max_workers=min(int(jobs), len(seed_list))) as pool:
-                futures = [pool.submit(_run_one, name, settings, s, False) for s in seed_list]
-                for fut in futures:
-                    per_seed.append(fut.result())
-                    bar.update()
+            for seed, j in pending:
+                finished((seed, j), _run_unit(experiment.run_seed, name, parts[j], seed, show,
+                                              workdir), IN_PROCESS)
+    per_seed = []
+    for seed in seed_list:
+        units = [done[seed, j] for j in range(len(parts))]
+        metrics = [m for m, _ in units]
+        row = (experiment.combine(dict(settings), metrics) if experiment.combine is not None
+               else _units.merge_parts(metrics))
+        row["worker"] = ", ".join(dict.fromkeys(w for _, w in units))
+        per_seed.append(row)
     result = ExperimentResult(name=name, mode=mode, config=settings, seeds=seed_list,
                               per_seed=per_seed, curves=curve_summary(per_seed),
                               seconds=time.perf_counter() - t0)

@@ -1,0 +1,163 @@
+"""The execution layer beyond one process: Dask ``distributed``.
+
+Experiments (:func:`qdensity.experiments.run`) and sweeps
+(:func:`qdensity.learning.sweep.run_sweep`) hand their units of work (one setting of one seed,
+one sweep trial) to a Dask cluster named by an *address*:
+
+* ``"local"`` or ``"local:N"``: a ``LocalCluster`` embedded in this process, ``N`` worker
+  processes of one thread each on this machine (``"local"``: one per core);
+* ``"tcp://HOST:PORT"``: a running scheduler (``dask scheduler``), its workers on any machines
+  (``dask worker tcp://HOST:PORT``; see the README, "More than one machine");
+* a ``distributed.Client`` the caller made (left open).
+
+Everything a unit needs travels by pickle: the experiment's module-level functions by
+reference (the workers import qdensity), settings and data by value.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+__all__ = ["CLUSTER_FORMS", "parse_cluster", "open_client", "run_units", "worker_name",
+           "CONNECT_TIMEOUT"]
+
+#: The forms a cluster address takes (error messages quote this).
+CLUSTER_FORMS = ("'local' (one worker process per core), 'local:N' (N worker processes on this "
+                 "machine), 'tcp://HOST:PORT' (a running dask scheduler) or a "
+                 "distributed.Client")
+
+#: Seconds to wait for a scheduler before giving up.
+CONNECT_TIMEOUT = 10.0
+
+#: What ``worker_name`` says outside a Dask worker.
+IN_PROCESS = "in-process"
+
+
+def parse_cluster(cluster: str) -> tuple[str, Any]:
+    """Read a cluster address.
+
+    Parameters
+    ----------
+    cluster : str
+        ``"local"``, ``"local:N"`` (``N >= 1``) or ``"tcp://HOST:PORT"``.
+
+    Returns
+    -------
+    tuple
+        ``("local", N)`` (``N`` None for one worker per core) or ``("tcp", address)``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For any other form; the message lists the allowed ones.
+
+    Examples
+    --------
+    >>> parse_cluster("local:4"), parse_cluster("tcp://10.0.0.5:8786")
+    (('local', 4), ('tcp', 'tcp://10.0.0.5:8786'))
+    """
+    if not isinstance(cluster, str):
+        raise TypeError(f"cluster must be a str or a distributed.Client, got "
+                        f"{type(cluster).__name__}; allowed: {CLUSTER_FORMS}")
+    text = cluster.strip()
+    if text == "local":
+        return "local", None
+    if text.startswith("local:"):
+        count = text[len("local:"):]
+        if count.isdigit() and int(count) >= 1:
+            return "local", int(count)
+        raise ValueError(f"cluster {cluster!r}: N in 'local:N' must be a positive int; "
+                         f"allowed: {CLUSTER_FORMS}")
+    if text.startswith("tcp://"):
+        host, sep, port = text[len("tcp://"):].rpartition(":")
+        if host and sep and port.isdigit() and 0 < int(port) < 65536:
+            return "tcp", text
+        raise ValueError(f"cluster {cluster!r}: expected tcp://HOST:PORT; allowed: "
+                         f"{CLUSTER_FORMS}")
+    raise ValueError(f"unknown cluster address {cluster!r}; allowed: {CLUSTER_FORMS}")
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError as exc:  # pragma: no cover - a core dependency
+        raise ImportError("the cluster layer needs Dask's distributed: pip install "
+                          "distributed") from exc
+    return distributed
+
+
+@contextmanager
+def open_client(cluster, *, timeout: float = CONNECT_TIMEOUT) -> Iterator[Any]:
+    """A ``distributed.Client`` for ``cluster`` (see the module docstring), closed on exit
+    (with its ``LocalCluster``) unless the caller passed the client.
+
+    Raises
+    ------
+    OSError
+        When no scheduler answers at a ``tcp://`` address within ``timeout`` seconds; the
+        message names the address.
+    """
+    distributed = _distributed()
+    if isinstance(cluster, distributed.Client):
+        yield cluster
+        return
+    kind, value = parse_cluster(cluster)
+    if kind == "local":
+        workers = value or os.cpu_count() or 1
+        local = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                         processes=True, dashboard_address=None,
+                                         silence_logs=logging.ERROR)
+        try:
+            with distributed.Client(local) as client:
+                yield client
+        finally:
+            local.close()
+        return
+    host, _, port = value[len("tcp://"):].rpartition(":")
+    try:  # a refused port fails at once, not after the client's timeout
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+        client = distributed.Client(value, timeout=f"{float(timeout)}s")
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f"cannot reach a dask scheduler at {value!r} within {timeout:g} s "
+                      f"({type(exc).__name__}); start one with 'dask scheduler' and workers "
+                      f"with 'dask worker {value}'") from None
+    with client:
+        yield client
+
+
+def worker_name() -> str:
+    """The address of the Dask worker running the caller, or ``"in-process"``."""
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return IN_PROCESS
+
+
+def _call(fn: Callable, args: tuple) -> tuple[Any, str]:
+    return fn(*args), worker_name()
+
+
+def run_units(client, fn: Callable, arguments: Sequence[tuple], *, retries: int = 2
+              ) -> Iterator[tuple[int, Any, str]]:
+    """Run ``fn(*args)`` for every ``args`` of ``arguments`` on the cluster; yield
+    ``(index, result, worker address)`` as each finishes (in finishing order).
+
+    A unit whose worker is lost is run again on another worker by the scheduler; one that
+    raises is tried ``retries`` more times before its error is raised here.
+    """
+    distributed = _distributed()
+    futures = {client.submit(_call, fn, tuple(args), pure=False, retries=int(retries)): i
+               for i, args in enumerate(arguments)}
+    try:
+        for future, (result, worker) in distributed.as_completed(futures, with_results=True):
+            yield futures[future], result, worker
+    finally:
+        for future in futures:
+            future.cancel()
