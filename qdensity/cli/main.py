@@ -327,40 +327,8 @@ def _cmd_demo(args) -> int:
     return 0
 
 
-_SWEEP_DATASETS = ("digits", "iris", "wine", "breast_cancer")
-
-
-def _cmd_sweep(args) -> int:
-    from sklearn import datasets
-    from sklearn.preprocessing import StandardScaler
-
-    from qdensity.learning.estimators import QNNClassifier
-    from qdensity.learning.sweep import export_trials, run_sweep
-
-    if args.dataset not in _SWEEP_DATASETS:
-        raise ValueError(f"unknown dataset {args.dataset!r}; known: {', '.join(_SWEEP_DATASETS)}")
-    X, y = getattr(datasets, f"load_{args.dataset}")(return_X_y=True)
-    X = X / 16.0 if args.dataset == "digits" else StandardScaler().fit_transform(X)
-    if args.samples is not None:
-        X, y = X[:args.samples], y[:args.samples]
-    est = QNNClassifier(num_qubits=args.num_qubits, ansatz=args.ansatz,
-                        decomposition=args.decomposition, mixture=args.mixture,
-                        epochs=args.epochs, verbose=False)
-    study = run_sweep(X, y, est, n_trials=args.n_trials, storage=args.storage,
-                      study_name=args.study, seed=args.seed, sampler_seed=args.sampler_seed,
-                      verbose=not args.quiet)
-    for path in args.export:
-        export_trials(study, path)
-    done = [t for t in study.trials if t.state.name == "COMPLETE"]
-    summary = {"study": study.study_name, "complete": len(done),
-               "best_value": study.best_value if done else None,
-               "best_params": study.best_params if done else None}
-    _print_json(summary)
-    return 0
-
-
 def _parser() -> argparse.ArgumentParser:
-    from qdensity.cli import experiment
+    from qdensity.cli import experiment, sweep
     from qdensity.execution.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
@@ -456,29 +424,7 @@ def _parser() -> argparse.ArgumentParser:
                         "curve; config, plot, seconds (what run_demo returns)")
     d.set_defaults(func=_cmd_demo)
 
-    sw = sub.add_parser("sweep", help="optuna hyperparameter sweep of a QNNClassifier (the "
-                                      "paper's space); start it on many machines with one "
-                                      "--storage to share a study")
-    sw.add_argument("--dataset", default="digits", help=f"one of: {', '.join(_SWEEP_DATASETS)}")
-    sw.add_argument("--samples", type=int, help="use only the first SAMPLES rows")
-    sw.add_argument("--num-qubits", type=int, default=8, help="PCA to this many qubits")
-    sw.add_argument("--ansatz", default="round_robin", help="QNNClassifier's ansatz")
-    sw.add_argument("--decomposition", default="layers", help="how it is cut into sub-unitaries")
-    sw.add_argument("--mixture", default="softmax", help="distribution over the sub-unitaries")
-    sw.add_argument("--epochs", type=int, default=10, help="training epochs per trial")
-    sw.add_argument("--n-trials", type=int, default=32, help="trials of the whole study")
-    sw.add_argument("--storage", default=None,
-                    help="optuna storage URL (default sqlite:///qdensity-sweep.db; "
-                         "postgresql://... or mysql://... for many machines)")
-    sw.add_argument("--study", default="qdensity", help="study name")
-    sw.add_argument("--seed", type=int, default=0, help="seed of the validation split")
-    sw.add_argument("--sampler-seed", type=int, default=None, help="seed of optuna's sampler")
-    sw.add_argument("--export", nargs="*", default=[], metavar="FILE",
-                    help="write the trials to FILE.json and/or FILE.csv")
-    sw.add_argument("--quiet", action="store_true", help="no progress bar")
-    sw.add_argument("--json", action="store_true",
-                    help="print the summary as JSON (its only output; accepted for symmetry)")
-    sw.set_defaults(func=_cmd_sweep)
+    sweep.add_parser(sub, _int_in, _SEED, MAX_CLI_QUBITS)
     experiment.add_parser(sub)
     return p
 

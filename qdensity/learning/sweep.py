@@ -5,26 +5,43 @@ The paper tunes every OrthoQNN model with optuna, 32 trials per model (Supp.
 ``[1e-4, 1e-2]``, ``optimiser in {Adam, SGD, RMSProp}``, ``regularisation in {l2, None}``
 (:data:`PAPER_SPACE`; "l2" is ``l2=1e-4`` here). :func:`run_sweep` runs such a search over any
 scikit-learn estimator (a :class:`~qdensity.learning.estimators.QNNClassifier` by default) and
-a dataset, scored on a held-out split.
+a dataset, scored on a held-out split; :func:`run_trials` is the loop itself, for any
+objective (the ``moe`` experiment's sweeps use it).
 
 Trials live in an optuna storage: an SQLite file by default, or any optuna storage URL
 (``postgresql://...``, ``mysql://...``) so that many worker processes on many machines share
-one study -- start the same command on each machine. Every finished trial is committed to the
-storage at once, so an interrupted sweep loses none (the interrupted trial is marked FAIL),
-and rerunning the command resumes the study until it has ``n_trials`` finished or running
-trials. Workers never run more than ``n_trials`` between them: a worker claims a trial number
-from the storage (atomic) before running it, and one whose trial falls past the end, among
-the finished and running ones, records it as a skipped trial (state FAIL, user attribute
-``skipped``) and stops. :func:`export_trials` writes the trials as JSON or CSV.
+one study -- start the same command on each machine, or give ``cluster`` (Dask) and the trials
+run on its workers. The study ends with exactly ``n_trials`` COMPLETE trials:
+
+* the schema is created once, however many workers start together on a fresh storage (a file
+  lock for SQLite, retries for a database server);
+* a worker claims a trial number from the storage (atomic) before running it; one whose trial
+  falls past the end, among the finished and running ones, records it as a skipped trial
+  (state PRUNED, user attribute ``skipped``, no parameters) and waits while others run the
+  last ones, in case one of them dies;
+* every running trial sends a heartbeat (every third of ``grace_period``); a trial silent for
+  ``grace_period`` seconds (its worker killed) is marked FAIL and run again with the same
+  parameters (optuna's ``RetryFailedTrialCallback``, up to three times) by a live worker;
+* an interrupted worker (Ctrl-C) marks its trial FAIL; a trial whose score is not finite is
+  FAIL; neither counts, so another trial takes its place. Rerunning the command resumes.
+
+A study is tied to its settings (estimator, its hyperparameters, search space, a fingerprint
+of the data, validation split): its default name is derived from them, and opening a study of
+that name made with other settings is an error naming the first difference. The sampler is
+TPE with ``startup_trials(n_trials)`` random trials first (a quarter of ``n_trials``, 1 to 10;
+optuna's default of 10 would make a study of 8 trials random search). :func:`export_trials`
+writes the trials as JSON or CSV.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 import os
 import time
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -32,11 +49,14 @@ import numpy as np
 from sklearn.base import clone, is_classifier
 from sklearn.model_selection import train_test_split
 
+from qdensity.cluster import IN_PROCESS, worker_name
+from qdensity.learning._study import DEFAULT_GRACE_PERIOD, MEMORY, _optuna, startup_trials
 from qdensity.progress import progress_bar
 from qdensity.validation import check_positive_int
 
-__all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "run_sweep", "open_study", "export_trials",
-           "trial_rows"]
+__all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "DEFAULT_GRACE_PERIOD", "MEMORY", "run_sweep",
+           "run_trials", "open_study", "sweep_settings", "suggest_params", "startup_trials",
+           "export_trials", "trial_rows"]
 
 #: The paper's search space: name -> ("int", low, high, step) | ("log", low, high) |
 #: ("categorical", choices).
@@ -50,18 +70,14 @@ PAPER_SPACE: dict[str, tuple] = {
 #: Where trials go when no storage is given.
 DEFAULT_STORAGE = "sqlite:///qdensity-sweep.db"
 
-
-def _optuna():
-    try:
-        import optuna
-    except ImportError as exc:  # pragma: no cover - exercised only without the extra
-        raise ImportError('sweeps need optuna: pip install "qdensity[sweep]"') from exc
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    return optuna
+#: Estimator parameters that do not change what a trial measures.
+_NOT_SETTINGS = ("verbose", "callback")
 
 
 def open_study(study_name: str = "qdensity", storage: str | None = None, *,
-               direction: str = "maximize", seed: int | None = None):
+               direction: str = "maximize", seed: int | None = None, n_trials: int = 32,
+               settings: Mapping | None = None,
+               grace_period: int | None = DEFAULT_GRACE_PERIOD):
     """Create or load (``load_if_exists``) the study ``study_name`` in ``storage``.
 
     Parameters
@@ -69,33 +85,35 @@ def open_study(study_name: str = "qdensity", storage: str | None = None, *,
     study_name : str
     storage : str, optional
         Any optuna storage URL (default :data:`DEFAULT_STORAGE`, an SQLite file in the
-        working directory).
+        working directory), or :data:`MEMORY` for a study in this process only.
     direction : {"maximize", "minimize"}
     seed : int, optional
         Seed of the TPE sampler (None: fresh randomness, right for several workers).
+    n_trials : int
+        Trials the study will have: sets the sampler's random start (:func:`startup_trials`).
+    settings : mapping, optional
+        What the study measures; stored with a new study, compared with an existing one's.
+    grace_period : int or None
+        Seconds without a heartbeat after which a RUNNING trial is dead and retried (at least
+        3; heartbeats every third of it). None: no heartbeats.
+
+    Returns
+    -------
+    optuna.Study
 
     Raises
     ------
     ValueError
-        When the storage cannot be opened (bad URL, missing directory, unknown database).
+        When the storage cannot be opened (bad URL, missing directory, unknown database), or
+        the study was made with other ``settings`` (the message names the first difference).
+    ImportError
+        When the storage's database driver is missing (the message says what to install).
     """
-    optuna = _optuna()
-    storage = DEFAULT_STORAGE if storage is None else storage
-    if not isinstance(storage, str) or "://" not in storage:
-        raise ValueError(f"storage must be an optuna storage URL such as "
-                         f"'sqlite:///sweep.db' or 'postgresql://user@host/db', got {storage!r}")
-    if direction not in ("maximize", "minimize"):
-        raise ValueError(f"direction must be 'maximize' or 'minimize', got {direction!r}")
-    try:
-        rdb = optuna.storages.RDBStorage(storage, heartbeat_interval=None,
-                                         engine_kwargs={"connect_args": {"timeout": 60}}
-                                         if storage.startswith("sqlite") else None)
-    except Exception as exc:  # noqa: BLE001 - SQLAlchemy raises many kinds
-        raise ValueError(f"storage {storage!r} cannot be opened: {type(exc).__name__}: "
-                         f"{str(exc).splitlines()[0] if str(exc) else ''}") from exc
-    sampler = optuna.samplers.TPESampler(seed=seed)
-    return optuna.create_study(study_name=study_name, storage=rdb, direction=direction,
-                               sampler=sampler, load_if_exists=True)
+    from qdensity.learning._study import open_study as _open
+
+    return _open(study_name, DEFAULT_STORAGE if storage is None else storage,
+                 direction=direction, seed=seed, n_trials=n_trials, settings=settings,
+                 grace_period=grace_period)
 
 
 def _check_space(space: Mapping, estimator) -> None:
@@ -110,7 +128,8 @@ def _check_space(space: Mapping, estimator) -> None:
                              f"hi), ('float', lo, hi) or ('categorical', choices), got {spec!r}")
 
 
-def _suggest(trial, space: Mapping) -> dict:
+def suggest_params(trial, space: Mapping) -> dict:
+    """The trial's value of every hyperparameter of ``space`` (see :data:`PAPER_SPACE`)."""
     params = {}
     for name, spec in space.items():
         kind = spec[0]
@@ -126,11 +145,107 @@ def _suggest(trial, space: Mapping) -> dict:
     return params
 
 
+def sweep_settings(X, y, estimator, space: Mapping, validation_size: float, seed: int) -> dict:
+    """What a sweep measures, for naming and checking its study: the estimator's class and
+    plain hyperparameters, the space, a SHA-256 fingerprint of ``X`` and ``y`` (shapes, dtypes
+    and bytes), the validation split."""
+    digest = hashlib.sha256()
+    for a in (np.ascontiguousarray(X), np.ascontiguousarray(y)):
+        digest.update(f"{a.shape}{a.dtype}".encode())
+        digest.update(a.tobytes())
+    params = {k: v for k, v in sorted(estimator.get_params(deep=False).items())
+              if k not in _NOT_SETTINGS}
+    return {"estimator": type(estimator).__name__, "params": params,
+            "space": {k: list(v) for k, v in space.items()}, "data": digest.hexdigest()[:16],
+            "validation_size": validation_size, "split_seed": seed}
+
+
+def run_trials(study, evaluate, n_trials: int, *, stop_after: int | None = None,
+               verbose: bool = False) -> int:
+    """Run trials of ``study`` until it has ``n_trials`` COMPLETE trials, shared with any
+    other workers of the same study (see the module docstring).
+
+    Parameters
+    ----------
+    study : optuna.Study
+        From :func:`open_study`.
+    evaluate : callable
+        ``evaluate(trial) -> float``: suggests the trial's parameters, scores them, may set
+        user attributes. A non-finite score marks the trial FAIL; an exception marks it FAIL
+        and is raised.
+    n_trials : int
+        COMPLETE trials the study ends with.
+    stop_after : int, optional
+        Complete at most this many trials in this call.
+    verbose : bool
+        A tqdm bar on a terminal.
+
+    Returns
+    -------
+    int
+        Trials this call completed. It also stops after more than ``n_trials`` of its own
+        trials failed (an objective that always fails).
+    """
+    optuna = _optuna()
+    from optuna.exceptions import ExperimentalWarning
+    from optuna.trial import TrialState
+
+    n_trials = check_positive_int(n_trials, "n_trials")
+    storage = study._storage  # optuna gives no public handle on a study's storage
+    beat = storage.get_heartbeat_interval() if hasattr(storage, "get_heartbeat_interval") \
+        else None
+    poll = None if beat is None else min(float(beat), 1.0)  # seconds between looks
+    last: dict = {}
+
+    def objective(trial):
+        last["number"] = trial.number
+        counted = sorted(t.number for t in study.get_trials(
+            deepcopy=False, states=(TrialState.COMPLETE, TrialState.RUNNING)))
+        if trial.number not in counted[:n_trials]:
+            # other workers claimed the last trials between our count and our ask
+            last["number"] = None
+            trial.set_user_attr("skipped", f"the study already has {n_trials} trials")
+            raise optuna.TrialPruned
+        return evaluate(trial)
+
+    completed = failed = shown = 0
+    with progress_bar(n_trials, desc=f"sweep {study.study_name}", verbose=verbose,
+                      unit="trial") as bar:
+        while stop_after is None or completed < stop_after:
+            if poll is not None:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", ExperimentalWarning)
+                    optuna.storages.fail_stale_trials(study)  # dead workers' trials: retried
+            trials = study.get_trials(deepcopy=False)
+            count = {s: sum(t.state == s for t in trials) for s in TrialState}
+            done = min(count[TrialState.COMPLETE], n_trials)
+            bar.update(done - shown)
+            shown = done
+            if done >= n_trials or failed > n_trials:
+                break
+            if (count[TrialState.COMPLETE] + count[TrialState.RUNNING] >= n_trials
+                    and not count[TrialState.WAITING]):
+                if poll is None:  # no heartbeats: a dead worker's trial cannot be told
+                    break
+                time.sleep(poll)  # the last trials run elsewhere: wait in case one dies
+                continue
+            study.optimize(objective, n_trials=1, gc_after_trial=False)
+            if last.get("number") is None:
+                continue
+            states = {t.number: t.state for t in study.get_trials(deepcopy=False)}
+            if states.get(last["number"]) == TrialState.COMPLETE:
+                completed += 1
+            else:
+                failed += 1
+    return completed
+
+
 def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None = None,
-              storage: str | None = None, study_name: str = "qdensity",
+              storage: str | None = None, study_name: str | None = None,
               validation_size: float = 0.25, seed: int = 0, sampler_seed: int | None = None,
-              verbose: bool = True, stop_after: int | None = None):
-    """Run (this worker's share of) a sweep until the study has ``n_trials`` trials.
+              verbose: bool = True, stop_after: int | None = None,
+              grace_period: int | None = DEFAULT_GRACE_PERIOD, cluster=None):
+    """Run (this worker's share of) a sweep until the study has ``n_trials`` COMPLETE trials.
 
     Parameters
     ----------
@@ -139,32 +254,43 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
     estimator : scikit-learn estimator, optional
         Cloned for every trial (default ``QNNClassifier(verbose=False)``).
     n_trials : int
-        Trials of the whole study, over all workers (the paper: 32).
+        COMPLETE trials of the whole study, over all workers (the paper: 32).
     space : dict, optional
         Default :data:`PAPER_SPACE`.
     storage : str, optional
-        optuna storage URL (default :data:`DEFAULT_STORAGE`).
-    study_name : str
+        optuna storage URL (default :data:`DEFAULT_STORAGE`; a relative SQLite path is read
+        from the working directory).
+    study_name : str, optional
+        Default ``"sweep-<hash>"`` of the settings (:func:`sweep_settings`): other data, another
+        estimator or space is another study. A named study made with other settings is an
+        error.
     validation_size : float
         Held-out fraction (stratified for classifiers), the same split in every trial.
     seed : int
         Seed of the train/validation split (the same on every worker).
     sampler_seed : int, optional
         Seed of optuna's TPE sampler: reproducible suggestions for one worker; leave None
-        when several workers share a study, or give each its own.
+        when several workers share a study, or give each its own (on a ``cluster``, task ``i``
+        gets ``sampler_seed + i``).
     verbose : bool
         A tqdm bar on a terminal.
     stop_after : int, optional
-        Run at most this many trials in this call.
+        Complete at most this many trials in this call.
+    grace_period : int or None
+        Seconds without a heartbeat after which a trial counts as dead (its worker killed)
+        and is run again (:func:`open_study`).
+    cluster : str or distributed.Client, optional
+        Run the trials on Dask workers (:mod:`qdensity.cluster`: ``"local:N"``,
+        ``"tcp://HOST:PORT"``, a client), one task per missing trial; ``storage`` must then be
+        reachable from every worker (a database server, or an SQLite file on a shared disk).
 
     Returns
     -------
     optuna.Study
-        ``study.trials`` holds every trial; user attributes ``seconds`` and ``shots``.
+        ``study.trials`` holds every trial; user attributes ``seconds``, ``shots`` and
+        ``worker`` (process id; ``dask_worker``: the Dask worker's address on a cluster).
     """
     _optuna()
-    from optuna.trial import TrialState
-
     if estimator is None:
         from qdensity.learning.estimators import QNNClassifier
 
@@ -176,48 +302,69 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
         raise ValueError(f"validation_size must be a float in (0, 1), got {validation_size!r}")
     X = np.asarray(X)
     y = np.asarray(y)
+    settings = sweep_settings(X, y, estimator, space, validation_size, seed)
+    if study_name is None:
+        from qdensity.learning._study import settings_hash
+
+        study_name = f"sweep-{settings_hash(settings)}"
+    storage = _absolute(DEFAULT_STORAGE if storage is None else storage)
+    study = open_study(study_name, storage, seed=sampler_seed, n_trials=n_trials,
+                       settings=settings, grace_period=grace_period)
+    if cluster is not None:
+        _on_cluster(cluster, study, (X, y, estimator, n_trials, dict(space), storage,
+                                     study_name, validation_size, seed, grace_period),
+                    sampler_seed)
+        return open_study(study_name, storage, n_trials=n_trials, grace_period=grace_period)
     classify = is_classifier(estimator)
     X_tr, X_va, y_tr, y_va = train_test_split(X, y, test_size=validation_size, random_state=seed,
                                               stratify=y if classify else None)
-    study = open_study(study_name, storage, seed=sampler_seed)
-    done = 0
-    with progress_bar(n_trials, desc=f"sweep {study_name}", verbose=verbose,
-                      unit="trial") as bar:
-        bar.update(min(len(_counting(study, TrialState)), n_trials))
-        while stop_after is None or done < stop_after:
-            if len(_counting(study, TrialState)) >= n_trials:
-                break
-            trial = study.ask()
-            if _counting(study, TrialState).index(trial.number) >= n_trials:
-                # other workers claimed the last trials between our count and our ask
-                trial.set_user_attr("skipped", f"the study already has {n_trials} trials")
-                study.tell(trial, state=TrialState.FAIL)
-                break
-            try:
-                value, attrs = _evaluate(estimator, _suggest(trial, space), X_tr, y_tr, X_va,
-                                         y_va)
-            except BaseException:
-                study.tell(trial, state=TrialState.FAIL)
-                raise
-            for key, val in attrs.items():
-                trial.set_user_attr(key, val)
-            trial.set_user_attr("worker", os.getpid())
-            if math.isfinite(value):
-                study.tell(trial, value)
-            else:
-                study.tell(trial, state=TrialState.FAIL)
-            done += 1
-            bar.update(1)
-            best = study.best_value if any(t.state == TrialState.COMPLETE
-                                           for t in study.trials) else float("nan")
-            bar.set_postfix(best=f"{best:.3f}", shots=attrs["shots"])
+
+    def evaluate(trial):
+        trial.set_user_attr("worker", os.getpid())
+        where = worker_name()
+        if where != IN_PROCESS:
+            trial.set_user_attr("dask_worker", where)
+        value, attrs = _evaluate(estimator, suggest_params(trial, space), X_tr, y_tr, X_va,
+                                 y_va)
+        for key, val in attrs.items():
+            trial.set_user_attr(key, val)
+        return value if math.isfinite(value) else float("nan")
+
+    run_trials(study, evaluate, n_trials, stop_after=stop_after, verbose=verbose)
     return study
 
 
-def _counting(study, TrialState) -> list[int]:
-    """Numbers of the trials that count towards ``n_trials`` (finished or running), sorted."""
-    states = (TrialState.COMPLETE, TrialState.RUNNING)
-    return sorted(t.number for t in study.get_trials(deepcopy=False, states=states))
+def _absolute(storage: str) -> str:
+    """An SQLite URL with its path made absolute (the same file for every worker)."""
+    prefix = "sqlite:///"
+    if storage.startswith(prefix) and not storage.startswith(prefix + "/") \
+            and storage != prefix + ":memory:":
+        return prefix + str(Path(storage[len(prefix):]).resolve())
+    return storage
+
+
+def _trial_task(X, y, estimator, n_trials, space, storage, study_name, validation_size, seed,
+                grace_period, sampler_seed) -> int:
+    """On a Dask worker: complete one trial of the study (or find it complete)."""
+    run_sweep(X, y, estimator, n_trials=n_trials, space=space, storage=storage,
+              study_name=study_name, validation_size=validation_size, seed=seed,
+              sampler_seed=sampler_seed, verbose=False, stop_after=1,
+              grace_period=grace_period)
+    return 1
+
+
+def _on_cluster(cluster, study, common: tuple, sampler_seed: int | None) -> None:
+    """One Dask task per missing trial."""
+    from qdensity.cluster import open_client, run_units
+
+    missing = common[3] - sum(t.state.name == "COMPLETE" for t in study.trials)
+    if missing <= 0:
+        return
+    arguments = [(*common, None if sampler_seed is None else sampler_seed + i)
+                 for i in range(missing)]
+    with open_client(cluster) as client:
+        for _ in run_units(client, _trial_task, arguments):
+            pass
 
 
 def _evaluate(estimator, params, X_tr, y_tr, X_va, y_va) -> tuple[float, dict]:

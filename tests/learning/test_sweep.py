@@ -1,6 +1,7 @@
-"""optuna sweeps: two worker processes share one SQLite study and finish N trials between them
-(none lost, none run twice); an interrupted sweep keeps its finished trials and resumes;
-JSON and CSV export; the ``qdensity sweep`` command; bad storage URLs and search spaces."""
+"""optuna sweeps: two (and eight) worker processes started together on a fresh SQLite file share
+one study and finish exactly N trials between them (none lost, none run twice); an interrupted
+sweep keeps its finished trials and resumes; a study is tied to its settings; TPE is TPE after
+a short random start; JSON and CSV export; the ``qdensity sweep`` command; bad input."""
 
 import csv
 import json
@@ -20,7 +21,15 @@ from sklearn.preprocessing import StandardScaler  # noqa: E402
 
 from qdensity.cli import main  # noqa: E402
 from qdensity.learning.estimators import QNNClassifier  # noqa: E402
-from qdensity.learning.sweep import PAPER_SPACE, export_trials, open_study, run_sweep  # noqa: E402
+from qdensity.learning.sweep import (  # noqa: E402
+    MEMORY,
+    PAPER_SPACE,
+    export_trials,
+    open_study,
+    run_sweep,
+    run_trials,
+    startup_trials,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SMALL = {"learning_rate": ("log", 1e-3, 1e-1), "optimizer": ("categorical", ["adam", "sgd"])}
@@ -46,13 +55,12 @@ WORKER = textwrap.dedent("""
     while not other.exists():  # start together
         time.sleep(0.01)
     run_sweep(X, y, QNNClassifier(epochs=3, verbose=False), n_trials=n, storage=storage,
-              space={"learning_rate": ("log", 1e-3, 1e-1)}, verbose=False)
+              space={"learning_rate": ("log", 1e-3, 1e-1)}, verbose=False, study_name="s")
 """)
 
 
-def test_two_workers_share_one_sqlite_study(tmp_path):
-    storage = f"sqlite:///{tmp_path / 'study.db'}"
-    open_study("qdensity", storage)  # create the tables before two processes race for them
+def test_two_workers_share_one_fresh_sqlite_study(tmp_path):
+    storage = f"sqlite:///{tmp_path / 'study.db'}"  # fresh: the two race for the schema
     n = 8
     # keep whatever else is on the path (packages installed with --target, say)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
@@ -64,11 +72,11 @@ def test_two_workers_share_one_sqlite_study(tmp_path):
     for p in procs:
         _, err = p.communicate(timeout=600)
         assert p.returncode == 0, err
-    study = open_study("qdensity", storage)
+    study = open_study("s", storage)
     complete = [t for t in study.trials if t.state.name == "COMPLETE"]
     skipped = [t for t in study.trials if "skipped" in t.user_attrs]
     assert sorted(t.number for t in complete) == list(range(n))  # none lost, none twice
-    assert all(t.state.name == "FAIL" and t.number >= n for t in skipped)
+    assert all(t.state.name == "PRUNED" and t.number >= n and not t.params for t in skipped)
     assert len(study.trials) == n + len(skipped) and len(skipped) <= 2
     assert {t.user_attrs["worker"] for t in complete} == {p.pid for p in procs}
     assert all(0 <= t.value <= 1 for t in complete)
@@ -94,11 +102,13 @@ def test_interrupted_sweep_keeps_finished_trials_and_resumes(tmp_path):
     est = QNNClassifier(epochs=2, verbose=False, callback=_Interrupt())
     with pytest.raises(KeyboardInterrupt):
         run_sweep(X, y, est, n_trials=5, storage=storage, space=SMALL, verbose=False)
-    study = open_study("qdensity", storage)
+    name = optuna.get_all_study_names(storage)[0]  # the default name: from the settings
+    assert name.startswith("sweep-")
+    study = open_study(name, storage)
     assert [t.state.name for t in study.trials] == ["COMPLETE", "COMPLETE", "FAIL"]
     run_sweep(X, y, QNNClassifier(epochs=2, verbose=False), n_trials=5, storage=storage,
               space=SMALL, verbose=False)
-    study = open_study("qdensity", storage)
+    study = open_study(name, storage)
     assert [t.state.name for t in study.trials].count("COMPLETE") == 5
     assert len(study.trials) == 6
 
@@ -111,7 +121,7 @@ def test_export_json_and_csv(tmp_path):
     doc = json.loads(export_trials(study, tmp_path / "t.json").read_text())
     with (tmp_path / "t.csv").open() if export_trials(study, tmp_path / "t.csv") else None as fh:
         rows = list(csv.DictReader(fh))
-    assert doc["study"] == "qdensity" and len(doc["trials"]) == len(rows) == 3
+    assert doc["study"] == study.study_name and len(doc["trials"]) == len(rows) == 3
     for t, j, c in zip(study.trials, doc["trials"], rows, strict=True):
         assert j["value"] == t.value and float(c["value"]) == pytest.approx(t.value)
         assert j["param_optimizer"] == c["param_optimizer"] == t.params["optimizer"]
@@ -133,6 +143,69 @@ def test_sweep_command(tmp_path, capsys):
     assert main(["sweep", "--storage", "sqlite:////no/such/dir/x.db", "--n-trials", "1"]) == 2
     assert "storage" in capsys.readouterr().err
     assert main(["sweep", "--dataset", "cifar", "--storage", storage]) == 2
+    assert "unknown dataset 'cifar'" in capsys.readouterr().err
+
+
+def test_a_study_is_identified_by_its_settings(tmp_path, capsys):
+    """Issue 27: ``--dataset wine`` where the default storage holds an iris study is another
+    study; a named study made with other settings is a clear error."""
+    storage = f"sqlite:///{tmp_path / 'qdensity-sweep.db'}"
+    common = ["--num-qubits", "3", "--epochs", "1", "--n-trials", "1", "--storage", storage,
+              "--quiet"]
+    assert main(["sweep", "--dataset", "iris", *common]) == 0
+    iris = json.loads(capsys.readouterr().out)
+    assert main(["sweep", "--dataset", "wine", *common]) == 0
+    wine = json.loads(capsys.readouterr().out)
+    assert iris["study"].startswith("iris-") and wine["study"].startswith("wine-")
+    assert wine["complete"] == 1 and wine["best_params"] != iris["best_params"]
+    assert sorted(optuna.get_all_study_names(storage)) == sorted([iris["study"],
+                                                                  wine["study"]])
+    assert main(["sweep", "--dataset", "wine", "--study", iris["study"], *common]) == 2
+    err = capsys.readouterr().err
+    assert f"study {iris['study']!r} in this storage was made with other settings" in err
+    assert "data:" in err  # the first difference: the data's fingerprint
+    assert main(["sweep", "--dataset", "iris", "--epochs", "2", "--study", iris["study"],
+                 *common[2:]]) == 2
+    assert "params:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--samples", "-5"], "argument --samples: must be in [2, "),
+    (["--samples", "0"], "argument --samples: must be in [2, "),
+    (["--dataset", "iris", "--samples", "151"], "--samples 151 is more than the 150 rows"),
+    (["--n-trials", "0"], "--n-trials: must be in [1, "),
+    (["--epochs", "-1"], "--epochs: must be in [1, "),
+    (["--grace-period", "1"], "--grace-period: must be in [3, "),
+    (["--cluster", "lokal:2"], "unknown cluster address 'lokal:2'; allowed: 'local'"),
+])
+def test_bad_sweep_command_input(tmp_path, capsys, argv, message):
+    storage = f"sqlite:///{tmp_path / 'bad.db'}"
+    try:
+        code = main(["sweep", "--storage", storage, "--quiet", *argv])
+    except SystemExit as exc:  # a usage error, already printed on one line
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_tpe_is_tpe_after_a_short_random_start():
+    assert [startup_trials(n) for n in (1, 2, 8, 32, 100)] == [1, 1, 2, 8, 10]
+    study = open_study("tpe", MEMORY, n_trials=8, seed=0)
+    assert study.sampler.__class__.__name__ == "TPESampler"
+    assert study.sampler._n_startup_trials == 2 < 8  # optuna's default 10 is random search
+    # the oracle: TPE concentrates on the optimum of a quadratic after the random start,
+    # where the same number of random draws (the same sampler's first draws) spreads out
+    values = []
+
+    def evaluate(trial):
+        x = trial.suggest_float("x", -10.0, 10.0)
+        values.append(x)
+        return -(x - 3.0) ** 2
+
+    assert run_trials(study, evaluate, 40) == 40
+    late = np.abs(np.array(values[20:]) - 3.0)
+    assert np.median(late) < 3.0  # uniform on [-10, 10] (random search): median distance 5
 
 
 def test_bad_sweep_input(tmp_path):
@@ -140,6 +213,10 @@ def test_bad_sweep_input(tmp_path):
     storage = f"sqlite:///{tmp_path / 'b.db'}"
     with pytest.raises(ValueError, match="storage must be an optuna storage URL"):
         run_sweep(X, y, storage="study.db")
+    with pytest.raises(ValueError, match="grace_period must be an int of at least 3"):
+        open_study("s", storage, grace_period=1)
+    with pytest.raises(ImportError, match="needs a database driver .*install a MySQL driver"):
+        open_study("s", "mysql://u@127.0.0.1:1/db")
     with pytest.raises(ValueError, match="storage 'nosuchdb://x' cannot be opened"):
         open_study("s", "nosuchdb://x")
     with pytest.raises(ValueError, match="'learnig_rate', which is not a hyperparameter"):
