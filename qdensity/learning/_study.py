@@ -49,7 +49,9 @@ def retried_from(trial) -> int | None:
     optuna = _optuna()
     cls = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None) or \
         optuna.storages.RetryFailedTrialCallback
-    return cls.retried_trial_number(trial)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        return cls.retried_trial_number(trial)
 
 
 def startup_trials(n_trials: int) -> int:

@@ -320,12 +320,12 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
                                               stratify=y if classify else None)
 
     def evaluate(trial):
-        trial.set_user_attr("worker", os.getpid())
+        params = suggest_params(trial, space)
+        trial.set_user_attr("worker", os.getpid())  # before the fit: who runs it
         where = worker_name()
         if where != IN_PROCESS:
             trial.set_user_attr("dask_worker", where)
-        value, attrs = _evaluate(estimator, suggest_params(trial, space), X_tr, y_tr, X_va,
-                                 y_va)
+        value, attrs = _evaluate(estimator, params, X_tr, y_tr, X_va, y_va)
         for key, val in attrs.items():
             trial.set_user_attr(key, val)
         return value if math.isfinite(value) else float("nan")

@@ -1,0 +1,114 @@
+"""Sweeps that many workers share, on SQLite and on a real PostgreSQL server: workers started
+together on a fresh storage all finish with exactly ``n`` COMPLETE trials; a ``qdensity sweep``
+worker SIGKILLed mid-trial has its trial run again (same parameters) by the other after the
+grace period; ``qdensity sweep --cluster`` runs the trials on Dask workers."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+optuna = pytest.importorskip("optuna")  # the sweep extra; CI installs it (.ci/run)
+
+from qdensity.cli import main  # noqa: E402
+from qdensity.learning._study import retried_from  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
+    [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
+
+
+def _trials(storage: str, name: str) -> list:
+    try:
+        return optuna.load_study(study_name=name, storage=storage).get_trials(deepcopy=False)
+    except KeyError:  # not created yet
+        return []
+
+
+def test_eight_workers_started_together_on_a_fresh_storage_all_finish(fresh_storage,
+                                                                      tmp_path):
+    """(Two workers on a fresh SQLite file: tests/learning/test_sweep.py.)"""
+    n, workers = 12, 8
+    start = tmp_path / "start"
+    start.mkdir()
+    procs = [subprocess.Popen([sys.executable, str(HERE / "_race_worker.py"), fresh_storage,
+                               str(n), str(start), f"w{i}", str(workers)], env=ENV,
+                              stderr=subprocess.PIPE, text=True) for i in range(workers)]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err  # no "table studies already exists", no UNIQUE error
+    trials = _trials(fresh_storage, "race")
+    complete = [t for t in trials if t.state.name == "COMPLETE"]
+    assert len(complete) == n
+    assert all(t.state.name in ("COMPLETE", "PRUNED") for t in trials)
+    assert all("skipped" in t.user_attrs for t in trials if t.state.name == "PRUNED")
+
+
+def _sweep_worker(storage: str, n: int) -> subprocess.Popen:
+    code = "import sys; from qdensity.cli import main; sys.exit(main(sys.argv[1:]))"
+    argv = ["sweep", "--dataset", "iris", "--num-qubits", "3", "--epochs", "8",
+            "--n-trials", str(n), "--storage", storage, "--study", "shared",
+            "--grace-period", "3", "--quiet"]
+    return subprocess.Popen([sys.executable, "-c", code, *argv], env=ENV,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _running(storage: str, pid: int) -> list:
+    return [t for t in _trials(storage, "shared")
+            if t.state.name == "RUNNING" and t.user_attrs.get("worker") == pid]
+
+
+def _wait_for(condition, what: str, timeout: float = 180.0):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if value := condition():
+            return value
+        time.sleep(0.05)
+    pytest.fail(f"timed out waiting for {what}")
+
+
+def test_a_killed_workers_trial_is_run_again_and_the_study_completes(fresh_storage):
+    n = 4
+    a, b = _sweep_worker(fresh_storage, n), _sweep_worker(fresh_storage, n)
+    try:
+        _wait_for(lambda: _running(fresh_storage, a.pid), "worker A mid-trial")
+        os.kill(a.pid, signal.SIGKILL)  # mid-trial: no chance to mark it FAIL
+        a.wait(timeout=30)
+    finally:
+        a.kill()
+    killed = _running(fresh_storage, a.pid)
+    assert len(killed) == 1
+    out, err = b.communicate(timeout=300)
+    assert b.returncode == 0, err
+    assert json.loads(out)["complete"] == n
+    trials = {t.number: t for t in _trials(fresh_storage, "shared")}
+    complete = [t for t in trials.values() if t.state.name == "COMPLETE"]
+    assert len(complete) == n  # exactly n, the dead trial not among them
+    dead = trials[killed[0].number]
+    assert dead.state.name == "FAIL"
+    retries = [t for t in complete if retried_from(t) == dead.number]
+    assert len(retries) == 1 and retries[0].params == dead.params
+    assert retries[0].user_attrs["worker"] == b.pid
+
+
+def test_sweep_command_runs_trials_on_dask_workers(client, tmp_path, capsys):
+    storage = f"sqlite:///{tmp_path / 'dask.db'}"
+    address = client.scheduler.address
+    assert main(["sweep", "--dataset", "iris", "--num-qubits", "3", "--epochs", "1",
+                 "--n-trials", "3", "--storage", storage, "--cluster", address,
+                 "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["complete"] == 3
+    trials = _trials(storage, summary["study"])
+    complete = [t for t in trials if t.state.name == "COMPLETE"]
+    assert len(complete) == 3
+    workers = set(client.scheduler_info()["workers"])
+    assert {t.user_attrs["dask_worker"] for t in complete} <= workers
