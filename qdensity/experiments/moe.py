@@ -14,9 +14,13 @@ probabilities of the ``n`` unary outcomes), ``Linear(n -> 10)``, softmax, traine
 in PyTorch with exact unary simulation. Per decomposition: the pure source circuit (butterfly
 or pyramid; the pure pyramid serves both odd-even panels), the density QNN with a trainable
 data-independent ``alpha``, MoE and MoE*. Each seed runs its own sweep (TPE sampler seeded by
-the seed) of ``trials`` trials per model, scored on a validation split; the test accuracy after
-the last epoch is recorded for every trial. Data: scikit-learn's bundled 8x8 digits (64
-pixels) in place of MNIST.
+the seed, random for the first quarter of the trials) of ``trials`` trials per model, scored on
+a validation split, through :func:`qdensity.learning.sweep.run_trials` (the code of ``qdensity
+sweep``); the test accuracy after the last epoch is recorded for every trial. Every (model,
+seed) is a unit of work of its own (``units``); with ``--out`` the studies live in
+``<out>/moe-sweeps.db`` (SQLite, one study per model, seed and settings), so that a rerun
+resumes their finished trials. Data: scikit-learn's bundled 8x8 digits (64 pixels) in place of
+MNIST.
 """
 
 from __future__ import annotations
@@ -32,12 +36,12 @@ from qdensity.experiments._moe_models import (
     build_classifier,
     train_classifier,
 )
-from qdensity.experiments.registry import Experiment
+from qdensity.experiments.registry import Experiment, work_directory
 from qdensity.experiments.results import ExperimentResult, bootstrap_ci
-from qdensity.learning.sweep import PAPER_SPACE
+from qdensity.learning.sweep import MEMORY, PAPER_SPACE, open_study, run_trials, suggest_params
 from qdensity.progress import progress_bar
 
-__all__ = ["EXPERIMENT", "run_seed", "plot", "model_names"]
+__all__ = ["EXPERIMENT", "run_seed", "plot", "model_names", "units"]
 
 _LABELS = {"pure": "pure OrthoQNN", "density": "density", "moe": "MoE", "moe_gelu": "MoE* (GELU)"}
 
@@ -96,16 +100,24 @@ def _data(cfg: dict, seed: int):
     return X_tr, y_tr, X_va, y_va, X_te, y_te
 
 
-def _suggest(trial) -> dict:
-    out = {}
-    for name, spec in PAPER_SPACE.items():
-        if spec[0] == "int":
-            out[name] = trial.suggest_int(name, spec[1], spec[2], step=spec[3])
-        elif spec[0] == "log":
-            out[name] = trial.suggest_float(name, spec[1], spec[2], log=True)
-        else:
-            out[name] = trial.suggest_categorical(name, list(spec[1]))
-    return out
+def units(config: dict) -> list[dict]:
+    """One unit of work per model (``config["models"]``: the metric prefixes it trains)."""
+    return [{**config, "models": [prefix]}
+            for prefix, _, _ in model_names(config["decompositions"])]
+
+
+def _study(cfg: dict, seed: int, m: int, prefix: str):
+    """The sweep of model ``m`` of this seed: in ``<out>/moe-sweeps.db`` when the run writes
+    files, else in memory."""
+    from qdensity.learning._study import settings_hash
+
+    directory = work_directory()
+    storage = MEMORY if directory is None else f"sqlite:///{directory / 'moe-sweeps.db'}"
+    settings = {**{k: v for k, v in cfg.items() if k != "models"}, "seed": seed,
+                "model": prefix}
+    return open_study(f"moe-seed{seed}-{prefix}-{settings_hash(settings)}", storage,
+                      seed=seed * 1000 + m, n_trials=int(cfg["trials"]), settings=settings,
+                      grace_period=None if directory is None else 60)
 
 
 def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
@@ -121,31 +133,44 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         trials).
     """
     require_torch("moe")
-    import optuna
     import torch
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    from qdensity.learning._study import retried_from
+
     cfg = _check(config)
     torch.set_num_threads(1)
     data = _data(cfg, seed)
     n, epochs = int(cfg["num_qubits"]), int(cfg["epochs"])
     names = model_names(cfg["decompositions"])
     out: dict = {"seed": seed, "curves": {}}
-    with progress_bar(len(names) * int(cfg["trials"]), desc=f"moe seed {seed}", unit="trial",
+    chosen = [nm for nm in names if cfg.get("models") is None or nm[0] in cfg["models"]]
+    if not chosen:
+        raise ValueError(f"models must name some of {[nm[0] for nm in names]}, got "
+                         f"{cfg.get('models')!r}")
+    with progress_bar(len(chosen) * int(cfg["trials"]), desc=f"moe seed {seed}", unit="trial",
                       verbose=progress) as bar:
         for m, (prefix, dec, variant) in enumerate(names):
-            sampler = optuna.samplers.TPESampler(seed=seed * 1000 + m)
-            study = optuna.create_study(direction="maximize", sampler=sampler)
-            runs = []
-            for t in range(int(cfg["trials"])):
-                trial = study.ask()
-                params = _suggest(trial)
-                model, layer = build_classifier(dec, variant, data[0].shape[1], n, 10,
-                                                seed=seed * 10_000 + m * 100 + t)
+            if (prefix, dec, variant) not in chosen:
+                continue  # another unit's model; m stays its index among all models
+            study = _study(cfg, seed, m, prefix)
+
+            def evaluate(trial, m=m, dec=dec, variant=variant):
+                t = retried_from(trial)  # a dead worker's trial again: the same seeds
+                t = trial.number if t is None else t
+                params = suggest_params(trial, PAPER_SPACE)
+                model, _ = build_classifier(dec, variant, data[0].shape[1], n, 10,
+                                            seed=seed * 10_000 + m * 100 + t)
                 res = train_classifier(model, data, params, epochs, seed=seed * 100 + t)
-                study.tell(trial, res["val_accuracy"])
-                runs.append(res)
+                trial.set_user_attr("test_accuracy", res["test_accuracy"])
+                trial.set_user_attr("test_by_epoch", res["test_by_epoch"])
                 bar.update()
+                return res["val_accuracy"]
+
+            run_trials(study, evaluate, int(cfg["trials"]))
+            runs = sorted((t for t in study.get_trials(deepcopy=False)
+                           if t.state.name == "COMPLETE"), key=lambda t: t.number)
+            runs = [t.user_attrs for t in runs[:int(cfg["trials"])]]
+            _, layer = build_classifier(dec, variant, data[0].shape[1], n, 10, seed=0)
             acc = np.array([r["test_accuracy"] for r in runs])
             ci = bootstrap_ci(acc, seed=seed) if acc.size > 1 else {"low": acc[0],
                                                                       "high": acc[0]}
@@ -237,11 +262,12 @@ EXPERIMENT = Experiment(
           "shots_per_circuit": 1000},
     run_seed=run_seed,
     plot=plot,
+    units=units,
     seeds={"quick": 2, "full": 4},
     reductions="scikit-learn's 8x8 digits (1197 train, 300 validation, 300 test; Linear 64 -> 8) "
                "instead of MNIST (60000/10000, Linear 784 -> 8), so that a sweep fits on a CPU; "
                "the paper's 100 epochs per trial (about 5 minutes per seed on an idle core); "
-               "8 TPE trials per model and seed, 4 seeds "
+               "8 TPE trials per model and seed (the first 2 at random), 4 seeds "
                "(32 trials per model pooled, as the paper's 32, but in 4 independent studies). "
                "l2 is torch's weight decay 1e-4. Exact simulation; shots are those the "
                "gradient circuits would need (1000 per circuit).",

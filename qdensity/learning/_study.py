@@ -45,8 +45,12 @@ def _optuna():
 
 
 def retried_from(trial) -> int | None:
-    """The number of the dead trial that ``trial`` runs again, or None."""
+    """The number of the dead trial that ``trial`` (a ``FrozenTrial``, or a running
+    ``Trial``) runs again, or None."""
     optuna = _optuna()
+    if not hasattr(trial, "system_attrs"):  # a running Trial: read its stored record
+        trial = next(t for t in trial.study.get_trials(deepcopy=False)
+                     if t.number == trial.number)
     cls = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None) or \
         optuna.storages.RetryFailedTrialCallback
     with warnings.catch_warnings():
