@@ -71,7 +71,7 @@ PAPER_SPACE: dict[str, tuple] = {
 DEFAULT_STORAGE = "sqlite:///qdensity-sweep.db"
 
 #: Estimator parameters that do not change what a trial measures.
-_NOT_SETTINGS = ("verbose", "callback")
+_NOT_SETTINGS = ("verbose", "callback", "callbacks")
 
 
 def open_study(study_name: str = "qdensity", storage: str | None = None, *,
