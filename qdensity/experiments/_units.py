@@ -84,8 +84,8 @@ def save_unit(directory: Path, seed: int, unit: int, sub_config: Mapping, metric
 
 def merge_parts(parts: Sequence[Mapping]) -> dict:
     """One seed's metrics from its units' metrics: the flat keys and the ``curves`` of every
-    part together; ``seconds`` summed. A key two parts both give (other than ``seed``) is an
-    error: units must split a seed's work, not repeat it.
+    part together; ``seconds`` summed. A key two parts both give with different values is an
+    error: units must split a seed's work, not repeat it differently.
     """
     out: dict = {}
     curves: dict = {}
@@ -99,8 +99,9 @@ def merge_parts(parts: Sequence[Mapping]) -> dict:
                 curves.update(value)
             elif key == "seconds":
                 seconds += float(value)
-            elif key in out and key != "seed":
-                raise ValueError(f"units give the same metric {key!r}")
+            elif key in out and out[key] != value:
+                raise ValueError(f"units give metric {key!r} different values: {out[key]!r} "
+                                 f"and {value!r}")
             else:
                 out[key] = value
     if curves:

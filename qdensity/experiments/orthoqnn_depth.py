@@ -41,7 +41,7 @@ from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
 from qdensity.models.warm_start import warm_start
 
-__all__ = ["EXPERIMENT", "run_seed", "plot"]
+__all__ = ["EXPERIMENT", "run_seed", "plot", "units"]
 
 _READOUT = "unary_probabilities"
 
@@ -117,21 +117,29 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     out: dict = {"train_rows": rows, "test_rows": len(data[3])}
     curves: dict = {}
 
-    pure = DensityQNN([round_robin(n)], encoding=enc, readout=_READOUT, seed=next(seeds))
-    cpr = circuits_per_row(pure, row, "shift")
-    clf = _fit(pure, data, e1 + e2, config, next(seeds), progress)
-    acc = _accuracies(clf)
-    per_epoch = cpr * rows * shots
-    out.update({"pure/test_accuracy": acc[-1], "pure/circuits_per_row": cpr,
-                "pure/shots": per_epoch * len(acc)})
-    epochs = list(range(1, len(acc) + 1))
-    curves["pure/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
-    curves["pure/test_vs_shots"] = curve([per_epoch * e for e in epochs], acc,
-                                         "shots spent in training", "test accuracy")
+    part = config.get("part")  # one unit: "pure" or "D{d}" (see units); None: all
+    if part in (None, "pure"):
+        pure = DensityQNN([round_robin(n)], encoding=enc, readout=_READOUT, seed=next(seeds))
+        cpr = circuits_per_row(pure, row, "shift")
+        clf = _fit(pure, data, e1 + e2, config, next(seeds), progress)
+        acc = _accuracies(clf)
+        per_epoch = cpr * rows * shots
+        out.update({"pure/test_accuracy": acc[-1], "pure/circuits_per_row": cpr,
+                    "pure/shots": per_epoch * len(acc)})
+        epochs = list(range(1, len(acc) + 1))
+        curves["pure/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
+        curves["pure/test_vs_shots"] = curve([per_epoch * e for e in epochs], acc,
+                                             "shots spent in training", "test accuracy")
+    else:
+        next(seeds), next(seeds)  # the pure model's two seeds, drawn all the same
 
     for depth in config["depths"]:
         name = f"D{depth}"
         dec = cyclic_moments(round_robin(n), int(depth))
+        if part not in (None, name):  # another unit's depth: draw its seeds, train nothing
+            for _ in range(2 * dec.num_subunitaries + 1):
+                next(seeds)
+            continue
         subs, sub_cpr = [], 0
         for circuit in dec.sub_unitaries:
             sub = DensityQNN([circuit], encoding=enc, readout=_READOUT, seed=next(seeds))
@@ -156,6 +164,13 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
                                                 "test accuracy")
     out["curves"] = curves
     return out
+
+
+def units(config: dict) -> list[dict]:
+    """One unit of work per model: the pure OrthoQNN and each depth (``config["part"]``); a
+    unit draws the seed stream of the models before it, so it trains what the whole seed
+    trains, bit for bit."""
+    return [{**config, "part": "pure"}] + [{**config, "part": f"D{d}"} for d in config["depths"]]
 
 
 def plot(result: ExperimentResult, directory: Path) -> list[Path]:
@@ -199,6 +214,7 @@ EXPERIMENT = Experiment(
           "epochs": 25, "train_size": None, "test_size": 300},
     run_seed=run_seed,
     plot=plot,
+    units=units,
     seeds={"quick": 2, "full": 5},
     reductions=(
         "scikit-learn's 8x8 digits (1497 train / 300 test, PCA to 10 features) instead of MNIST "

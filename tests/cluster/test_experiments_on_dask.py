@@ -147,3 +147,16 @@ def test_the_command_on_two_local_workers_equals_the_in_process_run(tmp_path, ca
         "per_seed"]]
     assert all(r["worker"].startswith("tcp://127.0.0.1:") for r in remote["per_seed"])
     assert {r["worker"] for r in local.per_seed} == {"in-process"}
+
+
+def test_orthoqnn_depth_units_train_what_the_whole_seed_trains():
+    """Split into the pure model and one unit per depth, a seed gives what ``run_seed`` gives
+    for the whole seed in one call (the units draw the seeds of the models before them)."""
+    from qdensity.experiments.orthoqnn_depth import EXPERIMENT
+
+    tiny = {**EXPERIMENT.quick, "num_qubits": 4, "depths": [1, 3], "pretrain_epochs": 1,
+            "epochs": 1, "train_size": 40, "test_size": 20}
+    whole = EXPERIMENT.run_seed(dict(tiny), 2, False)
+    split = registry.run("orthoqnn-depth", seeds=[2], config=tiny, progress=False).per_seed[0]
+    assert len(EXPERIMENT.units(tiny)) == 3
+    assert _science(split) == _science(json.loads(json.dumps(whole)))
