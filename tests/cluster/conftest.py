@@ -63,7 +63,10 @@ def postgres_server():
     """A real PostgreSQL server (Debian's ``initdb``/``pg_ctl``) in a temporary directory on a
     free loopback port, trust authentication for ``postgres``; stopped at the end. As root it
     runs as the ``postgres`` OS user (the server refuses root). Yields ``(host, port)``."""
-    pytest.importorskip("psycopg2")
+    try:
+        import psycopg2  # noqa: F401 - the sweep extra's driver
+    except ImportError:
+        _unavailable("psycopg2 is not installed (pip install -e '.[sweep]')")
     if not (shutil.which("initdb") and shutil.which("pg_ctl")):
         _unavailable("initdb and pg_ctl are not on PATH (apt-get install postgresql)")
     prefix: list[str] = []
