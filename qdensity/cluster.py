@@ -110,7 +110,7 @@ def open_client(cluster, *, timeout: float = CONNECT_TIMEOUT) -> Iterator[Any]:
     if kind == "local":
         workers = value or os.cpu_count() or 1
         local = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
-                                         processes=True, dashboard_address=None,
+                                         processes=True, dashboard_address=":0",
                                          silence_logs=logging.ERROR)
         try:
             with distributed.Client(local) as client:

@@ -27,7 +27,7 @@ def client():
     127.0.0.1."""
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address=None,
+                                       host="127.0.0.1", dashboard_address=":0",
                                        silence_logs=logging.ERROR)
     with distributed.Client(cluster) as c:
         yield c
