@@ -109,3 +109,14 @@ def test_full_mode_uses_its_settings_and_seed_count(toy):
 def test_bad_jobs(toy, jobs):
     with pytest.raises(ValueError, match="jobs must be a positive int"):
         registry.run("toy", jobs=jobs, progress=False)
+
+
+def test_jobs_mean_a_local_cluster_of_that_many_workers():
+    assert registry._check_parallel(1, None) is None  # in this process
+    assert registry._check_parallel(3, None) == "local:3"
+    assert registry._check_parallel(4, "local") == "local:4"
+    assert registry._check_parallel(1, "tcp://127.0.0.1:8786") == "tcp://127.0.0.1:8786"
+    with pytest.raises(ValueError, match="give jobs \\(2\\) or cluster \\('local:3'\\)"):
+        registry._check_parallel(2, "local:3")
+    with pytest.raises(ValueError, match="unknown cluster address 'ssh://h'; allowed"):
+        registry._check_parallel(1, "ssh://h")
