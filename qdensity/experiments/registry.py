@@ -48,7 +48,7 @@ EXPERIMENTS: dict[str, str] = {
 }
 
 #: Sizes every experiment offers.
-MODES = ("quick", "full")
+MODES = ("quick", "full", "paper")
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,7 @@ class Experiment:
     plot: Callable[[ExperimentResult, Path], list[Path]]
     seeds: Mapping[str, int] = field(default_factory=lambda: {"quick": 2, "full": 5})
     reductions: str = ""
+    protocol: Any = None  # qdensity.experiments.protocol.PaperProtocol: the --paper settings
 
 
 def get_experiment(name: str) -> Experiment:
@@ -140,6 +141,9 @@ def resolve_config(experiment: Experiment, mode: str, config: Mapping | None) ->
     """The settings of ``mode`` with ``config``'s overrides; unknown keys are refused."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if mode == "paper":
+        from qdensity.experiments.protocol import resolve_paper
+        return resolve_paper(experiment.name, experiment.protocol, config)
     base = dict(getattr(experiment, mode))
     if config is None:
         return base
@@ -236,7 +240,7 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     """
     experiment = get_experiment(name)
     settings = resolve_config(experiment, mode, config)
-    seed_list = resolve_seeds(seeds, int(experiment.seeds[mode]))
+    seed_list = resolve_seeds(seeds, int(experiment.seeds.get(mode, 3)))
     if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
         raise ValueError(f"jobs must be a positive int, got {jobs!r}")
     show = True if progress is None else bool(progress)

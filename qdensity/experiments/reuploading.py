@@ -33,6 +33,7 @@ import numpy as np
 
 from qdensity.datasets.chebyshev import chebyshev_split
 from qdensity.experiments._common import curve, plot_curves
+from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.learning.optim import Adam
@@ -240,6 +241,20 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     return paths
 
 
+PAPER = PaperProtocol(
+    settings={"setting": "both", "layers": [5, 10, 20, 30, 40, 50], "experts": 5,
+              "experts_at_max": [2, 7], "epochs": 300, "batch_size": 5, "learning_rate": 0.001,
+              "num_train": 25, "num_test": 110, "shots_per_circuit": 1000, "curve_points": 40},
+    fixed=("experts", "batch_size", "learning_rate"),
+    readings={"setting": "the Methods say T_4 with noise variance 0.25 and one R_x(x) per "
+                         "upload; Supp. J says T_2 with noise std 0.2 and R_y(x) R_x(x); both "
+                         "run ('both')",
+              "epochs": "not stated; 300",
+              "layers": "the grid is not stated (L = 50 is the largest in Supp. J)",
+              "experts_at_max": "Supp. J: K in {2, 7} at L = 50"},
+    departures=(),
+    source="Methods 'Data reuploading density QNN'; Supp. J (batch 5, Adam 1e-3, K = 5)")
+
 EXPERIMENT = Experiment(
     name="reuploading",
     title="vanilla single-qubit re-uploading (L layers) vs density QNN (K = 5, 5 x 3D ~ 3L): "
@@ -254,7 +269,8 @@ EXPERIMENT = Experiment(
           "num_train": 25, "num_test": 110, "shots_per_circuit": 1000, "curve_points": 40},
     run_seed=run_seed,
     plot=plot,
-    seeds={"quick": 2, "full": 6},
+    seeds={"quick": 2, "full": 6, "paper": 6},
+    protocol=PAPER,
     reductions="The paper gives no epoch count: 300 epochs of Adam (lr 0.001, batch 5, 1500 "
                "steps) per model, what the CPU budget allows for both settings (about 34 "
                "core-minutes for 6 seeds); the L = 50 vanilla models reach train MSE below the "

@@ -82,12 +82,13 @@ def test_mnist_files(tmp_path):
                   train_size=None)
     seed = run("orthoqnn-depth", seeds=1, config=config, progress=False).per_seed[0]
     assert seed["train_rows"] == 50 and seed["test_rows"] == 20
+    assert seed["data/source"] == f"MNIST files at {str(path)!r}"
 
 
 @pytest.mark.parametrize("change, setting", [
     ({"depths": [0]}, "depths"), ({"depths": [4]}, "depths"), ({"depths": []}, "depths"),
     ({"depths": [1, 1]}, "depths"), ({"dataset": "cifar"}, "dataset"),
-    ({"dataset": "mnist"}, "mnist_dir"), ({"learning_rate": -1.0}, "learning_rate"),
+    ({"mixture": "gate"}, "mixture"), ({"learning_rate": -1.0}, "learning_rate"),
     ({"epochs": 0}, "epochs"), ({"num_qubits": 2}, "num_qubits"),
     ({"shots_per_circuit": 1.5}, "shots_per_circuit"),
 ])
