@@ -360,7 +360,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from qdensity.cli import experiment
+    from qdensity.cli import experiment, results
     from qdensity.execution.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
@@ -448,8 +448,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_SEED, default=7,
                    help="seed of the data split, the models, the device's errors and the shots")
     d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
-    d.add_argument("--quick", action="store_true",
-                   help="4 qubits, 3 classes, a small budget (seconds; a smoke test)")
+    d.add_argument("--quick", action="store_true", help="4 qubits, 3 classes, small budget")
     d.add_argument("--json", action="store_true",
                    help="print JSON instead of text: per model accuracy, ceiling, "
                         "fraction_of_ceiling, circuits, shots, steps, gradient_method, seconds, "
@@ -480,6 +479,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="print the summary as JSON (its only output; accepted for symmetry)")
     sw.set_defaults(func=_cmd_sweep)
     experiment.add_parser(sub)
+    results.add_parser(sub)
     return p
 
 
