@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
+from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
 from qdensity.experiments._common import circuits_per_row, curve, plot_curves
 from qdensity.experiments._ortho_data import check_float, check_int, data_source, load_data
 from qdensity.experiments.protocol import PaperProtocol
@@ -131,10 +132,11 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
 
     pure = DensityQNN([round_robin(n)], encoding=enc, readout=_READOUT, seed=next(seeds))
     cpr = circuits_per_row(pure, row, "shift")
+    out.update(breakdown_metrics("pure", circuit_breakdown(pure, row, method="shift")))
     clf = _fit(pure, data, e1 + e2, config, next(seeds), progress)
     acc = _accuracies(clf)
     per_epoch = cpr * rows * shots
-    out.update({"pure/test_accuracy": acc[-1], "pure/circuits_per_row": cpr,
+    out.update({"pure/test_accuracy": acc[-1],
                 "pure/shots": per_epoch * len(acc)})
     epochs = list(range(1, len(acc) + 1))
     curves["pure/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
@@ -154,6 +156,7 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         if config["mixture"] == "moe":
             dens.mixture = GatedMixture(n, len(subs), weights=np.zeros((len(subs), n)))
         dens_cpr = circuits_per_row(dens, row, "auto")
+        out.update(breakdown_metrics(name, circuit_breakdown(dens, row, method="auto")))
         clf = _fit(dens, data, e2, config, next(seeds), progress, post=_mean_post(subs, n))
         acc = list(sub_acc.mean(axis=0)) + _accuracies(clf)
         spent = np.cumsum([sub_cpr * rows * shots] * e1 + [dens_cpr * rows * shots] * e2)
@@ -161,7 +164,6 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         out.update({f"{name}/test_accuracy": acc[-1],
                     f"{name}/best_subunitary_accuracy": float(sub_acc[:, -1].max()),
                     f"{name}/mean_subunitary_accuracy": float(sub_acc[:, -1].mean()),
-                    f"{name}/circuits_per_row": dens_cpr,
                     f"{name}/pretrain_circuits_per_row": sub_cpr,
                     f"{name}/num_parameters": dens.num_parameters,
                     f"{name}/shots": int(spent[-1])})
