@@ -190,7 +190,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
         ("Lemma 1 (supervised, Z on qubit 0)", ["alpha/delta_2_vs_epoch",
                                                 "alpha/density_error_vs_epoch",
                                                 "alpha/lemma1_bound_vs_epoch"]),
-    ], path, title="Mixing lemma on trained LCU models", labels=labels)]
+    ], path, title="Mixing lemma on trained LCU models", labels=labels,
+        y_labels=("operator-norm distance to V", "distance to the target channel (norm)",
+                  "mean absolute error of <Z_0> on the test set"))]
 
 
 PAPER = PaperProtocol(

@@ -114,8 +114,9 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     dict
         ``pure/test_accuracy``, ``D{d}/test_accuracy`` (end of training),
         ``D{d}/best_subunitary_accuracy`` (best sub-model after pretraining),
-        ``*/circuits_per_row``, ``*/shots`` and the curves ``*/test_vs_epoch`` and
-        ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean over sub-models).
+        ``*/circuits_per_row`` and its breakdown ``*/circuits/...``, ``*/shots`` and the curves
+        ``*/test_vs_epoch`` and ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean
+        over sub-models; ``D{d}/sub{k}/...`` each pretrained sub-unitary alone).
     """
     config = _check(dict(config))
     n = int(config["num_qubits"])
@@ -170,6 +171,12 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         curves[f"{name}/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
         curves[f"{name}/test_vs_shots"] = curve(spent, acc, "shots spent in training",
                                                 "test accuracy")
+        for k, sub_curve in enumerate(sub_acc):  # the paper's thin lines: each pretrained U_k
+            curves[f"{name}/sub{k}/test_vs_epoch"] = curve(epochs[:e1], sub_curve, "epoch",
+                                                           "test accuracy")
+            curves[f"{name}/sub{k}/test_vs_shots"] = curve(spent[:e1], sub_curve,
+                                                           "shots spent in training",
+                                                           "test accuracy")
     out["curves"] = curves
     return out
 
@@ -183,22 +190,26 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     for d in depths:
         for kind in ("epoch", "shots"):
             labels[f"D{d}/test_vs_{kind}"] = f"density, D = {d}"
+    thin = {f"D{d}/test_vs_{kind}": [f"D{d}/sub{k}/test_vs_{kind}" for k in range(64)]
+            for d in depths for kind in ("epoch", "shots")}
     first = f"D{min(depths)}"
     top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
                                                             f"{first}/test_vs_epoch"]),
                                ("test accuracy vs shots", ["pure/test_vs_shots",
                                                            f"{first}/test_vs_shots"])],
                       Path(directory) / "orthoqnn-depth-shallow.png",
-                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top)",
-                      labels=labels, log_x=(False, True))
+                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top; thin: "
+                            "the pretrained sub-unitaries)",
+                      labels=labels, log_x=(False, True), thin=thin)
     names = ["pure"] + [f"D{d}" for d in depths]
     bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
                                                                for m in names]),
                                   ("test accuracy vs shots", [f"{m}/test_vs_shots"
                                                               for m in names])],
                          Path(directory) / "orthoqnn-depth-depths.png",
-                         title="density QNN sub-unitary depth D (Fig. 7 bottom)",
-                         labels=labels, log_x=(False, True))
+                         title="density QNN sub-unitary depth D (Fig. 7 bottom; thin: the "
+                               "pretrained sub-unitaries)",
+                         labels=labels, log_x=(False, True), thin=thin)
     return [top, bottom]
 
 
