@@ -34,6 +34,7 @@ __all__ = [
     "package_versions",
     "summarise",
     "metric_bounds",
+    "runs_above",
     "MIN_SEEDS",
     "ExperimentResult",
     "RESULT_FORMAT",
@@ -221,6 +222,39 @@ def bootstrap_ci(
                         random_state=np.random.default_rng(seed))
         low, high = float(res.confidence_interval.low), float(res.confidence_interval.high)
     return {"estimate": est, "low": min(low, est), "high": max(high, est), "n": int(arr.size)}
+
+
+def runs_above(values: Sequence[float], threshold: float = 0.8) -> dict:
+    """The paper's sweep aggregation (hyperparameters appendix, Fig. 11b): of the runs of a
+    sweep, those that reach ``threshold`` ("the best x/32 hyperparameter runs, those which
+    achieve at least 80% accuracy"), their count and their mean.
+
+    Parameters
+    ----------
+    values : sequence of float, length >= 1
+        One final accuracy per sweep trial.
+    threshold : float
+        In ``[0, 1]``.
+
+    Returns
+    -------
+    dict
+        ``count`` (x), ``of`` (the number of trials), ``mean`` and ``std`` (ddof=1) of the runs
+        at or above the threshold (None when fewer than one or two reach it).
+
+    Examples
+    --------
+    >>> runs_above([0.9, 0.85, 0.4, 0.82])["count"]
+    3
+    """
+    arr = _finite_values(values, "values")
+    t = float(threshold)
+    if not 0.0 <= t <= 1.0:
+        raise ValueError(f"threshold must lie in [0, 1], got {threshold!r}")
+    kept = arr[arr >= t]
+    return {"count": int(kept.size), "of": int(arr.size),
+            "mean": float(kept.mean()) if kept.size else None,
+            "std": float(kept.std(ddof=1)) if kept.size > 1 else None}
 
 
 def package_versions() -> dict[str, str | None]:

@@ -119,3 +119,17 @@ def test_metric_bounds_by_name():
     assert metric_bounds("supp_j/L50/density/gap") == (-math.inf, math.inf)
     with pytest.raises(TypeError, match="name"):
         metric_bounds(3)
+
+
+def test_runs_above_is_the_papers_sweep_aggregation():
+    from qdensity.experiments.results import runs_above
+
+    accs = [0.91, 0.79, 0.80, 0.55, 0.86]
+    out = runs_above(accs, 0.8)
+    assert (out["count"], out["of"]) == (3, 5)
+    assert out["mean"] == pytest.approx((0.91 + 0.80 + 0.86) / 3)
+    assert out["std"] == pytest.approx(np.std([0.91, 0.80, 0.86], ddof=1))
+    none = runs_above([0.1, 0.2], 0.8)
+    assert none["count"] == 0 and none["mean"] is None
+    with pytest.raises(ValueError, match="threshold"):
+        runs_above(accs, 80)
