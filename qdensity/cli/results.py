@@ -13,6 +13,7 @@ Each takes ``--json``.
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -28,11 +29,19 @@ def _flags(ci: dict) -> str:
     return f"  ({', '.join(marks)})" if marks else ""
 
 
+def _json(args) -> bool:
+    return bool(getattr(args, "json", False))
+
+
+def _cmd_none(args) -> int:
+    raise ValueError("name a sub-command: qdensity results show|merge|report (see --help)")
+
+
 def _cmd_show(args) -> int:
     from qdensity.experiments.results import ExperimentResult
 
     result = ExperimentResult.load(args.file)
-    if args.json:
+    if _json(args):
         print(json.dumps({"name": result.name, "mode": result.mode, "seeds": result.seeds,
                           "config": result.config, "summary": result.summary}, indent=2))
         return 0
@@ -50,7 +59,7 @@ def _cmd_merge(args) -> int:
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(merged.to_dict(), indent=2) + "\n", encoding="utf-8")
-    if args.json:
+    if _json(args):
         print(json.dumps(merged.to_dict(), indent=2))
     else:
         print(f"merged {len(args.files)} files: {merged.name} ({merged.mode}), seeds "
@@ -63,7 +72,7 @@ def _cmd_report(args) -> int:
 
     directory = Path(args.dir)
     generated = report(directory)
-    if args.json:
+    if _json(args):
         print(json.dumps(evaluate(sorted(directory.glob("*.json"))), indent=2))
     elif not (args.write or args.check):
         for name, text in generated.items():
@@ -87,15 +96,21 @@ def _cmd_report(args) -> int:
 def add_parser(sub) -> None:
     """Add the ``results`` sub-command group to ``qdensity``'s sub-parsers."""
     r = sub.add_parser("results", help="show, merge and judge experiment results files")
-    rs = r.add_subparsers(dest="results_command", metavar="{show,merge,report}", required=True)
+    r.add_argument("--json", action="store_true",
+                   help="print JSON (the same as the sub-command's --json)")
+    r.set_defaults(func=_cmd_none)
+    rs = r.add_subparsers(dest="results_command", metavar="{show,merge,report}",
+                          help="show: a file's summary; merge: files into one; report: verdicts")
     show = rs.add_parser("show", help="print a results file's summary table")
     show.add_argument("file", help="a results JSON (NAME-MODE.json)")
-    show.add_argument("--json", action="store_true", help="print the summary as JSON")
+    show.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                      help="print the summary as JSON")
     show.set_defaults(func=_cmd_show)
     merge = rs.add_parser("merge", help="merge runs of one experiment, mode and settings")
     merge.add_argument("files", nargs="+", help="results JSON files")
     merge.add_argument("-o", "--output", required=True, help="the merged file to write")
-    merge.add_argument("--json", action="store_true", help="also print the merged JSON")
+    merge.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                       help="also print the merged JSON")
     merge.set_defaults(func=_cmd_merge)
     rep = rs.add_parser("report", help="verdicts by rule from the results files; --write puts "
                                        "them into README.md and EXPERIMENTS.md")
@@ -106,5 +121,6 @@ def add_parser(sub) -> None:
                       help="write the report between the markers of README.md and EXPERIMENTS.md")
     mode.add_argument("--check", action="store_true",
                       help="fail when README.md or EXPERIMENTS.md differ from the report")
-    rep.add_argument("--json", action="store_true", help="print the verdicts as JSON")
+    rep.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                     help="print the verdicts as JSON")
     rep.set_defaults(func=_cmd_report)

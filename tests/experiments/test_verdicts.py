@@ -128,6 +128,10 @@ def test_results_cli(tmp_path, capsys):
     assert shown["summary"]["acc"]["mean"] == pytest.approx(0.7425)
     assert main(["results", "show", str(tmp_path / "a" / "x-full.json")]) == 0
     assert "few seeds" in capsys.readouterr().out
+    assert main(["results", "--json", "show", str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["seeds"] == [0, 1, 2, 3]
+    assert main(["results"]) == 2
+    assert "name a sub-command" in capsys.readouterr().err
     ExperimentResult("x", "full", {"k": 2}, [5], rows[:1]).save(tmp_path / "d")
     assert main(["results", "merge", str(out), str(tmp_path / "d" / "x-full.json"),
                  "-o", str(tmp_path / "e.json")]) == 2
