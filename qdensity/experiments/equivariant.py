@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.datasets.bars_and_dots import bars_and_dots
+from qdensity.experiments._accounting import breakdown_metrics
 from qdensity.experiments._common import circuits_per_row, curve, plot_curves
 from qdensity.experiments._equivariant_models import (
     FAMILIES,
@@ -177,7 +178,11 @@ def _family(family: str, config: dict, data: tuple, seeds: np.ndarray, progress:
         f"{family}/density_alpha_2": float(dens["alpha"][1]),
         f"{family}/base_circuits_per_row": c_base,
         f"{family}/second_circuits_per_row": c_second,
-        f"{family}/density_circuits_per_row": c_dens,
+        # the density model's count broken down (no classical layer in front of the encoding,
+        # so no input gradients; no mitigation)
+        **breakdown_metrics(f"{family}/density", {
+            "forward": 2, "parameter_gradients": [c_base - 1, c_second - 1],
+            "input_gradients": [0, 0], "per_point": c_dens, "calibration": 0}),
         f"{family}/base_shots": float(b_shots[-1]),
         f"{family}/density_shots": float(d_shots[-1]),
     }
