@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.datasets.chebyshev import chebyshev_split
+from qdensity.experiments._accounting import breakdown_metrics
 from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
@@ -116,7 +117,12 @@ def _train(model: SingleQubitReuploading, data, cfg: dict, rng: np.random.Genera
             "shots": shots_epoch * epochs, "history": hist}
 
 
-def _record(out: dict, prefix: str, res: dict, params: int) -> None:
+def _record(out: dict, prefix: str, res: dict, model: SingleQubitReuploading) -> None:
+    params = model.num_circuit_parameters
+    K, D = model.num_subunitaries, model.num_layers
+    out.update(breakdown_metrics(prefix, {
+        "forward": K, "parameter_gradients": [6 * D] * K, "input_gradients": [0] * K,
+        "per_point": _circuits_per_row(D, K), "calibration": 0}))
     out[f"{prefix}/train_mse"] = res["train_mse"]
     out[f"{prefix}/test_mse"] = res["test_mse"]
     out[f"{prefix}/gap"] = res["test_mse"] - res["train_mse"]
@@ -145,7 +151,7 @@ def _run_setting(setting: str, cfg: dict, seed: int, bar) -> dict:
         D = density_depth(L, K)
         for tag, (layers, subs) in (("vanilla", (L, 1)), ("density", (D, K))):
             model, res = fit(tag, layers, subs, 2 * i + (tag == "density"), L == L_max)
-            _record(out, f"{setting}/{tag}/L{L}", res, model.num_circuit_parameters)
+            _record(out, f"{setting}/{tag}/L{L}", res, model)
             rows[tag].append((L, res))
             if L == L_max:
                 models[tag] = model
@@ -169,7 +175,7 @@ def _run_setting(setting: str, cfg: dict, seed: int, bar) -> dict:
         if k in by_k:
             continue
         model, res = fit("density", density_depth(L_max, k), k, 1000 + j, False)
-        _record(out, f"{setting}/density_K{k}/L{L_max}", res, model.num_circuit_parameters)
+        _record(out, f"{setting}/density_K{k}/L{L_max}", res, model)
         by_k[k] = res["test_mse"]
     ks = sorted(by_k)
     curves[f"{setting}/test_mse_vs_K"] = curve(ks, [by_k[k] for k in ks],
