@@ -29,6 +29,7 @@ import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
+from qdensity.experiments._accounting import breakdown_metrics
 from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._lcu_training import accuracy, check_settings, fit_epochs
 from qdensity.experiments._ortho_data import data_source
@@ -168,6 +169,15 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         "lcu/success_probability": success[-1],
         "lcu/success_probability_min": success_min[-1],
         "lcu/shot_overhead": 1.0 / success[-1],
+        # circuits per data point as a device pays them (the LCU's are per post-selected run;
+        # divide by the success probability for the shots): the single circuit's four-term
+        # shifts, the LCU's shifts of its K - 1 mixing angles at their two occurrences each
+        **breakdown_metrics("single", {"forward": 1, "parameter_gradients": [4 * P],
+                                       "input_gradients": [0], "per_point": 4 * P + 1,
+                                       "calibration": 0}),
+        **breakdown_metrics("lcu", {"forward": 1, "parameter_gradients": [8 * (K - 1)],
+                                    "input_gradients": [0], "per_point": 8 * (K - 1) + 1,
+                                    "calibration": 0}),
         "single/shots": float(single_shots_epoch * (E1 + E2)),
         "lcu/shots": float(lcu_shots[-1]),
     }
