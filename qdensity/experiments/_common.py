@@ -10,7 +10,7 @@ import numpy as np
 from qdensity.experiments.results import ExperimentResult, metric_bounds
 from qdensity.gradients.density import density_gradient_plan
 
-__all__ = ["circuits_per_row", "epoch_curves", "plot_curves", "curve_colours",
+__all__ = ["circuits_per_row", "epoch_curves", "plot_curves", "curve_colours", "figure_name",
            "require_torch", "curve"]
 
 
@@ -67,6 +67,22 @@ def epoch_curves(history, prefix: str, shots_per_epoch: float | None = None,
     return out
 
 
+def figure_name(result: ExperimentResult, name: str) -> str:
+    """The file name of a figure of ``result``: ``name`` for a ``full`` run (the names the
+    committed results use), ``name`` with the mode after the experiment's name otherwise, so
+    that a ``--paper`` or ``--quick`` run beside a full one does not overwrite its figures.
+
+    Examples
+    --------
+    >>> r = ExperimentResult("pyramid-shots", "paper", {}, [], [])
+    >>> figure_name(r, "pyramid-shots-x.png")
+    'pyramid-shots-paper-x.png'
+    """
+    if result.mode == "full" or not name.startswith(result.name):
+        return name
+    return f"{result.name}-{result.mode}{name[len(result.name):]}"
+
+
 #: Colours of the curves, in order of the first appearance of their label in a figure.
 _PALETTE = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C8", "C9")
 
@@ -95,7 +111,8 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                 path: str | Path, title: str | None = None,
                 labels: Mapping[str, str] | None = None, log_x: Sequence[bool] = (),
                 y_labels: Sequence[str | None] = (),
-                thin: Mapping[str, Sequence[str]] | None = None) -> Path:
+                thin: Mapping[str, Sequence[str]] | None = None,
+                colours: Mapping[str, str] | None = None) -> Path:
     """One figure, one panel per ``(panel title, curve names)``: each curve's mean over seeds
     with its 95% confidence band (``result.curves``). Missing curves are skipped.
 
@@ -111,6 +128,9 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     thin : mapping, optional
         Curve name -> names of curves drawn as thin lines of its colour without bands (the
         pretrained sub-unitaries beside their density model, as in the paper's Fig. 7).
+    colours : mapping, optional
+        Label -> colour, for labels that must keep a colour across figures too (the others
+        follow :func:`curve_colours`).
 
     Returns
     -------
@@ -125,7 +145,8 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     labels = labels or {}
     thin = thin or {}
     names_in_order = [name for _, names in panels for name in names if name in result.curves]
-    colours = curve_colours([labels.get(n, n.split("/")[0]) for n in names_in_order])
+    colours = {**curve_colours([labels.get(n, n.split("/")[0]) for n in names_in_order]),
+               **(colours or {})}
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.8), squeeze=False)
     for i, (ax, (panel, names)) in enumerate(zip(axes[0], panels, strict=True)):
         for name in names:
@@ -140,6 +161,9 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                     ax.plot(t["x"], t["mean"], color=colour, lw=0.6, alpha=0.6)
             ax.plot(c["x"], c["mean"], marker="o", ms=3, color=colour, label=label)
             lo_b, hi_b = metric_bounds(str(c.get("y_label", "")))
+            mean = np.asarray(c["mean"], dtype=float)
+            if mean.size and (mean.min() < lo_b or mean.max() > hi_b):
+                lo_b, hi_b = -np.inf, np.inf  # the label's range does not hold: no clipping
             low = np.clip(np.asarray(c["low"], dtype=float), lo_b, hi_b)
             high = np.clip(np.asarray(c["high"], dtype=float), lo_b, hi_b)
             ax.fill_between(c["x"], low, high, color=colour, alpha=0.2)

@@ -44,7 +44,7 @@ import numpy as np
 
 from qdensity.datasets.bars_and_dots import bars_and_dots
 from qdensity.experiments._accounting import breakdown_metrics
-from qdensity.experiments._common import circuits_per_row, curve, plot_curves
+from qdensity.experiments._common import circuits_per_row, curve, figure_name, plot_curves
 from qdensity.experiments._equivariant_models import (
     FAMILIES,
     LABELS,
@@ -220,7 +220,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     for kind, log in (("epoch", False), ("shots", True)):
         panels = [(LABELS[f][0] + " family", [f"{lab}/test_vs_{kind}" for lab in LABELS[f]])
                   for f in fams]
-        paths.append(plot_curves(result, panels, Path(directory) / f"equivariant-{kind}.png",
+        path = Path(directory) / figure_name(result, f"equivariant-{kind}.png")
+        paths.append(plot_curves(result, panels, path,
                                  title=f"equivariant: test accuracy vs {kind}",
                                  log_x=[log] * len(panels)))
     return paths

@@ -31,7 +31,7 @@ import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
-from qdensity.experiments._common import circuits_per_row, curve, plot_curves
+from qdensity.experiments._common import circuits_per_row, curve, figure_name, plot_curves
 from qdensity.experiments._ortho_data import check_float, check_int, data_source, load_data
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
@@ -197,7 +197,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                                             f"{first}/test_vs_epoch"]),
                                ("test accuracy vs shots", ["pure/test_vs_shots",
                                                            f"{first}/test_vs_shots"])],
-                      Path(directory) / "orthoqnn-depth-shallow.png",
+                      Path(directory) / figure_name(result, "orthoqnn-depth-shallow.png"),
                       title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top; thin: "
                             "the pretrained sub-unitaries)",
                       labels=labels, log_x=(False, True), thin=thin)
@@ -206,7 +206,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                                                for m in names]),
                                   ("test accuracy vs shots", [f"{m}/test_vs_shots"
                                                               for m in names])],
-                         Path(directory) / "orthoqnn-depth-depths.png",
+                         Path(directory) / figure_name(result, "orthoqnn-depth-depths.png"),
                          title="density QNN sub-unitary depth D (Fig. 7 bottom; thin: the "
                                "pretrained sub-unitaries)",
                          labels=labels, log_x=(False, True), thin=thin)

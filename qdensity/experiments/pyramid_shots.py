@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
-from qdensity.experiments._common import curve, plot_curves, require_torch
+from qdensity.experiments._common import curve, figure_name, plot_curves, require_torch
 from qdensity.experiments._ortho_data import check_float, check_int, data_source, load_data
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
@@ -141,7 +141,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     labels = {f"{m}/test_vs_{k}": _LABELS[m] for m in names for k in ("shots", "epoch")}
     path = plot_curves(result, [("test accuracy vs shots", [f"{m}/test_vs_shots" for m in names]),
                                 ("test accuracy vs epochs", [f"{m}/test_vs_epoch" for m in names])],
-                       Path(directory) / "pyramid-shots.png",
+                       Path(directory) / figure_name(result, "pyramid-shots.png"),
                        title="pyramid OrthoQNN vs density versions (Fig. 11b)", labels=labels,
                        log_x=(True, False))
     return [path]

@@ -52,7 +52,8 @@ MIN_SEEDS = 3
 
 # Name fragments -> range, checked in order (the first that matches wins): differences first,
 # since "density_minus_base/test_accuracy" is a difference of accuracies.
-_SIGNED = ("minus", "gap", "gain", "delta_acc", "difference", "diff", "advantage", "log")
+_SIGNED = ("minus", "gap", "gain", "delta_acc", "difference", "diff", "advantage", "log",
+           " - ")
 _UNIT = ("accuracy", "success", "probability", "alpha", "fraction", "fidelity", "kept",
          "holds", "non_vacuous", "rate_above")
 _NONNEGATIVE = ("mse", "shots", "circuits", "distance", "eps", "error", "bound", "seconds",

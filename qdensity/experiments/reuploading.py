@@ -33,7 +33,7 @@ import numpy as np
 
 from qdensity.datasets.chebyshev import chebyshev_split
 from qdensity.experiments._accounting import breakdown_metrics
-from qdensity.experiments._common import curve, plot_curves
+from qdensity.experiments._common import curve, figure_name, plot_curves
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
@@ -218,6 +218,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     directory = Path(directory)
     setting = result.config["setting"]
     paths = []
+    dens_label = f"density (K = {result.config['experts']})"
+    colours = {"vanilla (L layers)": "C0", "vanilla": "C0", dens_label: "C1", "density": "C1",
+               "test MSE": "C2"}  # one colour per model in every panel and figure
     for s in (list(SETTINGS) if setting == "both" else [setting]):
         degree = SETTINGS[s][0]
         labels = {f"{s}/vanilla/{k}": "vanilla (L layers)" for k in
@@ -228,8 +231,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
             ("test MSE", [f"{s}/vanilla/test_mse_vs_L", f"{s}/density/test_mse_vs_L"]),
             ("generalisation gap", [f"{s}/vanilla/gap_vs_L", f"{s}/density/gap_vs_L"]),
             ("train MSE", [f"{s}/vanilla/train_mse_vs_L", f"{s}/density/train_mse_vs_L"]),
-        ], directory / f"reuploading-{s}-vs-L.png",
-            title=f"re-uploading, T_{degree} ({s}): vanilla vs density", labels=labels))
+        ], directory / figure_name(result, f"reuploading-{s}-vs-L.png"),
+            title=f"re-uploading, T_{degree} ({s}): vanilla vs density", labels=labels,
+            colours=colours))
         L = max(result.config["layers"])
         fit_labels = {f"{s}/truth/fit": f"T_{degree}", f"{s}/vanilla/fit": "vanilla",
                       f"{s}/density/fit": "density",
@@ -242,8 +246,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                               f"{s}/density/fit"]),
             ("learning curves", [f"{s}/vanilla/L{L}/test_vs_epoch",
                                  f"{s}/density/L{L}/test_vs_epoch"]),
-        ], directory / f"reuploading-{s}-experts.png",
-            title=f"re-uploading, T_{degree} ({s}), L = {L}", labels=fit_labels))
+        ], directory / figure_name(result, f"reuploading-{s}-experts.png"),
+            title=f"re-uploading, T_{degree} ({s}), L = {L}", labels=fit_labels,
+            colours=colours))
     return paths
 
 

@@ -20,7 +20,7 @@ def tiny(tmp_path_factory, checked_run):
 def test_seeds_files_and_cis(tiny):
     result, out = tiny
     assert {p.rsplit("/", 1)[-1] for p in result.figures} == {
-        "orthoqnn-depth-shallow.png", "orthoqnn-depth-depths.png"}
+        "orthoqnn-depth-quick-shallow.png", "orthoqnn-depth-quick-depths.png"}
     for name in ("pure", "D1", "D3"):
         acc = result.summary[f"{name}/test_accuracy"]["mean"]
         assert 0.0 <= acc <= 1.0

@@ -19,7 +19,7 @@ def tiny(tmp_path_factory, checked_run):
 
 def test_seeds_files_and_cis(tiny):
     result, out = tiny
-    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots.png"]
+    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots-quick.png"]
 
 
 def test_circuit_counts_and_angles(tiny):

@@ -133,3 +133,11 @@ def test_runs_above_is_the_papers_sweep_aggregation():
     assert none["count"] == 0 and none["mean"] is None
     with pytest.raises(ValueError, match="threshold"):
         runs_above(accs, 80)
+
+
+def test_metric_bounds_of_axis_labels():
+    from qdensity.experiments.results import metric_bounds
+
+    assert metric_bounds("test MSE - train MSE") == (-math.inf, math.inf)
+    assert metric_bounds("test accuracy") == (0.0, 1.0)
+    assert metric_bounds("test MSE") == (0.0, math.inf)
