@@ -3,8 +3,9 @@
 Each experiment runs one seed at its ``--paper`` settings with its unit of work cut down (fewer
 epochs, steps or trials; the table says which), timed on one thread; the cost of a whole seed is
 that time times the cut (training dominates and is linear in it; data loading and model set-up
-are counted in full, so the estimate errs high). The machine's load average is printed beside
-each row: on a shared machine the times stretch with it.
+are counted in full, so the estimate errs high). The CPU time of the process is the measure
+(wall time is printed beside it, with the load average: on a shared machine wall time
+stretches with the load, CPU time much less).
 
     QDENSITY_NUM_THREADS=1 python benchmarks/bench_experiment_costs.py [NAME ...]
 """
@@ -32,17 +33,17 @@ CUTS = {
 def main(names: list[str]) -> None:
     from qdensity.experiments.registry import get_experiment
 
-    print(f"{'experiment':<16}{'cut':<44}{'measured s':>11}{'x':>7}{'s / seed':>10}"
-          f"{'load':>7}")
+    print(f"{'experiment':<16}{'cut':<44}{'wall s':>8}{'cpu s':>8}{'x':>7}"
+          f"{'cpu s / seed':>13}{'load':>7}")
     for name in names or list(CUTS):
         overrides, factor, what = CUTS[name]
         exp = get_experiment(name)
         config = {**exp.protocol.settings, **overrides}
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         exp.run_seed(dict(config), 0, False)
-        seconds = time.perf_counter() - t
+        wall, cpu = time.perf_counter() - t, time.process_time() - c
         load = os.getloadavg()[0]
-        print(f"{name:<16}{what:<44}{seconds:>11.1f}{factor:>7.0f}{seconds * factor:>10.0f}"
+        print(f"{name:<16}{what:<44}{wall:>8.1f}{cpu:>8.1f}{factor:>7.0f}{cpu * factor:>13.0f}"
               f"{load:>7.1f}", flush=True)
 
 
