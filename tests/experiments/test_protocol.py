@@ -72,3 +72,10 @@ def test_cli_paper_flag_refuses_a_fixed_setting(capsys):
     code = main(["experiment", "mixing-lemma", "--paper", "--set", "num_qubits=4", "--no-plot"])
     assert code != 0
     assert "--paper fixes num_qubits=10" in capsys.readouterr().err
+
+
+def test_reuploading_full_run_is_the_paper_protocol():
+    # EXPERIMENTS.md quotes results/reuploading-full.json as the --paper run: same settings
+    exp = get_experiment("reuploading")
+    assert dict(exp.full) == dict(exp.protocol.settings)
+    assert exp.seeds["full"] == exp.seeds["paper"]
