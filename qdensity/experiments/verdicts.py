@@ -56,7 +56,8 @@ class Claim:
     comparable : callable, optional
         ``comparable(result) -> str | None``: why the run cannot answer the claim, or None.
     caveat : str
-        What a reader must know beside the verdict (printed with it; it does not change it).
+        What a reader must know beside the verdict (printed with it; it does not change it):
+        a short name, a colon, the explanation (README shows the name).
     """
 
     experiment: str
@@ -329,15 +330,17 @@ def report(directory: str | Path) -> dict[str, str]:
     """
     paths = sorted(Path(directory).glob("*.json"))
     rows = evaluate(paths)
-    table = ["| experiment | run | claims judged | verdicts by rule |", "|---|---|---|---|"]
+    table = ["| experiment | run | claims judged | verdicts by rule | caveats |",
+             "|---|---|---|---|---|"]
     for path in paths:
         mine = [r for r in rows if r["file"] == path.name]
         if not mine:
             continue
         counts = [f"{sum(r['verdict'] == v for r in mine)} {v}" for v in VERDICTS
                   if any(r["verdict"] == v for r in mine)]
+        caveats = sorted({r["caveat"].split(":")[0] for r in mine if r.get("caveat")})
         table.append(f"| `{mine[0]['experiment']}` | `{path.name}` | {len(mine)} | "
-                     f"{', '.join(counts)} |")
+                     f"{', '.join(counts)} | {'; '.join(caveats)} |")
     readme = "\n".join(["Verdicts by a written rule (EXPERIMENTS.md, 'Verdicts by rule'), "
                          "computed from the files in `results/`:", "", *table])
     lines = ["Rule: a claim is a paired difference over seeds with the sign the paper expects. "
