@@ -328,7 +328,7 @@ def _cmd_demo(args) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from qdensity.cli import experiment, sweep
+    from qdensity.cli import experiment, results, sweep
     from qdensity.execution.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
@@ -416,8 +416,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_SEED, default=7,
                    help="seed of the data split, the models, the device's errors and the shots")
     d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
-    d.add_argument("--quick", action="store_true",
-                   help="4 qubits, 3 classes, a small budget (seconds; a smoke test)")
+    d.add_argument("--quick", action="store_true", help="4 qubits, 3 classes, small budget")
     d.add_argument("--json", action="store_true",
                    help="print JSON instead of text: per model accuracy, ceiling, "
                         "fraction_of_ceiling, circuits, shots, steps, gradient_method, seconds, "
@@ -426,6 +425,7 @@ def _parser() -> argparse.ArgumentParser:
 
     sweep.add_parser(sub, _int_in, _SEED, MAX_CLI_QUBITS)
     experiment.add_parser(sub)
+    results.add_parser(sub)
     return p
 
 

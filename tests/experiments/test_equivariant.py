@@ -29,8 +29,8 @@ def test_files_seeds_and_confidence_intervals(tiny):
     assert result.seeds == [0, 3]
     saved = json.loads((out / "equivariant-quick.json").read_text())
     assert saved["seeds"] == [0, 3] and len(saved["per_seed"]) == 2
-    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["equivariant-epoch.png",
-                                                              "equivariant-shots.png"]
+    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["equivariant-quick-epoch.png",
+                                                              "equivariant-quick-shots.png"]
     assert all((out / p.rsplit("/", 1)[-1]).stat().st_size > 1000 for p in result.figures)
     for fam in ("xx", "noncommuting", "qcnn"):
         for key in ("base_test_accuracy", "density_test_accuracy", "density_gain"):

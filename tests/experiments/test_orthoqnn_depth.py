@@ -20,7 +20,7 @@ def tiny(tmp_path_factory, checked_run):
 def test_seeds_files_and_cis(tiny):
     result, out = tiny
     assert {p.rsplit("/", 1)[-1] for p in result.figures} == {
-        "orthoqnn-depth-shallow.png", "orthoqnn-depth-depths.png"}
+        "orthoqnn-depth-quick-shallow.png", "orthoqnn-depth-quick-depths.png"}
     for name in ("pure", "D1", "D3"):
         acc = result.summary[f"{name}/test_accuracy"]["mean"]
         assert 0.0 <= acc <= 1.0
@@ -82,12 +82,13 @@ def test_mnist_files(tmp_path):
                   train_size=None)
     seed = run("orthoqnn-depth", seeds=1, config=config, progress=False).per_seed[0]
     assert seed["train_rows"] == 50 and seed["test_rows"] == 20
+    assert seed["data/source"] == f"MNIST files at {str(path)!r}"
 
 
 @pytest.mark.parametrize("change, setting", [
     ({"depths": [0]}, "depths"), ({"depths": [4]}, "depths"), ({"depths": []}, "depths"),
     ({"depths": [1, 1]}, "depths"), ({"dataset": "cifar"}, "dataset"),
-    ({"dataset": "mnist"}, "mnist_dir"), ({"learning_rate": -1.0}, "learning_rate"),
+    ({"mixture": "gate"}, "mixture"), ({"learning_rate": -1.0}, "learning_rate"),
     ({"epochs": 0}, "epochs"), ({"num_qubits": 2}, "num_qubits"),
     ({"shots_per_circuit": 1.5}, "shots_per_circuit"),
 ])

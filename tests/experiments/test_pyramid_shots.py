@@ -19,16 +19,21 @@ def tiny(tmp_path_factory, checked_run):
 
 def test_seeds_files_and_cis(tiny):
     result, out = tiny
-    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots.png"]
+    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots-quick.png"]
 
 
 def test_circuit_counts_and_angles(tiny):
     result, _ = tiny
     gates = N * (N - 1) // 2
     seed = result.per_seed[0]
-    assert seed["pure/circuits_per_row"] == 4 * gates + 1      # four-term shift + forward
-    assert seed["odd_even/circuits_per_row"] == 2 * 2          # K = 2 commuting blocks
-    assert seed["compressed/circuits_per_row"] == 2 * 2
+    # forward + four-term shift per RBS + four-term shift per loader angle (the Linear layer in
+    # front of the loader trains), per sub-unitary
+    assert seed["pure/circuits_per_row"] == 1 + 4 * gates + 4 * (N - 1)
+    assert seed["pure/circuits/input_gradients"] == 4 * (N - 1)
+    for m in ("odd_even", "compressed"):  # K = 2: one commuting circuit + one forward each
+        assert seed[f"{m}/circuits_per_row"] == 2 * 2 + 2 * 4 * (N - 1)
+        assert seed[f"{m}/circuits/parameter_gradients_k0"] == 1
+        assert seed[f"{m}/circuits/forward"] == 2
     assert seed["pure/num_angles"] == seed["odd_even/num_angles"] == gates
     assert seed["compressed/num_angles"] == N - 1
 

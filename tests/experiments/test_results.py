@@ -89,3 +89,55 @@ def test_load_refuses_other_formats(tmp_path):
     (tmp_path / "junk.json").write_text("{not json")
     with pytest.raises(ValueError, match="junk.json"):
         ExperimentResult.load(tmp_path / "junk.json")
+
+
+def test_intervals_stay_inside_the_metrics_range_and_say_so():
+    # two seeds of a success probability: t_{0.975,1} = 12.706 gives [0.61 -/+ 1.14]
+    raw = mean_ci([0.2, 1.0])
+    assert raw["low"] < 0 and raw["high"] > 1 and raw["few_seeds"]
+    ci = summarise([{"lcu/success_probability": 0.2}, {"lcu/success_probability": 1.0}])
+    ci = ci["lcu/success_probability"]
+    assert (ci["low"], ci["high"]) == (0.0, 1.0) and ci["clipped"] and ci["few_seeds"]
+    assert ci["mean"] == pytest.approx(0.6)
+    # a difference is not clipped, and three seeds are not flagged
+    diff = summarise([{"lcu_minus_single": v} for v in (-0.1, 0.5, 0.9)])["lcu_minus_single"]
+    assert not diff["clipped"] and not diff["few_seeds"]
+    assert diff["low"] == pytest.approx(0.4333333 - 4.302653 * np.std([-0.1, .5, .9], ddof=1)
+                                        / math.sqrt(3), rel=1e-5)
+    with pytest.raises(ValueError, match="range"):
+        mean_ci([0.5, 1.5], bounds=(0.0, 1.0))
+    with pytest.raises(ValueError, match="low < high"):
+        mean_ci([0.5, 0.6], bounds=(1.0, 0.0))
+
+
+def test_metric_bounds_by_name():
+    from qdensity.experiments.results import metric_bounds
+
+    assert metric_bounds("D1/test_accuracy") == (0.0, 1.0)
+    assert metric_bounds("supp_j/L50/vanilla/test_mse") == (0.0, math.inf)
+    assert metric_bounds("xx/density_minus_base") == (-math.inf, math.inf)
+    assert metric_bounds("supp_j/L50/density/gap") == (-math.inf, math.inf)
+    with pytest.raises(TypeError, match="name"):
+        metric_bounds(3)
+
+
+def test_runs_above_is_the_papers_sweep_aggregation():
+    from qdensity.experiments.results import runs_above
+
+    accs = [0.91, 0.79, 0.80, 0.55, 0.86]
+    out = runs_above(accs, 0.8)
+    assert (out["count"], out["of"]) == (3, 5)
+    assert out["mean"] == pytest.approx((0.91 + 0.80 + 0.86) / 3)
+    assert out["std"] == pytest.approx(np.std([0.91, 0.80, 0.86], ddof=1))
+    none = runs_above([0.1, 0.2], 0.8)
+    assert none["count"] == 0 and none["mean"] is None
+    with pytest.raises(ValueError, match="threshold"):
+        runs_above(accs, 80)
+
+
+def test_metric_bounds_of_axis_labels():
+    from qdensity.experiments.results import metric_bounds
+
+    assert metric_bounds("test MSE - train MSE") == (-math.inf, math.inf)
+    assert metric_bounds("test accuracy") == (0.0, 1.0)
+    assert metric_bounds("test MSE") == (0.0, math.inf)

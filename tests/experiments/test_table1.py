@@ -43,3 +43,18 @@ def test_table1_row_restores_the_garbage_collector_and_names_bad_ansatze():
     with pytest.raises(ValueError, match="ansatz must be one of"):
         table1_row("brickwork", 4)
     assert gc.isenabled()
+
+
+def test_compressed_pyramid_has_n_minus_1_parameters():
+    # the paper's O(n) density-pyramid parameters hold for the compressed version: one angle per
+    # neighbouring pair, n - 1; the uncompressed odd-even split keeps all n (n - 1) / 2
+    from qdensity.experiments.table1 import format_table1, table1_row
+
+    for n in (4, 6, 8):
+        row = table1_row("pyramid", n)
+        assert row["density"]["params"] == n * (n - 1) // 2
+        assert row["compressed"]["params"] == n - 1
+        assert row["compressed"]["gradient_circuits"] == 2  # one commuting circuit per half
+    assert table1_row("butterfly", 4)["compressed"] is None
+    text = format_table1([table1_row("pyramid", 8), table1_row("butterfly", 8)])
+    assert "compressed density" in text and text.splitlines()[-1].rstrip().endswith("-")

@@ -1,0 +1,106 @@
+"""The paper's own protocol for an experiment: ``qdensity experiment NAME --paper``.
+
+Each experiment with a counterpart in the paper carries a :class:`PaperProtocol`: the settings
+the paper states (sizes, qubits, epochs, optimiser and learning rate, batch size, noise), which
+of them the paper fixes, the readings of the places where the paper is ambiguous (both run, as
+settings), and where even this mode departs from the paper (``departures``). The verdict rule
+(:mod:`qdensity.experiments.verdicts`) calls a comparison *not comparable* when a departure
+changes the question.
+
+A ``--paper`` run refuses an override of a fixed setting (``--set epochs=3``): a run with it is
+no longer the paper's protocol; ``--full --set ...`` runs it as a departure under its own name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["PaperProtocol", "resolve_paper"]
+
+
+@dataclass(frozen=True)
+class PaperProtocol:
+    """The paper's settings for one experiment.
+
+    Attributes
+    ----------
+    settings : dict
+        Every setting of the experiment (the same keys as its ``quick`` and ``full``), at the
+        paper's values where the paper states them.
+    fixed : tuple of str
+        Keys whose value the paper states; ``--paper`` refuses to override them.
+    readings : dict
+        Setting -> the paper's words where it is ambiguous; such a setting takes each reading
+        (its value in ``settings`` runs both where the experiment can).
+    departures : tuple of str
+        Where this mode still departs from the paper, one sentence each (data the paper used
+        that qdensity cannot ship, a sweep not run, ...).
+    source : str
+        Where in the paper the settings are stated.
+    """
+
+    settings: Mapping[str, Any]
+    fixed: tuple[str, ...] = ()
+    readings: Mapping[str, str] = field(default_factory=dict)
+    departures: tuple[str, ...] = ()
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.fixed) - set(self.settings))
+        if unknown:
+            raise ValueError(f"fixed names settings {unknown} that the protocol lacks; known: "
+                             f"{sorted(self.settings)}")
+        overlap = sorted(set(self.fixed) & set(self.readings))
+        if overlap:
+            raise ValueError(f"settings {overlap} are both fixed and ambiguous; the paper "
+                             "either states them or leaves them open")
+
+
+def resolve_paper(name: str, protocol: PaperProtocol | None, config: Mapping | None) -> dict:
+    """The ``--paper`` settings of experiment ``name`` with ``config``'s overrides.
+
+    Parameters
+    ----------
+    name : str
+        Experiment name (for messages).
+    protocol : PaperProtocol or None
+        The experiment's protocol; None for an experiment beyond the paper's numerics.
+    config : mapping, optional
+        Overrides; only settings the paper does not fix.
+
+    Returns
+    -------
+    dict
+        The settings to run.
+
+    Raises
+    ------
+    ValueError
+        An experiment without a paper protocol, an unknown setting, or an override of a setting
+        the paper fixes (the message names it, the paper's value and the way to run it anyway).
+    TypeError
+        ``config`` not a mapping.
+    """
+    if protocol is None:
+        raise ValueError(f"experiment {name!r} has no --paper mode: the paper has no such "
+                         "experiment; run --quick or --full")
+    base = dict(protocol.settings)
+    if config is None:
+        return base
+    if not isinstance(config, Mapping):
+        raise TypeError(f"config must be a mapping of settings, got {type(config).__name__}")
+    unknown = sorted(set(config) - set(base))
+    if unknown:
+        raise ValueError(f"config has unknown settings {unknown} for experiment {name!r}; "
+                         f"known: {sorted(base)}")
+    fixed = [k for k in sorted(config) if k in protocol.fixed and config[k] != base[k]]
+    if fixed:
+        stated = ", ".join(f"{k}={base[k]!r}" for k in fixed)
+        raise ValueError(f"--paper fixes {stated} ({protocol.source or 'the paper'}); a run "
+                         f"with another value is not the paper's protocol: run --full with "
+                         f"--set instead. Settings --paper leaves open: "
+                         f"{sorted(set(base) - set(protocol.fixed))}")
+    base.update(config)
+    return base

@@ -1,0 +1,51 @@
+"""Figures: a model keeps its colour in every panel; confidence bands stay inside the plotted
+metric's range (a 2-seed accuracy interval reaches far outside [0, 1])."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from qdensity.experiments._common import curve, curve_colours, plot_curves
+from qdensity.experiments.registry import curve_summary
+from qdensity.experiments.results import ExperimentResult
+
+
+def test_colours_follow_labels_not_panel_order():
+    colours = curve_colours(["T_2", "vanilla", "density", "vanilla", "density"])
+    assert colours == {"T_2": "black", "vanilla": "C0", "density": "C1"}
+
+
+def test_bands_clipped_and_colours_fixed(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib")
+    from matplotlib.axes import Axes
+
+    per_seed = [{"curves": {"a/acc": curve([1, 2], [0.05, 0.95], "epoch", "test accuracy"),
+                            "b/acc": curve([1, 2], [0.5, 0.5], "epoch", "test accuracy"),
+                            "truth/fit": curve([1, 2], [1.0, 2.0], "x", "y")}},
+                {"curves": {"a/acc": curve([1, 2], [0.9, 0.1], "epoch", "test accuracy"),
+                            "b/acc": curve([1, 2], [0.6, 0.4], "epoch", "test accuracy"),
+                            "truth/fit": curve([1, 2], [1.0, 2.0], "x", "y")}}]
+    result = ExperimentResult("x", "quick", {}, [0, 1], per_seed,
+                              curves=curve_summary(per_seed))
+    assert min(result.curves["a/acc"]["low"]) < 0  # t with one degree of freedom
+    bands, lines = [], []
+    real_fill, real_plot = Axes.fill_between, Axes.plot
+    monkeypatch.setattr(Axes, "fill_between", lambda self, x, lo, hi, **kw: (
+        bands.append((np.asarray(lo), np.asarray(hi), kw["color"])), real_fill(self, x, lo, hi,
+                                                                              **kw))[1])
+    monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
+        lines.append((kw.get("label"), kw.get("color"))), real_plot(self, *a, **kw))[1])
+    labels = {"a/acc": "density", "b/acc": "vanilla", "truth/fit": "T_2"}
+    plot_curves(result, [("one", ["a/acc", "b/acc"]), ("two", ["truth/fit", "b/acc", "a/acc"])],
+                tmp_path / "f.png", labels=labels, y_labels=(None, "what is plotted"))
+    accuracy_bands = [(lo, hi) for lo, hi, colour in bands if colour != "black"]
+    assert len(accuracy_bands) == 4
+    for lo, hi in accuracy_bands:
+        assert lo.min() >= 0.0 and hi.max() <= 1.0
+    by_label: dict = {}
+    for label, colour in lines:
+        by_label.setdefault(label, set()).add(colour)
+    assert all(len(c) == 1 for c in by_label.values()), by_label
+    assert by_label["T_2"] == {"black"}
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
