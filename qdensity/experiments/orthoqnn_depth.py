@@ -9,7 +9,8 @@ round-robin layers ``k, ..., k + D - 1 (mod n - 1)`` with its own angles
 generator model; D = n - 1 has ``K`` full round-robin circuits. As the paper does, the ``K``
 sub-unitaries are first trained in parallel as models of their own (``pretrain_epochs``), then
 the density model ``f = W (sum_k alpha_k p_k) + b`` is initialised from them
-(:func:`qdensity.models.warm_start`, uniform trainable softmax alpha, read-out ``W, b`` the mean
+(:func:`qdensity.models.warm_start`; alpha a uniform trainable softmax, or with
+``mixture="moe"`` the paper's MoE gate alpha(x) started uniform; read-out ``W, b`` the mean
 of the sub-models' read-outs) and trained further (``epochs``). The pure model trains for
 ``pretrain_epochs + epochs`` epochs, so every curve has the same length.
 
