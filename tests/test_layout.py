@@ -29,6 +29,7 @@ LAYERS = [
     "datasets",
     "analysis",
     "circuits",
+    "hardware",
     "execution",
     "models",
     "gradients",

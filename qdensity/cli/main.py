@@ -218,8 +218,8 @@ def _cmd_build(args) -> int:
 
 
 def _cmd_transpile(args) -> int:
-    from qdensity.execution.resources import resource_report
-    from qdensity.execution.targets import get_target
+    from qdensity.hardware.resources import resource_report
+    from qdensity.hardware.targets import get_target
 
     qc = build_circuit(args.name, args.size, bind_seed=args.seed)
     target = get_target(args.target, qc.num_qubits, seed=args.seed, noise=False)
@@ -236,7 +236,7 @@ def _cmd_run(args) -> int:
     from qiskit.quantum_info import SparsePauliOp
 
     from qdensity.circuits.ansatze import round_robin
-    from qdensity.execution.targets import get_target
+    from qdensity.hardware.targets import get_target
     from qdensity.models.decompositions import by_moments
     from qdensity.models.density import DensityQNN, Encoding
 
@@ -361,7 +361,7 @@ def _cmd_sweep(args) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     from qdensity.cli import experiment
-    from qdensity.execution.targets import target_help
+    from qdensity.hardware.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
     shots = _int_in(1, MAX_CLI_SHOTS)

@@ -25,9 +25,9 @@ from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
-from qdensity.execution._device import check_for_device, check_width, device_of
 from qdensity.execution._independent import run_independent
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
+from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,

@@ -12,11 +12,11 @@ four ways:
 ``ps``
     Hamming-weight-1 post-selection: the same frequencies divided by the weight-1 fraction.
 ``m3``
-    mthree readout mitigation (:class:`~qdensity.execution.mitigation.ReadoutMitigator`)
+    mthree readout mitigation (:class:`~qdensity.hardware.mitigation.ReadoutMitigator`)
     on the counts, the unary entries of the quasi-distribution read off unrenormalised.
 ``m3_ps``
     Mitigation, then post-selection (divided by the mitigated weight-1 fraction), the
-    composition of :func:`~qdensity.execution.mitigation.mitigated_expectation`.
+    composition of :func:`~qdensity.execution.mitigated.mitigated_expectation`.
 
 The shots per data point are split over the sub-unitaries in proportion to ``alpha``
 (stratified sampling, :func:`allocate_shots`): a pure model (K = 1) and a density model get
@@ -30,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
 from qdensity.execution.plans import CircuitJob, measured
+from qdensity.hardware.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
 
 __all__ = ["VARIANTS", "allocate_shots", "DeviceOutputs", "device_outputs"]
 

@@ -25,9 +25,9 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.resources import compare_reports, resource_report
-from qdensity.execution.targets import get_target
 from qdensity.gradients.density import density_gradient_plan
+from qdensity.hardware.resources import compare_reports, resource_report
+from qdensity.hardware.targets import get_target
 from qdensity.learning.nn import Linear
 from qdensity.learning.training import QNNClassifier
 from qdensity.models.decompositions import by_moments

@@ -42,12 +42,12 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.snapshots import is_snapshot_name, snapshots_available
-from qdensity.execution.targets import get_target
 from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._noise_device import VARIANTS, device_outputs
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
+from qdensity.hardware.snapshots import is_snapshot_name, snapshots_available
+from qdensity.hardware.targets import get_target
 from qdensity.learning.estimators import QNNClassifier
 from qdensity.learning.nn import Linear
 from qdensity.models.decompositions import by_moments
@@ -198,7 +198,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         docstring).
     """
     c = check_config(config)
-    from qdensity.execution.mitigation import ReadoutMitigator
+    from qdensity.hardware.mitigation import ReadoutMitigator
 
     n, seed = c["num_qubits"], int(seed)
     X_tr, X_te, y_tr, y_te = _data(c, seed)

@@ -9,10 +9,10 @@ import pytest
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigation import ReadoutMitigator
-from qdensity.execution.targets import get_target
 from qdensity.experiments import noise, run
 from qdensity.experiments._noise_device import allocate_shots, device_outputs
+from qdensity.hardware.mitigation import ReadoutMitigator
+from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
 from qdensity.models.mixtures import SoftmaxMixture

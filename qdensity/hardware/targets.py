@@ -25,7 +25,7 @@ map and native gates to transpile against, a noise model, and factories for a se
     The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
     transpilation and sampling.
 ``fake_manila``, ``fake_torino``, ... (one per backend of ``qiskit_ibm_runtime.fake_provider``)
-    A calibrated device snapshot (:mod:`qdensity.execution.snapshots`): the real coupling map,
+    A calibrated device snapshot (:mod:`qdensity.hardware.snapshots`): the real coupling map,
     native gates, T1/T2, gate and readout errors of an IBM device. Needs the optional extra
     ``ibm``; ``num_qubits`` may be omitted (the device's size) and ``basis_gates`` is refused.
 """
@@ -45,19 +45,19 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.execution._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
-from qdensity.execution._lazy_noise import LazyNoise, NoiseModelField
-from qdensity.execution._native import (
+from qdensity.hardware._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
+from qdensity.hardware._lazy_noise import LazyNoise, NoiseModelField
+from qdensity.hardware._native import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
     _NativeXYSimulator,
     _rbs_native_target,
     _rbs_to_native,
 )
-from qdensity.execution._passmanagers import check_batch, transpile_with
-from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
-from qdensity.execution.noise import noise_model
-from qdensity.execution.snapshots import (
+from qdensity.hardware._passmanagers import check_batch, transpile_with
+from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
+from qdensity.hardware.noise import noise_model
+from qdensity.hardware.snapshots import (
     is_snapshot_name,
     snapshot_fields,
     snapshot_names,
@@ -314,10 +314,10 @@ class HardwareTarget:
         shots : int or None
             Default shots per PUB; None means 1024.
         method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
-            ``"auto"``: an :class:`~qdensity.execution.aer_sampling.AdaptiveSampler`, choosing
+            ``"auto"``: an :class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`, choosing
             per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
             active qubits from the measured crossover, 32 shots at 6; otherwise one
-            trajectory per shot; the table is in :mod:`~qdensity.execution.aer_sampling`).
+            trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).
             Any other value fixes Aer's method, as :meth:`simulator`.
         device : str
             As :meth:`simulator`.

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from qiskit.circuit import ControlFlowOp, QuantumCircuit, Store
 
-from qdensity.execution.targets import HardwareTarget, get_target
+from qdensity.hardware.targets import HardwareTarget, get_target
 from qdensity.validation import SeedLike, check_circuit
 
 __all__ = ["ResourceReport", "resource_report", "compare_reports", "METRICS", "DEFAULT_BASIS"]

@@ -1,6 +1,6 @@
 """Aer simulation method and options chosen per PUB, by the qubits it uses and its shots.
 
-:meth:`qdensity.execution.targets.HardwareTarget.sampler` returns an :class:`AdaptiveSampler`
+:meth:`qdensity.hardware.targets.HardwareTarget.sampler` returns an :class:`AdaptiveSampler`
 by default: a qiskit-aer ``SamplerV2`` that looks at every PUB before it runs and picks the Aer
 method with :func:`aer_options`. Aer simulates only the qubits a circuit acts on (its
 truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
