@@ -28,9 +28,16 @@ from collections.abc import Sequence
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.analysis.structure import HW_PRESERVING_GATES, is_hamming_weight_preserving
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
-__all__ = ["ReadoutMitigator", "hamming_weights"]
+__all__ = ["ReadoutMitigator", "hamming_weights", "fixed_hamming_weight", "MITIGATIONS",
+           "POSTSELECTIONS"]
+
+#: Readout mitigations a :class:`~qdensity.execution.engines.SamplerEngine` applies.
+MITIGATIONS = ("m3",)
+#: Post-selections a :class:`~qdensity.execution.engines.SamplerEngine` applies.
+POSTSELECTIONS = ("hamming_weight",)
 
 
 def hamming_weights(num_bits: int) -> np.ndarray:
@@ -126,6 +133,26 @@ class ReadoutMitigator:
             self.ledger.record("readout calibration", len(results), spent)
         self._calibrated.update(wanted)
 
+    def correct_counts(self, counts: dict, qubits: Sequence[int]) -> tuple[dict, float]:
+        """Mitigated quasi-probabilities of one row's counts, over its observed outcomes.
+
+        Parameters
+        ----------
+        counts : dict
+            ``{bitstring: count}``, clbit ``m - 1`` first (Qiskit's order), any width.
+        qubits : sequence of int, length m
+            Physical qubit measured into clbit ``j``.
+
+        Returns
+        -------
+        (dict, float)
+            ``{bitstring: quasi-probability}`` (sums to 1, may be slightly negative) and the
+            mitigation overhead ``M``.
+        """
+        self.calibrate(qubits)
+        q = self._m3.apply_correction(counts, list(qubits), return_mitigation_overhead=True)
+        return dict(q), float(q.mitigation_overhead)
+
     def correct(self, counts: np.ndarray, qubits: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """Mitigated quasi-probabilities of count rows measured on physical ``qubits``.
 
@@ -170,3 +197,81 @@ def _measured_qubits(compiled: QuantumCircuit, num_clbits: int) -> list[int]:
     if missing:
         raise ValueError(f"clbits {missing} are never measured in the compiled circuit")
     return [qubit_of[c] for c in range(num_clbits)]
+
+
+_FLIPS = frozenset({"x", "y"})  # on a definite bit: flip it (a phase does not matter)
+_DIAGONAL = frozenset({"rz", "z", "s", "sdg", "t", "tdg", "p", "cz", "cp", "rzz", "id"})
+_IGNORED = frozenset({"measure", "barrier", "delay"})
+
+
+def _preserving_leaf(op) -> bool:
+    if op.name in HW_PRESERVING_GATES:
+        return True
+    if op.definition is not None:
+        return False  # followed through its definition
+    qc = QuantumCircuit(op.num_qubits)
+    qc.append(op, range(op.num_qubits))
+    return is_hamming_weight_preserving(qc)
+
+
+def _walk(circuit: QuantumCircuit, qubits: list[int], bits: list, label: str,
+          top: str | None = None) -> int:
+    """Follow ``circuit`` on ``qubits`` (bits: 0/1 while a basis state, None once mixed);
+    returns the change of the Hamming weight."""
+    change = 0
+    for inst in circuit.data:
+        op = inst.operation
+        qs = [qubits[circuit.find_bit(q).index] for q in inst.qubits]
+        if op.name in _IGNORED or op.name in _DIAGONAL:
+            continue
+        if op.name in _FLIPS and bits[qs[0]] is not None:
+            bits[qs[0]] ^= 1
+            change += 1 if bits[qs[0]] else -1
+        elif _preserving_leaf(op):
+            for q in qs:
+                bits[q] = None
+        elif op.definition is not None:
+            change += _walk(op.definition, qs, bits, label, top or op.name)
+        else:
+            raise ValueError(
+                f"postselect='hamming_weight' cannot post-select job {label!r}: its gate "
+                f"{top or op.name!r} does not keep the Hamming weight fixed; supported are X "
+                f"gates on |0...0> followed by Hamming-weight-preserving gates ("
+                f"{', '.join(sorted(HW_PRESERVING_GATES - _IGNORED))}), measured in the Z "
+                f"basis (unary probabilities, Z-type observables)")
+    return change
+
+
+def fixed_hamming_weight(circuit: QuantumCircuit, label: str | None = None) -> int:
+    """The Hamming weight every ideal outcome of ``circuit`` (run on ``|0...0>``) has.
+
+    Read off the gates: X (or Y) gates on qubits still in a basis state flip them, then only
+    Hamming-weight-preserving gates (RBS, FBS, ``xx_plus_yy``, phases, ...) may act; composite
+    gates (loaders) are followed through their definitions.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Measured or not.
+    label : str, optional
+        Names the job in the error message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ValueError
+        A gate that does not keep the weight fixed (a basis rotation for an X or Y
+        observable, a Hadamard, a ``ry``, an X on a mixed qubit ...): such a readout cannot be
+        post-selected on its Hamming weight; the message names what is supported.
+
+    Examples
+    --------
+    >>> from qdensity.loaders import unary_loader
+    >>> fixed_hamming_weight(unary_loader([0.6, 0.8, 0.0]))
+    1
+    """
+    bits: list = [0] * circuit.num_qubits
+    return _walk(circuit, list(range(circuit.num_qubits)), bits, label or circuit.name)
