@@ -13,6 +13,8 @@ import numpy as np
 from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.hardware._basis import _ideal_basis
+
 __all__ = ["circuit_fingerprint", "unroll_misbound", "AER_MISBOUND_GATES", "TranspileCache",
            "TargetTranspiler", "AerTranspiler"]
 
@@ -141,8 +143,13 @@ class AerTranspiler:
     def __call__(self, circuit: QuantumCircuit) -> QuantumCircuit:
         from qiskit_aer import AerSimulator
 
-        return unroll_misbound(transpile(circuit, AerSimulator(), optimization_level=self.level,
-                                         seed_transpiler=self.seed))
+        sim = AerSimulator()
+        # AerSimulator's Target stops at the width a statevector fits in this machine's memory;
+        # wider circuits (matrix-product states) are compiled to its gates without it
+        where = ({"backend": sim} if circuit.num_qubits <= sim.num_qubits
+                 else {"basis_gates": list(_ideal_basis()) + ["measure", "reset", "delay"]})
+        return unroll_misbound(transpile(circuit, optimization_level=self.level,
+                                         seed_transpiler=self.seed, **where))
 
 
 class MarkedTranspiler:

@@ -148,3 +148,21 @@ def test_engine_pickles_and_repeats_its_counts():
         a, b = engine.run(plan.jobs)[0], copy.run(plan.jobs)[0]
         assert np.array_equal(a.bits, b.bits)
         assert plan.run(engine).value == pytest.approx(plan.run(copy).value, abs=1e-12)
+
+
+def test_estimator_trains_and_predicts_through_a_mitigated_engine():
+    from qdensity import QNNClassifier
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(6, 4))
+    y = np.array([0, 1, 0, 1, 0, 1])
+    engine = SamplerEngine(target=FakeManilaV2(), seed=1, progress=False, mitigation="m3",
+                           postselect="hamming_weight", calibration_shots=300)
+    clf = QNNClassifier(num_qubits=4, engine=engine, shots=64, epochs=1, batch_size=6,
+                        verbose=False, seed=0).fit(X, y)
+    labels = engine.ledger.by_label()
+    cal_circuits, cal_shots = labels.pop("readout calibration")
+    assert cal_shots == 300 * cal_circuits
+    # every other ledger entry is a training circuit row at 64 shots
+    assert all(shots == 64 * circuits for circuits, shots in labels.values())
+    assert set(clf.predict(X)) <= {0, 1}
