@@ -39,9 +39,9 @@ from qiskit.transpiler.passes import CheckMap, GatesInBasis
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
 from qdensity.ansatze import round_robin
 from qdensity.execution.engines import circuit_fingerprint
-from qdensity.execution.resources import resource_report
-from qdensity.execution.targets import get_target
 from qdensity.gradients import density_gradient_plan
+from qdensity.hardware.resources import resource_report
+from qdensity.hardware.targets import get_target
 
 
 def _model(n: int, k: int | None = None) -> DensityQNN:

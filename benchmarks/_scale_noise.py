@@ -3,9 +3,9 @@
 A density round-robin model's forward plan (16 rows) on a heavy-hex target, sampled through
 ``SamplerEngine(target=...)``. "plain" is Aer's SamplerV2 with its automatic method and no
 options; "branching" the previous default of ``target.sampler`` (``method="automatic"`` with
-:data:`qdensity.execution.targets.FAST_SAMPLER_OPTIONS` and shot branching turned back on,
+:data:`qdensity.hardware.targets.FAST_SAMPLER_OPTIONS` and shot branching turned back on,
 for its timing only: with noise it samples wrong distributions in qiskit-aer 0.18.2); "auto"
-today's default (:mod:`qdensity.execution.aer_sampling`: the method per PUB by active qubits
+today's default (:mod:`qdensity.hardware.aer_sampling`: the method per PUB by active qubits
 and shots). Wall and CPU seconds (``getrusage``, Aer's threads included) per million shots.
 Transpilation is done once in a warm-up and not timed.
 """
@@ -21,7 +21,7 @@ import numpy as np
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
 from qdensity.ansatze import round_robin
-from qdensity.execution.targets import get_target
+from qdensity.hardware.targets import get_target
 
 _KINDS = {"plain": {"method": "automatic", "fast": False},
           "branching": {"method": "automatic", "fast": True,

@@ -2,7 +2,8 @@
 
 ``circuits`` (gates, loaders, ansatze, preparations, tomography) make ``models`` (DensityQNN,
 mixtures, decompositions), which compile questions to plans that ``execution`` runs (engines,
-schedulers, targets); ``gradients``, ``learning``, ``experiments`` and ``cli`` build on them,
+schedulers) on the devices of ``hardware`` (targets, noise, transpilation, mitigation);
+``gradients``, ``learning``, ``experiments`` and ``cli`` build on them,
 ``analysis`` and ``datasets`` lie underneath. Imports only go down this list (CONTRIBUTING.md).
 
 The names below are loaded on first use (PEP 562), so ``import qdensity`` and the command line
@@ -48,10 +49,10 @@ _EXPORTS: dict[str, str] = {
     "ExactEngine": "qdensity.execution.engines",
     "SamplerEngine": "qdensity.execution.engines",
     "ShotLedger": "qdensity.execution.engines",
-    "get_target": "qdensity.execution.targets",
-    "known_targets": "qdensity.execution.targets",
-    "resource_report": "qdensity.execution.resources",
-    "compare_reports": "qdensity.execution.resources",
+    "get_target": "qdensity.hardware.targets",
+    "known_targets": "qdensity.hardware.targets",
+    "resource_report": "qdensity.hardware.resources",
+    "compare_reports": "qdensity.hardware.resources",
     "QNNClassifier": "qdensity.learning.estimators",
     "QNNRegressor": "qdensity.learning.estimators",
 }
@@ -92,7 +93,7 @@ __all__ = [
 ]  # the names of _EXPORTS, spelled out for linters
 
 _SUBMODULES = frozenset({"analysis", "circuits", "cli", "datasets", "execution", "experiments",
-                         "gradients", "learning", "models", "progress", "validation"})
+                         "gradients", "hardware", "learning", "models", "progress", "validation"})
 
 if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.analysis.structure import is_hamming_weight_preserving, moments
@@ -106,8 +107,8 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     )
     from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
     from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
-    from qdensity.execution.resources import compare_reports, resource_report
-    from qdensity.execution.targets import get_target, known_targets
+    from qdensity.hardware.resources import compare_reports, resource_report
+    from qdensity.hardware.targets import get_target, known_targets
     from qdensity.learning.estimators import QNNClassifier, QNNRegressor
     from qdensity.models.decompositions import (
         Decomposition,

@@ -30,6 +30,7 @@ LAYERS = [
     "datasets",
     "analysis",
     "circuits",
+    "hardware",
     "execution",
     "models",
     "gradients",

@@ -19,6 +19,8 @@ from collections.abc import Callable
 import numpy as np
 from qiskit import QuantumCircuit
 
+from qdensity.cli._devices import DEMO_OPTIONS, correction_options, corrections
+
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
 
 #: Widest circuit the ``build``, ``transpile`` and ``table1`` commands build.
@@ -218,17 +220,13 @@ def _cmd_build(args) -> int:
 
 
 def _cmd_transpile(args) -> int:
-    from qdensity.execution.resources import resource_report
-    from qdensity.execution.targets import get_target
+    from qdensity.hardware.resources import resource_report
 
     qc = build_circuit(args.name, args.size, bind_seed=args.seed)
-    target = get_target(args.target, qc.num_qubits, seed=args.seed, noise=False)
-    report = resource_report(qc, target, optimization_level=args.optimization_level,
+    # a name is sized to the circuit; a snapshot file is the device's size; noise off
+    report = resource_report(qc, args.target, optimization_level=args.optimization_level,
                              seed=args.seed)
-    if args.json:
-        _print_json(report.as_dict())
-    else:
-        print(report.table())
+    _print_json(report.as_dict()) if args.json else print(report.table())
     return 0
 
 
@@ -236,7 +234,7 @@ def _cmd_run(args) -> int:
     from qiskit.quantum_info import SparsePauliOp
 
     from qdensity.circuits.ansatze import round_robin
-    from qdensity.execution.targets import get_target
+    from qdensity.hardware.targets import get_target
     from qdensity.models.decompositions import by_moments
     from qdensity.models.density import DensityQNN, Encoding
 
@@ -254,7 +252,7 @@ def _cmd_run(args) -> int:
     if args.shots < K and args.scheduler != "per_shot":
         raise ValueError(f"--shots {args.shots} is smaller than the {K} sub-unitary circuits")
     result = model.train().sample(x, args.shots, scheduler=args.scheduler, target=target,
-                                  seed=args.seed)
+                                  seed=args.seed, **corrections(args))
     exact = float(model.eval().predict(x[None, :])[0])
     pilot = result.pilot_allocation
     out = {"model": f"round_robin_{n} by layers (K={K})", "target": target.label,
@@ -317,8 +315,7 @@ def _cmd_demo(args) -> int:
     if not args.no_plot and not Path(args.output).is_dir():
         raise ValueError(f"--output {args.output!r} is not an existing directory")
 
-    changes = {k: getattr(args, k) for k in ("seed", "budget", "shots")
-               if getattr(args, k) is not None}
+    changes = {k: getattr(args, k) for k in DEMO_OPTIONS if getattr(args, k) is not None}
     cfg = DemoConfig.quick(**changes) if args.quick else DemoConfig(**changes)
     results = run_demo(cfg, output_dir=args.output, plot=not args.no_plot,
                        verbose=not args.json, progress=True)
@@ -329,7 +326,7 @@ def _cmd_demo(args) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     from qdensity.cli import experiment, results, sweep
-    from qdensity.execution.targets import target_help
+    from qdensity.hardware.targets import target_help
 
     size = _int_in(1, MAX_CLI_QUBITS)
     shots = _int_in(1, MAX_CLI_SHOTS)
@@ -379,6 +376,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="input vector (default seeded random)")
     r.add_argument("--seed", type=_SEED, default=0,
                    help="seed of the model, the input, the target's errors and the shots")
+    correction_options(r)
     r.add_argument("--json", action="store_true",
                    help="print JSON: estimate, standard_error, allocation, pilot_allocation, "
                         "per_subunitary, shots_used (the ScheduleResult's fields)")
@@ -415,6 +413,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--shots", type=shots, help="shots per circuit")
     d.add_argument("--seed", type=_SEED, default=7,
                    help="seed of the data split, the models, the device's errors and the shots")
+    correction_options(d, target_help())
     d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
     d.add_argument("--quick", action="store_true", help="4 qubits, 3 classes, small budget")
     d.add_argument("--json", action="store_true",

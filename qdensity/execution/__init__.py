@@ -1,8 +1,8 @@
 """Running quantum questions: plans (circuit templates, parameter rows, shots,
 post-processing), engines that execute them (exact Aer probabilities, the adjoint statevector
 engine with its gradients, any ``SamplerV2`` with a shot ledger, the unary engine of Supp. F),
-shot schedulers for randomised density sampling (Fig. 1c), hardware targets, noise models and
-transpiled resource reports."""
+shot schedulers for randomised density sampling (Fig. 1c). Targets, noise, transpilation,
+resources and mitigation are the device's side: :mod:`qdensity.hardware`."""
 
 from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
@@ -14,8 +14,6 @@ from qdensity.execution.plans import (
     expectation_plan,
     probabilities_plan,
 )
-from qdensity.execution.resources import ResourceReport, compare_reports, resource_report
-from qdensity.execution.targets import HardwareTarget, get_target, known_targets
 
 __all__ = [
     "CircuitJob",
@@ -28,10 +26,4 @@ __all__ = [
     "AdjointEngine",
     "SamplerEngine",
     "ShotLedger",
-    "HardwareTarget",
-    "get_target",
-    "known_targets",
-    "ResourceReport",
-    "resource_report",
-    "compare_reports",
 ]

@@ -25,9 +25,27 @@ from qiskit import transpile
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
-from qdensity.execution._device import check_for_device, check_width, device_of
+from qdensity.execution._compile import (
+    AerTranspiler,
+    MarkedTranspiler,
+    TargetTranspiler,
+    TranspileCache,
+    _columns_for,
+    _measurement_map,  # noqa: F401  (the adjoint engine reads it here)
+    circuit_fingerprint,  # noqa: F401  (part of this module's interface since the first release)
+    unroll_misbound,
+)
+from qdensity.execution._correction import ReadoutCorrection
 from qdensity.execution._independent import run_independent
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
+from qdensity.hardware._device import check_for_device, check_width, device_of
+from qdensity.hardware.aer_sampling import (
+    AdaptiveSampler,
+    NoiselessSimulators,
+    active_qubits,
+    check_memory,
+)
+from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,
@@ -99,111 +117,6 @@ class ShotLedger:
         return "\n".join(lines)
 
 
-def circuit_fingerprint(circuit: QuantumCircuit) -> tuple:
-    """A hashable description of a template's structure (gates, qubits, clbits, parameter
-    expressions), so an identical template rebuilt later is recognised and not transpiled again."""
-    data = tuple(
-        (inst.operation.name,
-         tuple(circuit.find_bit(q).index for q in inst.qubits),
-         tuple(circuit.find_bit(c).index for c in inst.clbits),
-         tuple(_param_key(p) for p in inst.operation.params),
-         _operator_key(inst.operation))
-        for inst in circuit.data
-    )
-    return (circuit.num_qubits, circuit.num_clbits, tuple(p.name for p in circuit.parameters),
-            data)
-
-
-#: Parameterised gates that qiskit-aer 0.18 binds wrongly from parameter arrays (its results
-#: differ from bound circuits by up to 0.15 in probability): unrolled before running on Aer.
-AER_MISBOUND_GATES = ("crx", "cry", "crz", "cp", "cu1", "cu", "cu3")
-
-
-def unroll_misbound(circuit: QuantumCircuit) -> QuantumCircuit:
-    """Replace parameterised controlled rotations by their definitions (see
-    :data:`AER_MISBOUND_GATES`), recursively until none is left."""
-    for _ in range(4):
-        names = {inst.operation.name for inst in circuit.data
-                 if inst.operation.name in AER_MISBOUND_GATES
-                 and any(getattr(p, "parameters", None) for p in inst.operation.params)}
-        if not names:
-            return circuit
-        circuit = circuit.decompose(gates_to_decompose=sorted(names))
-    return circuit
-
-
-def _param_key(p):
-    if isinstance(p, np.ndarray):  # a matrix (UnitaryGate): str() would abbreviate it
-        return (p.shape, p.tobytes())
-    return str(p)
-
-
-def _operator_key(op) -> tuple:
-    """What a gate's name and angles leave out: a Pauli evolution's operator (XX and YY
-    evolutions share name and angle)."""
-    operator = getattr(op, "operator", None)
-    if operator is None:
-        return ()
-    ops = operator if isinstance(operator, list) else [operator]
-    out = []
-    for o in ops:
-        if hasattr(o, "paulis"):
-            out.append((tuple(o.paulis.to_labels()), tuple(complex(c) for c in o.coeffs)))
-        else:
-            out.append(str(o))
-    return tuple(out)
-
-
-class _TranspileCache:
-    """Transpile each distinct template once, recognised by :func:`circuit_fingerprint`."""
-
-    def __init__(self, transpiler: Callable[[QuantumCircuit], QuantumCircuit]):
-        self._transpiler = transpiler
-        self._store: dict[tuple, QuantumCircuit] = {}
-        self.misses = 0
-
-    def __call__(self, circuit: QuantumCircuit) -> QuantumCircuit:
-        key = circuit_fingerprint(circuit)
-        hit = self._store.get(key)
-        if hit is not None:
-            return hit
-        self.misses += 1
-        out = self._transpiler(circuit)
-        self._store[key] = out
-        return out
-
-
-def _columns_for(template: QuantumCircuit, compiled: QuantumCircuit) -> np.ndarray:
-    """Indices of ``template.parameters`` that survive in ``compiled`` (by name), in its order."""
-    index = {p.name: i for i, p in enumerate(template.parameters)}
-    return np.array([index[p.name] for p in compiled.parameters], dtype=int)
-
-
-def _measurement_map(circuit: QuantumCircuit) -> tuple[QuantumCircuit, list[int]]:
-    """Strip terminal measurements; return the bare circuit and the qubit of each clbit."""
-    bare = circuit.copy_empty_like()
-    qubit_of: dict[int, int] = {}
-    measured_qubits: set[int] = set()
-    for inst in circuit.data:
-        qs = [circuit.find_bit(q).index for q in inst.qubits]
-        if inst.operation.name == "measure":
-            c = circuit.find_bit(inst.clbits[0]).index
-            if c in qubit_of:
-                raise ValueError(f"clbit {c} is measured twice; the exact engine needs one final "
-                                 "measurement per clbit")
-            qubit_of[c] = qs[0]
-            measured_qubits.add(qs[0])
-            continue
-        if measured_qubits.intersection(qs) and inst.operation.name != "barrier":
-            raise ValueError("the exact engine supports terminal measurements only (gate "
-                             f"{inst.operation.name!r} acts after a measurement)")
-        bare.append(inst)
-    missing = [c for c in range(circuit.num_clbits) if c not in qubit_of]
-    if missing:
-        raise ValueError(f"clbits {missing} are never measured")
-    return bare, [qubit_of[c] for c in range(circuit.num_clbits)]
-
-
 class ExactEngine:
     """Exact outcome probabilities from an Aer simulator (no shots).
 
@@ -238,7 +151,7 @@ class ExactEngine:
         if device == "GPU" and "GPU" not in AerSimulator().available_devices():
             raise ValueError("device='GPU' needs qiskit-aer-gpu and a CUDA GPU; none is available")
         self.simulator = AerSimulator(method=method, noise_model=noise_model, device=device)
-        self._cache = _TranspileCache(self._prepare)
+        self._cache = TranspileCache(self._prepare)
 
     @property
     def transpile_count(self) -> int:
@@ -347,11 +260,17 @@ class SamplerEngine:
     Parameters
     ----------
     sampler : BaseSamplerV2, optional
-        Any V2 sampler (a hardware provider's included). Default: qiskit-aer's ``SamplerV2``
-        seeded with ``seed`` (noiseless unless a ``target`` is given).
-    target : qdensity.targets.HardwareTarget, optional
-        Where circuits are transpiled and, when ``sampler`` is None, whose noisy simulator
-        samples.
+        Any V2 sampler (a hardware provider's included). Default: qiskit-aer's, seeded with
+        ``seed``, choosing Aer's method per PUB
+        (:class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`: matrix-product states for
+        wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
+        before Aer allocates it), noiseless unless a ``target`` is given.
+    target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
+        Where circuits are transpiled and, when ``sampler`` is None, whose (noisy) simulator
+        samples: anything :func:`~qdensity.hardware.targets.get_target` accepts (a fake or real
+        backend, ``AerSimulator.from_backend(...)``, a ``Target``, a snapshot file, a name;
+        a name without a size gets the device's, so pass a ``HardwareTarget`` for sized ones).
+        A template wider than the device is refused before transpiling, naming both widths.
     transpiler : callable, optional
         ``QuantumCircuit -> QuantumCircuit``; overrides ``target``'s transpilation. With neither,
         circuits are transpiled for ``AerSimulator``.
@@ -361,17 +280,47 @@ class SamplerEngine:
         Written on every run; a fresh one is made if not given.
     default_shots : int
         Shots per row for jobs that do not say (exact jobs are sampled with this many).
+    optimization_level : int
+        Of the transpiler, 0 to 3.
     progress : bool
         On a terminal, a run that lasts longer than :attr:`progress_delay` seconds shows one
         bar per phase: ``transpile`` (templates) and ``sample`` (circuits, shots in the
         postfix). The sampler gets one call, so the ``sample`` bar's clock runs while it waits
         and the bar fills when the call returns. False (or no terminal): silent.
+    mitigation : {"m3"} or None
+        Readout-error mitigation of every job (mthree's M3, calibrated on ``target``'s
+        simulator or the provider sampler's backend; calibration shots go on the ledger as
+        ``"readout calibration"``, once per physical qubit).
+    postselect : {"hamming_weight"} or None
+        Keep only the shots whose Hamming weight is the one the ideal circuit keeps (read off
+        its gates: X gates on ``|0...0>`` then Hamming-weight-preserving gates, e.g. a unary
+        loader and RBS/FBS sub-unitaries); other readouts are refused with a ``ValueError``.
+    calibration_shots : int
+        Shots per M3 calibration circuit.
+
+    Notes
+    -----
+    With ``mitigation`` or ``postselect`` every result carries per-shot weights
+    (``JobResult.weights``, mean 1 per row) so that every plan the engine runs (expectations,
+    unary probabilities, gradient plans, schedulers) estimates ``sum_b q(b) f(b)`` over the
+    corrected distribution ``q``. Standard errors include the mitigation's own uncertainty:
+    they are those of ``N_eff = kappa N / M`` shots (``kappa`` the kept fraction, ``M``
+    mthree's mitigation overhead, the factor by which mitigation inflates the variance), with
+    the variance taken over ``q`` (:func:`~qdensity.execution.intervals.shot_mean`).
+
+    An engine pickles with its target, sampler and settings (standard ``pickle``); an
+    unpickled engine with ``mitigation`` calibrates again on first use.
 
     Examples
     --------
     Passing a hardware provider's primitive instead of Aer's::
 
         engine = SamplerEngine(sampler=provider_sampler, transpiler=pass_manager.run)
+
+    A device given as an object, with mitigation::
+
+        engine = SamplerEngine(target=FakeManilaV2(), mitigation="m3",
+                               postselect="hamming_weight", seed=1)
     """
 
     def __init__(
@@ -385,40 +334,47 @@ class SamplerEngine:
         default_shots: int = 1024,
         optimization_level: int = 1,
         progress: bool = True,
+        mitigation: str | None = None,
+        postselect: str | None = None,
+        calibration_shots: int = 4000,
     ):
         if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
                 or optimization_level not in (0, 1, 2, 3)):
             raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
                              f"levels), got {optimization_level!r}")
         seed = seed_int(seed)
+        if target is not None:
+            target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
-            if target is not None:
-                sampler = target.sampler(seed=seed)
-            else:
-                from qiskit_aer.primitives import SamplerV2
-
-                sampler = SamplerV2(seed=seed)
+            sampler = (target.sampler(seed=seed) if target is not None
+                       else AdaptiveSampler(NoiselessSimulators(seed), False, seed=seed))
         if not isinstance(sampler, BaseSamplerV2):
             raise TypeError(f"sampler must be a BaseSamplerV2, got {type(sampler).__name__}")
         self.sampler = sampler
+        self.target = target
         self._device = device_of(sampler)  # a provider's backend: circuits are checked against it
         if transpiler is None:
-            if target is not None:
-                def transpiler(c: QuantumCircuit) -> QuantumCircuit:
-                    return target.transpile(c, optimization_level=optimization_level, seed=seed)
-            else:
-                from qiskit_aer import AerSimulator
-
-                backend = AerSimulator()
-
-                def transpiler(c: QuantumCircuit) -> QuantumCircuit:
-                    return unroll_misbound(transpile(c, backend,
-                                                     optimization_level=optimization_level,
-                                                     seed_transpiler=seed))
-        self._cache = _TranspileCache(transpiler)
+            transpiler = (TargetTranspiler(target, optimization_level, seed)
+                          if target is not None else AerTranspiler(optimization_level, seed))
+        self._cache = TranspileCache(MarkedTranspiler(transpiler))
         self.ledger = ledger if ledger is not None else ShotLedger()
         self.default_shots = check_positive_int(default_shots, "default_shots")
         self.progress = bool(progress)
+        self._correction = None
+        if mitigation is not None or postselect is not None:
+            self._correction = ReadoutCorrection(
+                mitigation, postselect, target if target is not None else self._device,
+                calibration_shots, seed)
+
+    @property
+    def mitigation(self) -> str | None:
+        """The readout mitigation applied to every job (None: raw counts)."""
+        return None if self._correction is None else self._correction.mitigation
+
+    @property
+    def postselect(self) -> str | None:
+        """The post-selection applied to every job (None: every shot kept)."""
+        return None if self._correction is None else self._correction.postselect
 
     #: Seconds a phase must last before its progress bar draws.
     progress_delay: float = 1.0
@@ -436,6 +392,15 @@ class SamplerEngine:
         """The transpiled form of a template (transpiled once, then cached), as submitted."""
         return self._cache(circuit)
 
+    def _check_plain_aer(self, compiled: QuantumCircuit) -> None:
+        """A plain Aer ``SamplerV2`` (not adaptive): refuse a state that would not fit."""
+        from qiskit_aer.primitives import SamplerV2
+
+        if isinstance(self.sampler, SamplerV2) and not isinstance(self.sampler, AdaptiveSampler):
+            method = getattr(getattr(self.sampler, "_backend", None), "options", None)
+            method = getattr(method, "method", "automatic")
+            check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
+
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).
 
@@ -443,20 +408,30 @@ class SamplerEngine:
         each with its own seed (:mod:`qdensity.execution._independent`: Aer would give them
         the same random stream, correlating their shots).
 
-        When the sampler names its device (a provider's primitive), every template is checked
-        against it first: a job wider than the device or holding an instruction it cannot run
-        raises ``ValueError`` before anything is submitted. The ledger is written only once
-        the sampler's results are back, so a failed job leaves it unchanged.
+        Every template is checked first, before anything is submitted: against the device
+        when the sampler names one (a job wider than the device or holding an instruction it
+        cannot run), against the memory an Aer simulation would need, and against the
+        engine's mitigation and post-selection (a readout they cannot correct); each raises
+        ``ValueError``. The ledger is written only once the sampler's results are back, so a
+        failed job leaves it unchanged (readout calibrations excepted: they are spent).
         """
         jobs = list(jobs)
         pubs, metas = [], []
         bar = self._bar(len(jobs), "transpile", "template")
         for job in jobs:
+            label = job.label or job.circuit.name
             if self._device is not None:
-                check_width(job.circuit, self._device, job.label or job.circuit.name)
+                check_width(job.circuit, self._device, label)
+            if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
+                raise ValueError(f"job {label!r} needs {job.circuit.num_qubits} qubits but "
+                                 f"target {self.target.name!r} has {self.target.num_qubits}; "
+                                 f"use a wider device or a smaller model")
             compiled = self._cache(job.circuit)
             if self._device is not None:
-                check_for_device(compiled, self._device, job.label or job.circuit.name)
+                check_for_device(compiled, self._device, label)
+            self._check_plain_aer(compiled)
+            if self._correction is not None:
+                self._correction.check(job.circuit, compiled, label)
             cols = _columns_for(job.circuit, compiled)
             shots = job.shots if job.shots is not None else self.default_shots
             if compiled.num_parameters:
@@ -465,19 +440,23 @@ class SamplerEngine:
                 # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
                 # sample rows * shots at once and split them into rows below.
                 pubs.append((compiled, None, shots * job.rows))
-            metas.append((job, shots))
+            metas.append((job, shots, compiled))
             bar.update()
         bar.close()
         if not pubs:
             return []
-        rows = sum(job.rows for job, _ in metas)
+        rows = sum(job.rows for job, _, _ in metas)
         with self._bar(rows, "sample", "circuit") as bar:
-            bar.set_postfix(shots=sum(job.rows * shots for job, shots in metas), refresh=False)
+            bar.set_postfix(shots=sum(job.rows * shots for job, shots, _ in metas), refresh=False)
             raw = run_independent(self.sampler, pubs, lambda job: wait_for(job, bar))
             bar.update(rows)
         results = []
-        for (job, shots), pub_result in zip(metas, raw, strict=True):
+        for (job, shots, compiled), pub_result in zip(metas, raw, strict=True):
             bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
+            weights = n_eff = None
+            if self._correction is not None:
+                weights, n_eff = self._correction.weights(bits, compiled, self.ledger)
             self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
-            results.append(JobResult(None, shots, job, bits=bits))
+            results.append(JobResult(None, shots, job, bits=bits, weights=weights,
+                                     effective_shots=n_eff))
         return results

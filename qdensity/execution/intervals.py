@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["wilson_standard_error", "binomial_standard_error"]
+__all__ = ["wilson_standard_error", "binomial_standard_error", "shot_mean"]
 
 
 def wilson_standard_error(variance, shots, value_range_width=1.0) -> np.ndarray:
@@ -78,3 +78,62 @@ def binomial_standard_error(p, shots) -> np.ndarray:
     """
     p = np.asarray(p, dtype=float)
     return wilson_standard_error(p * (1.0 - p), shots, 1.0)
+
+
+def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=None,
+              ddof: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over shots of per-shot values and its standard error, raw or corrected.
+
+    Raw: the sample mean, error :func:`wilson_standard_error` of the sample variance. With
+    ``weights`` (readout mitigation and post-selection, see
+    :class:`~qdensity.execution.engines.SamplerEngine`): the value is
+    ``mean_s w_s x_s = sum_b q(b) x(b)`` with ``q`` the corrected distribution, and the error
+    ``sqrt(Var_q(x) / N_eff + R^2 / (4 N_eff^2))`` with ``Var_q`` taken over ``q`` clipped to
+    non-negative weights and ``N_eff = kappa N / M`` the effective shots (kept fraction
+    ``kappa``, mitigation overhead ``M``).
+
+    Parameters
+    ----------
+    per_shot : array_like, shape (rows, shots) or (rows, shots, k)
+    value_range_width : float or array_like
+        Width ``R`` of the interval each per-shot value lies in (broadcast against the mean).
+    weights : array_like, shape (rows, shots), optional
+        Per-shot weights with mean 1 per row.
+    effective_shots : array_like, shape (rows,), optional
+        ``N_eff`` per row (required with ``weights``).
+    ddof : int
+        Degrees of freedom of the raw sample variance.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Mean and standard error, each shape (rows,) or (rows, k).
+
+    Examples
+    --------
+    >>> m, se = shot_mean([[1.0, -1.0, 1.0, 1.0]], 2.0)
+    >>> float(m[0])
+    0.5
+    >>> m, _ = shot_mean([[1.0, -1.0]], 2.0, weights=[[1.5, 0.5]], effective_shots=[2.0])
+    >>> float(m[0])
+    0.5
+    """
+    x = np.asarray(per_shot, dtype=float)
+    if weights is None:
+        return x.mean(axis=1), wilson_standard_error(x.var(axis=1, ddof=ddof), x.shape[1],
+                                                     value_range_width)
+    w = np.asarray(weights, dtype=float)
+    if w.shape != x.shape[:2]:
+        raise ValueError(f"weights must have shape {x.shape[:2]} (rows, shots), got {w.shape}")
+    n_eff = np.asarray(effective_shots, dtype=float)
+    if n_eff.shape != (x.shape[0],) or np.any(n_eff <= 0):
+        raise ValueError(f"effective_shots must be {x.shape[0]} positive numbers, got "
+                         f"{effective_shots!r}")
+    wx = w.reshape(w.shape + (1,) * (x.ndim - 2))
+    mean = (wx * x).mean(axis=1)
+    q = np.clip(wx, 0.0, None)
+    q = q / np.maximum(q.sum(axis=1, keepdims=True), 1e-300)
+    var = np.maximum((q * x**2).sum(axis=1) - (q * x).sum(axis=1) ** 2, 0.0)
+    n = n_eff.reshape((-1,) + (1,) * (x.ndim - 2))
+    width = np.asarray(value_range_width, dtype=float)
+    return mean, np.sqrt(var / n + width**2 / (4.0 * n**2))

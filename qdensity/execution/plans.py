@@ -22,9 +22,10 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.analysis.pauli import MAX_DENSE_QUBITS, ZStringTable
+from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits.measure import measured
-from qdensity.execution.intervals import wilson_standard_error
+from qdensity.execution.intervals import shot_mean, wilson_standard_error
+from qdensity.execution.job_results import JobResult, bits_to_probabilities, unary_frequencies
 from qdensity.validation import (
     as_parameter_rows,
     check_circuit,
@@ -88,95 +89,6 @@ class CircuitJob:
     def rows(self) -> int:
         """Number of parameter rows (circuit executions)."""
         return int(self.values.shape[0])
-
-
-class JobResult:
-    """Outcomes of one job: exact probabilities, or the sampled bits.
-
-    Attributes
-    ----------
-    probabilities : numpy.ndarray, shape (rows, 2**num_clbits)
-        Exact probabilities, or empirical frequencies ``counts / shots`` built from ``bits``
-        on first access -- only up to :data:`~qdensity.validation.MAX_DENSE_QUBITS`
-        clbits (a ``ValueError`` above: estimate from ``bits``).
-    shots : int or None
-        Shots per row that produced the frequencies (``None`` when exact).
-    job : CircuitJob
-    bits : numpy.ndarray of bool, shape (rows, shots, num_clbits), or None
-        The measured bits of every shot (clbit ``j`` = column ``j``) when sampled; estimates
-        read parities and observed outcomes from them with memory ``O(rows x shots)``.
-    """
-
-    def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None):
-        if probabilities is None and bits is None:
-            raise ValueError("JobResult needs probabilities or bits")
-        self._probabilities = probabilities
-        self.shots = shots
-        self.job = job
-        self.bits = bits
-
-    @property
-    def probabilities(self) -> np.ndarray:
-        if self._probabilities is None:
-            self._probabilities = bits_to_probabilities(self.bits)
-        return self._probabilities
-
-    def __repr__(self) -> str:
-        what = "bits" if self._probabilities is None else "probabilities"
-        return f"JobResult({what}, shots={self.shots}, job={self.job!r})"
-
-
-def bits_to_probabilities(bits: np.ndarray) -> np.ndarray:
-    """Empirical frequencies ``(rows, 2**m)`` of sampled bits ``(rows, shots, m)``.
-
-    Raises
-    ------
-    ValueError
-        Above :data:`~qdensity.validation.MAX_DENSE_QUBITS` bits (the dense row would
-        need ``2**m`` entries): estimate from the bits instead.
-    """
-    rows, shots, m = bits.shape
-    if m > MAX_DENSE_QUBITS:
-        raise ValueError(
-            f"dense outcome frequencies over {m} clbits need 2**{m} entries per row; above "
-            f"MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS} estimate from the sampled bits "
-            "(JobResult.bits: parities, observed outcomes)"
-        )
-    ints = bits.astype(np.int64) @ (1 << np.arange(m, dtype=np.int64))
-    dim = 2**m
-    flat = ints + (np.arange(rows, dtype=np.int64) * dim)[:, None]
-    return np.bincount(flat.ravel(), minlength=rows * dim).reshape(rows, dim) / shots
-
-
-def unary_frequencies(result: JobResult, postselect: bool = False):
-    """Frequencies of the unary outcomes ``e_j`` (only bit ``j`` set), from bits or exact.
-
-    Parameters
-    ----------
-    result : JobResult
-    postselect : bool
-        Divide by the kept (Hamming-weight-1) fraction of each row.
-
-    Returns
-    -------
-    (numpy.ndarray (rows, m), numpy.ndarray (rows,))
-        The (post-selected) unary probabilities and the Hamming-weight-1 fraction per row.
-    """
-    if result.bits is not None:
-        b = result.bits
-        weight_one = b.sum(axis=-1) == 1
-        p = (b & weight_one[..., None]).mean(axis=1)
-    else:
-        probs = result.probabilities
-        m = int(round(np.log2(probs.shape[1])))
-        p = probs[:, 1 << np.arange(m)]
-    kept = p.sum(axis=1)
-    if postselect:
-        if np.any(kept <= 0):
-            raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
-                             "Hamming weight 1")
-        p = p / kept[:, None]
-    return p, kept
 
 
 @dataclass
@@ -266,9 +178,10 @@ def _expectation_post(num_rows, constant, diagonals, results: list[JobResult]) -
     for res, table in zip(results, diagonals, strict=True):
         if res.bits is not None:  # parities of the measured bits, never 2**n
             per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
-            value += per_shot.mean(axis=1)
-            var += wilson_standard_error(per_shot.var(axis=1), res.shots,
-                                         table.value_range()[0]) ** 2
+            mean, se = shot_mean(per_shot, table.value_range()[0], weights=res.weights,
+                                 effective_shots=res.effective_shots)
+            value += mean
+            var += se**2
             continue
         diag = table.dense()[:, 0]
         mean = res.probabilities @ diag
@@ -445,13 +358,16 @@ def probabilities_plan(
     Returns
     -------
     Plan
-        Post-processing returns the :class:`JobResult` (``probabilities`` of shape
-        (rows, 2**n)).
+        Post-processing returns the :class:`JobResult`: exact ``probabilities`` of shape
+        (rows, 2**n) (at most 24 qubits), or, sampled, the measured ``bits`` at any width
+        (unary frequencies and parities are read off them; the dense ``probabilities`` only
+        up to 24 qubits).
     """
     check_circuit(circuit)
-    check_width(circuit.num_qubits, engine="probabilities_plan (dense (rows, 2**n) outcome "
-                "probabilities)", alternative="the unary engine for RBS circuits, or sampled "
-                "estimates from the measured bits")
+    if shots is None:
+        check_width(circuit.num_qubits, engine="probabilities_plan without shots (dense "
+                    "(rows, 2**n) outcome probabilities)", alternative="the unary engine for "
+                    "RBS circuits, or shots= (sampled estimates from the measured bits)")
     job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
                      label)
     return Plan([job], _first_result, f"P(b) of {circuit.name}")

@@ -12,11 +12,12 @@ four ways:
 ``ps``
     Hamming-weight-1 post-selection: the same frequencies divided by the weight-1 fraction.
 ``m3``
-    mthree readout mitigation (:class:`~qdensity.execution.mitigation.ReadoutMitigator`)
-    on the counts, the unary entries of the quasi-distribution read off unrenormalised.
+    mthree readout mitigation by the engine (``SamplerEngine(mitigation="m3")``: per-shot
+    weights over the same shots), the unary entries of the corrected distribution read off
+    unrenormalised.
 ``m3_ps``
     Mitigation, then post-selection (divided by the mitigated weight-1 fraction), the
-    composition of :func:`~qdensity.execution.mitigation.mitigated_expectation`.
+    composition of :func:`~qdensity.execution.mitigated.mitigated_expectation`.
 
 The shots per data point are split over the sub-unitaries in proportion to ``alpha``
 (stratified sampling, :func:`allocate_shots`): a pure model (K = 1) and a density model get
@@ -30,8 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
+from qdensity.execution.job_results import bits_to_probabilities
 from qdensity.execution.plans import CircuitJob, measured
+from qdensity.hardware.mitigation import hamming_weights
 
 __all__ = ["VARIANTS", "allocate_shots", "DeviceOutputs", "device_outputs"]
 
@@ -89,13 +91,13 @@ class DeviceOutputs:
     Attributes
     ----------
     values : dict
-        Variant (``"raw"``, ``"ps"``, and with a mitigator ``"m3"``, ``"m3_ps"``) ->
+        Variant (``"raw"``, ``"ps"``, and with ``mitigation="m3"`` ``"m3"``, ``"m3_ps"``) ->
         numpy.ndarray (B, n) of estimated ``f(x)``.
     kept : dict
         ``"raw"`` (and ``"m3"``) -> numpy.ndarray (B,): the alpha-weighted Hamming-weight-1
         fraction of the raw (mitigated) distributions.
     overhead : numpy.ndarray, shape (B,)
-        mthree's mitigation overhead, alpha-weighted (ones without a mitigator).
+        mthree's mitigation overhead, alpha-weighted (ones without mitigation).
     shots : numpy.ndarray of int, shape (K,)
         Shots per sub-unitary per data point.
     two_qubit_gates : list of int
@@ -113,8 +115,7 @@ def _unary(dist: np.ndarray, n: int) -> np.ndarray:
     return dist[:, 1 << np.arange(n)]
 
 
-def device_outputs(model, X, *, engine: SamplerEngine, shots: int,
-                   mitigator: ReadoutMitigator | None = None) -> DeviceOutputs:
+def device_outputs(model, X, *, engine: SamplerEngine, shots: int) -> DeviceOutputs:
     """Sample every sub-unitary of ``model`` on ``X`` once; estimate ``f(x)`` four ways.
 
     Parameters
@@ -124,10 +125,11 @@ def device_outputs(model, X, *, engine: SamplerEngine, shots: int,
     X : array_like, shape (B, d)
     engine : SamplerEngine
         The (noisy) device; its ledger records one job per sub-unitary (label ``eval_k<k>``).
+        With ``mitigation="m3"`` (and no ``postselect``: the post-selected variants are read
+        off here) the ``m3`` and ``m3_ps`` estimates come from its shot weights; the overhead
+        is ``M = N / N_eff``.
     shots : int
         Shots per data point, split over the sub-unitaries by :func:`allocate_shots`.
-    mitigator : ReadoutMitigator, optional
-        Adds the ``m3`` and ``m3_ps`` estimates.
 
     Returns
     -------
@@ -135,6 +137,9 @@ def device_outputs(model, X, *, engine: SamplerEngine, shots: int,
     """
     if not isinstance(engine, SamplerEngine):
         raise TypeError(f"engine must be a SamplerEngine, got {type(engine).__name__}")
+    if engine.postselect is not None:
+        raise ValueError("device_outputs reads the post-selected variants off the shots itself; "
+                         "pass an engine without postselect")
     if model.readout != "unary_probabilities":
         raise ValueError(f"device_outputs needs readout='unary_probabilities', got "
                          f"{model.readout!r}")
@@ -146,7 +151,8 @@ def device_outputs(model, X, *, engine: SamplerEngine, shots: int,
                        f"eval_k{k}") for k in range(model.num_subunitaries)]
     results = engine.run(jobs)
     ones = hamming_weights(n) == 1
-    names = VARIANTS if mitigator is not None else VARIANTS[:2]
+    mitigated = engine.mitigation == "m3"
+    names = VARIANTS if mitigated else VARIANTS[:2]
     values = {v: np.zeros((X.shape[0], n)) for v in names}
     kept = {v: np.zeros(X.shape[0]) for v in names[::2]}
     overhead = np.zeros(X.shape[0])
@@ -156,13 +162,10 @@ def device_outputs(model, X, *, engine: SamplerEngine, shots: int,
         gates.append(sum(1 for inst in compiled.data if inst.operation.num_qubits == 2
                          and inst.operation.name not in ("barrier", "measure")))
         a = alpha[:, k:k + 1]
-        freq = res.probabilities
-        parts = {"raw": freq}
-        if mitigator is not None:
-            counts = np.rint(freq * job.shots)
-            quasi, over = mitigator.correct(counts, _measured_qubits(compiled, n))
-            parts["m3"] = quasi
-            overhead += alpha[:, k] * over
+        parts = {"raw": bits_to_probabilities(res.bits)}
+        if mitigated:
+            parts["m3"] = res.probabilities  # the shots weighted by the engine's M3
+            overhead += alpha[:, k] * job.shots / res.effective_shots
         else:
             overhead += alpha[:, k]
         for name, dist in parts.items():

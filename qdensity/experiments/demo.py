@@ -25,9 +25,9 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.resources import compare_reports, resource_report
-from qdensity.execution.targets import get_target
 from qdensity.gradients.density import density_gradient_plan
+from qdensity.hardware.resources import compare_reports, resource_report
+from qdensity.hardware.targets import get_target
 from qdensity.learning.nn import Linear
 from qdensity.learning.training import QNNClassifier
 from qdensity.models.decompositions import by_moments
@@ -63,7 +63,11 @@ class DemoConfig:
     seed : int
         Data split, models, device errors and shots.
     target : str
-        The noisy device (:func:`qdensity.targets.get_target`).
+        The noisy device (:func:`qdensity.targets.get_target`: a name, or a snapshot file).
+    mitigation : {"m3"} or None
+        Readout mitigation of the sampled training runs (``SamplerEngine(mitigation=...)``).
+    postselect : {"hamming_weight"} or None
+        Hamming-weight post-selection of the sampled training runs.
     curve_points : int
         About how many points the shots curve has (test accuracy is computed exactly there).
     """
@@ -80,6 +84,8 @@ class DemoConfig:
     seed: int = 7
     target: str = "heavy_hex"
     curve_points: int = 16
+    mitigation: str | None = None
+    postselect: str | None = None
 
     @classmethod
     def quick(cls, **changes) -> DemoConfig:
@@ -129,11 +135,13 @@ def _data(cfg: DemoConfig):
     return X_tr[keep_tr], X_te[keep_te], y_tr[keep_tr], y_te[keep_te]
 
 
-def _sampler_engine(target, seed: int) -> SamplerEngine:
+def _sampler_engine(target, seed: int, cfg: DemoConfig) -> SamplerEngine:
     """The target's default sampler (Aer's method per circuit: trajectories on one thread for
-    these 6-qubit circuits at 16 shots, the density matrix from 32)."""
+    these 6-qubit circuits at 16 shots, the density matrix from 32), with the configured
+    mitigation and post-selection."""
     # the training bar reports circuits and shots; the engine's own bars would repeat it
-    return SamplerEngine(target=target, seed=seed, progress=False)
+    return SamplerEngine(target=target, seed=seed, progress=False, mitigation=cfg.mitigation,
+                         postselect=cfg.postselect)
 
 
 def _classifier(cfg: DemoConfig, model: DensityQNN, **kwargs) -> QNNClassifier:
@@ -210,7 +218,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
         " (the ceilings)\n")
     every = max(1, cfg.budget // cfg.curve_points)
     for name, method in _MODELS:
-        engine = _sampler_engine(target, cfg.seed)
+        engine = _sampler_engine(target, cfg.seed, cfg)
         curve: list[tuple[int, float]] = []
 
         def checkpoint(est, step, curve=curve):

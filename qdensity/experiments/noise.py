@@ -42,12 +42,12 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.snapshots import is_snapshot_name, snapshots_available
-from qdensity.execution.targets import get_target
 from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._noise_device import VARIANTS, device_outputs
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
+from qdensity.hardware.snapshots import is_snapshot_name, snapshots_available
+from qdensity.hardware.targets import get_target
 from qdensity.learning.estimators import QNNClassifier
 from qdensity.learning.nn import Linear
 from qdensity.models.decompositions import by_moments
@@ -162,9 +162,9 @@ def _models(n: int, seed: int):
     return {"pure": pure, "density": dens}
 
 
-def _scores(est, X, y, engine, shots, mitigator) -> tuple[dict, object, np.ndarray]:
+def _scores(est, X, y, engine, shots) -> tuple[dict, object, np.ndarray]:
     """Test accuracy exact and four device ways, the device outputs and the exact outputs."""
-    dev = device_outputs(est.model_, X, engine=engine, shots=shots, mitigator=mitigator)
+    dev = device_outputs(est.model_, X, engine=engine, shots=shots)
     exact = est.model_.predict(X)
     acc = {"exact": float(est.score(X, y))}
     for name, out in dev.values.items():
@@ -173,9 +173,11 @@ def _scores(est, X, y, engine, shots, mitigator) -> tuple[dict, object, np.ndarr
     return acc, dev, exact
 
 
-def _sim_engine(target, seed: int, progress: bool = False) -> SamplerEngine:
+def _sim_engine(target, seed: int, progress: bool = False, mitigation: str | None = None,
+                calibration_shots: int = 4000) -> SamplerEngine:
     sampler = target.sampler(seed=seed, method="density_matrix")
-    return SamplerEngine(sampler, target=target, seed=seed, progress=progress)
+    return SamplerEngine(sampler, target=target, seed=seed, progress=progress,
+                         mitigation=mitigation, calibration_shots=calibration_shots)
 
 
 def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
@@ -198,18 +200,15 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         docstring).
     """
     c = check_config(config)
-    from qdensity.execution.mitigation import ReadoutMitigator
-
     n, seed = c["num_qubits"], int(seed)
     X_tr, X_te, y_tr, y_te = _data(c, seed)
     target = get_target(c["target"], None if is_snapshot_name(c["target"]) else n, seed=seed)
     if target.num_qubits < n:
         raise ValueError(f"setting 'num_qubits' ({n}) is wider than target {c['target']!r} "
                          f"({target.num_qubits} qubits)")
-    evaluator = _sim_engine(target, seed + 1)
-    mitigator = (ReadoutMitigator(target, shots=c["calibration_shots"], seed=seed + 2,
-                                  ledger=evaluator.ledger) if c["mitigation"] else None)
-    scores = SCORES if mitigator is not None else SCORES[:3]
+    evaluator = _sim_engine(target, seed + 1, mitigation="m3" if c["mitigation"] else None,
+                            calibration_shots=c["calibration_shots"])
+    scores = SCORES if c["mitigation"] else SCORES[:3]
     out: dict = {"curves": {}}
     curves = out["curves"]
     for name, model in _models(n, seed).items():
@@ -222,7 +221,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
             if step == 0 or (marks and spent >= marks[0]):
                 while marks and spent >= marks[0]:
                     marks.pop(0)
-                acc = _scores(est, X_te, y_te, evaluator, c["eval_shots"], mitigator)[0]
+                acc = _scores(est, X_te, y_te, evaluator, c["eval_shots"])[0]
                 points.append((spent, acc))
 
         engine = _sim_engine(target, seed)
@@ -232,7 +231,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
                             gradient=method, seed=seed, verbose=progress,
                             max_shots=c["budget"], callback=checkpoint)
         clf.fit(X_tr, y_tr)
-        acc, dev, exact = _scores(clf, X_te, y_te, evaluator, c["eval_shots"], mitigator)
+        acc, dev, exact = _scores(clf, X_te, y_te, evaluator, c["eval_shots"])
         if points[-1][0] == clf.layer_.shots_spent:  # the last step was a checkpoint already
             points.pop()
         points.append((clf.layer_.shots_spent, acc))
@@ -245,14 +244,14 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
             out[f"{name}/{v}_output_error"] = float(np.abs(dev.values[v] - exact).sum(1).mean())
         for v, kept in dev.kept.items():
             out[f"{name}/{v}_kept_fraction"] = float(kept.mean())
-        if mitigator is not None:
+        if c["mitigation"]:
             out[f"{name}/mitigation_overhead"] = float(dev.overhead.mean())
         out[f"{name}/two_qubit_gates_mean"] = float(np.mean(dev.two_qubit_gates))
         out[f"{name}/two_qubit_gates_max"] = float(np.max(dev.two_qubit_gates))
         out[f"{name}/train_shots"] = clf.layer_.shots_spent
         out[f"{name}/train_circuits"] = engine.ledger.total_circuits
         out[f"{name}/steps"] = len(clf.history_)
-        sweep = [_scores(clf, X_te, y_te, evaluator, int(s), mitigator)
+        sweep = [_scores(clf, X_te, y_te, evaluator, int(s))
                  for s in c["eval_shots_sweep"]]
         for s in scores:
             curves[f"{name}/{s}_vs_eval_shots"] = curve(c["eval_shots_sweep"],

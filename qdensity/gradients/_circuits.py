@@ -17,7 +17,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.blocks import _ATOL, _check_parameters
 from qdensity.analysis.pauli import ZStringTable
-from qdensity.execution.intervals import wilson_standard_error
+from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.plans import check_observable
 from qdensity.validation import check_circuit, check_rows_sum_to_one
 
@@ -87,7 +87,8 @@ class _GradientCircuits:
         circuits are estimated from sampled bits (:meth:`gradient_from_bits`)."""
         return [v.dense() for v in self._values]
 
-    def gradient_from_bits(self, bits) -> tuple[np.ndarray, np.ndarray]:
+    def gradient_from_bits(self, bits, weights=None,
+                           effective_shots=None) -> tuple[np.ndarray, np.ndarray]:
         """Gradient and standard error from the measured bits, never a ``2**n`` array.
 
         Each shot gives one value of every parameter's estimator (parities of its bits); the
@@ -99,6 +100,11 @@ class _GradientCircuits:
         ----------
         bits : sequence of numpy.ndarray of bool, each shape (rows, shots, width)
             Per circuit, in :attr:`circuits` order (clbit ``j`` = column ``j``).
+        weights, effective_shots : sequence, optional
+            Per circuit, a corrected run's per-shot weights ``(rows, shots)`` and effective
+            shots ``(rows,)`` (``JobResult.weights``, ``JobResult.effective_shots``; None for a
+            raw circuit): the estimate and its error are then
+            :func:`~qdensity.execution.intervals.shot_mean`'s weighted ones.
 
         Returns
         -------
@@ -118,9 +124,11 @@ class _GradientCircuits:
                 raise ValueError(f"bits[{c}] needs >= 2 shots to estimate a variance")
             rows = np.stack([table.on_bits(r) for r in b]) if b.shape[0] else np.zeros(
                 (0, b.shape[1], table.num_columns))
-            value = value + rows.mean(axis=1)
-            var = var + wilson_standard_error(rows.var(axis=1, ddof=1), b.shape[1],
-                                              table.value_range()) ** 2
+            w = None if weights is None else weights[c]
+            mean, se = shot_mean(rows, table.value_range(), weights=w, ddof=1,
+                                 effective_shots=None if w is None else effective_shots[c])
+            value = value + mean
+            var = var + se**2
         return np.asarray(value), np.sqrt(var)
 
     def _as_list(self, probs) -> list[np.ndarray]:

@@ -343,7 +343,9 @@ def _shift_unary_post(inner, unary, results):
 def _commuting_post(grads, shots, results):
     if shots is not None and all(r.bits is not None for r in results):
         # sampled: estimator values on the observed bits, never a 2**n array
-        parts = [g.gradient_from_bits([r.bits for r in results]) for g in grads]
+        parts = [g.gradient_from_bits([r.bits for r in results],
+                                      [r.weights for r in results],
+                                      [r.effective_shots for r in results]) for g in grads]
         return Estimate(np.stack([v for v, _ in parts], axis=1),
                         np.stack([e for _, e in parts], axis=1))
     probs = [r.probabilities for r in results]
@@ -368,7 +370,8 @@ def _forward_observable_post(inner, results):
 def _forward_unary_post(inner, unary, results):
     res = inner.postprocess(results)
     p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
-    se = binomial_standard_error(p, res.shots) if res.shots else np.zeros_like(p)
+    se = (binomial_standard_error(np.clip(p, 0.0, 1.0), res.sample_size) if res.shots
+          else np.zeros_like(p))
     return Estimate(p, se)
 
 

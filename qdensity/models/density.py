@@ -350,7 +350,7 @@ class DensityQNN:
 
     # ------------------------------------------------------------------ sampling (Fig. 1, Supp. I)
     def sample(self, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
-               seed=None):
+               seed=None, mitigation: str | None = None, postselect: str | None = None):
         """Estimate ``f(x)`` from shots, as the current mode prescribes (Supp. I).
 
         ``train()`` mode: the randomised density QNN (Fig. 1c): the shot budget is split over the
@@ -374,6 +374,10 @@ class DensityQNN:
             call seeded from ``seed`` so a pilot and a main phase are independent. Default:
             noiseless Aer.
         seed : int or Generator, optional
+        mitigation, postselect : str or None, optional
+            Without ``engine``: the fresh engines' readout corrections
+            (:class:`~qdensity.execution.engines.SamplerEngine`; each fresh engine calibrates
+            on the shared ledger). With ``engine``, set them on the engine.
 
         Returns
         -------
@@ -392,9 +396,13 @@ class DensityQNN:
         from qdensity.execution.intervals import wilson_standard_error
         from qdensity.execution.plans import CircuitJob, diagonal_values, measured
         from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
+        from qdensity.models._sampling import corrected_range, shot_values
         from qdensity.validation import check_positive_int
 
         budget = check_positive_int(budget, "budget")
+        if engine is not None and (mitigation is not None or postselect is not None):
+            raise ValueError("mitigation and postselect are options of the fresh engines "
+                             "sample() makes; with engine=..., set them on that engine")
         if self.readout != "observable" or np.any(self.observable.paulis.x):
             raise ValueError("sample() needs a diagonal (Z-type) observable readout")
         x = self._check_X(x)
@@ -410,7 +418,8 @@ class DensityQNN:
             nonlocal ledger
             if engine is not None:
                 return engine
-            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger)
+            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
+                                  postselect=postselect)
             ledger = fresh.ledger
             return fresh
 
@@ -447,10 +456,12 @@ class DensityQNN:
                 if s == 0:
                     out.append(np.zeros(0))
                     continue
-                counts = np.rint(next(results).probabilities[0] * s).astype(int)
-                out.append(values[np.repeat(np.arange(counts.size), counts)])
+                out.append(shot_values(next(results), values, s, len(out)))
             return out
 
+        if (mitigation is not None or postselect is not None
+                or (engine is not None and getattr(engine, "_correction", None) is not None)):
+            lo, hi = corrected_range(lo, hi)
         runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
         if scheduler not in runners:
             raise ValueError(f"scheduler must be one of {sorted(runners)}, got {scheduler!r}")

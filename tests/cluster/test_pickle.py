@@ -8,14 +8,13 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
-import pytest
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import hardware_efficient, round_robin
 from qdensity.execution.engines import ExactEngine, SamplerEngine
 from qdensity.execution.plans import expectation_plan
-from qdensity.execution.targets import get_target
 from qdensity.experiments.results import ExperimentResult
+from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
 
@@ -73,18 +72,6 @@ def test_a_result_pickles():
     assert _again(res).to_dict() == res.to_dict()
 
 
-def _sampler_engine_pickles() -> bool:
-    try:
-        pickle.dumps(SamplerEngine(target=get_target("heavy_hex", 3, seed=0), seed=3,
-                                   progress=False))
-    except Exception:  # noqa: BLE001 - whatever pickle raises for a local object
-        return False
-    return True
-
-
-@pytest.mark.xfail(not _sampler_engine_pickles(), strict=True,
-                   reason="fixed in the hardware branch (SamplerEngine holds a local "
-                          "transpiler function)")
 def test_a_sampler_engine_with_its_target_pickles():
     """The same seed after the round trip: the same counts, so the same estimates."""
     qc, values, obs, exact = _plan()

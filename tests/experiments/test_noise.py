@@ -9,10 +9,9 @@ import pytest
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigation import ReadoutMitigator
-from qdensity.execution.targets import get_target
 from qdensity.experiments import noise, run
 from qdensity.experiments._noise_device import allocate_shots, device_outputs
+from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
 from qdensity.models.mixtures import SoftmaxMixture
@@ -56,10 +55,10 @@ def test_device_outputs_noiseless_within_binomial_bounds():
     model = _density_model()
     X = np.random.default_rng(1).normal(size=(5, 4))
     target = get_target("line", 4, seed=2, noise=False)
-    engine = SamplerEngine(target=target, seed=5, progress=False)
-    mitigator = ReadoutMitigator(target, shots=200, seed=1, ledger=engine.ledger)
+    engine = SamplerEngine(target=target, seed=5, progress=False, mitigation="m3",
+                           calibration_shots=200)
     total = 6000
-    dev = device_outputs(model, X, engine=engine, shots=total, mitigator=mitigator)
+    dev = device_outputs(model, X, engine=engine, shots=total)
     alpha = model.alpha(X)[0]
     exact_k = model.expert_outputs(X)  # (B, K, n)
     exact = np.einsum("k,bkn->bn", alpha, exact_k)

@@ -19,8 +19,9 @@ from qdensity.circuits.loaders import unary_loader
 from qdensity.circuits.tomography import reconstruct, tomography_circuits
 from qdensity.execution.engines import ExactEngine, SamplerEngine
 from qdensity.execution.plans import CircuitJob, expectation_plan
-from qdensity.execution.runtime import runtime_engine, runtime_options, runtime_sampler
+from qdensity.execution.runtime_engine import runtime_engine
 from qdensity.gradients.density import density_gradient_plan
+from qdensity.hardware.runtime import runtime_options, runtime_sampler
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments
 

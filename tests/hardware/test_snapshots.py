@@ -12,13 +12,13 @@ from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 from qiskit_ibm_runtime.fake_provider import FakeManilaV2, FakeProviderForBackendV2
 
-import qdensity.execution.snapshots as snapshots
+import qdensity.hardware.snapshots as snapshots
 from qdensity.circuits.ansatze import round_robin
 from qdensity.cli import build_circuit, main
 from qdensity.execution.engines import ExactEngine, SamplerEngine
-from qdensity.execution.resources import resource_report
-from qdensity.execution.targets import get_target, known_targets
 from qdensity.gradients.density import density_gradient_plan
+from qdensity.hardware.resources import resource_report
+from qdensity.hardware.targets import get_target, known_targets
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments
 

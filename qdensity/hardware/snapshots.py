@@ -28,8 +28,8 @@ from qiskit.circuit.library import get_standard_gate_name_mapping
 from qiskit.providers import BackendV2
 from qiskit_aer.noise import NoiseModel
 
-from qdensity.execution._basis import _NON_GATES
-from qdensity.execution.noise import noise_from_backend
+from qdensity.hardware._basis import _NON_GATES
+from qdensity.hardware.noise import noise_from_backend
 from qdensity.validation import check_positive_int
 
 __all__ = [

@@ -2,7 +2,7 @@
 checks of the circuits given to ``HardwareTarget.transpile``).
 
 ``qiskit.transpile`` builds Qiskit's preset pass manager on every call (``generate_preset_pass_
-manager`` then ``run``). :meth:`~qdensity.execution.targets.HardwareTarget.transpile` is called
+manager`` then ``run``). :meth:`~qdensity.hardware.targets.HardwareTarget.transpile` is called
 once per template, so a model of 63 sub-unitaries rebuilt it 126 times for the same device.
 :func:`transpile_with` keeps the pass manager of each ``(target, level, seed)`` and runs it on the
 whole batch, which is exactly what ``qiskit.transpile`` does with the same arguments (the same

@@ -19,10 +19,10 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
-import qdensity.execution.targets as targets_mod
+import qdensity.hardware.targets as targets_mod
 from qdensity.circuits.gates import FBSGate, RBSGate
-from qdensity.execution.noise import noise_from_backend, noise_model
-from qdensity.execution.targets import (
+from qdensity.hardware.noise import noise_from_backend, noise_model
+from qdensity.hardware.targets import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
     HardwareTarget,

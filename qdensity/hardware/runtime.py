@@ -13,12 +13,13 @@ This module builds that pair for IBM's ``qiskit-ibm-runtime`` (the optional extr
 :func:`runtime_sampler` turns qdensity's few knobs (shots, seed, dynamical decoupling,
 twirling, any other runtime option) into the runtime's ``SamplerOptions``, validated when the
 sampler is made, so options the runtime rejects raise ``ValueError`` before any job is
-submitted; :func:`runtime_engine` adds the device's preset pass manager. ``mode`` is a backend
+submitted; :func:`qdensity.execution.runtime_engine.runtime_engine` adds the device's preset pass
+manager. ``mode`` is a backend
 (one job per :meth:`SamplerEngine.run`), or a ``qiskit_ibm_runtime.Batch`` that groups the many
 jobs of a training run or an experiment for the provider's scheduler.
 
 With a fake backend of ``qiskit_ibm_runtime.fake_provider`` (a calibrated device snapshot, see
-:mod:`qdensity.execution.snapshots`) the runtime runs in *local testing mode*: jobs are simulated
+:mod:`qdensity.hardware.snapshots`) the runtime runs in *local testing mode*: jobs are simulated
 by Aer with the snapshot's noise; ``default_shots`` and the seed are honoured, while dynamical
 decoupling and twirling are accepted, validated and carried in the options (they take effect on
 hardware; locally the runtime warns that they have no effect).
@@ -31,10 +32,9 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
-from qdensity.execution.engines import SamplerEngine, ShotLedger
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
-__all__ = ["runtime_available", "runtime_options", "runtime_sampler", "runtime_engine"]
+__all__ = ["runtime_available", "runtime_options", "runtime_sampler", "require_runtime"]
 
 _INSTALL = "pip install 'qdensity[ibm]' (or pip install qiskit-ibm-runtime)"
 _DD_SEQUENCES = ("XX", "XpXm", "XY4")
@@ -50,7 +50,8 @@ def runtime_available() -> bool:
     return importlib.util.find_spec("qiskit_ibm_runtime") is not None
 
 
-def _require_runtime() -> None:
+def require_runtime() -> None:
+    """Raise ``ValueError`` naming what to install when qiskit-ibm-runtime is missing."""
     if not runtime_available():
         raise ValueError(f"the provider's runtime client needs qiskit-ibm-runtime; install the "
                          f"optional extra: {_INSTALL}")
@@ -144,7 +145,7 @@ def runtime_sampler(mode, **knobs):
         Without the ``ibm`` extra, or for options the runtime rejects (its validation message
         is kept), before any job is submitted.
     """
-    _require_runtime()
+    require_runtime()
     from qiskit_ibm_runtime import SamplerV2
 
     opts = runtime_options(**knobs)
@@ -156,53 +157,3 @@ def runtime_sampler(mode, **knobs):
             return SamplerV2(mode=mode, options=opts)
         except ValueError as exc:  # pydantic's ValidationError is a ValueError
             raise ValueError(f"options {opts} are rejected by the runtime sampler: {exc}") from exc
-
-
-def runtime_engine(
-    backend,
-    *,
-    mode=None,
-    optimization_level: int = 1,
-    seed: SeedLike = None,
-    ledger: ShotLedger | None = None,
-    default_shots: int = 1024,
-    **knobs,
-) -> SamplerEngine:
-    """A :class:`SamplerEngine` on a provider's runtime sampler, transpiling for ``backend``.
-
-    Parameters
-    ----------
-    backend : qiskit.providers.BackendV2
-        The device (a ``qiskit_ibm_runtime.IBMBackend`` or a fake backend; for a snapshot
-        target, ``target.backend``).
-    mode : qiskit_ibm_runtime.Batch or Session, optional
-        Groups the engine's jobs; default: ``backend`` (one job per run).
-    optimization_level : int
-        Of ``generate_preset_pass_manager``.
-    seed : int or numpy.random.Generator, optional
-        Seeds transpilation and (local testing mode) simulation.
-    ledger : ShotLedger, optional
-    default_shots : int
-        Shots per row for jobs that do not say.
-    **knobs
-        ``dynamical_decoupling``, ``twirling``, ``options``: as :func:`runtime_options`.
-
-    Returns
-    -------
-    SamplerEngine
-        Its ``sampler`` is the runtime's; circuits are checked against ``backend`` before any
-        job is submitted.
-    """
-    _require_runtime()
-    from qiskit.providers import BackendV2
-    from qiskit.transpiler import generate_preset_pass_manager
-
-    if not isinstance(backend, BackendV2):
-        raise TypeError(f"backend must be a qiskit BackendV2, got {type(backend).__name__}")
-    seed_value = seed_int(seed)
-    sampler = runtime_sampler(backend if mode is None else mode, shots=default_shots,
-                              seed=seed_value, **knobs)
-    pm = generate_preset_pass_manager(optimization_level=optimization_level, backend=backend,
-                                      seed_transpiler=seed_value)
-    return SamplerEngine(sampler=sampler, transpiler=pm.run, ledger=ledger,
-                         default_shots=default_shots)

@@ -6,14 +6,14 @@ from qiskit import QuantumCircuit
 from qiskit.circuit import Parameter
 from scipy import stats
 
-from qdensity.execution.aer_sampling import (
+from qdensity.hardware.aer_sampling import (
     DENSITY_MATRIX_MAX_QUBITS,
     FAST_SAMPLER_OPTIONS,
     AdaptiveSampler,
     active_qubits,
     aer_options,
 )
-from qdensity.execution.targets import get_target
+from qdensity.hardware.targets import get_target
 
 
 def _ghz_ry(n: int) -> QuantumCircuit:

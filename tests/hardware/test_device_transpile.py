@@ -18,14 +18,14 @@ from qiskit.transpiler import PassManager
 from qiskit.transpiler.passes import CheckMap, GatesInBasis
 from qiskit_aer.noise import NoiseModel
 
-import qdensity.execution._lazy_noise as lazy_mod
-import qdensity.execution._passmanagers as pm_mod
+import qdensity.hardware._lazy_noise as lazy_mod
+import qdensity.hardware._passmanagers as pm_mod
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.ansatze import round_robin
 from qdensity.circuits.gates import RBSGate
-from qdensity.execution.resources import _IGNORED, DEFAULT_BASIS, _count, resource_report
-from qdensity.execution.targets import get_target
 from qdensity.gradients import density_gradient_plan
+from qdensity.hardware.resources import _IGNORED, DEFAULT_BASIS, _count, resource_report
+from qdensity.hardware.targets import get_target
 
 
 def _rbs_circuit(n: int, gates: int, seed: int, measure: bool = True) -> QuantumCircuit:

@@ -8,7 +8,7 @@ from qdensity.circuits.ansatze import pyramid
 from qdensity.circuits.loaders import unary_loader
 from qdensity.execution.engines import ExactEngine
 from qdensity.execution.plans import expectation_plan
-from qdensity.execution.targets import gpu_available
+from qdensity.hardware.targets import gpu_available
 
 pytestmark = pytest.mark.skipif(not gpu_available(),
                                 reason="needs qiskit-aer-gpu and a CUDA GPU (optional 'gpu' extra)")

@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 
 from qiskit.circuit import ControlFlowOp, QuantumCircuit, Store
 
-from qdensity.execution.targets import HardwareTarget, get_target
+from qdensity.hardware.snapshot_files import is_snapshot_path
+from qdensity.hardware.targets import as_target, get_target
 from qdensity.validation import SeedLike, check_circuit
 
 __all__ = ["ResourceReport", "resource_report", "compare_reports", "METRICS", "DEFAULT_BASIS"]
@@ -93,9 +94,15 @@ class ResourceReport:
         return self.table()
 
 
+def _size_for(target, width: int) -> int | None:
+    """The size to ask a named target for; None for devices of fixed size (their width is
+    checked against the circuit's by ``transpile``)."""
+    return width if isinstance(target, str) and not is_snapshot_path(target) else None
+
+
 def resource_report(
     circuit: QuantumCircuit,
-    target: HardwareTarget | str | None = None,
+    target=None,
     *,
     optimization_level: int = 1,
     seed: SeedLike = 0,
@@ -107,9 +114,11 @@ def resource_report(
     ----------
     circuit : QuantumCircuit
         Any circuit (parameters may stay free).
-    target : HardwareTarget, str or None, optional
-        A target, or a name for :func:`~qdensity.targets.get_target` (sized to the circuit,
-        seeded with ``seed``, built without its noise model, which does not change counts).
+    target : HardwareTarget, str, os.PathLike, BackendV2, qiskit.transpiler.Target or None
+        A target, or anything :func:`~qdensity.targets.get_target` accepts: a name (sized to
+        the circuit), a snapshot file, a backend or a ``Target`` (seeded with ``seed``, built
+        without its noise model, which does not change counts). A device narrower than the
+        circuit is refused before transpiling, naming both widths.
         Default: the noiseless ``"ideal"`` all-to-all target with basis
         ``("cz", "rz", "sx", "x")`` (the name ``"ideal"`` alone keeps every standard gate).
     optimization_level : int, optional
@@ -141,15 +150,9 @@ def resource_report(
         raise TypeError(f"transpiled must be a bool, got {transpiled!r}")
     if target is None:
         hw = get_target("ideal", max(circuit.num_qubits, 1), seed=seed, basis_gates=DEFAULT_BASIS)
-    elif isinstance(target, str):
-        # noise does not change counts and costs time to build: leave it off
-        hw = get_target(target, circuit.num_qubits, seed=seed, noise=False)
-    elif isinstance(target, HardwareTarget):
-        hw = target
     else:
-        raise TypeError(
-            f"target must be a HardwareTarget, a target name or None, got {type(target).__name__}"
-        )
+        # noise does not change counts and costs time to build: leave it off
+        hw = as_target(target, _size_for(target, circuit.num_qubits), seed=seed, noise=False)
     if transpiled:
         compiled = circuit
     else:

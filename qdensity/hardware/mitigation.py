@@ -1,4 +1,4 @@
-"""Readout-error mitigation (mthree) composed with Hamming-weight post-selection.
+"""Readout-error mitigation (mthree) and Hamming-weight post-selection.
 
 Two corrections of sampled estimates, each optional, applied in this order:
 
@@ -13,35 +13,31 @@ Two corrections of sampled estimates, each optional, applied in this order:
    leaks weight out of it. Keeping only weight-``w`` outcomes and renormalising removes that
    leak; the *kept fraction* ``kappa`` is the (mitigated) weight found there.
 
-:func:`mitigated_expectation` estimates a diagonal (Z-type) observable ``<H> = sum_b p(b) h(b)``
-this way. With ``q`` the corrected, post-selected distribution, ``N`` shots per row, the value
-is ``sum_b q(b) h(b)`` and its standard error ``sqrt(M Var_q(h) / (kappa N))``: the ``kappa N``
-shots that survive post-selection, inflated by the mitigation overhead (mthree's own
-error model). Without mitigation ``M = 1``, without post-selection ``kappa = 1``, and the
-estimate is the raw sample mean.
+:func:`qdensity.execution.mitigated.mitigated_expectation` estimates a diagonal (Z-type)
+observable ``<H> = sum_b p(b) h(b)`` this way. With ``q`` the corrected, post-selected
+distribution, ``N`` shots per row, the value is ``sum_b q(b) h(b)`` and its standard error
+``sqrt(M Var_q(h) / (kappa N))``: the ``kappa N`` shots that survive post-selection, inflated
+by the mitigation overhead (mthree's own error model). Without mitigation ``M = 1``, without
+post-selection ``kappa = 1``, and the estimate is the raw sample mean.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
-from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.engines import SamplerEngine, ShotLedger
-from qdensity.execution.plans import CircuitJob, check_observable, diagonal_values, measured
-from qdensity.validation import (
-    SeedLike,
-    as_parameter_rows,
-    check_circuit,
-    check_positive_int,
-    seed_int,
-)
+from qdensity.analysis.structure import HW_PRESERVING_GATES, is_hamming_weight_preserving
+from qdensity.validation import SeedLike, check_positive_int, seed_int
 
-__all__ = ["ReadoutMitigator", "MitigatedEstimate", "mitigated_expectation",
-           "hamming_weights"]
+__all__ = ["ReadoutMitigator", "hamming_weights", "fixed_hamming_weight", "MITIGATIONS",
+           "POSTSELECTIONS"]
+
+#: Readout mitigations a :class:`~qdensity.execution.engines.SamplerEngine` applies.
+MITIGATIONS = ("m3",)
+#: Post-selections a :class:`~qdensity.execution.engines.SamplerEngine` applies.
+POSTSELECTIONS = ("hamming_weight",)
 
 
 def hamming_weights(num_bits: int) -> np.ndarray:
@@ -79,9 +75,11 @@ class ReadoutMitigator:
         Shots per calibration circuit.
     seed : int or numpy.random.Generator, optional
         Seeds the target's simulator (ignored for a backend).
-    ledger : ShotLedger, optional
-        Calibration shots are recorded here (label ``"readout calibration"``); pass the
-        engine's ledger so the account of a mitigated run is complete.
+    ledger : qdensity.engines.ShotLedger, optional
+        Calibration shots are recorded here (label ``"readout calibration"``, through its
+        ``record(label, circuits, shots)``); pass the engine's ledger so the account of a
+        mitigated run is complete. Without one they are counted in
+        :attr:`calibration_shots` only.
 
     Notes
     -----
@@ -89,7 +87,7 @@ class ReadoutMitigator:
     """
 
     def __init__(self, system, *, shots: int = 4000, seed: SeedLike = None,
-                 ledger: ShotLedger | None = None):
+                 ledger=None):
         try:
             import mthree
         except ImportError as exc:  # pragma: no cover - the extra is installed in CI
@@ -104,7 +102,12 @@ class ReadoutMitigator:
                             f"{type(system).__name__}")
         self.system = system
         self.shots = check_positive_int(shots, "shots")
-        self.ledger = ledger if ledger is not None else ShotLedger()
+        if ledger is not None and not callable(getattr(ledger, "record", None)):
+            raise TypeError(f"ledger must be a ShotLedger (with record(label, circuits, "
+                            f"shots)) or None, got {type(ledger).__name__}")
+        self.ledger = ledger
+        #: Calibration shots spent so far.
+        self.calibration_shots = 0
         self._m3 = mthree.M3Mitigation(system)
         self._calibrated: set[int] = set()
 
@@ -124,8 +127,31 @@ class ReadoutMitigator:
                              f"(0..{self.system.num_qubits - 1})")
         jobs = self._m3.cals_from_system(wanted, shots=self.shots, async_cal=False)
         results = [exp for job in jobs for exp in job.result().results]
-        self.ledger.record("readout calibration", len(results), sum(r.shots for r in results))
+        spent = sum(r.shots for r in results)
+        self.calibration_shots += spent
+        if self.ledger is not None:
+            self.ledger.record("readout calibration", len(results), spent)
         self._calibrated.update(wanted)
+
+    def correct_counts(self, counts: dict, qubits: Sequence[int]) -> tuple[dict, float]:
+        """Mitigated quasi-probabilities of one row's counts, over its observed outcomes.
+
+        Parameters
+        ----------
+        counts : dict
+            ``{bitstring: count}``, clbit ``m - 1`` first (Qiskit's order), any width.
+        qubits : sequence of int, length m
+            Physical qubit measured into clbit ``j``.
+
+        Returns
+        -------
+        (dict, float)
+            ``{bitstring: quasi-probability}`` (sums to 1, may be slightly negative) and the
+            mitigation overhead ``M``.
+        """
+        self.calibrate(qubits)
+        q = self._m3.apply_correction(counts, list(qubits), return_mitigation_overhead=True)
+        return dict(q), float(q.mitigation_overhead)
 
     def correct(self, counts: np.ndarray, qubits: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """Mitigated quasi-probabilities of count rows measured on physical ``qubits``.
@@ -160,34 +186,6 @@ class ReadoutMitigator:
         return quasi, overhead
 
 
-@dataclass
-class MitigatedEstimate:
-    """An estimate after readout mitigation and post-selection.
-
-    Attributes
-    ----------
-    value : numpy.ndarray, shape (rows,)
-        Mitigated, post-selected value.
-    standard_error : numpy.ndarray, shape (rows,)
-        ``sqrt(M Var_q(h) / (kappa N))`` (see the module docstring).
-    kept_fraction : numpy.ndarray, shape (rows,)
-        ``kappa``: weight of the kept outcomes (1 without post-selection).
-    overhead : numpy.ndarray, shape (rows,)
-        ``M``: mitigation overhead (1 without mitigation).
-    shots : int
-        Shots per row ``N``.
-    """
-
-    value: np.ndarray
-    standard_error: np.ndarray
-    kept_fraction: np.ndarray
-    overhead: np.ndarray
-    shots: int
-
-    def __iter__(self):
-        return iter((self.value, self.standard_error))
-
-
 def _measured_qubits(compiled: QuantumCircuit, num_clbits: int) -> list[int]:
     """Physical qubit measured into each clbit of a compiled circuit (last measurement wins)."""
     qubit_of: dict[int, int] = {}
@@ -201,83 +199,79 @@ def _measured_qubits(compiled: QuantumCircuit, num_clbits: int) -> list[int]:
     return [qubit_of[c] for c in range(num_clbits)]
 
 
-def mitigated_expectation(
-    circuit: QuantumCircuit,
-    observable: SparsePauliOp,
-    values,
-    *,
-    engine: SamplerEngine,
-    shots: int,
-    mitigator: ReadoutMitigator | None = None,
-    postselect: int | None = 1,
-    label: str = "mitigated",
-) -> MitigatedEstimate:
-    """``<psi(values)| H |psi(values)>`` for a diagonal ``H``, mitigated and post-selected.
+_FLIPS = frozenset({"x", "y"})  # on a definite bit: flip it (a phase does not matter)
+_DIAGONAL = frozenset({"rz", "z", "s", "sdg", "t", "tdg", "p", "cz", "cp", "rzz", "id"})
+_IGNORED = frozenset({"measure", "barrier", "delay"})
+
+
+def _preserving_leaf(op) -> bool:
+    if op.name in HW_PRESERVING_GATES:
+        return True
+    if op.definition is not None:
+        return False  # followed through its definition
+    qc = QuantumCircuit(op.num_qubits)
+    qc.append(op, range(op.num_qubits))
+    return is_hamming_weight_preserving(qc)
+
+
+def _walk(circuit: QuantumCircuit, qubits: list[int], bits: list, label: str,
+          top: str | None = None) -> int:
+    """Follow ``circuit`` on ``qubits`` (bits: 0/1 while a basis state, None once mixed);
+    returns the change of the Hamming weight."""
+    change = 0
+    for inst in circuit.data:
+        op = inst.operation
+        qs = [qubits[circuit.find_bit(q).index] for q in inst.qubits]
+        if op.name in _IGNORED or op.name in _DIAGONAL:
+            continue
+        if op.name in _FLIPS and bits[qs[0]] is not None:
+            bits[qs[0]] ^= 1
+            change += 1 if bits[qs[0]] else -1
+        elif _preserving_leaf(op):
+            for q in qs:
+                bits[q] = None
+        elif op.definition is not None:
+            change += _walk(op.definition, qs, bits, label, top or op.name)
+        else:
+            raise ValueError(
+                f"postselect='hamming_weight' cannot post-select job {label!r}: its gate "
+                f"{top or op.name!r} does not keep the Hamming weight fixed; supported are X "
+                f"gates on |0...0> followed by Hamming-weight-preserving gates ("
+                f"{', '.join(sorted(HW_PRESERVING_GATES - _IGNORED))}), measured in the Z "
+                f"basis (unary probabilities, Z-type observables)")
+    return change
+
+
+def fixed_hamming_weight(circuit: QuantumCircuit, label: str | None = None) -> int:
+    """The Hamming weight every ideal outcome of ``circuit`` (run on ``|0...0>``) has.
+
+    Read off the gates: X (or Y) gates on qubits still in a basis state flip them, then only
+    Hamming-weight-preserving gates (RBS, FBS, ``xx_plus_yy``, phases, ...) may act; composite
+    gates (loaders) are followed through their definitions.
 
     Parameters
     ----------
     circuit : QuantumCircuit
-        Unmeasured state preparation with ``P`` free parameters (for a density QNN, one
-        sub-unitary's circuit with its encoding: ``model.circuit(k)``, rows ``model.rows(k, X)``).
-    observable : SparsePauliOp
-        Z-type (diagonal) observable on ``circuit.num_qubits`` qubits.
-    values : array_like, shape (rows, P) or (P,)
-    engine : SamplerEngine
-        Samples the circuit (one job, ``rows`` rows); its ledger records the shots.
-    shots : int
-        Shots per row.
-    mitigator : ReadoutMitigator, optional
-        Readout-error mitigation; None: raw counts.
-    postselect : int or None
-        Keep only outcomes of this Hamming weight (1 for unary models); None keeps all.
-    label : str
-        Ledger label of the job.
+        Measured or not.
+    label : str, optional
+        Names the job in the error message.
 
     Returns
     -------
-    MitigatedEstimate
+    int
 
     Raises
     ------
     ValueError
-        A non-diagonal observable, a row that keeps no outcome, or a bad weight.
+        A gate that does not keep the weight fixed (a basis rotation for an X or Y
+        observable, a Hadamard, a ``ry``, an X on a mixed qubit ...): such a readout cannot be
+        post-selected on its Hamming weight; the message names what is supported.
+
+    Examples
+    --------
+    >>> from qdensity.loaders import unary_loader
+    >>> fixed_hamming_weight(unary_loader([0.6, 0.8, 0.0]))
+    1
     """
-    check_circuit(circuit)
-    obs = check_observable(observable, circuit.num_qubits)
-    if np.any(obs.paulis.x):
-        raise ValueError("observable must be diagonal (Z-type) for mitigated_expectation")
-    if not isinstance(engine, SamplerEngine):
-        raise TypeError(f"engine must be a SamplerEngine, got {type(engine).__name__}")
-    if mitigator is not None and not isinstance(mitigator, ReadoutMitigator):
-        raise TypeError(f"mitigator must be a ReadoutMitigator or None, got "
-                        f"{type(mitigator).__name__}")
-    n = circuit.num_qubits
-    if postselect is not None and (isinstance(postselect, bool) or not isinstance(
-            postselect, (int, np.integer)) or not 0 <= postselect <= n):
-        raise ValueError(f"postselect must be None or an int in 0..{n}, got {postselect!r}")
-    shots = check_positive_int(shots, "shots")
-    vals = as_parameter_rows(values, circuit.num_parameters)
-    job = CircuitJob(measured(circuit), vals, shots, label)
-    probs = engine.run([job])[0].probabilities
-    counts = np.rint(probs * shots)
-    if mitigator is not None:
-        qubits = _measured_qubits(engine.compiled(job.circuit), job.circuit.num_clbits)
-        dist, overhead = mitigator.correct(counts, qubits)
-    else:
-        dist, overhead = counts / shots, np.ones(counts.shape[0])
-    h = diagonal_values(obs.paulis, np.real(obs.coeffs), n)
-    if postselect is not None:
-        mask = hamming_weights(n) == postselect
-        kept = dist[:, mask].sum(axis=1)
-        if np.any(kept <= 0):
-            raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
-                             f"Hamming weight {postselect}")
-        dist = np.where(mask[None, :], dist, 0.0) / kept[:, None]
-    else:
-        kept = np.ones(counts.shape[0])
-    value = dist @ h
-    weights = np.clip(dist, 0.0, None)
-    weights /= weights.sum(axis=1, keepdims=True)
-    var = np.maximum(weights @ h**2 - (weights @ h) ** 2, 0.0)
-    se = np.sqrt(overhead * var / (np.minimum(kept, 1.0) * shots))
-    return MitigatedEstimate(value, se, np.minimum(kept, 1.0), overhead, shots)
+    bits: list = [0] * circuit.num_qubits
+    return _walk(circuit, list(range(circuit.num_qubits)), bits, label or circuit.name)

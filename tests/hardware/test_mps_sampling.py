@@ -6,6 +6,7 @@ engine and with finite differences of it.
 """
 
 import numpy as np
+import pytest
 from qiskit.quantum_info import SparsePauliOp
 from qiskit_aer.primitives import SamplerV2
 
@@ -50,3 +51,51 @@ def test_mps_sampled_outputs_and_gradients_at_30_qubits_match_the_unary_engine()
             assert np.all(np.abs(jac[:, 0, c] - fd) <= bound)
             largest = max(largest, float(np.max(np.abs(fd) / (bound + 1e-12))))
     assert largest > 2  # some derivatives stand well clear of their error bars
+
+
+def test_default_engine_picks_mps_for_unary_probabilities_at_32_qubits():
+    """No sampler given: the engine's Aer sampler sees a Hamming-weight-1 circuit and runs it as
+    matrix-product states; unary probabilities come from the measured bits (no 2**32 table)."""
+    from qdensity.circuits.loaders import unary_loader
+    from qdensity.execution.plans import probabilities_plan, unary_frequencies
+    from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY
+
+    n, shots = 32, 4000
+    x = np.random.default_rng(1).normal(size=n)
+    x[:3] *= 4
+    engine = SamplerEngine(seed=0, progress=False)
+    res = probabilities_plan(unary_loader(x), [], shots=shots).run(engine)
+    compiled = engine.compiled(res.job.circuit)
+    assert compiled.metadata[HAMMING_WEIGHT_KEY] == 1
+    assert engine.sampler.choose(compiled, shots)["method"] == "matrix_product_state"
+    p, kept = unary_frequencies(res)
+    exact = x**2 / np.sum(x**2)
+    se = np.sqrt(np.maximum(exact * (1 - exact), 1 / shots) / shots)
+    assert kept[0] == 1.0
+    assert np.all(np.abs(p[0] - exact) <= 5 * se)
+
+
+def test_a_state_that_cannot_fit_is_refused_before_aer_allocates_it():
+    from qiskit import QuantumCircuit
+
+    from qdensity.execution.plans import CircuitJob
+    from qdensity.hardware.aer_sampling import memory_budget
+
+    n = 30
+    while 16 * 2**n <= memory_budget():  # wider than this machine's budget, whatever it is
+        n += 1
+    qc = QuantumCircuit(n)
+    for q in range(n):
+        qc.ry(0.1 * (q + 1), q)
+    for q in range(n - 1):
+        qc.cx(q, q + 1)
+    qc.measure_all()
+    engine = SamplerEngine(seed=0, progress=False)
+    job = CircuitJob(qc, np.zeros((1, 0)), 10)
+    pattern = rf"SamplerEngine.*automatic method on {n} active qubits needs.*matrix_product_state"
+    with pytest.raises(ValueError, match=pattern):
+        engine.run([job])
+    assert engine.ledger.total_shots == 0
+    plain = SamplerEngine(SamplerV2(seed=0), progress=False)  # a plain Aer sampler too
+    with pytest.raises(ValueError, match=rf"{n} active qubits needs"):
+        plain.run([job])

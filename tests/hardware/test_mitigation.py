@@ -12,12 +12,9 @@ from qiskit.quantum_info import SparsePauliOp, Statevector
 from qdensity.circuits.ansatze import pyramid, round_robin
 from qdensity.circuits.loaders import unary_loader
 from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigation import (
-    ReadoutMitigator,
-    hamming_weights,
-    mitigated_expectation,
-)
-from qdensity.execution.targets import get_target
+from qdensity.execution.mitigated import mitigated_expectation
+from qdensity.hardware.mitigation import ReadoutMitigator, hamming_weights
+from qdensity.hardware.targets import get_target
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments
 

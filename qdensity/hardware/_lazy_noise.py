@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from qiskit.providers import BackendV2
 
-from qdensity.execution.noise import noise_from_backend
+from qdensity.hardware.noise import noise_from_backend
 
 __all__: list[str] = []
 

@@ -25,9 +25,15 @@ map and native gates to transpile against, a noise model, and factories for a se
     The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
     transpilation and sampling.
 ``fake_manila``, ``fake_torino``, ... (one per backend of ``qiskit_ibm_runtime.fake_provider``)
-    A calibrated device snapshot (:mod:`qdensity.execution.snapshots`): the real coupling map,
+    A calibrated device snapshot (:mod:`qdensity.hardware.snapshots`): the real coupling map,
     native gates, T1/T2, gate and readout errors of an IBM device. Needs the optional extra
     ``ibm``; ``num_qubits`` may be omitted (the device's size) and ``basis_gates`` is refused.
+
+A device can also be handed over as an object or a file: any ``BackendV2`` (a fake backend,
+``GenericBackendV2``, a real ``IBMBackend``, ``AerSimulator.from_backend(...)``), a bare
+``qiskit.transpiler.Target`` (with an optional noise model), or the path of a snapshot file
+written by :func:`~qdensity.hardware.snapshot_files.save_snapshot`. Every size is bounded by
+4,096 qubits, checked before anything is built.
 """
 
 from __future__ import annotations
@@ -38,35 +44,36 @@ from dataclasses import dataclass, field
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.providers import BackendV2
-from qiskit.providers.fake_provider import GenericBackendV2
 from qiskit.transpiler import CouplingMap, Target
 from qiskit.transpiler.exceptions import TranspilerError
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.execution._basis import _NON_GATES, _check_basis, _check_level, _ideal_basis
-from qdensity.execution._lazy_noise import LazyNoise, NoiseModelField
-from qdensity.execution._native import (
+from qdensity.hardware._basis import _check_level, _ideal_basis
+from qdensity.hardware._lazy_noise import NoiseModelField
+from qdensity.hardware._named import heavy_hex_distance, named_fields
+from qdensity.hardware._native import (
     RBS_NATIVE_BASIS,
     RBS_NATIVE_NOISE,
     _NativeXYSimulator,
-    _rbs_native_target,
     _rbs_to_native,
 )
-from qdensity.execution._passmanagers import check_batch, transpile_with
-from qdensity.execution.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
-from qdensity.execution.noise import noise_model
-from qdensity.execution.snapshots import (
+from qdensity.hardware._objects import backend_fields, target_fields
+from qdensity.hardware._passmanagers import check_batch, transpile_with
+from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
+from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
+from qdensity.hardware.snapshots import (
     is_snapshot_name,
     snapshot_fields,
     snapshot_names,
 )
-from qdensity.validation import SeedLike, check_positive_int, seed_int
+from qdensity.validation import SeedLike, check_num_qubits, check_positive_int, seed_int
 
 __all__ = [
     "HardwareTarget",
     "get_target",
+    "as_target",
     "known_targets",
     "target_help",
     "gpu_available",
@@ -104,8 +111,9 @@ def target_help() -> str:
     -------
     str
     """
-    return (f"one of: {', '.join(_TARGETS)}, or a calibrated device snapshot fake_manila, "
-            f"fake_torino, ... (needs pip install 'qdensity[ibm]')")
+    return (f"one of: {', '.join(_TARGETS)}, a calibrated device snapshot fake_manila, "
+            f"fake_torino, ... (needs pip install 'qdensity[ibm]'), or the path of a snapshot "
+            f"file (.json, written by qdensity.hardware.snapshot_files.save_snapshot)")
 
 
 def gpu_available() -> bool:
@@ -116,29 +124,6 @@ def gpu_available() -> bool:
     bool
     """
     return "GPU" in AerSimulator().available_devices()
-
-
-def heavy_hex_distance(num_qubits: int) -> int:
-    """Smallest odd code distance ``d >= 3`` whose heavy-hex lattice has ``>= num_qubits`` qubits.
-
-    A distance-``d`` heavy-hex lattice (``CouplingMap.from_heavy_hex(d)``) has
-    ``(5 d^2 - 2 d - 1) / 2`` qubits.
-
-    Parameters
-    ----------
-    num_qubits : int
-        Requested size, ``>= 1``.
-
-    Returns
-    -------
-    int
-        ``3`` for up to 19 qubits, ``5`` up to 57, ``7`` up to 115, ...
-    """
-    n = check_positive_int(num_qubits, "num_qubits")
-    d = 3
-    while (5 * d * d - 2 * d - 1) // 2 < n:
-        d += 2
-    return d
 
 
 @dataclass(frozen=True, eq=False)
@@ -314,10 +299,10 @@ class HardwareTarget:
         shots : int or None
             Default shots per PUB; None means 1024.
         method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
-            ``"auto"``: an :class:`~qdensity.execution.aer_sampling.AdaptiveSampler`, choosing
+            ``"auto"``: an :class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`, choosing
             per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
             active qubits from the measured crossover, 32 shots at 6; otherwise one
-            trajectory per shot; the table is in :mod:`~qdensity.execution.aer_sampling`).
+            trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).
             Any other value fixes Aer's method, as :meth:`simulator`.
         device : str
             As :meth:`simulator`.
@@ -349,9 +334,7 @@ class HardwareTarget:
         if options is not None and not isinstance(options, dict):
             raise TypeError(f"options must be a dict of Aer options or None, got {options!r}")
         if method == "auto":
-            def make(m: str) -> AerSimulator:
-                return self.simulator(method=m, device=device, seed=sim_seed)
-
+            make = _TargetSimulators(self, device, sim_seed)
             return AdaptiveSampler(make, self.is_noisy, seed=sim_seed,
                                    default_shots=default_shots, options=options)
         sim = self.simulator(method=method, device=device, seed=sim_seed)
@@ -365,24 +348,42 @@ class HardwareTarget:
 HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
 
 
+class _TargetSimulators:
+    """``make_simulator`` of a target's :class:`AdaptiveSampler` (picklable)."""
+
+    def __init__(self, target: HardwareTarget, device: str, seed: int | None):
+        self.target, self.device, self.seed = target, device, seed
+
+    def __call__(self, method: str) -> AerSimulator:
+        return self.target.simulator(method=method, device=self.device, seed=self.seed)
+
+
 def get_target(
-    name: str,
+    name,
     num_qubits: int | None = None,
     *,
     seed: SeedLike = 0,
     noise: bool = True,
     basis_gates: Sequence[str] | None = None,
+    noise_model: NoiseModel | None = None,
 ) -> HardwareTarget:
-    """Build a named hardware target (see the module docstring for the catalogue).
+    """Build a hardware target from a name, a snapshot file, a backend or a ``Target``.
 
     Parameters
     ----------
-    name : str
-        One of :func:`known_targets`.
+    name : str, os.PathLike, qiskit.providers.BackendV2 or qiskit.transpiler.Target
+        One of :func:`known_targets` (the module docstring has the catalogue); a path to a
+        snapshot file (``.json``, :func:`~qdensity.hardware.snapshot_files.save_snapshot`);
+        any ``BackendV2`` (a fake backend, ``GenericBackendV2``, a real ``IBMBackend``,
+        ``AerSimulator.from_backend(...)``): its ``Target``, coupling map, native gates and,
+        for simulation, the noise model of its calibration (``NoiseModel.from_backend``, built
+        on first read; an ``AerSimulator``'s own noise model); or a ``Target`` (noiseless
+        unless ``noise_model`` is given).
     num_qubits : int or None
-        Requested number of qubits: ``>= 1`` for ``ideal``, ``>= 2`` for devices with
-        two-qubit gates, ``>= 3`` for ``ring``. Optional for device snapshots (whose size is
-        fixed; a request wider than the device is refused), required otherwise.
+        Requested number of qubits, at most 4,096 (checked before anything is built): ``>= 1``
+        for ``ideal``, ``>= 2`` for devices with two-qubit gates, ``>= 3`` for ``ring``.
+        Optional for devices of fixed size (snapshots, backends, Targets: a request wider than
+        the device is refused), required otherwise.
     seed : int, numpy.random.Generator or None, optional
         Seeds the ``GenericBackendV2`` (its sampled T1/T2, gate and readout errors) and is the
         default seed of transpilation and simulation. Default 0.
@@ -391,7 +392,9 @@ def get_target(
     basis_gates : sequence of str or None, optional
         Native gates for ``ideal`` (default: every standard gate Aer simulates natively) and
         the ``GenericBackendV2`` targets (default ``cx, id, rz, sx, x``). Refused for
-        ``rbs_native``, whose gate set is its point.
+        ``rbs_native``, whose gate set is its point, and for devices of fixed size.
+    noise_model : qiskit_aer.noise.NoiseModel or None, optional
+        For a ``Target`` or a backend: the noise to simulate with (overrides the backend's).
 
     Returns
     -------
@@ -412,10 +415,26 @@ def get_target(
     >>> get_target("ideal", 3).noise_model is None
     True
     """
-    if not isinstance(name, str):
-        raise TypeError(f"name must be a str, one of {list(_TARGETS)}, got {name!r}")
     if not isinstance(noise, (bool, np.bool_)):
         raise TypeError(f"noise must be a bool, got {noise!r}")
+    if num_qubits is not None:
+        num_qubits = check_num_qubits(num_qubits)
+    device = load_snapshot(name) if is_snapshot_path(name) else name
+    if isinstance(device, (BackendV2, Target)):
+        if basis_gates is not None:
+            raise ValueError(f"basis_gates cannot be changed for a device given as a backend, "
+                             f"Target or snapshot file (its native gates are its own), got "
+                             f"{basis_gates!r}")
+        build = backend_fields if isinstance(device, BackendV2) else target_fields
+        fields = build(device, num_qubits, noise=bool(noise), noise_model=noise_model)
+        return HardwareTarget(**fields, seed=seed_int(seed))
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a target name (one of {list(_TARGETS)}, or a device "
+                        f"snapshot), a snapshot file path, a BackendV2 or a "
+                        f"qiskit.transpiler.Target, got {type(name).__name__}")
+    if noise_model is not None:
+        raise ValueError(f"noise_model is accepted with a backend or a Target; target {name!r} "
+                         f"builds its own (noise=False turns it off)")
     if is_snapshot_name(name):
         fields = snapshot_fields(name, num_qubits, noise=bool(noise), basis_gates=basis_gates)
         return HardwareTarget(**fields, seed=seed_int(seed))
@@ -424,60 +443,29 @@ def get_target(
     if num_qubits is None:
         raise ValueError(f"num_qubits is required for target {name!r} (only device snapshots "
                          "have a fixed size)")
-    n = check_positive_int(num_qubits, "num_qubits")
-    seed_value = seed_int(seed)
-    basis = _check_basis(basis_gates)
+    fields = named_fields(name, num_qubits, noise=bool(noise), basis_gates=basis_gates,
+                          seed=seed_int(seed))
+    return HardwareTarget(**fields, seed=seed_int(seed))
 
-    if name == "ideal":
-        gates = basis if basis is not None else _ideal_basis()
-        return HardwareTarget(
-            name=name, num_qubits=n, backend=None, coupling_map=None, basis_gates=gates,
-            noise_model=None, target=None, seed=seed_value,
-        )
+def as_target(target, num_qubits: int | None = None, *, seed: SeedLike = 0,
+              noise: bool = True) -> HardwareTarget:
+    """A :class:`HardwareTarget` as given, or :func:`get_target` of anything it accepts.
 
-    minimum = 3 if name == "ring" else 2
-    if n < minimum:
-        raise ValueError(
-            f"num_qubits must be >= {minimum} for target {name!r} (it has two-qubit gates"
-            f"{' on a cycle' if name == 'ring' else ''}), got {n}"
-        )
+    Parameters
+    ----------
+    target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target
+    num_qubits : int or None
+        Size for a named target (and the width a fixed-size device must have).
+    seed : int, numpy.random.Generator or None
+    noise : bool
 
-    if name == "rbs_native":
-        if basis is not None:
-            raise ValueError(
-                f"basis_gates cannot be changed for target 'rbs_native' (its native gates are "
-                f"{list(RBS_NATIVE_BASIS)}), got {list(basis)}"
-            )
-        model = noise_model(basis_gates=list(RBS_NATIVE_BASIS), **RBS_NATIVE_NOISE)
-        return HardwareTarget(
-            name=name, num_qubits=n, backend=None, coupling_map=CouplingMap.from_full(n),
-            basis_gates=RBS_NATIVE_BASIS, noise_model=model if noise else None,
-            target=_rbs_native_target(n), seed=seed_value,
-        )
-
-    if name == "all_to_all":
-        cmap = CouplingMap.from_full(n)
-    elif name == "line":
-        cmap = CouplingMap.from_line(n)
-    elif name == "ring":
-        cmap = CouplingMap.from_ring(n)
-    else:
-        cmap = CouplingMap.from_heavy_hex(heavy_hex_distance(n))
-    width = cmap.size()
-    try:
-        backend = GenericBackendV2(
-            width,
-            basis_gates=None if basis is None else list(basis),
-            coupling_map=cmap,
-            seed=seed_value,
-        )
-    except Exception as exc:  # GenericBackendV2 raises QiskitError on a basis it cannot use
-        raise ValueError(
-            f"basis_gates {list(basis) if basis else None} cannot build target {name!r}: {exc}"
-        ) from exc
-    gates = tuple(g for g in backend.operation_names if g not in _NON_GATES)
-    return HardwareTarget(
-        name=name, num_qubits=width, backend=backend, coupling_map=backend.coupling_map,
-        basis_gates=gates, noise_model=LazyNoise(backend) if noise else None,
-        target=backend.target, seed=seed_value,
-    )
+    Returns
+    -------
+    HardwareTarget
+    """
+    if isinstance(target, HardwareTarget):
+        if num_qubits is not None and num_qubits > target.num_qubits:
+            raise ValueError(f"num_qubits {num_qubits} is wider than target {target.name!r}, "
+                             f"which has {target.num_qubits} qubits")
+        return target
+    return get_target(target, num_qubits, seed=seed, noise=noise)

@@ -8,13 +8,13 @@ from qiskit import QuantumCircuit
 from qiskit.circuit import ParameterVector
 
 from qdensity.circuits.gates import RBSGate
-from qdensity.execution.resources import (
+from qdensity.hardware.resources import (
     METRICS,
     ResourceReport,
     compare_reports,
     resource_report,
 )
-from qdensity.execution.targets import HardwareTarget, get_target
+from qdensity.hardware.targets import HardwareTarget, get_target
 
 
 def test_three_czs_in_sequence():

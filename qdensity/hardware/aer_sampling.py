@@ -1,6 +1,6 @@
 """Aer simulation method and options chosen per PUB, by the qubits it uses and its shots.
 
-:meth:`qdensity.execution.targets.HardwareTarget.sampler` returns an :class:`AdaptiveSampler`
+:meth:`qdensity.hardware.targets.HardwareTarget.sampler` returns an :class:`AdaptiveSampler`
 by default: a qiskit-aer ``SamplerV2`` that looks at every PUB before it runs and picks the Aer
 method with :func:`aer_options`. Aer simulates only the qubits a circuit acts on (its
 truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
@@ -39,11 +39,20 @@ qiskit-aer 0.18.2 (see ``FAST_SAMPLER_OPTIONS``). Noiseless PUBs use Aer's ``aut
 method (one statevector per row, then sampled), one thread below 14 active qubits (where
 Aer's parallel state update starts), all threads above. Every choice binds parameter rows inside Aer
 (``runtime_parameter_bind_enable``).
+
+Device widths. A circuit that keeps Hamming weight 1 (a unary loader and RBS/FBS gates: the
+engine marks its compiled form with :data:`HAMMING_WEIGHT_KEY` in ``metadata``) has Schmidt
+rank at most 2 across every cut, so from :data:`MPS_FROM_QUBITS` active qubits it runs as
+``matrix_product_state`` (noise by trajectories, one per shot), at any width. Any other PUB
+whose statevector (``16 * 2 ** a`` bytes) or density matrix would not fit in
+:func:`memory_budget` is refused before Aer allocates anything (:func:`check_memory`), with a
+``ValueError`` that names the engine, the width and the alternatives.
 """
 
 from __future__ import annotations
 
 import copy
+import os
 from collections.abc import Callable
 
 import numpy as np
@@ -52,7 +61,14 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
 __all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
-           "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS"]
+           "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS", "MPS_FROM_QUBITS",
+           "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators"]
+
+#: ``metadata`` key of a compiled circuit whose ideal outcomes all have this Hamming weight.
+HAMMING_WEIGHT_KEY = "qdensity_hamming_weight"
+
+#: Active qubits from which Hamming-weight-1 circuits run as matrix-product states.
+MPS_FROM_QUBITS = 14
 
 #: Widest circuit (active qubits) the default sampler simulates with the density matrix.
 DENSITY_MATRIX_MAX_QUBITS = 12
@@ -122,7 +138,57 @@ def density_matrix_from(num_active: int) -> int:
     return 2 ** max(a - 1 if a <= 6 else a - 2, 0)
 
 
-def aer_options(num_active: int, shots: int, noisy: bool) -> dict:
+def memory_budget() -> int:
+    """Bytes a simulation may take: half of this machine's physical memory.
+
+    Returns
+    -------
+    int
+    """
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        total = 8 * 2**30
+    return int(total) // 2
+
+
+def _gib(n: float) -> str:
+    return f"{n / 2**30:.3g} GiB"
+
+
+def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") -> None:
+    """Refuse a simulation whose state would not fit in :func:`memory_budget`.
+
+    Parameters
+    ----------
+    num_active : int
+        Active qubits.
+    method : str
+        Aer method (``automatic`` is taken as ``statevector``; matrix-product states and
+        stabilizers are not dense and always pass).
+    engine : str
+        Named in the message.
+
+    Raises
+    ------
+    ValueError
+        Naming the engine, the width, the bytes needed and the alternatives.
+    """
+    per = {"statevector": 16 * 2.0**num_active, "automatic": 16 * 2.0**num_active,
+           "density_matrix": 16 * 4.0**num_active}.get(method)
+    if per is None or per <= memory_budget():
+        return
+    raise ValueError(
+        f"{engine}: Aer's {method} method on {num_active} active qubits needs {_gib(per)}, more "
+        f"than the {_gib(memory_budget())} this machine allows (half its memory); "
+        f"alternatives: Hamming-weight-1 circuits (a unary loader and RBS/FBS gates) run as "
+        f"matrix-product states automatically; a low-entanglement circuit can be sampled with "
+        f"sampler=target.sampler(method='matrix_product_state'); the unary engine computes "
+        f"RBS circuits exactly at any width; or use fewer qubits")
+
+
+def aer_options(num_active: int, shots: int, noisy: bool, hamming_weight: int | None = None
+                ) -> dict:
     """Aer options for a circuit on ``num_active`` qubits sampled ``shots`` times (see module).
 
     Parameters
@@ -133,6 +199,9 @@ def aer_options(num_active: int, shots: int, noisy: bool) -> dict:
         Shots per parameter row.
     noisy : bool
         Whether the simulator carries a (non-ideal) noise model.
+    hamming_weight : int or None
+        The fixed Hamming weight of the circuit's ideal outcomes when known: weight 1 runs as
+        ``matrix_product_state`` from :data:`MPS_FROM_QUBITS` active qubits.
 
     Returns
     -------
@@ -152,6 +221,8 @@ def aer_options(num_active: int, shots: int, noisy: bool) -> dict:
     if a < 0 or s < 1:
         raise ValueError(f"num_active must be >= 0 and shots >= 1, got {num_active}, {shots}")
     options = {"runtime_parameter_bind_enable": True, "shot_branching_enable": False}
+    if hamming_weight == 1 and a >= MPS_FROM_QUBITS:
+        return {**options, "method": "matrix_product_state", "max_parallel_threads": 1}
     if not noisy:
         return {**options, "method": "automatic",
                 "max_parallel_threads": 1 if a < _PARALLEL_STATE_QUBITS else 0}
@@ -207,7 +278,11 @@ class AdaptiveSampler(SamplerV2):
         -------
         dict
         """
-        return {**aer_options(active_qubits(circuit), shots, self._noisy), **self._overrides}
+        weight = (circuit.metadata or {}).get(HAMMING_WEIGHT_KEY)
+        a = active_qubits(circuit)
+        options = {**aer_options(a, shots, self._noisy, weight), **self._overrides}
+        check_memory(a, options["method"], "SamplerEngine (Aer SamplerV2)")
+        return options
 
     def _simulator(self, options: dict) -> AerSimulator:
         key = tuple(sorted(options.items()))
@@ -233,3 +308,19 @@ class AdaptiveSampler(SamplerV2):
             for i, res in zip(idx, results, strict=True):
                 out[i] = res
         return out
+
+
+class NoiselessSimulators:
+    """``make_simulator`` of a noiseless :class:`AdaptiveSampler`: ``AerSimulator(method=m)``
+    seeded (a module-level class, so samplers pickle).
+
+    Parameters
+    ----------
+    seed : int or None
+    """
+
+    def __init__(self, seed: int | None = None):
+        self.seed = seed
+
+    def __call__(self, method: str) -> AerSimulator:
+        return AerSimulator(method=method, seed_simulator=self.seed)

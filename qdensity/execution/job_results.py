@@ -1,0 +1,126 @@
+"""What an engine returns for one job: :class:`JobResult` (exact probabilities, or the
+measured bits of every shot with, for a corrected run, per-shot weights), and the frequencies
+read off it (:func:`bits_to_probabilities`, :func:`unary_frequencies`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from qdensity.validation import MAX_DENSE_QUBITS
+
+__all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
+
+
+class JobResult:
+    """Outcomes of one job: exact probabilities, or the sampled bits.
+
+    Attributes
+    ----------
+    probabilities : numpy.ndarray, shape (rows, 2**num_clbits)
+        Exact probabilities, or empirical frequencies ``counts / shots`` built from ``bits``
+        on first access -- only up to :data:`~qdensity.validation.MAX_DENSE_QUBITS`
+        clbits (a ``ValueError`` above: estimate from ``bits``).
+    shots : int or None
+        Shots per row that produced the frequencies (``None`` when exact).
+    job : CircuitJob
+    bits : numpy.ndarray of bool, shape (rows, shots, num_clbits), or None
+        The measured bits of every shot (clbit ``j`` = column ``j``) when sampled; estimates
+        read parities and observed outcomes from them with memory ``O(rows x shots)``.
+    weights : numpy.ndarray, shape (rows, shots), or None
+        Per-shot weights of a corrected run (readout mitigation, post-selection: see
+        :class:`~qdensity.execution.engines.SamplerEngine`), mean 1 per row: every estimate
+        is the weighted mean ``mean_s w_s f(b_s)``. None: raw shots.
+    effective_shots : numpy.ndarray, shape (rows,), or None
+        With ``weights``: ``N_eff = kappa N / M`` per row, the shots behind the standard
+        errors (kept fraction ``kappa``, mitigation overhead ``M``).
+    """
+
+    def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None,
+                 weights=None, effective_shots=None):
+        if probabilities is None and bits is None:
+            raise ValueError("JobResult needs probabilities or bits")
+        if (weights is None) != (effective_shots is None):
+            raise ValueError("JobResult needs weights and effective_shots together")
+        self._probabilities = probabilities
+        self.shots = shots
+        self.job = job
+        self.bits = bits
+        self.weights = weights
+        self.effective_shots = effective_shots
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        if self._probabilities is None:
+            self._probabilities = bits_to_probabilities(self.bits, self.weights)
+        return self._probabilities
+
+    @property
+    def sample_size(self):
+        """Shots behind a standard error: ``shots``, or ``effective_shots[:, None]`` of a
+        corrected run (broadcasts against ``(rows, k)`` estimates)."""
+        if self.weights is not None:
+            return np.asarray(self.effective_shots)[:, None]
+        return self.shots
+
+    def __repr__(self) -> str:
+        what = "bits" if self._probabilities is None else "probabilities"
+        return f"JobResult({what}, shots={self.shots}, job={self.job!r})"
+
+
+def bits_to_probabilities(bits: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """Empirical frequencies ``(rows, 2**m)`` of sampled bits ``(rows, shots, m)`` (weighted by
+    per-shot ``weights`` ``(rows, shots)`` of mean 1 when given: a corrected distribution).
+
+    Raises
+    ------
+    ValueError
+        Above :data:`~qdensity.validation.MAX_DENSE_QUBITS` bits (the dense row would
+        need ``2**m`` entries): estimate from the bits instead.
+    """
+    rows, shots, m = bits.shape
+    if m > MAX_DENSE_QUBITS:
+        raise ValueError(
+            f"dense outcome frequencies over {m} clbits need 2**{m} entries per row; above "
+            f"MAX_DENSE_QUBITS = {MAX_DENSE_QUBITS} estimate from the sampled bits "
+            "(JobResult.bits: parities, observed outcomes)"
+        )
+    ints = bits.astype(np.int64) @ (1 << np.arange(m, dtype=np.int64))
+    dim = 2**m
+    flat = ints + (np.arange(rows, dtype=np.int64) * dim)[:, None]
+    w = None if weights is None else np.asarray(weights, dtype=float).ravel()
+    return np.bincount(flat.ravel(), weights=w, minlength=rows * dim).reshape(rows, dim) / shots
+
+
+def unary_frequencies(result: JobResult, postselect: bool = False):
+    """Frequencies of the unary outcomes ``e_j`` (only bit ``j`` set), from bits or exact.
+
+    Parameters
+    ----------
+    result : JobResult
+    postselect : bool
+        Divide by the kept (Hamming-weight-1) fraction of each row.
+
+    Returns
+    -------
+    (numpy.ndarray (rows, m), numpy.ndarray (rows,))
+        The (post-selected) unary probabilities and the Hamming-weight-1 fraction per row.
+    """
+    if result.bits is not None:
+        b = result.bits
+        weight_one = b.sum(axis=-1) == 1
+        hits = b & weight_one[..., None]
+        if result.weights is None:
+            p = hits.mean(axis=1)
+        else:
+            p = np.einsum("rs,rsm->rm", np.asarray(result.weights, dtype=float), hits) / b.shape[1]
+    else:
+        probs = result.probabilities
+        m = int(round(np.log2(probs.shape[1])))
+        p = probs[:, 1 << np.arange(m)]
+    kept = p.sum(axis=1)
+    if postselect:
+        if np.any(kept <= 0):
+            raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
+                             "Hamming weight 1")
+        p = p / kept[:, None]
+    return p, kept
