@@ -39,9 +39,24 @@ def test_encoding_jacobian_angle_identity_and_custom_encodings_need_one():
     X = RNG.normal(size=(2, 3))
     np.testing.assert_array_equal(encoding_jacobian(Encoding.angle(3), X),
                                   np.broadcast_to(np.eye(3), (2, 3, 3)))
-    custom = Encoding(Encoding.angle(3).circuit, np.tanh, 3)
+    circ = Encoding.angle(3).circuit
     with pytest.raises(ValueError, match="kind 'other' need its jacobian"):
-        encoding_jacobian(custom, X)
+        encoding_jacobian(Encoding(circ, np.tanh, 3), X)
+    given = Encoding(circ, np.tanh, 3, jacobian=lambda Z: np.einsum(
+        "bi,ij->bij", 1 - np.tanh(Z) ** 2, np.eye(3)))
+    np.testing.assert_allclose(np.einsum("bii->bi", encoding_jacobian(given, X)),
+                               1 - np.tanh(X) ** 2)
+    with pytest.raises(ValueError, match=r"must have shape \(2, 3, 3\)"):
+        encoding_jacobian(Encoding(circ, np.tanh, 3, jacobian=lambda Z: Z), X)
+
+
+def test_a_custom_encoding_with_its_jacobian_gives_input_gradients():
+    """tanh before the angle encoding: d/dx against Aer finite differences."""
+    circ = Encoding.angle(2).circuit
+    enc = Encoding(circ, np.tanh, 2, jacobian=lambda Z: np.einsum(
+        "bi,ij->bij", 1 - np.tanh(Z) ** 2, np.eye(2)))
+    model = DensityQNN([hardware_efficient(2, 1)], None, encoding=enc, seed=7)
+    _check_against_aer(model)
 
 
 def _reuploading(x=None):
@@ -73,6 +88,10 @@ def _models():
 
 @pytest.mark.parametrize(("name", "model"), list(_models()), ids=[n for n, _ in _models()])
 def test_quantum_layer_input_gradient_matches_aer_finite_differences(name, model):
+    _check_against_aer(model)
+
+
+def _check_against_aer(model):
     layer = QuantumLayer(model, "exact")
     d = model.encoding.num_features if model.encoding is not None else model.num_qubits
     X = RNG.normal(size=(2, d)) + 0.3
