@@ -200,7 +200,7 @@ if numba is not None:
         psi[k] = c * a + mk * b
         psi[j] = c * b + mj * a
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _pauli(psi, n, x, z, cm, pos, npos, c, m):
         """``psi_k <- c psi_k + m f_k psi_{k^x}`` on the controlled positions (in place)."""
         low, free, outer = _blocks(n, pos, npos)
@@ -246,7 +246,7 @@ if numba is not None:
                     _pair(psi, base | lo, x, mk, mk * sxz, c)
             k = (k - free) & free
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _dense(psi, n, pos, npos, offs, mat, buf):
         d = 1 << npos
         for t in range(1 << (n - npos)):
@@ -259,7 +259,7 @@ if numba is not None:
                     s += mat[a, b] * buf[b]
                 psi[base + offs[a]] = s
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _row_forward(psi, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
                      offs, mat, inv, buf):
         for i in range(kind.shape[0]):
@@ -273,7 +273,7 @@ if numba is not None:
                 _pauli(psi, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i],
                        cos[g], -1j * sin[g] * phase[i])
 
-    @njit(cache=True, parallel=True)
+    @njit(cache=True, parallel=True, fastmath=True)
     def _forward_rows(states, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
                       npos, offs, mat, inv):
         for r in prange(states.shape[0]):
@@ -284,7 +284,7 @@ if numba is not None:
             _row_forward(psi, n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale, rot,
                          pos, npos, offs, mat, inv, buf)
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _forward_serial(states, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
                         npos, offs, mat, inv):
         buf = np.empty(offs.shape[1], dtype=np.complex128)
@@ -323,7 +323,7 @@ if numba is not None:
                 out[mm] += s * (b.conjugate() * a)
             lam[mm, k] = f * b
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _step_back_one(phi, lam, x, z, cm, low, free, outer, sxz, c, m, want):
         acc = 0j
         k = 0
@@ -363,7 +363,7 @@ if numba is not None:
             k = (k - free) & free
         return acc
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _step_back_diag_one(phi, lam, z, cm, low, free, outer, c, m):
         """One observable, a diagonal string with no Z bit below the block: pairs
         ``(k, k ^ h)`` with opposite signs."""
@@ -392,7 +392,7 @@ if numba is not None:
             k = (k - free) & free
         return acc
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _step_back(phi, lam, n, x, z, cm, pos, npos, c, m, want, out):
         """Accumulate ``sum_k conj(lam_k) f_k phi_{k^x}`` per observable into ``out`` (when
         ``want``) and apply ``c + m f P`` to ``phi`` and every ``lam`` (in place)."""
@@ -426,7 +426,7 @@ if numba is not None:
                     _back_pair(phi, lam, base | lo, x, sk, sk * sxz, c, m, want, out)
             k = (k - free) & free
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _row_backward(p, lr, r, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                       phase, scale, rot, pos, npos, offs, mat, inv, buf, acc):
         M = lr.shape[0]
@@ -447,7 +447,7 @@ if numba is not None:
                     for mm in range(M):
                         dtheta[r, mm, g] = 2.0 * scale[i] * (phase[i] * acc[mm]).imag
 
-    @njit(cache=True, parallel=True)
+    @njit(cache=True, parallel=True, fastmath=True)
     def _backward_rows(phi, lam, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                        phase, scale, rot, pos, npos, offs, mat, inv):
         for r in prange(phi.shape[0]):
@@ -456,7 +456,7 @@ if numba is not None:
             _row_backward(phi[r], lam[r], r, n, cos, sin, need, stop, dtheta, kind, xmask,
                           zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, buf, acc)
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath=True)
     def _backward_serial(phi, lam, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                          phase, scale, rot, pos, npos, offs, mat, inv):
         buf = np.empty(offs.shape[1], dtype=np.complex128)
