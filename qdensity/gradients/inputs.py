@@ -6,7 +6,8 @@ as re-uploaded features ``x[i]`` bound directly to the data parameters of ``U_k`
 
     d f / d x_i = sum_p (d f / d phi_p) (d phi_p / d x_i) + sum_{c: feature(c) = i} d f / d c
 
-where the circuit derivatives come from the adjoint engine (exact) or from shift rules, and
+where the circuit derivatives come from the adjoint engine (exact, :func:`input_jacobians`)
+or from shift rules on the data parameters (:func:`input_gradient_plan`, exact or sampled), and
 ``d phi / d x`` is the encoding's Jacobian (:func:`encoding_jacobian`): the identity for the
 angle encoding, the analytic derivative of the loader angles for the unary encoding
 (``phi = arctan2(a(T), a(S))`` per RBS, ``a`` a signed entry or a sub-norm), and the
@@ -15,11 +16,15 @@ angle encoding, the analytic derivative of the loader angles for the unary encod
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
+from qdensity.execution.plans import Estimate, Plan
 from qdensity.models.exact import ExactGradients, InputColumns
 
-__all__ = ["encoding_jacobian", "loader_angles_jacobian", "input_jacobian", "input_jacobians"]
+__all__ = ["encoding_jacobian", "loader_angles_jacobian", "input_jacobian", "input_jacobians",
+           "input_gradient_plan"]
 
 
 def loader_angles_jacobian(X, layout: str = "parallel") -> np.ndarray:
@@ -150,3 +155,77 @@ def input_jacobians(model, X, gradients: ExactGradients) -> list[np.ndarray]:
     """
     return [input_jacobian(model, X, cols, jac) for cols, jac in
             zip(gradients.data_columns, gradients.data_jacobians, strict=True)]
+
+
+def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
+    """Plan for ``d f_k / d x`` of every sub-unitary by shift rules on the data parameters.
+
+    The circuit ``V(x) U_k`` is differentiated w.r.t. every data-carrying parameter (the
+    encoding's and the re-uploaded ``x[i]``) with the rules of
+    :func:`~qdensity.gradients.shift.parameter_shift_plan` (two terms for Pauli rotations,
+    four for RBS), then chained to the features as in :func:`input_jacobian`. Runs on any
+    engine: exact, or sampled with ``shots`` per circuit.
+
+    Parameters
+    ----------
+    model : DensityQNN
+        With ``readout="observable"``.
+    X : array_like, shape (B, d)
+    shots : int, optional
+        Shots per shifted circuit; exact when None.
+
+    Returns
+    -------
+    Plan
+        Post-processing returns a list of K :class:`~qdensity.plans.Estimate` of shape
+        (B, 1, d) (standard errors propagated through the chain rule, shifted circuits being
+        independent). ``plan.meta["input_circuits"]`` is the number of circuits per data point,
+        summed over the sub-unitaries.
+
+    Raises
+    ------
+    ValueError
+        For another readout (its 2**n outcome probabilities are not estimated here).
+    """
+    from qdensity.gradients.shift import parameter_shift_plan
+    from qdensity.models.exact import input_columns
+
+    if model.readout != "observable":
+        raise ValueError(f"input_gradient_plan needs readout='observable', got "
+                         f"{model.readout!r}; use the exact engines (QuantumLayer or the torch "
+                         "layer with engine='exact') for unary readouts")
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    plans, columns = [], []
+    for k in range(model.num_subunitaries):
+        circ = model.circuit(k)
+        cols = input_columns(model, circ)
+        params = [circ.parameters[c] for c in cols.columns]
+        plans.append(parameter_shift_plan(circ, model.observable, model.rows(k, X, circuit=circ),
+                                          parameters=params, shots=shots,
+                                          label=f"input_gradient_k{k}"))
+        columns.append(cols)
+    combined = Plan.combine(plans, "input gradient")
+    per_point = sum(p.num_circuits for p in plans) // max(X.shape[0], 1)
+    post = partial(_input_post, combined, model, X, columns)
+    return Plan(combined.jobs, post, "input gradient", {"input_circuits": per_point})
+
+
+def _input_post(combined, model, X, columns, results) -> list[Estimate]:
+    out = []
+    for est, cols in zip(combined.postprocess(results), columns, strict=True):
+        value = input_jacobian(model, X, cols, np.asarray(est.value)[:, None, :])
+        var = _squared_chain(model, X, cols, np.asarray(est.standard_error)[:, None, :] ** 2)
+        out.append(Estimate(value, np.sqrt(var)))
+    return out
+
+
+def _squared_chain(model, X, cols: InputColumns, var: np.ndarray) -> np.ndarray:
+    """Variances through the chain rule: ``sum_c (d c / d x_i)^2 var_c``."""
+    out = np.zeros(var.shape[:2] + (X.shape[1],))
+    ne = cols.encoding.size
+    if ne:
+        out += np.einsum("bmp,bpd->bmd", var[:, :, :ne],
+                         encoding_jacobian(model.encoding, X) ** 2)
+    for c, feature in enumerate(cols.features):
+        out[:, :, feature] += var[:, :, ne + c]
+    return out

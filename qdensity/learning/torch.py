@@ -17,8 +17,10 @@ Gradients reach the angles, the logits, the gate's weights and the input:
   encoded, re-uploading and QCNN models too;
 * a :class:`~qdensity.execution.engines.SamplerEngine` with ``shots`` per circuit: the
   model's gradient plans (parameter shift or commuting-generator circuits, Cor. 1 and 2),
-  every shot on its ledger. These give no input gradient (a layer before the quantum layer
-  then cannot train; backward says so).
+  every shot on its ledger; when the input requires a gradient and the readout is an
+  observable, also shift rules on the data parameters
+  (:func:`~qdensity.gradients.inputs.input_gradient_plan`, its circuits and shots counted
+  too). Unary readouts get no sampled input gradient (backward says so).
 
 Inputs may be ``(d,)``, ``(B, d)`` or ``(..., d)``; the output has the same leading shape.
 
@@ -36,7 +38,7 @@ from torch import nn
 
 from qdensity.execution.engines import SamplerEngine
 from qdensity.gradients.density import METHODS, density_gradient_plan
-from qdensity.gradients.inputs import input_jacobians
+from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
@@ -78,7 +80,8 @@ class _Experts(torch.autograd.Function):
     def forward(ctx, x, theta, layer, need_grad):
         X = np.asarray(x.detach().cpu().numpy(), dtype=np.float64)
         th = np.array(theta.detach().cpu().numpy(), dtype=np.float64)  # a copy: steps change it
-        outs, state = layer._run(X, th, need_grad=need_grad)
+        outs, state = layer._run(X, th, need_grad=need_grad,
+                                 need_input=need_grad and x.requires_grad)
         ctx.layer, ctx.state, ctx.theta = layer, state, th
         return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
 
@@ -89,8 +92,8 @@ class _Experts(torch.autograd.Function):
         if ctx.needs_input_grad[0] and g_x is None:
             raise RuntimeError("the input gradient needs engine='exact' (the unary engine's "
                                "reverse mode, or the adjoint engine through the encoding and "
-                               "every re-uploaded feature); a SamplerEngine's gradient plans "
-                               "give gradients w.r.t. parameters only")
+                               "every re-uploaded feature), or a SamplerEngine with "
+                               "readout='observable' (shift rules on the data parameters)")
         gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
         return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
 
@@ -234,7 +237,7 @@ class DensityQNNLayer(nn.Module):
         return out.reshape(lead + out.shape[-1:])
 
     # ------------------------------------------------------------ numpy side
-    def _run(self, X, theta, *, need_grad: bool):
+    def _run(self, X, theta, *, need_grad: bool, need_input: bool = False):
         m = self.model
         if self._unary:
             from qdensity.execution.unary import forward
@@ -265,10 +268,15 @@ class DensityQNNLayer(nn.Module):
         plan = density_gradient_plan(m, X, method=self.gradient, shots=self.shots)
         before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
         grad = plan.run(engine)
+        self.circuits += plan.num_circuits
+        inputs = None
+        if need_input and m.readout == "observable":  # shift rules on the data parameters
+            xplan = input_gradient_plan(m, X, shots=self.shots)
+            inputs = [est.value for est in xplan.run(engine)]
+            self.circuits += xplan.num_circuits
         if isinstance(engine, SamplerEngine):
             self.shots_spent += engine.ledger.total_shots - before
-        self.circuits += plan.num_circuits
-        return grad.outputs, ("plan", grad)
+        return grad.outputs, ("plan", grad, inputs)
 
     def _vjp(self, state, theta, g, need_input: bool = True):
         m = self.model
@@ -279,12 +287,12 @@ class DensityQNNLayer(nn.Module):
             jacobians = state[1].jacobians if state[0] == "plan" else state[2].jacobians
             for k, jac in enumerate(jacobians):
                 np.add.at(g_theta, self._indices[k], np.einsum("bm,bmp->p", g[:, k, :], jac))
-            if state[0] == "plan" or not need_input:
+            xjacs = (state[2] if state[0] == "plan"
+                     else input_jacobians(m, state[1], state[2]) if need_input else None)
+            if xjacs is None or not need_input:
                 return g_theta, None
-            _, X, res = state
-            g_x = sum(np.einsum("bm,bmd->bd", g[:, k, :], xj)
-                      for k, xj in enumerate(input_jacobians(m, X, res)))
-            return g_theta, g_x
+            return g_theta, sum(np.einsum("bm,bmd->bd", g[:, k, :], xj)
+                                for k, xj in enumerate(xjacs))
         from qdensity.execution.unary import vjp
 
         _, Xn, norms, Ys = state

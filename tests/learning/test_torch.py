@@ -160,11 +160,34 @@ def test_inputs_of_any_leading_shape():
         layer(torch.zeros(2, 4, dtype=torch.float64))
 
 
-def test_a_sampler_gives_no_input_gradient():
-    layer = DensityQNNLayer(_angle_hea_model(), engine=SamplerEngine(seed=1), shots=100)
-    x = torch.rand(1, 3, dtype=torch.float64, requires_grad=True)
+def test_sampled_input_gradients_within_standard_errors_and_counted():
+    """A SamplerEngine: d/dx by shift rules on the data parameters, within 4 standard errors
+    of the exact input gradient, its circuits and shots on the ledger; a unary readout has
+    none (backward says so)."""
+    from qdensity.gradients.inputs import input_gradient_plan
+
+    model = _angle_hea_model()
+    X = np.random.default_rng(4).normal(size=(2, 3))
+    exact = DensityQNNLayer(model)
+    x = torch.tensor(X, requires_grad=True)
+    exact(x).sum().backward()
+    engine = SamplerEngine(seed=5)
+    shots = 4000
+    layer = DensityQNNLayer(model, engine=engine, shots=shots)
+    xs = torch.tensor(X, requires_grad=True)
+    layer(xs).sum().backward()
+    assert layer.shots_spent == engine.ledger.total_shots
+    meta = input_gradient_plan(model, X).meta["input_circuits"]
+    assert layer.circuits >= 2 * meta and layer.shots_spent >= 2 * meta * shots
+    # x_i enters one R_y(pi x_i / 2) per sub-unitary; its shift estimate of <Z_0> is
+    # (pi / 2) (f+ - f-) / 2, variance <= (pi / 2)^2 (1 + 1) / 4 / shots; the output weighs
+    # K = 2 of them by alpha = 1/2: variance <= pi^2 / 16 / shots
+    se = np.pi / 4 / np.sqrt(shots)
+    assert float((xs.grad - x.grad).abs().max()) < 4 * se
+    unary = DensityQNNLayer(_unary_model(), engine=SamplerEngine(seed=1), shots=100)
+    xu = torch.rand(1, 4, dtype=torch.float64, requires_grad=True)
     with pytest.raises(RuntimeError, match="input gradient needs engine='exact'"):
-        layer(x).sum().backward()
+        unary(xu).sum().backward()
 
 
 def test_gradients_match_finite_differences_of_aer_statevectors():
