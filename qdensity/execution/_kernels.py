@@ -466,14 +466,21 @@ if numba is not None:
                           zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, buf, acc)
 
 
-#: Rows run in parallel threads only above this much work (amplitudes x operations): below
-#: it, waking the threads costs more than it saves, and on a busy machine a thread that waits
-#: for a core makes the whole call wait (the p95 of small calls).
-PARALLEL_WORK = 2**22
+#: Rows run in parallel threads only above this much work (amplitudes x operations, about
+#: 10-20 ms on one core): below it, waking the threads costs more than it saves.
+PARALLEL_WORK = 2**24
+#: ... and only while the machine has an idle core (1-minute load average + 1 <= cores): on a
+#: busy machine a parallel region waits for its slowest thread, and a thread that waits for a
+#: core made calls 5-15x slower than one thread (measured at a load of 13 on 2 cores).
+LOAD_AWARE = True
 
 
 def _parallel(rows: int, n: int, ops: int) -> bool:
-    return rows > 1 and numba.get_num_threads() > 1 and rows * ops * 2**n >= PARALLEL_WORK
+    if rows < 2 or numba.get_num_threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
+        return False
+    if LOAD_AWARE and hasattr(os, "getloadavg"):
+        return os.getloadavg()[0] + 1 <= (os.cpu_count() or 1)
+    return True
 
 
 def forward(states, n, cos, sin, tab: Tables) -> None:

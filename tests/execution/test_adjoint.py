@@ -267,6 +267,7 @@ def test_the_compiled_path_runs_every_gate_and_parallel_rows_agree(backend, monk
     assert (_kernels.tables(prog) is not None) == (backend == "numba")
     if backend == "numba":
         monkeypatch.setattr(_kernels, "PARALLEL_WORK", 0)
+        monkeypatch.setattr(_kernels, "LOAD_AWARE", False)
     obs = [SparsePauliOp("ZXIY"), SparsePauliOp(["IZZI", "XIIX"], [0.4, 0.9])]
     vals = RNG.uniform(-np.pi, np.pi, (5, qc.num_parameters))
     values, jac = AdjointEngine().value_and_gradient(qc, obs, vals)
