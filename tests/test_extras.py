@@ -1,6 +1,6 @@
-"""CI installs the optional extras (torch, sweep, ibm) so that their tests run there, never skip:
-``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then fails if one is missing. The
-core package imports without them."""
+"""CI installs the optional extras (torch, sweep, ibm, fast) so that their tests run there,
+never skip: ``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then fails if one is
+missing. The core package imports without them."""
 
 import importlib
 import os
@@ -10,7 +10,7 @@ import sys
 
 def test_extras_are_installed_where_required():
     if os.environ.get("QDENSITY_REQUIRE_EXTRAS") == "1":
-        for name in ("torch", "optuna", "qiskit_ibm_runtime", "mthree"):
+        for name in ("torch", "optuna", "qiskit_ibm_runtime", "mthree", "numba"):
             importlib.import_module(name)
 
 

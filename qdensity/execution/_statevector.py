@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
-__all__ = ["Rotation", "Fixed", "Program", "compile_program", "SUPPORTED"]
+__all__ = ["Rotation", "Fixed", "Program", "LinearMap", "compile_program", "SUPPORTED"]
 
 SUPPORTED = ("rx, ry, rz, rxx, ryy, rzz, rzx, crx, cry, crz, p, u1, cp, cu1, u, u3, rbs, fbs, "
              "PauliEvolution (commuting terms), any fixed gate with a matrix, and gates whose "
@@ -177,7 +177,9 @@ class Fixed:
         dst = list(range(-k, 0))
         moved = np.moveaxis(tensor, src, dst)
         shape = moved.shape
-        out = (moved.reshape(shape[:-k] + (2**k,)) @ mat.T).reshape(shape)
+        # einsum, not @: a (rows x 2**k) by (2**k x 2**k) product is no work for BLAS threads,
+        # which on a busy machine make it wait for a core (DESIGN.md, measured facts)
+        out = np.einsum("...j,ij->...i", moved.reshape(shape[:-k] + (2**k,)), mat).reshape(shape)
         tensor[...] = np.moveaxis(out, dst, src)
 
 
@@ -209,8 +211,58 @@ class Program:
     scales: np.ndarray
 
     def angles(self, values: np.ndarray) -> np.ndarray:
-        """Rotation angles ``(R, G)`` for parameter rows ``(R, P)``."""
-        return values @ self.coefficients + self.offsets
+        """Rotation angles ``(R, G)`` for parameter rows ``(R, P)`` (a gather, no product)."""
+        lin = self.__dict__.get("_angle_map")
+        if lin is None:
+            g, p = np.nonzero(self.coefficients.T)
+            lin = self.__dict__["_angle_map"] = LinearMap(
+                g, p, self.coefficients[p, g], len(self.rotations))
+        return lin(values) + self.offsets
+
+    def chain(self, wrt: np.ndarray) -> LinearMap:
+        """The map ``d f / d angle (..., G) -> d f / d value[wrt] (..., W)``, made once per
+        ``wrt``; ``chain(wrt).sources`` are the rotations that read a parameter in ``wrt``."""
+        cache = self.__dict__.setdefault("_chains", {})
+        key = wrt.tobytes()
+        lin = cache.get(key)
+        if lin is None:
+            sub = self.coefficients[wrt]  # (W, G)
+            w, g = np.nonzero(sub)
+            lin = cache[key] = LinearMap(w, g, sub[w, g], wrt.size)
+        return lin
+
+
+class LinearMap:
+    """``out[..., t] = sum_e coeffs[e] x[..., sources[e]]`` over the entries ``e`` with
+    ``targets[e] = t``: a sparse linear map as one gather, one product and one segmented sum
+    (no dense, mostly-zero matrix product, and no BLAS threads)."""
+
+    def __init__(self, targets, sources, coeffs, num_targets: int):
+        order = np.argsort(targets, kind="stable")
+        targets = np.asarray(targets, dtype=np.intp)[order]
+        self.sources = np.unique(sources).astype(np.intp)
+        self.num_targets = int(num_targets)
+        # every target gets at least one entry: the empty ones read an appended zero column
+        counts = np.bincount(targets, minlength=self.num_targets)
+        empty = np.flatnonzero(counts == 0)
+        self._src = np.concatenate([np.asarray(sources, dtype=np.intp)[order],
+                                    np.full(empty.size, -1, dtype=np.intp)])
+        self._coef = np.concatenate([np.asarray(coeffs, dtype=float)[order],
+                                     np.zeros(empty.size)])
+        tgt = np.concatenate([targets, empty])
+        order = np.argsort(tgt, kind="stable")
+        self._src, self._coef = self._src[order], self._coef[order]
+        self._starts = np.searchsorted(tgt[order], np.arange(self.num_targets))
+        self._pad = bool(empty.size)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.num_targets == 0:
+            return np.zeros(x.shape[:-1] + (0,))
+        if self._pad:
+            x = np.concatenate([x, np.zeros(x.shape[:-1] + (1,))], axis=-1)
+        taken = np.take(x, self._src, axis=-1)
+        taken *= self._coef
+        return np.add.reduceat(taken, self._starts, axis=-1)
 
 
 def _linear(expr, index: dict, gate: str) -> tuple[np.ndarray, np.ndarray, float]:

@@ -23,8 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from qdensity.execution import _unary_kernels
 from qdensity.execution._unary_layers import backward, rotate
-from qdensity.execution._unary_threads import blocks, run_blocks, split
+from qdensity.execution._unary_threads import blocks, num_threads, run_blocks, split
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
@@ -390,9 +391,15 @@ def _per_example(grad, st, ui, uj, gi, gj) -> None:
 def rotate_columns(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
     """``O(angles) @ Z`` for the columns ``Z`` (n, B) of a :class:`.unary.UnaryCircuit`.
 
-    Shared angles (G,) go through the circuit's plan (a new array); per-column angles (G, B)
-    layer by layer (:func:`._unary_layers.rotate`, ``Z`` rotated in place and returned).
+    With numba, the compiled gate loop of :mod:`._unary_kernels` (shared angles on a copy,
+    per-column angles in place). Otherwise shared angles (G,) go through the circuit's plan (a
+    new array); per-column angles (G, B) layer by layer (:func:`._unary_layers.rotate`, ``Z``
+    rotated in place and returned).
     """
+    if _unary_kernels.available():  # compiled: gate by gate in place (on a copy if shared)
+        num_threads()  # one thread, but a bad QDENSITY_NUM_THREADS is refused on every path
+        Z = np.array(Z, dtype=float, order="C", copy=angles.ndim == 1 or None)
+        return _unary_kernels.givens(Z, compiled, angles)
     if angles.ndim == 2:
         rotate(Z, compiled.layers, angles)
         return Z

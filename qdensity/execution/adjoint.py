@@ -32,12 +32,16 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
+from qdensity.execution import _kernels
 from qdensity.execution._statevector import Program, compile_program
 from qdensity.execution.engines import _measurement_map, circuit_fingerprint
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
 from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
 
-__all__ = ["AdjointEngine", "MAX_QUBITS"]
+__all__ = ["AdjointEngine", "MAX_QUBITS", "BACKENDS"]
+
+#: ``backend`` choices: compiled kernels when numba is there ("auto"), or either forced.
+BACKENDS = ("auto", "numba", "numpy")
 
 #: Default widest circuit (qubits) the adjoint engine simulates.
 MAX_QUBITS = 20
@@ -91,6 +95,10 @@ class AdjointEngine:
         differently) for anything else.
     memory_budget : int
         Bytes of working state per chunk of rows (default 256 MiB).
+    backend : {"auto", "numba", "numpy"}
+        ``"auto"``: the compiled kernels of :mod:`qdensity.execution._kernels` when numba is
+        installed (the ``fast`` extra) and ``QDENSITY_NUMBA`` is not ``0``, else numpy
+        gathers. Both give the same numbers to rounding.
 
     Attributes
     ----------
@@ -109,11 +117,18 @@ class AdjointEngine:
     (True, True)
     """
 
-    def __init__(self, max_qubits: int = MAX_QUBITS, memory_budget: int = 2**28):
+    def __init__(self, max_qubits: int = MAX_QUBITS, memory_budget: int = 2**28,
+                 backend: str = "auto"):
         self.max_qubits = check_positive_int(max_qubits, "max_qubits")
         if self.max_qubits > _CEILING:
             raise ValueError(f"max_qubits must be <= {_CEILING}, got {max_qubits}")
         self.memory_budget = check_positive_int(memory_budget, "memory_budget")
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        if backend == "numba" and not _kernels.available():
+            raise ValueError("backend='numba' needs numba (pip install 'qdensity[fast]') and "
+                             "QDENSITY_NUMBA unset or 1")
+        self.backend = backend
         self._by_id: dict[int, tuple[QuantumCircuit, Program]] = {}
         self._by_print: dict[tuple, Program] = {}
         self.compile_count = 0
@@ -168,10 +183,20 @@ class AdjointEngine:
         # complex: numpy multiplies complex arrays by complex factors faster than by floats
         return np.cos(theta).astype(complex), np.sin(theta).astype(complex)
 
+    def _tables(self, prog: Program):
+        """The compiled kernels' tables, or None for the numpy path."""
+        return None if self.backend == "numpy" else _kernels.tables(prog)
+
     def _forward(self, prog: Program, values: np.ndarray) -> np.ndarray:
         from qdensity.execution._statevector import Rotation
 
         R = values.shape[0]
+        tab = self._tables(prog)
+        if tab is not None:
+            state = np.empty((R, 2**prog.num_qubits), dtype=complex)
+            theta = prog.angles(values) * prog.scales
+            _kernels.forward(state, prog.num_qubits, np.cos(theta), np.sin(theta), tab)
+            return state
         state = np.zeros((R, 2**prog.num_qubits), dtype=complex)
         state[:, 0] = 1.0
         cos, sin = self._trig(prog, values)
@@ -188,6 +213,18 @@ class AdjointEngine:
     def _observables(self, observables, n: int) -> list[_Observable]:
         if isinstance(observables, (str, SparsePauliOp, np.ndarray)):
             observables = [observables]
+        # the same observable objects as the last call (a training loop): checked once
+        key = (n,) + tuple(id(o) for o in observables)
+        last = self.__dict__.get("_last_observables")
+        if (last is not None and last[0] == key and all(
+                a is b for a, b in zip(last[1], observables, strict=True))
+                and not any(isinstance(o, np.ndarray) for o in observables)):
+            return last[2]
+        out = self._check_observables(observables, n)
+        self.__dict__["_last_observables"] = (key, list(observables), out)
+        return out
+
+    def _check_observables(self, observables, n: int) -> list[_Observable]:
         out = []
         for i, obs in enumerate(observables):
             if isinstance(obs, np.ndarray) and obs.ndim == 1:
@@ -291,14 +328,20 @@ class AdjointEngine:
             raise ValueError(f"wrt must hold parameter indices in [0, {prog.num_parameters}), "
                              f"got {cols.tolist()}")
         n, M, R = prog.num_qubits, len(obs), vals.shape[0]
-        coeff = prog.coefficients[cols]  # (W, G)
-        needs = np.any(coeff != 0, axis=0)
-        used = np.flatnonzero(needs)
+        chain = prog.chain(cols)  # d angle / d value[cols], as a gather
+        used = chain.sources
+        needs = np.zeros(len(prog.rotations), dtype=bool)
+        needs[used] = True
         first_rot = int(used.min()) if used.size else len(prog.rotations)
         stop = prog.rotations[first_rot] if used.size else len(prog.ops)
         values_out = np.empty((R, M))
         jac = np.zeros((R, M, cols.size))
+        tab = self._tables(prog)
         for sl in self._chunks(R, n, M + 2):
+            if tab is not None:
+                values_out[sl], jac[sl] = self._sweep_compiled(prog, tab, obs, vals[sl], needs,
+                                                               chain)
+                continue
             phi = self._forward(prog, vals[sl])
             both = np.empty((M + 1,) + phi.shape, dtype=complex)  # [phi, lam_1 .. lam_M]
             both[0] = phi
@@ -320,8 +363,26 @@ class AdjointEngine:
                         dtheta[:, :, g] = grad
                 else:
                     op.apply(both, inverse=True)
-            jac[sl] = np.einsum("mrg,wg->rmw", dtheta, coeff)
+            jac[sl] = chain(dtheta.transpose(1, 0, 2))
         return values_out, jac
+
+    def _sweep_compiled(self, prog, tab, obs, vals, needs, chain):
+        """One chunk of :meth:`value_and_gradient` on the compiled kernels."""
+        n, M, R = prog.num_qubits, len(obs), vals.shape[0]
+        theta = prog.angles(vals) * prog.scales
+        cos, sin = np.cos(theta), np.sin(theta)
+        phi = np.empty((R, 2**n), dtype=complex)
+        _kernels.forward(phi, n, cos, sin, tab)
+        lam = np.empty((R, M, 2**n), dtype=complex)
+        for m, o in enumerate(obs):
+            lam[:, m] = o.apply(phi)
+        values = np.vecdot(phi[:, None, :], lam).real
+        if not chain.sources.size:
+            return values, np.zeros((R, M, chain.num_targets))
+        dtheta = np.zeros((R, M, len(prog.rotations)))
+        stop = int(tab.rot_pos[chain.sources.min()])
+        _kernels.backward(phi, lam, n, cos, sin, needs, stop, dtheta, tab)
+        return values, chain(dtheta)
 
     # ------------------------------------------------------------------ plans
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:

@@ -139,8 +139,8 @@ class _QNNEstimator(BaseEstimator):
         if self.pre_ is not None:
             if gz is None:
                 raise ValueError("a trainable pre-processing layer needs input gradients, which "
-                                 "only the exact unary engine provides; drop pre or use "
-                                 "engine='exact'")
+                                 "the exact engines give (not a sampler, nor a data-dependent "
+                                 "mixture); drop pre or use engine='exact'")
             self.pre_.backward(gz)
 
     def _outputs(self, X) -> np.ndarray:

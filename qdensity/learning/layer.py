@@ -25,6 +25,7 @@ import numpy as np
 from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine
 from qdensity.gradients.density import DensityGradient, chain_rule, density_gradient_plan
+from qdensity.gradients.inputs import input_jacobians as _input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients, unary_circuits
 from qdensity.validation import check_positive_int
@@ -104,7 +105,7 @@ class QuantumLayer:
             grad = DensityGradient(res.outputs, zeros, res.jacobians,
                                    [np.zeros_like(j) for j in res.jacobians])
             alpha = np.broadcast_to(self.model.alpha(Z), res.outputs.shape[:2])
-            self._cache = ("plan", Z, grad, res.input_jacobians)
+            self._cache = ("plan", Z, grad, res)
             return np.einsum("bk,bkm->bm", alpha, res.outputs)
         plan = density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)
         engine = self.engine
@@ -129,11 +130,12 @@ class QuantumLayer:
             raise RuntimeError("backward called before forward")
         kind = self._cache[0]
         if kind == "plan":
-            _, Z, grad, input_jacobians = self._cache
+            _, Z, grad, exact = self._cache
             g_theta, g_mix = chain_rule(self.model, Z, grad, grad_F)
             self.grads = {"theta": g_theta, "mixture": g_mix}
-            if input_jacobians is None or self.model.mixture.data_dependent:
+            if exact is None or self.model.mixture.data_dependent:
                 return None
+            input_jacobians = _input_jacobians(self.model, Z, exact)
             alpha = np.broadcast_to(self.model.alpha(Z), grad.outputs.shape[:2])
             return sum(np.einsum("bm,bmd->bd", grad_F * alpha[:, k:k + 1], xj)
                        for k, xj in enumerate(input_jacobians))

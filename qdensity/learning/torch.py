@@ -10,10 +10,19 @@ Gradients reach the angles, the logits, the gate's weights and the input:
 * ``engine="exact"`` on RBS/FBS models with a unary encoding: the unary engine's reverse mode,
   exact, with the gradient w.r.t. the input (through ``x / ||x||``), so classical layers before
   the quantum layer train (the paper's MNIST model, Fig. 11a);
-* otherwise the model's gradient plans (parameter shift or commuting-generator circuits, Cor. 1
-  and 2) on ``engine`` -- exact, or a :class:`~qdensity.execution.engines.SamplerEngine` with
-  ``shots`` per circuit, every shot on its ledger. These give no input gradient (a layer before
-  the quantum layer then cannot train; backward says so).
+* ``engine="exact"`` on every other model: the adjoint statevector engine
+  (:mod:`qdensity.execution.adjoint`), one sweep per row for the angles and every
+  data-carrying angle, chained to ``d/dx`` through the encoding's Jacobian and the re-uploaded
+  features (:mod:`qdensity.gradients.inputs`), so classical layers train in front of angle-
+  encoded, re-uploading and QCNN models too;
+* a :class:`~qdensity.execution.engines.SamplerEngine` with ``shots`` per circuit: the
+  model's gradient plans (parameter shift or commuting-generator circuits, Cor. 1 and 2),
+  every shot on its ledger; when the input requires a gradient and the readout is an
+  observable, also shift rules on the data parameters
+  (:func:`~qdensity.gradients.inputs.input_gradient_plan`, its circuits and shots counted
+  too). Unary readouts get no sampled input gradient (backward says so).
+
+Inputs may be ``(d,)``, ``(B, d)`` or ``(..., d)``; the output has the same leading shape.
 
 Under ``torch.no_grad()`` the outputs are exact (no shots), as in the estimators' ``predict``.
 Nothing in :mod:`qdensity` imports this module, so ``import qdensity`` never needs torch.
@@ -27,9 +36,11 @@ import numpy as np
 import torch
 from torch import nn
 
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.engines import SamplerEngine
 from qdensity.gradients.density import METHODS, density_gradient_plan
+from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
+from qdensity.models.exact import exact_gradients
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
 from qdensity.validation import check_positive_int
 
@@ -69,7 +80,8 @@ class _Experts(torch.autograd.Function):
     def forward(ctx, x, theta, layer, need_grad):
         X = np.asarray(x.detach().cpu().numpy(), dtype=np.float64)
         th = np.array(theta.detach().cpu().numpy(), dtype=np.float64)  # a copy: steps change it
-        outs, state = layer._run(X, th, need_grad=need_grad)
+        outs, state = layer._run(X, th, need_grad=need_grad,
+                                 need_input=need_grad and x.requires_grad)
         ctx.layer, ctx.state, ctx.theta = layer, state, th
         return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
 
@@ -78,15 +90,16 @@ class _Experts(torch.autograd.Function):
         g = grad_outs.detach().cpu().numpy().astype(np.float64)
         g_theta, g_x = ctx.layer._vjp(ctx.state, ctx.theta, g, ctx.needs_input_grad[0])
         if ctx.needs_input_grad[0] and g_x is None:
-            raise RuntimeError("the input gradient needs the exact unary engine (RBS/FBS "
-                               "sub-unitaries on a unary encoding with engine='exact'); "
-                               "gradient plans give gradients w.r.t. parameters only")
+            raise RuntimeError("the input gradient needs engine='exact' (the unary engine's "
+                               "reverse mode, or the adjoint engine through the encoding and "
+                               "every re-uploaded feature), or a SamplerEngine with "
+                               "readout='observable' (shift rules on the data parameters)")
         gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
         return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
 
 
 class DensityQNNLayer(nn.Module):
-    """A :class:`DensityQNN` as a ``torch.nn.Module``: input ``(B, d)`` -> output ``(B, m)``.
+    """A :class:`DensityQNN` as a ``torch.nn.Module``: input ``(..., d)`` -> output ``(..., m)``.
 
     Parameters
     ----------
@@ -192,24 +205,39 @@ class DensityQNNLayer(nn.Module):
         return self.alpha.to(x.dtype).expand(x.shape[0], -1)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """``f(x) = sum_k alpha_k(x) f_k(x)``: input (B, d) -> (B, m) (m = 1 for an observable)."""
+        """``f(x) = sum_k alpha_k(x) f_k(x)`` (eq. 3).
+
+        Parameters
+        ----------
+        x : torch.Tensor, shape (d,), (B, d) or (..., d)
+            Floating point.
+
+        Returns
+        -------
+        torch.Tensor, shape (m,), (B, m) or (..., m)
+            ``m = 1`` for an observable readout.
+        """
         if not isinstance(x, torch.Tensor):
             raise TypeError(f"input must be a torch.Tensor, got {type(x).__name__}")
         if not x.is_floating_point():
             raise TypeError(f"input must be a floating-point tensor (float32 or float64), got "
                             f"dtype {x.dtype}")
-        if x.ndim != 2 or x.shape[1] != self.num_features or x.shape[0] == 0:
-            raise ValueError(f"input must have shape (batch, {self.num_features}) with batch >= "
-                             f"1, got {tuple(x.shape)}")
+        if x.ndim == 0 or x.shape[-1] != self.num_features or x.numel() == 0:
+            raise ValueError(f"input must have shape (d,), (batch, d) or (..., d) with d = "
+                             f"{self.num_features} and at least one row, got {tuple(x.shape)}")
+        lead = x.shape[:-1]
+        flat = x.reshape(-1, self.num_features)
         need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
-        outs = _Experts.apply(x, self.theta, self, need_grad)
+        outs = _Experts.apply(flat, self.theta, self, need_grad)
         if self._single:  # alpha = 1: f = f_1, without mixing ops in the graph
-            return outs[:, 0]
-        alpha = self.mixture_weights(x).to(outs.dtype)
-        return torch.einsum("bk,bkm->bm", alpha, outs)
+            out = outs[:, 0]
+        else:
+            alpha = self.mixture_weights(flat).to(outs.dtype)
+            out = torch.einsum("bk,bkm->bm", alpha, outs)
+        return out.reshape(lead + out.shape[-1:])
 
     # ------------------------------------------------------------ numpy side
-    def _run(self, X, theta, *, need_grad: bool):
+    def _run(self, X, theta, *, need_grad: bool, need_input: bool = False):
         m = self.model
         if self._unary:
             from qdensity.execution.unary import forward
@@ -233,24 +261,38 @@ class DensityQNNLayer(nn.Module):
         if not need_grad:
             outs = m.expert_outputs(X)
             return (outs[:, :, None] if outs.ndim == 2 else outs), None
-        engine = ExactEngine() if self.engine == "exact" else self.engine
+        if self.engine == "exact":  # the adjoint engine: angles and data columns in one sweep
+            res = exact_gradients(m, X)
+            return res.outputs, ("adjoint", X, res)
+        engine = self.engine
         plan = density_gradient_plan(m, X, method=self.gradient, shots=self.shots)
         before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
         grad = plan.run(engine)
+        self.circuits += plan.num_circuits
+        inputs = None
+        if need_input and m.readout == "observable":  # shift rules on the data parameters
+            xplan = input_gradient_plan(m, X, shots=self.shots)
+            inputs = [est.value for est in xplan.run(engine)]
+            self.circuits += xplan.num_circuits
         if isinstance(engine, SamplerEngine):
             self.shots_spent += engine.ledger.total_shots - before
-        self.circuits += plan.num_circuits
-        return grad.outputs, ("plan", grad)
+        return grad.outputs, ("plan", grad, inputs)
 
     def _vjp(self, state, theta, g, need_input: bool = True):
         m = self.model
         g_theta = np.zeros(m.num_parameters)
         if state is None:
             raise RuntimeError("backward through outputs computed without gradients")
-        if state[0] == "plan":
-            for k, jac in enumerate(state[1].jacobians):
+        if state[0] in ("plan", "adjoint"):
+            jacobians = state[1].jacobians if state[0] == "plan" else state[2].jacobians
+            for k, jac in enumerate(jacobians):
                 np.add.at(g_theta, self._indices[k], np.einsum("bm,bmp->p", g[:, k, :], jac))
-            return g_theta, None
+            xjacs = (state[2] if state[0] == "plan"
+                     else input_jacobians(m, state[1], state[2]) if need_input else None)
+            if xjacs is None or not need_input:
+                return g_theta, None
+            return g_theta, sum(np.einsum("bm,bmd->bd", g[:, k, :], xj)
+                                for k, xj in enumerate(xjacs))
         from qdensity.execution.unary import vjp
 
         _, Xn, norms, Ys = state

@@ -38,12 +38,17 @@ class Encoding:
         d.
     kind : str
         ``"unary"`` (amplitude encoding on the unary basis) or ``"other"``.
+    jacobian : callable, optional
+        ``X (B, d) -> (B, P_enc, d)``, the derivative of ``transform``: input gradients
+        through an encoding of another kind need it (the angle and unary encodings have theirs
+        built in, :mod:`qdensity.gradients.inputs`).
     """
 
     circuit: QuantumCircuit
     transform: Callable[[np.ndarray], np.ndarray]
     num_features: int
     kind: str = "other"
+    jacobian: Callable[[np.ndarray], np.ndarray] | None = None
 
     @classmethod
     def unary(cls, num_features: int, layout: str = "parallel") -> Encoding:

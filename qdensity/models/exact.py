@@ -11,8 +11,9 @@ evaluation needs, built on first use and never again:
   which transpiles each template once.
 
 :func:`exact_gradients` gives the per-sub-unitary outputs ``f_k``, their Jacobians w.r.t. the
-trainable angles (Cor. 1 / Prop. 1) and w.r.t. the input features when the data enter as
-angles (re-uploading ``x[i]``, angle encodings), from one adjoint sweep per sub-unitary.
+trainable angles (Cor. 1 / Prop. 1) and w.r.t. the data-carrying angles (an encoding's
+parameters, re-uploaded ``x[i]``), from one adjoint sweep per sub-unitary;
+:mod:`qdensity.gradients.inputs` chains the latter to ``d f_k / d x``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ from qiskit.circuit import QuantumCircuit
 
 from qdensity.analysis.parameters import DATA_PREFIX
 
-__all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "ExactGradients"]
+__all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "ExactGradients",
+           "InputColumns", "input_columns"]
 
 
 @dataclass
@@ -76,8 +78,51 @@ def _readouts(model) -> list:
     return out
 
 
+@dataclass(frozen=True)
+class InputColumns:
+    """Where the data enter one circuit ``V(x) U_k``.
+
+    Attributes
+    ----------
+    encoding : numpy.ndarray of int, shape (P_enc,)
+        The circuit columns of the encoding's parameters, in ``encoding.circuit.parameters``
+        order (empty without an encoding).
+    data : numpy.ndarray of int, shape (D,)
+        The circuit columns of re-uploaded data parameters ``x[i]``.
+    features : numpy.ndarray of int, shape (D,)
+        The feature ``i`` each of those columns reads.
+    """
+
+    encoding: np.ndarray
+    data: np.ndarray
+    features: np.ndarray
+
+    @property
+    def columns(self) -> np.ndarray:
+        """Every data-carrying column: encoding first, then re-uploaded."""
+        return np.concatenate([self.encoding, self.data]).astype(int)
+
+
+def input_columns(model, circuit: QuantumCircuit) -> InputColumns:
+    """The columns of ``circuit`` (built on ``model.circuit(k)``) that carry data: the
+    encoding's parameters (set from ``encoding.values(X)``, which take precedence) and the
+    re-uploaded features ``x[i]``."""
+    index = {p: i for i, p in enumerate(circuit.parameters)}
+    enc = model.encoding
+    enc_params = list(enc.circuit.parameters) if enc is not None else []
+    enc_cols = [index[p] for p in enc_params if p in index]
+    taken = set(enc_params)
+    data, features = [], []
+    for i, p in enumerate(circuit.parameters):
+        if p not in taken and getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX:
+            data.append(i)
+            features.append(p.index)
+    as_int = lambda v: np.asarray(v, dtype=int)  # noqa: E731
+    return InputColumns(as_int(enc_cols), as_int(data), as_int(features))
+
+
 def _columns(model, k: int):
-    """Column indices of circuit k: trainable (in sub-unitary order), and data -> feature."""
+    """Column indices of circuit k: trainable (in sub-unitary order), and the data columns."""
     state = engines_of(model)
     if k not in state.columns:
         circ = state.circuits[k]
@@ -86,10 +131,7 @@ def _columns(model, k: int):
 
         trainable = np.array([index[p] for p in trainable_parameters(model.sub_unitaries[k])],
                              dtype=int)
-        angle_data = model.encoding is None or model.encoding.kind == "angle"
-        data = [(i, p.index) for i, p in enumerate(circ.parameters)
-                if getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX]
-        state.columns[k] = (trainable, data if angle_data else None)
+        state.columns[k] = (trainable, input_columns(model, circ))
     return state.columns[k]
 
 
@@ -147,21 +189,24 @@ class ExactGradients:
     outputs : numpy.ndarray, shape (B, K, m)
     jacobians : list of numpy.ndarray, each (B, m, P_k)
         ``d f_k / d theta_k`` in sub-unitary k's parameter order.
-    input_jacobians : list of numpy.ndarray (B, m, d), or None
-        ``d f_k / d x`` when every data parameter is a feature (re-uploading, angle
-        encodings); None for other encodings.
+    data_columns : list of InputColumns
+        Where the data enter each circuit.
+    data_jacobians : list of numpy.ndarray (B, m, len(data_columns[k].columns)), or None
+        ``d f_k`` w.r.t. those columns (None when asked for no input gradients);
+        :func:`qdensity.gradients.inputs.input_jacobians` chains them to ``d f_k / d x``.
     """
 
     outputs: np.ndarray
     jacobians: list[np.ndarray]
-    input_jacobians: list[np.ndarray] | None
+    data_columns: list[InputColumns]
+    data_jacobians: list[np.ndarray] | None = None
 
 
-def exact_gradients(model, X=None, engine=None) -> ExactGradients:
+def exact_gradients(model, X=None, engine=None, inputs: bool = True) -> ExactGradients:
     """Outputs and Jacobians of every sub-unitary by adjoint differentiation.
 
     One forward and one backward statevector sweep per data row and sub-unitary
-    (``O(gates x 2^n)``), for the trainable angles and the data-uploading angles at once.
+    (``O(gates x 2^n)``), for the trainable angles and the data-carrying angles at once.
 
     Parameters
     ----------
@@ -169,6 +214,8 @@ def exact_gradients(model, X=None, engine=None) -> ExactGradients:
     X : array_like, shape (B, d), optional
     engine : AdjointEngine, optional
         Default: the model's own (kept for the model's lifetime).
+    inputs : bool
+        Also differentiate w.r.t. the data-carrying columns (for input gradients).
 
     Returns
     -------
@@ -177,18 +224,14 @@ def exact_gradients(model, X=None, engine=None) -> ExactGradients:
     state = engines_of(model)
     engine = engine or state.adjoint
     obs = _readouts(model)
-    outs, jacs, xjacs = [], [], []
-    d = None if X is None else np.atleast_2d(np.asarray(X, dtype=float)).shape[1]
+    outs, jacs, data_jacs, columns = [], [], [], []
+    inputs = inputs and X is not None
     for k, circ in enumerate(state.circuits):
         trainable, data = _columns(model, k)
-        wrt = np.concatenate([trainable, [i for i, _ in (data or [])]]).astype(int)
+        wrt = np.concatenate([trainable, data.columns if inputs else []]).astype(int)
         vals, jac = engine.value_and_gradient(circ, obs, model.rows(k, X, circuit=circ), wrt)
         outs.append(vals)
         jacs.append(jac[:, :, :trainable.size])
-        if data is not None and d is not None:
-            xj = np.zeros(jac.shape[:2] + (d,))
-            for col, (_, feature) in enumerate(data):
-                xj[:, :, feature] += jac[:, :, trainable.size + col]
-            xjacs.append(xj)
-    return ExactGradients(np.stack(outs, axis=1), jacs,
-                          xjacs if len(xjacs) == len(jacs) else None)
+        data_jacs.append(jac[:, :, trainable.size:])
+        columns.append(data)
+    return ExactGradients(np.stack(outs, axis=1), jacs, columns, data_jacs if inputs else None)

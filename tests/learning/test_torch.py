@@ -74,17 +74,120 @@ def test_one_sub_unitary_skips_the_mixture_and_keeps_exact_gradients(mixture):
     assert gradcheck(f, (x, *params))
 
 
-def test_gradcheck_exact_plan_path_for_a_non_unary_model():
-    circ = hardware_efficient(2, 1)
-    model = DensityQNN(copies(circ, 2).sub_unitaries, SoftmaxMixture(2),
-                       encoding=Encoding.angle(2), seed=2)
-    layer = DensityQNNLayer(model)
+def _angle_hea_model():
+    circ = hardware_efficient(3, 2, ("ry", "rz"))
+    return DensityQNN(copies(circ, 2).sub_unitaries, SoftmaxMixture(2),
+                      encoding=Encoding.angle(3), seed=2)
+
+
+def _reuploading_model():
+    # two sub-unitaries that re-upload x[0] (and x[1] in the second) between trained layers
+    from qiskit.circuit import ParameterVector
+
+    subs = []
+    for k in range(2):
+        x, t = ParameterVector("x", 2), ParameterVector(f"t{k}", 6)
+        qc = QuantumCircuit(2)
+        for layer in range(2):
+            qc.rx(x[0], 0)
+            qc.rx(x[1] if k else 0.7 * x[0], 1)
+            qc.ry(t[3 * layer], 0)
+            qc.rz(t[3 * layer + 1], 1)
+            qc.cz(0, 1)
+            qc.ry(t[3 * layer + 2], 1)
+        subs.append(qc)
+    return DensityQNN(subs, SoftmaxMixture(2), seed=3)
+
+
+def _qcnn_model():
+    from qdensity.circuits.ansatze import qcnn
+
+    return DensityQNN([qcnn(4)], SoftmaxMixture(1), encoding=Encoding.angle(4), seed=4)
+
+
+def _unary_hea_model():
+    # a non-RBS circuit on the unary encoding: the input gradient goes through the loader
+    return DensityQNN(copies(hardware_efficient(3, 1), 2).sub_unitaries, SoftmaxMixture(2),
+                      encoding=Encoding.unary(3), seed=5)
+
+
+@pytest.mark.parametrize("build", [_angle_hea_model, _reuploading_model, _qcnn_model,
+                                   _unary_hea_model])
+def test_gradcheck_inputs_and_weights_on_the_adjoint_path(build):
+    """Every non-unary family: torch.autograd.gradcheck (central finite differences of the
+    layer's own exact outputs) on the input and every weight at once."""
+    layer = DensityQNNLayer(build())
     assert not layer._unary
-    x = torch.rand(1, 2, dtype=torch.float64)
+    x = (torch.rand(2, layer.num_features, dtype=torch.float64) + 0.2).requires_grad_()
     f, params = _functional(layer)
-    assert gradcheck(lambda *ps: f(x, *ps), params, fast_mode=True)
-    with pytest.raises(RuntimeError, match="input gradient needs the exact unary engine"):
-        layer(x.clone().requires_grad_()).sum().backward()
+    assert gradcheck(f, (x, *params))
+
+
+def test_input_gradients_match_finite_differences_of_aer_statevectors():
+    """d/dx of sum(w * f(x)) on the angle-encoded model against central differences of
+    DensityQNN.predict on Aer statevectors (an independent simulator)."""
+    model = _angle_hea_model()
+    layer = DensityQNNLayer(model)
+    X = np.random.default_rng(5).normal(size=(2, 3))
+    w = np.random.default_rng(6).normal(size=(2, 1))
+    x = torch.tensor(X, requires_grad=True)
+    (layer(x) * torch.tensor(w)).sum().backward()
+    h = 1e-5
+    fd = np.zeros_like(X)
+    for b in range(2):
+        for i in range(3):
+            e = np.zeros_like(X)
+            e[b, i] = h
+            plus = model.predict(X + e, method="statevector").reshape(2, -1)
+            minus = model.predict(X - e, method="statevector").reshape(2, -1)
+            fd[b, i] = ((plus - minus) * w).sum() / (2 * h)
+    np.testing.assert_allclose(x.grad.numpy(), fd, atol=1e-7)
+
+
+def test_inputs_of_any_leading_shape():
+    layer = DensityQNNLayer(_angle_hea_model())
+    X = torch.tensor(np.random.default_rng(8).normal(size=(2, 3, 3)))
+    with torch.no_grad():
+        flat = layer(X.reshape(6, 3))
+        assert layer(X).shape == (2, 3, 1)
+        torch.testing.assert_close(layer(X).reshape(6, 1), flat)
+        assert layer(X[0, 0]).shape == (1,)
+        torch.testing.assert_close(layer(X[0, 0]), flat[0])
+    x = X.clone().requires_grad_()
+    layer(x).sum().backward()
+    assert x.grad.shape == X.shape
+    with pytest.raises(ValueError, match=r"\(\.\.\., d\)"):
+        layer(torch.zeros(2, 4, dtype=torch.float64))
+
+
+def test_sampled_input_gradients_within_standard_errors_and_counted():
+    """A SamplerEngine: d/dx by shift rules on the data parameters, within 4 standard errors
+    of the exact input gradient, its circuits and shots on the ledger; a unary readout has
+    none (backward says so)."""
+    from qdensity.gradients.inputs import input_gradient_plan
+
+    model = _angle_hea_model()
+    X = np.random.default_rng(4).normal(size=(2, 3))
+    exact = DensityQNNLayer(model)
+    x = torch.tensor(X, requires_grad=True)
+    exact(x).sum().backward()
+    engine = SamplerEngine(seed=5)
+    shots = 4000
+    layer = DensityQNNLayer(model, engine=engine, shots=shots)
+    xs = torch.tensor(X, requires_grad=True)
+    layer(xs).sum().backward()
+    assert layer.shots_spent == engine.ledger.total_shots
+    meta = input_gradient_plan(model, X).meta["input_circuits"]
+    assert layer.circuits >= 2 * meta and layer.shots_spent >= 2 * meta * shots
+    # x_i enters one R_y(pi x_i / 2) per sub-unitary; its shift estimate of <Z_0> is
+    # (pi / 2) (f+ - f-) / 2, variance <= (pi / 2)^2 (1 + 1) / 4 / shots; the output weighs
+    # K = 2 of them by alpha = 1/2: variance <= pi^2 / 16 / shots
+    se = np.pi / 4 / np.sqrt(shots)
+    assert float((xs.grad - x.grad).abs().max()) < 4 * se
+    unary = DensityQNNLayer(_unary_model(), engine=SamplerEngine(seed=1), shots=100)
+    xu = torch.rand(1, 4, dtype=torch.float64, requires_grad=True)
+    with pytest.raises(RuntimeError, match="input gradient needs engine='exact'"):
+        unary(xu).sum().backward()
 
 
 def test_gradients_match_finite_differences_of_aer_statevectors():
@@ -177,10 +280,12 @@ def test_bad_input():
     layer = DensityQNNLayer(_unary_model())
     with pytest.raises(TypeError, match="input must be a floating-point tensor"):
         layer(torch.ones(2, 4, dtype=torch.int64))
-    with pytest.raises(ValueError, match=r"input must have shape \(batch, 4\)"):
+    with pytest.raises(ValueError, match=r"input must have shape .* d = 4 .* got \(2, 5\)"):
         layer(torch.ones(2, 5, dtype=torch.float64))
     with pytest.raises(ValueError, match=r"input must have shape"):
-        layer(torch.ones(4, dtype=torch.float64))
+        layer(torch.ones((), dtype=torch.float64))
+    with pytest.raises(ValueError, match=r"input must have shape"):
+        layer(torch.ones(0, 4, dtype=torch.float64))
     with pytest.raises(TypeError, match="input must be a torch.Tensor"):
         layer(np.ones((2, 4)))
     with pytest.raises(ValueError, match="all-zero"):

@@ -1,0 +1,231 @@
+"""Gradients w.r.t. the input features ``x``, for every encoding and re-uploading circuit.
+
+Data reach a density QNN's circuit ``V(x) U_k`` (paper eq. 1) as circuit parameters in two
+ways: through an encoding's parameters ``phi = T(x)`` (``T`` the encoding's ``transform``) and
+as re-uploaded features ``x[i]`` bound directly to the data parameters of ``U_k``. So
+
+    d f / d x_i = sum_p (d f / d phi_p) (d phi_p / d x_i) + sum_{c: feature(c) = i} d f / d c
+
+where the circuit derivatives come from the adjoint engine (exact, :func:`input_jacobians`)
+or from shift rules on the data parameters (:func:`input_gradient_plan`, exact or sampled), and
+``d phi / d x`` is the encoding's Jacobian (:func:`encoding_jacobian`): the identity for the
+angle encoding, the analytic derivative of the loader angles for the unary encoding
+(``phi = arctan2(a(T), a(S))`` per RBS, ``a`` a signed entry or a sub-norm), and the
+``jacobian`` a user gives with their own :class:`~qdensity.models.encoding.Encoding`.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+
+from qdensity.execution.plans import Estimate, Plan
+from qdensity.models.exact import ExactGradients, InputColumns
+
+__all__ = ["encoding_jacobian", "loader_angles_jacobian", "input_jacobian", "input_jacobians",
+           "input_gradient_plan"]
+
+
+def loader_angles_jacobian(X, layout: str = "parallel") -> np.ndarray:
+    """``d phi / d x`` of :func:`~qdensity.circuits.loaders.loader_angles`, exact.
+
+    Each RBS angle is ``phi = arctan2(t, s)`` with ``t``, ``s`` the signed entry of a
+    one-element range or the norm of a longer one, so
+    ``d phi = (s dt - t ds) / (s^2 + t^2)``, ``d ||v|| = v / ||v||`` (0 where ``v = 0``,
+    the subgradient the loader's angle takes there).
+
+    Parameters
+    ----------
+    X : array_like, shape (B, d)
+        No zero rows.
+    layout : {"parallel", "diagonal", "semi_diagonal"}
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, d - 1, d)
+    """
+    from qdensity.circuits.loaders import _plan, loader_angles
+
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    loader_angles(X, layout)  # the same checks (finite, d >= 2, no zero rows)
+    B, d = X.shape
+    plan = _plan(d, layout)
+    out = np.zeros((B, len(plan.nodes), d))
+
+    def amplitude(lo, hi):
+        grad = np.zeros((B, d))
+        if hi - lo == 1:
+            grad[:, lo] = 1.0
+            return X[:, lo], grad
+        v = X[:, lo:hi]
+        norm = np.linalg.norm(v, axis=1)
+        grad[:, lo:hi] = v / np.where(norm > 0, norm, 1.0)[:, None]
+        return norm, grad
+
+    for k, node in enumerate(plan.nodes):
+        t, dt = amplitude(*node.tgt_range)
+        s, ds = amplitude(*node.src_range)
+        r2 = s**2 + t**2
+        r2 = np.where(r2 > 0, r2, 1.0)
+        out[:, k, :] = (s[:, None] * dt - t[:, None] * ds) / r2[:, None]
+    return out
+
+
+def encoding_jacobian(encoding, X) -> np.ndarray:
+    """``d phi / d x`` of an encoding's parameters w.r.t. the features.
+
+    Parameters
+    ----------
+    encoding : Encoding
+        ``kind`` ``"angle"`` (identity), ``"unary"`` (:func:`loader_angles_jacobian`) or any
+        encoding with a ``jacobian`` callable ``X (B, d) -> (B, P_enc, d)``.
+    X : array_like, shape (B, d)
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, P_enc, d)
+
+    Raises
+    ------
+    ValueError
+        For an encoding of another kind without a ``jacobian``.
+    """
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    jac = getattr(encoding, "jacobian", None)
+    if jac is not None:
+        out = np.asarray(jac(X), dtype=float)
+        want = (X.shape[0], encoding.circuit.num_parameters, X.shape[1])
+        if out.shape != want:
+            raise ValueError(f"encoding.jacobian(X) must have shape {want} (B, P_enc, d), got "
+                             f"{out.shape}")
+        return out
+    if encoding.kind == "angle":
+        P = encoding.circuit.num_parameters
+        return np.broadcast_to(np.eye(P, X.shape[1]), (X.shape[0], P, X.shape[1])).copy()
+    if encoding.kind == "unary":
+        layout = getattr(encoding.transform, "keywords", {}).get("layout", "parallel")
+        return loader_angles_jacobian(X, layout)
+    raise ValueError(f"input gradients through an encoding of kind {encoding.kind!r} need its "
+                     "jacobian: give Encoding(..., jacobian=f) with f(X) of shape "
+                     "(B, P_enc, d), d phi / d x")
+
+
+def input_jacobian(model, X, columns: InputColumns, jac: np.ndarray) -> np.ndarray:
+    """``d f / d x`` from the circuit Jacobian w.r.t. the data-carrying columns.
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d)
+    columns : InputColumns
+    jac : numpy.ndarray, shape (B, M, len(columns.columns))
+        ``d f_m / d value`` of those columns, encoding columns first.
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, M, d)
+    """
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    B, M = jac.shape[:2]
+    out = np.zeros((B, M, X.shape[1]))
+    ne = columns.encoding.size
+    if ne:
+        out += np.einsum("bmp,bpd->bmd", jac[:, :, :ne], encoding_jacobian(model.encoding, X))
+    for c, feature in enumerate(columns.features):
+        out[:, :, feature] += jac[:, :, ne + c]
+    return out
+
+
+def input_jacobians(model, X, gradients: ExactGradients) -> list[np.ndarray]:
+    """``d f_k / d x`` of every sub-unitary, shape (B, m, d) each, from
+    :func:`~qdensity.models.exact.exact_gradients` (one adjoint sweep gave the data columns'
+    derivatives with the trainable ones).
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d)
+    gradients : ExactGradients
+        Of the same ``X``.
+
+    Returns
+    -------
+    list of numpy.ndarray, K arrays of shape (B, m, d)
+    """
+    return [input_jacobian(model, X, cols, jac) for cols, jac in
+            zip(gradients.data_columns, gradients.data_jacobians, strict=True)]
+
+
+def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
+    """Plan for ``d f_k / d x`` of every sub-unitary by shift rules on the data parameters.
+
+    The circuit ``V(x) U_k`` is differentiated w.r.t. every data-carrying parameter (the
+    encoding's and the re-uploaded ``x[i]``) with the rules of
+    :func:`~qdensity.gradients.shift.parameter_shift_plan` (two terms for Pauli rotations,
+    four for RBS), then chained to the features as in :func:`input_jacobian`. Runs on any
+    engine: exact, or sampled with ``shots`` per circuit.
+
+    Parameters
+    ----------
+    model : DensityQNN
+        With ``readout="observable"``.
+    X : array_like, shape (B, d)
+    shots : int, optional
+        Shots per shifted circuit; exact when None.
+
+    Returns
+    -------
+    Plan
+        Post-processing returns a list of K :class:`~qdensity.plans.Estimate` of shape
+        (B, 1, d) (standard errors propagated through the chain rule, shifted circuits being
+        independent). ``plan.meta["input_circuits"]`` is the number of circuits per data point,
+        summed over the sub-unitaries.
+
+    Raises
+    ------
+    ValueError
+        For another readout (its 2**n outcome probabilities are not estimated here).
+    """
+    from qdensity.gradients.shift import parameter_shift_plan
+    from qdensity.models.exact import input_columns
+
+    if model.readout != "observable":
+        raise ValueError(f"input_gradient_plan needs readout='observable', got "
+                         f"{model.readout!r}; use the exact engines (QuantumLayer or the torch "
+                         "layer with engine='exact') for unary readouts")
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    plans, columns = [], []
+    for k in range(model.num_subunitaries):
+        circ = model.circuit(k)
+        cols = input_columns(model, circ)
+        params = [circ.parameters[c] for c in cols.columns]
+        plans.append(parameter_shift_plan(circ, model.observable, model.rows(k, X, circuit=circ),
+                                          parameters=params, shots=shots,
+                                          label=f"input_gradient_k{k}"))
+        columns.append(cols)
+    combined = Plan.combine(plans, "input gradient")
+    per_point = sum(p.num_circuits for p in plans) // max(X.shape[0], 1)
+    post = partial(_input_post, combined, model, X, columns)
+    return Plan(combined.jobs, post, "input gradient", {"input_circuits": per_point})
+
+
+def _input_post(combined, model, X, columns, results) -> list[Estimate]:
+    out = []
+    for est, cols in zip(combined.postprocess(results), columns, strict=True):
+        value = input_jacobian(model, X, cols, np.asarray(est.value)[:, None, :])
+        var = _squared_chain(model, X, cols, np.asarray(est.standard_error)[:, None, :] ** 2)
+        out.append(Estimate(value, np.sqrt(var)))
+    return out
+
+
+def _squared_chain(model, X, cols: InputColumns, var: np.ndarray) -> np.ndarray:
+    """Variances through the chain rule: ``sum_c (d c / d x_i)^2 var_c``."""
+    out = np.zeros(var.shape[:2] + (X.shape[1],))
+    ne = cols.encoding.size
+    if ne:
+        out += np.einsum("bmp,bpd->bmd", var[:, :, :ne],
+                         encoding_jacobian(model.encoding, X) ** 2)
+    for c, feature in enumerate(cols.features):
+        out[:, :, feature] += var[:, :, ne + c]
+    return out
