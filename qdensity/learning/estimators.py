@@ -157,9 +157,10 @@ class _QNNEstimator(BaseEstimator):
         self.pca_ = None
         if self.model is None and cols < X.shape[1] and fit_pca:
             self.pca_ = PCA(n_components=cols, svd_solver="full").fit(X)
-        elif self.model is not None and X.shape[1] != self.model.encoding.num_features:
-            raise ValueError(f"X has {X.shape[1]} features but the model template encodes "
-                             f"{self.model.encoding.num_features}")
+        elif self.model is not None and X.shape[1] != self.model.num_features:
+            raise ValueError(f"X has {X.shape[1]} features but the model template takes "
+                             f"{self.model.num_features} (its encoding's or the data it "
+                             f"uploads, x[0] .. x[d - 1])")
         self.model_ = build_model(self, n, rng)
         width = self.model_.num_qubits if self.model_.readout != "observable" else 1
         self.pre_ = copy.deepcopy(self.pre) if self.pre is not None else None

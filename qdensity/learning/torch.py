@@ -180,8 +180,7 @@ class DensityQNNLayer(nn.Module):
     @property
     def num_features(self) -> int:
         """``d``: the width of the input."""
-        enc = self.model.encoding
-        return enc.num_features if enc is not None else self.model.num_qubits
+        return self.model.num_features or self.model.num_qubits
 
     def mixture_weights(self, x: torch.Tensor) -> torch.Tensor:
         """``alpha(x)``, shape (B, K)."""

@@ -124,6 +124,7 @@ class DensityQNN:
                       else np.zeros(len(params)))
         self.training = True
         self._unary_ok = None
+        self._num_uploaded = None
 
     # ------------------------------------------------------------------ basic facts
     @property
@@ -149,11 +150,29 @@ class DensityQNN:
     def _check_X(self, X) -> np.ndarray:
         """Data as a finite 2-d float array (B, d)."""
         arr = np.atleast_2d(check_finite_array(X, "X"))
-        d = self.encoding.num_features if self.encoding is not None else arr.shape[-1]
+        d = self.num_features
+        if self.encoding is None and d == 0:  # the circuits take no data: any row is ignored
+            d = arr.shape[-1]
         if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] != d:
-            raise ValueError(f"X must have shape (rows >= 1, {d}) (d = the encoding's "
+            raise ValueError(f"X must have shape (rows >= 1, {d}) (d = the model's "
                              f"num_features), got {arr.shape}")
         return arr
+
+    @property
+    def num_features(self) -> int:
+        """Features ``d`` of a data row: the encoding's, else those the circuits upload.
+
+        A model without an :class:`Encoding` reads feature ``i`` into every parameter
+        ``x[i]`` (re-uploading, Methods eq. 10-11), so ``d`` is one more than the largest such
+        index (0 for a model that takes no data).
+        """
+        if self.encoding is not None:
+            return self.encoding.num_features
+        if self._num_uploaded is None:
+            idx = [p.index for c in self.sub_unitaries for p in c.parameters
+                   if getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX]
+            self._num_uploaded = max(idx) + 1 if idx else 0
+        return self._num_uploaded
 
     @property
     def num_subunitaries(self) -> int:
