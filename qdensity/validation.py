@@ -13,7 +13,9 @@ from qiskit.circuit import QuantumCircuit
 
 __all__ = [
     "as_rng",
+    "check_seed",
     "seed_int",
+    "seed_u32",
     "check_real_vector",
     "check_nonzero_vector",
     "check_distribution",
@@ -25,6 +27,11 @@ __all__ = [
     "check_real_scalar",
     "check_finite_array",
     "check_callable",
+    "check_type",
+    "check_sequence_of",
+    "check_engine",
+    "check_target",
+    "check_magnitude",
     "check_width",
     "MAX_DENSE_QUBITS",
     "MAX_DENSE_ENTRIES",
@@ -47,25 +54,54 @@ MAX_LAYERS = 10_000
 SeedLike = int | np.random.Generator | None
 
 
-def as_rng(seed: SeedLike) -> np.random.Generator:
-    """A ``numpy.random.Generator`` from an int, a Generator (returned as is) or None.
+def check_seed(seed, name: str = "seed") -> SeedLike:
+    """A seed as every stochastic function takes it: an int ``>= 0``, a Generator or None.
+
+    The one place seeds are checked, so ``seed=-1`` anywhere is refused with a message that
+    names the argument (numpy's own says only "expected non-negative integer").
 
     Parameters
     ----------
     seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message.
+
+    Returns
+    -------
+    int, numpy.random.Generator or None
+        ``seed`` itself (a numpy integer becomes an int).
+    """
+    if seed is None or isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
+        raise TypeError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
+                        f"{type(seed).__name__} {seed!r}")
+    if seed < 0:
+        raise ValueError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
+                         f"{seed!r}")
+    return int(seed)
+
+
+def as_rng(seed: SeedLike, name: str = "seed") -> np.random.Generator:
+    """A ``numpy.random.Generator`` from an int ``>= 0``, a Generator (returned as is) or None.
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message (see :func:`check_seed`).
 
     Returns
     -------
     numpy.random.Generator
     """
+    seed = check_seed(seed, name)
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is None or (isinstance(seed, numbers.Integral) and not isinstance(seed, bool)):
-        return np.random.default_rng(seed)
-    raise TypeError(f"seed must be an int, a numpy.random.Generator or None, got {seed!r}")
+    return np.random.default_rng(seed)
 
 
-def seed_int(seed: SeedLike) -> int | None:
+def seed_int(seed: SeedLike, name: str = "seed") -> int | None:
     """An integer seed for libraries that need one (Aer's ``seed_simulator``, transpiler).
 
     Draws from the generator when given one, so a Generator still yields reproducible runs.
@@ -73,17 +109,27 @@ def seed_int(seed: SeedLike) -> int | None:
     Parameters
     ----------
     seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message (see :func:`check_seed`).
 
     Returns
     -------
     int or None
     """
-    if seed is None:
-        return None
+    seed = check_seed(seed, name)
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, 2**31 - 1))
-    as_rng(seed)  # type check
-    return int(seed)
+    return seed
+
+
+def seed_u32(seed: SeedLike, name: str = "seed") -> int | None:
+    """:func:`seed_int` within ``[0, 2**32 - 1]``, scikit-learn's ``random_state`` range (a
+    larger int is refused naming ``name``, not passed on to fail inside scikit-learn)."""
+    out = seed_int(seed, name)
+    if out is not None and out > 2**32 - 1:
+        raise ValueError(f"{name} must be at most 2**32 - 1 = {2**32 - 1} (scikit-learn's "
+                         f"random_state range), got {out}")
+    return out
 
 
 def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
@@ -317,6 +363,67 @@ def check_callable(value, name: str, what: str = "a callable"):
     if not callable(value):
         raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
     return value
+
+
+def check_type(value, name: str, types, expected: str, *, allow_none: bool = False):
+    """``value`` if it is an instance of ``types`` (or None with ``allow_none``), else a
+    ``TypeError`` naming ``name``, what is ``expected`` in words, and what came."""
+    if value is None and allow_none:
+        return value
+    if not isinstance(value, types):
+        extra = " or None" if allow_none else ""
+        raise TypeError(f"{name} must be {expected}{extra}, got {type(value).__name__} "
+                        f"{value!r:.80}")
+    return value
+
+
+def check_sequence_of(values, name: str, types, expected: str) -> list:
+    """``values`` as a list whose every item is an instance of ``types`` (``TypeError`` naming
+    ``name`` or ``name[i]`` otherwise; a lone item, a string or a non-iterable is refused)."""
+    if isinstance(values, (str, bytes, types)) or not hasattr(values, "__iter__"):
+        raise TypeError(f"{name} must be a sequence of {expected}, got "
+                        f"{type(values).__name__} {values!r:.80}")
+    out = list(values)
+    for i, v in enumerate(out):
+        if not isinstance(v, types):
+            raise TypeError(f"{name}[{i}] must be a {expected}, got {type(v).__name__} "
+                            f"{v!r:.80}")
+    return out
+
+
+def check_engine(engine, name: str = "engine"):
+    """An engine (anything with ``run(jobs)``: ExactEngine, SamplerEngine, AdjointEngine)."""
+    if not callable(getattr(engine, "run", None)):
+        raise TypeError(f"{name} must be an engine with run(jobs) (ExactEngine, SamplerEngine, "
+                        f"AdjointEngine), got {type(engine).__name__} {engine!r:.80}")
+    return engine
+
+
+def check_target(target, name: str = "target"):
+    """A hardware target (``qdensity.targets.get_target``: has ``sampler`` and ``transpile``)
+    or None."""
+    if target is not None and not all(callable(getattr(target, a, None))
+                                      for a in ("sampler", "transpile")):
+        raise TypeError(f"{name} must be a HardwareTarget (qdensity.targets.get_target) or "
+                        f"None, got {type(target).__name__} {target!r:.80}")
+    return target
+
+
+def check_magnitude(values: np.ndarray, name: str, hint: str) -> None:
+    """Refuse finite data whose squares overflow float64 (losses and norms would be inf/NaN).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+    name : str
+    hint : str
+        How to scale the data (for the message).
+    """
+    with np.errstate(over="ignore"):
+        total = float(np.sum(np.square(values)))
+    if not np.isfinite(total):
+        raise ValueError(f"{name} is too large: its squares overflow float64 (largest |{name}| "
+                         f"= {float(np.max(np.abs(values))):.3g}); {hint}")
 
 
 def check_width(

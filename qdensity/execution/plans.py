@@ -28,6 +28,7 @@ from qdensity.execution.intervals import wilson_standard_error
 from qdensity.validation import (
     as_parameter_rows,
     check_circuit,
+    check_engine,
     check_positive_int,
     check_width,
 )
@@ -239,7 +240,7 @@ class Plan:
 
     def run(self, engine) -> Any:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
-        results = engine.run(self.jobs)
+        results = check_engine(engine).run(self.jobs)
         return self.postprocess(results)
 
     @staticmethod

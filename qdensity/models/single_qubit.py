@@ -63,7 +63,7 @@ class SingleQubitReuploading:
                  seed=None):
         self.num_layers = check_positive_int(num_layers, "num_layers")
         self.num_subunitaries = check_positive_int(num_subunitaries, "num_subunitaries")
-        if encoding not in REUPLOADING_ENCODINGS:
+        if not isinstance(encoding, str) or encoding not in REUPLOADING_ENCODINGS:
             raise ValueError(f"encoding must be one of {sorted(REUPLOADING_ENCODINGS)}, got "
                              f"{encoding!r}")
         self.encoding = encoding
