@@ -1,0 +1,53 @@
+"""Run each statistical test over many seeds and print its failure count (not part of CI).
+
+Usage: ``python benchmarks/fuzz_statistics.py [--seeds 50] [TEST_ID ...]`` from the repository
+root. A statistical test reads its sampling seed from ``QDENSITY_STAT_SEED`` at call time (its
+own fixed seed when unset) and states the probability with which it may fail for a random
+seed; over ``S`` seeds the expected failure count is ``S`` times that rate, so a count well
+above it means the bound in the test is wrong. One pytest process per seed, run one after
+another (single-threaded, so it can run beside other work).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+#: Test id -> stated false-failure rate per run (see each test's comment).
+STATISTICAL_TESTS: dict[str, float] = {
+    "tests/gradients/test_commuting_gradients.py::test_sampled_gradients_within_standard_errors":
+        3e-3,  # three cases, 1e-3 each
+}
+
+
+def _run(test: str, seed: int) -> bool:
+    env = dict(os.environ, QDENSITY_STAT_SEED=str(seed), OMP_NUM_THREADS="1")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:randomly",
+                           "-p", "no:cacheprovider", test], env=env, capture_output=True,
+                          text=True)
+    return proc.returncode == 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=50, help="seeds per test (0 .. S - 1)")
+    parser.add_argument("tests", nargs="*", help="test ids (default: every statistical test)")
+    args = parser.parse_args(argv)
+    tests = args.tests or list(STATISTICAL_TESTS)
+    print(f"{'test':<90}{'failed':>8}{'expected':>10}{'seconds':>9}")
+    worst = 0.0
+    for test in tests:
+        t0 = time.perf_counter()
+        failed = [s for s in range(args.seeds) if not _run(test, s)]
+        expected = args.seeds * STATISTICAL_TESTS.get(test, 0.0)
+        print(f"{test:<90}{len(failed):>8}{expected:>10.2f}{time.perf_counter() - t0:>9.0f}"
+              + (f"  seeds {failed}" if failed else ""))
+        worst = max(worst, len(failed) - expected)
+    return 0 if worst < 1 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
