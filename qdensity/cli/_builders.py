@@ -108,8 +108,29 @@ BUILDERS: dict[str, Callable[[int], QuantumCircuit]] = {
 }
 
 
+#: Smallest size each builder accepts (2 unless listed; butterfly also needs a power of two).
+MIN_SIZE = {"reuploading": 1, "equivariant_xx": 3, "equivariant_yy": 3}
+
+
+def size_range(name: str, largest: int) -> str:
+    """The sizes ``name`` accepts up to ``largest``, in words (for the CLI's messages)."""
+    low = MIN_SIZE.get(name, 2)
+    extra = " and a power of two" if name == "butterfly" else ""
+    return f"an int in [{low}, {largest}]{extra} for {name}"
+
+
+def check_size(name: str, size: int, largest: int) -> None:
+    """Refuse a ``--size`` that ``name`` cannot build, stating its real range."""
+    low = MIN_SIZE.get(name, 2)
+    if name in BUILDERS and not (low <= size <= largest and (name != "butterfly"
+                                                             or size & (size - 1) == 0)):
+        raise ValueError(f"--size must be {size_range(name, largest)}, got {size}")
+
+
 def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> QuantumCircuit:
     """Build a named circuit (see :data:`BUILDERS`), its parameters bound with seeded values.
+
+    The circuit is named ``"{name}_{num_qubits}"`` (stable across runs).
 
     Raises
     ------
@@ -124,4 +145,7 @@ def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> Q
     if bind_seed is not None and qc.num_parameters:
         qc = qc.assign_parameters(
             np.random.default_rng(bind_seed).uniform(-np.pi, np.pi, qc.num_parameters))
+    # Qiskit's copies (assign_parameters, compose) append an instance counter ("-48") that
+    # changes from run to run; the name is the builder's and the size
+    qc.name = f"{name}_{num_qubits}"
     return qc

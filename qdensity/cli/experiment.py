@@ -68,7 +68,7 @@ def add_parser(sub) -> None:
     x = sub.add_parser("experiment", help="run one of the paper's experiments over seeds: "
                                           "results JSON with 95%% confidence intervals and "
                                           "figures")
-    x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}")
+    x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}%(default).0s")
     size = x.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true",
                       help="small settings, at most a minute on two cores (the default)")
@@ -77,9 +77,10 @@ def add_parser(sub) -> None:
                            "for each experiment's reductions)")
     x.add_argument("--seeds", type=_seeds, default=None,
                    help="number of seeds (runs 0..S-1) or a list like 0,3,7 (default: 2 for "
-                        "--quick, 5 for --full)")
+                        "--quick, 5 for --full)%(default).0s")
     x.add_argument("--out", default=None, metavar="DIR",
-                   help="write DIR/NAME-MODE.json and the PNG figures there")
+                   help="write DIR/NAME-MODE.json and the PNG figures there (default: nothing "
+                        "written)%(default).0s")
     x.add_argument("--jobs", type=int, default=1, help="run seeds in this many processes")
     x.add_argument("--set", type=_setting, action="append", default=[], metavar="KEY=VALUE",
                    help="override one setting (VALUE read as JSON), e.g. --set epochs=3")

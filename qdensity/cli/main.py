@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from qdensity.cli._builders import BUILDERS, _vector, build_circuit
+from qdensity.cli._builders import BUILDERS, _vector, build_circuit, check_size
 
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
 
@@ -31,7 +31,12 @@ MAX_CLI_SHOTS = 10**8
 
 
 class _Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2."""
+    """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2, and whose
+    ``--help`` shows every option's default (sub-commands' parsers are of this class too)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D102 - argparse API
         message = " ".join(str(message).split())
@@ -76,10 +81,18 @@ def _print_json(obj) -> None:
 
 
 def _cmd_build(args) -> int:
+    check_size(args.name, args.size, MAX_CLI_QUBITS)
     qc = build_circuit(args.name, args.size, bind_seed=None if args.unbound else args.seed)
     out = {"name": args.name, "num_qubits": qc.num_qubits, "num_clbits": qc.num_clbits,
            "size": qc.size(), "depth": qc.depth(), "num_parameters": qc.num_parameters,
            "count_ops": dict(qc.count_ops())}
+    if args.qasm and args.qasm != "-":
+        from pathlib import Path
+
+        folder = Path(args.qasm).expanduser().resolve().parent
+        if not folder.is_dir():
+            raise ValueError(f"--qasm {args.qasm!r}: the folder {str(folder)!r} does not exist; "
+                             f"create it first (mkdir -p) or choose another path")
     if args.qasm:
         from qiskit import qasm2, transpile
 
@@ -113,6 +126,7 @@ def _cmd_transpile(args) -> int:
     from qdensity.execution.resources import resource_report
     from qdensity.execution.targets import get_target
 
+    check_size(args.name, args.size, MAX_CLI_QUBITS)
     qc = build_circuit(args.name, args.size, bind_seed=args.seed)
     target = get_target(args.target, qc.num_qubits, seed=args.seed, noise=False)
     report = resource_report(qc, target, optimization_level=args.optimization_level,
@@ -172,7 +186,13 @@ def _cmd_table1(args) -> int:
     unknown = [a for a in args.ansatz if a not in ANSATZE]
     if unknown:
         raise ValueError(f"unknown ansatz {unknown}; known: {', '.join(ANSATZE)}")
-    rows = table1(args.n, args.ansatz or ANSATZE, layers=args.layers, copies_k=args.copies)
+    names = args.ansatz or ANSATZE
+    odd = [n for n in args.n if n & (n - 1)]
+    if "butterfly" in names and odd:
+        print(f"qdensity table1: note: the butterfly row is dropped for n = "
+              f"{', '.join(map(str, odd))} (a butterfly needs a power-of-two number of qubits)",
+              file=sys.stderr)
+    rows = table1(args.n, names, layers=args.layers, copies_k=args.copies)
     if args.json:
         _print_json(rows)
     else:
@@ -213,7 +233,8 @@ def _cmd_demo(args) -> int:
                if getattr(args, k) is not None}
     cfg = DemoConfig.quick(**changes) if args.quick else DemoConfig(**changes)
     results = run_demo(cfg, output_dir=args.output, plot=not args.no_plot,
-                       verbose=not args.json, progress=True)
+                       verbose=not args.json, progress=True,
+                       plot_name="qdensity-demo-quick.png" if args.quick else "qdensity-demo.png")
     if args.json:
         _print_json(results)
     return 0
@@ -254,18 +275,27 @@ def _cmd_sweep(args) -> int:
 def _parser() -> argparse.ArgumentParser:
     from qdensity.cli import experiment
     from qdensity.execution.targets import target_help
+    from qdensity.experiments.demo import DemoConfig
 
-    size = _int_in(1, MAX_CLI_QUBITS)
+    any_size = _int_in(-(2**31), 2**31)  # build / transpile: checked with the builder's name
     shots = _int_in(1, MAX_CLI_SHOTS)
     p = _Parser(prog="qdensity", description="Density quantum neural networks "
                                 "on Qiskit and qiskit-aer.")
+    import importlib
+
+    version = importlib.import_module("qdensity").__version__  # the package root, imported
+    p.add_argument("--version", action="version", version=f"%(prog)s {version}")
     sub = p.add_subparsers(dest="command", required=True)
 
     b = sub.add_parser("build", help="print, draw or export a named circuit")
     b.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    b.add_argument("--size", type=size, default=4, help="number of (data) qubits")
-    b.add_argument("--draw", action="store_true", help="draw the circuit (default if no --qasm)")
-    b.add_argument("--qasm", metavar="FILE", help="write OpenQASM 2 to FILE ('-' for stdout)")
+    b.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (at least 2; "
+                   "reuploading: layers, from 1; equivariant_xx/yy from 3; butterfly: a power "
+                   "of two)")
+    b.add_argument("--draw", action="store_true",
+                   help="draw the circuit (the default without --qasm or --json)%(default).0s")
+    b.add_argument("--qasm", metavar="FILE",
+                   help="write OpenQASM 2 to FILE ('-' for stdout; default: none)%(default).0s")
     b.add_argument("--unbound", action="store_true", help="keep parameters free")
     b.add_argument("--seed", type=_SEED, default=0, help="seed of the bound parameter values")
     b.add_argument("--fold", type=_int_in(-1, 10**4), default=120,
@@ -277,7 +307,8 @@ def _parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    t.add_argument("--size", type=size, default=4, help="number of (data) qubits")
+    t.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (as for "
+                   "build)")
     t.add_argument("--target", default="ideal", help=target_help())
     t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3],
                    help="Qiskit preset pass manager level")
@@ -298,9 +329,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="how the budget is split over the sub-unitaries: per_shot (draw k for "
                         "every shot), proportional (n_k ~ alpha_k) or neyman (a pilot, then "
                         "n_k ~ alpha_k sigma_k; allocation excludes the pilot_allocation)")
-    r.add_argument("--alpha", type=_finite_float, nargs="+", help="mixture (default uniform)")
+    r.add_argument("--alpha", type=_finite_float, nargs="+",
+                   help="mixture (default: uniform)%(default).0s")
     r.add_argument("--x", type=_finite_float, nargs="+",
-                   help="input vector (default seeded random)")
+                   help="input vector (default: seeded random)%(default).0s")
     r.add_argument("--seed", type=_SEED, default=0,
                    help="seed of the model, the input, the target's errors and the shots")
     r.add_argument("--json", action="store_true",
@@ -309,7 +341,8 @@ def _parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
 
     tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
-    tb.add_argument("--n", type=size, nargs="+", default=[4, 8], help="qubit counts")
+    tb.add_argument("--n", type=_int_in(2, MAX_CLI_QUBITS), nargs="+", default=[4, 8],
+                    help="qubit counts (the butterfly row only for powers of two)")
     tb.add_argument("--ansatz", nargs="+", default=[], help="subset of ansätze")
     tb.add_argument("--layers", type=_int_in(1, 100), default=3,
                     help="hardware-efficient depth D")
@@ -320,7 +353,7 @@ def _parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
     e.add_argument("directory", nargs="?", default="circuits",
-                   help="where the .qasm files and their README.md index go (default: circuits)")
+                   help="where the .qasm files and their README.md index go")
     e.add_argument("--check", action="store_true",
                    help="only check the files are current (exit status 1 if not)")
     e.add_argument("--qasm3", action="store_true", help="write only the OpenQASM 3 files "
@@ -334,9 +367,13 @@ def _parser() -> argparse.ArgumentParser:
                                     "digits with sampled gradients on a noisy heavy-hex device "
                                     "at the same shot budget, beside each model's exact-training "
                                     "ceiling (about a minute)")
-    d.add_argument("--output", default=".", help="directory for qdensity-demo.png")
-    d.add_argument("--budget", type=shots, help="shot budget per model")
-    d.add_argument("--shots", type=shots, help="shots per circuit")
+    d.add_argument("--output", default=".", help="directory for qdensity-demo.png "
+                   "(qdensity-demo-quick.png with --quick)")
+    full, quick = DemoConfig(), DemoConfig.quick()
+    d.add_argument("--budget", type=shots, help=f"shot budget per model (default: {full.budget}; "
+                   f"{quick.budget} with --quick)%(default).0s")
+    d.add_argument("--shots", type=shots, help=f"shots per circuit (default: {full.shots})"
+                   "%(default).0s")
     d.add_argument("--seed", type=_SEED, default=7,
                    help="seed of the data split, the models, the device's errors and the shots")
     d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
