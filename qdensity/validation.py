@@ -24,6 +24,7 @@ __all__ = [
     "as_parameter_rows",
     "check_positive_int",
     "check_circuit",
+    "check_entries",
     "check_real_scalar",
     "check_finite_array",
     "check_callable",
@@ -302,6 +303,17 @@ def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
     """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``."""
     return check_positive_int(value, name, minimum=minimum, maximum=MAX_LAYERS,
                               why="deeper circuits take minutes to build")
+
+
+def check_entries(shape: tuple[int, ...], name: str) -> None:
+    """Refuse a parameter array of ``shape`` with more than :data:`MAX_DENSE_ENTRIES` entries
+    (2 GiB of float64) before it is allocated; ``name`` says what the array is."""
+    total = 1
+    for s in shape:
+        total *= int(s)
+    if total > MAX_DENSE_ENTRIES:
+        raise ValueError(f"{name} would hold {total} numbers (shape {tuple(shape)}), more than "
+                         f"{MAX_DENSE_ENTRIES} (2 GiB of float64); use smaller sizes")
 
 
 def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:

@@ -98,7 +98,8 @@ class DemoConfig:
 
     def check(self) -> None:
         """Raise ``ValueError`` naming the first bad setting."""
-        ints = {"num_qubits": 2, "num_classes": 2, "shots": 1, "budget": 1, "batch_size": 1,
+        # shots >= 2: a sampled gradient estimates each circuit's variance from its shots
+        ints = {"num_qubits": 2, "num_classes": 2, "shots": 2, "budget": 1, "batch_size": 1,
                 "exact_epochs": 1, "exact_batch_size": 1, "test_size": 20, "curve_points": 1,
                 "seed": 0}
         for name, low in ints.items():

@@ -21,6 +21,7 @@ from scipy.special import erf
 from qdensity.validation import (
     as_rng,
     check_distribution,
+    check_entries,
     check_finite_array,
     check_positive_int,
     check_real_vector,
@@ -114,7 +115,9 @@ class SoftmaxMixture(Mixture):
                 raise ValueError("alpha must be strictly positive to be expressed as logits")
             self.logits = np.log(a)
         else:
-            self.logits = np.zeros(check_positive_int(num_components, "num_components"))
+            k = check_positive_int(num_components, "num_components")
+            check_entries((k,), f"the logits of num_components={k}")
+            self.logits = np.zeros(k)
         self.num_components = self.logits.size
 
     @property
@@ -171,6 +174,7 @@ class GatedMixture(Mixture):
             raise ValueError(f"activation must be None or 'gelu', got {activation!r}")
         self.activation = activation
         shape = (self.num_components, self.num_features)
+        check_entries(shape, "the gate's weights (num_components, num_features)")
         if weights is None:
             weights = as_rng(seed).normal(0.0, 1.0 / math.sqrt(self.num_features), shape)
         weights = check_finite_array(weights, "weights")

@@ -130,10 +130,10 @@ ENTRIES = {
                {"sub_unitaries": st.one_of(OBJ, st.just([])), "seed": SEED}),
     "GatedMixture": (_call(GatedMixture, "num_features", "num_components"),
                      {"num_features": 4, "num_components": 2}, {
-        "num_features": SIZE, "num_components": SIZE, "activation": CHOICE,
+        "num_features": HUGE_SIZE, "num_components": HUGE_SIZE, "activation": CHOICE,
         "weights": _array((2, 4)), "bias": _array((2,)), "seed": SEED}),
     "SoftmaxMixture": (_call(SoftmaxMixture, "num_components"), {"num_components": 3},
-                       {"num_components": SIZE}),
+                       {"num_components": HUGE_SIZE}),
     "FixedMixture": (_call(FixedMixture, "alpha"), {"alpha": [0.5, 0.5]},
                      {"alpha": st.one_of(_array((2,)), st.just([0.7, 0.7]),
                                          st.just([-0.5, 1.5]))}),
@@ -171,10 +171,11 @@ ENTRIES = {
                             {"shots": st.one_of(SIZE, st.just(1), st.none())}),
     "Linear": (_call(Linear, "in_features", "out_features"),
                {"in_features": 2, "out_features": 3}, {
-        "in_features": SIZE, "out_features": SIZE, "seed": SEED, "bias": BOOL}),
+        "in_features": HUGE_SIZE, "out_features": HUGE_SIZE, "seed": SEED, "bias": BOOL}),
     "SingleQubitReuploading": (_call(SingleQubitReuploading, "num_layers"),
                                {"num_layers": 2}, {
-        "num_layers": SIZE, "num_subunitaries": SIZE, "encoding": CHOICE, "seed": SEED}),
+        "num_layers": HUGE_SIZE, "num_subunitaries": HUGE_SIZE, "encoding": CHOICE,
+        "seed": SEED}),
     "unary_loader": (_call(unary_loader, "x"), {"x": X1}, {
         "x": st.one_of(_array((N,)), st.just([0.0, 0.0]), st.just([1.0]))}),
     "bars_and_dots": (_call(bars_and_dots, "num_samples", "num_qubits"),
