@@ -233,8 +233,8 @@ def read_estimator(est, path):
     data = load_parameters(path)
     meta = read_meta(data, path)
     spec = check_saved(est, meta, data, path)
-    if spec:
-        est.set_params(**spec)
+    if not meta["template"]:  # the file's spec defines the model
+        est.set_params(model=None, **spec)
     est.n_features_in_ = meta["n_features_in"]
     est._load_meta(meta)
     est._prepare(np.zeros((1, est.n_features_in_)), as_rng(0), fit_pca=False)
