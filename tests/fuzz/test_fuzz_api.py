@@ -131,7 +131,8 @@ ENTRIES = {
                {"sub_unitaries": st.one_of(OBJ, st.just([])), "seed": SEED}),
     "GatedMixture": (_call(GatedMixture, "num_features", "num_components"),
                      {"num_features": 4, "num_components": 2}, {
-        "num_features": HUGE_SIZE, "num_components": HUGE_SIZE, "activation": CHOICE,
+        "num_features": HUGE_SIZE, "num_components": HUGE_SIZE,
+        "activation": CHOICE.filter(lambda v: v is not None),
         "weights": _array((2, 4)), "bias": _array((2,)), "seed": SEED}),
     "SoftmaxMixture": (_call(SoftmaxMixture, "num_components"), {"num_components": 3},
                        {"num_components": HUGE_SIZE}),
