@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from qdensity.models.decompositions import trainable_parameters
-from qdensity.validation import as_rng, check_target, check_type
+from qdensity.validation import MAX_DENSE_ENTRIES, as_rng, check_target, check_type
 
 
 def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
@@ -21,7 +21,8 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
     from qdensity.validation import check_positive_int
 
-    budget = check_positive_int(budget, "budget")
+    budget = check_positive_int(budget, "budget", maximum=MAX_DENSE_ENTRIES,
+                                why="every shot's measured bits are held in memory")
     check_type(engine, "engine", SamplerEngine, "a SamplerEngine", allow_none=True)
     check_target(target)
     if not isinstance(scheduler, str) or scheduler not in ("per_shot", "proportional",

@@ -124,8 +124,7 @@ ENTRIES = {
         "mixture": st.one_of(st.just("softmax"), st.just([0.5, 0.6]), st.just([math.nan])),
         "encoding": OBJ, "readout": CHOICE, "seed": SEED}),
     "DensityQNN.sample": (_sample, {}, {
-        "x": _array((N,)), "budget": HUGE_SIZE.filter(lambda v: not isinstance(v, int)
-                                                       or v < 1),
+        "x": _array((N,)), "budget": HUGE_SIZE,
         "scheduler": CHOICE, "engine": OBJ, "target": OBJ, "seed": SEED}),
     "LCUQNN": (_call(LCUQNN, "sub_unitaries"), {"sub_unitaries": [round_robin(N)]},
                {"sub_unitaries": st.one_of(OBJ, st.just([])), "seed": SEED}),
