@@ -4,17 +4,19 @@ Usage: ``python benchmarks/fuzz_statistics.py [--seeds 50] [TEST_ID ...]`` from 
 root. A statistical test reads its sampling seed from ``QDENSITY_STAT_SEED`` at call time (its
 own fixed seed when unset) and states the probability with which it may fail for a random
 seed; over ``S`` seeds the expected failure count is ``S`` times that rate, so a count well
-above it means the bound in the test is wrong. One pytest process per seed, run one after
-another (single-threaded, so it can run beside other work).
+above it means the bound in the test is wrong. The runs go one after another in this process
+(single-threaded, so it can run beside other work).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
-import subprocess
 import sys
 import time
+
+import pytest
 
 #: Test id -> stated false-failure rate per run (see each test's comment).
 STATISTICAL_TESTS: dict[str, float] = {
@@ -33,11 +35,12 @@ STATISTICAL_TESTS: dict[str, float] = {
 
 
 def _run(test: str, seed: int) -> bool:
-    env = dict(os.environ, QDENSITY_STAT_SEED=str(seed), OMP_NUM_THREADS="1")
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:randomly",
-                           "-p", "no:cacheprovider", test], env=env, capture_output=True,
-                          text=True)
-    return proc.returncode == 0
+    """One run of ``test`` with ``QDENSITY_STAT_SEED=seed``, in this process (the tests read
+    the variable at call time; importing Qiskit once, not once per seed)."""
+    os.environ["QDENSITY_STAT_SEED"] = str(seed)
+    with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
+        code = pytest.main(["-q", "-p", "no:randomly", "-p", "no:cacheprovider", test])
+    return code == 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,6 +48,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=50, help="seeds per test (0 .. S - 1)")
     parser.add_argument("tests", nargs="*", help="test ids (default: every statistical test)")
     args = parser.parse_args(argv)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.path.insert(0, os.getcwd())
     tests = args.tests or list(STATISTICAL_TESTS)
     print(f"{'test':<90}{'failed':>8}{'expected':>10}{'seconds':>9}")
     worst = 0.0
