@@ -414,25 +414,28 @@ def _stat_seed(default: int) -> int:
 
 
 def _estimator_moments(exact, values, shots):
-    """Exact variance of the gradient estimate, variance of its estimated ``se**2``, and the
-    Wilson term, from the exact outcome probabilities of every circuit.
+    """Exact variance of the gradient estimate, and the two parts of the estimated ``se**2``'s
+    error, from the exact outcome probabilities of every circuit; plus the Wilson term.
 
-    Per circuit with per-shot values ``v`` (outcome x parameter) and probabilities ``e``:
-    ``sigma^2 = m2``, and the unbiased sample variance of ``N`` shots has variance
-    ``(m4 - m2^2 (N - 3) / (N - 1)) / N`` (``m2``, ``m4``: central moments); independent
-    circuits add, each divided by ``N`` (``N^2`` for the variance of ``s^2 / N``).
+    Per circuit with per-shot values ``v`` (outcome x parameter), probabilities ``e`` and
+    ``N`` shots, the unbiased sample variance is ``s^2 = (sum (x - mu)^2 - N (xbar - mu)^2) /
+    (N - 1)``: its first part is a mean of ``N`` terms of variance ``m4 - m2^2`` (``m2``,
+    ``m4``: central moments), normal for large effective counts; its second part is at most
+    ``z^2 m2 / (N - 1)`` when ``|xbar - mu| <= z sigma / sqrt(N)``. ``se^2`` adds ``s^2 / N``
+    over the independent circuits.
     """
-    var = var_se2 = wilson = 0.0
+    var = normal_var = mean_scale = wilson = 0.0
     n = float(shots)
     for e, v in zip(exact, values, strict=True):
         mu = e @ v
         m2 = np.maximum(e @ v**2 - mu**2, 0.0)
         m4 = e @ v**4 - 4 * mu * (e @ v**3) + 6 * mu**2 * (e @ v**2) - 3 * mu**4
         var = var + m2 / n
-        var_se2 = var_se2 + np.maximum(m4 - m2**2 * (n - 3) / (n - 1), 0.0) / n / n**2
+        normal_var = normal_var + np.maximum(m4 - m2**2, 0.0) * n / (n - 1) ** 2 / n**2
+        mean_scale = mean_scale + m2 / (n - 1) / n
         width = v.max(axis=0) - v.min(axis=0)
         wilson = wilson + width**2 / (4 * n**2)
-    return var, var_se2, wilson
+    return var, normal_var, mean_scale, wilson
 
 
 @pytest.mark.parametrize("case", ["round_robin", "hwe", "pyramid_blocks"])
@@ -464,22 +467,30 @@ def test_sampled_gradients_within_standard_errors(case):
     est = grad.gradient_from_probabilities(sampled)
     true = grad.gradient_from_probabilities(exact)
     se = grad.standard_error(sampled, shots)
-    true_var, var_of_se2, wilson = _estimator_moments(exact, grad.value_matrices(), shots)
+    true_var, normal_var, mean_scale, wilson = _estimator_moments(
+        exact, grad.value_matrices(), shots)
     true_se = np.sqrt(true_var)
     informative = true_se > 1e-3  # parameters whose estimator is not constant
     assert informative.sum() >= 4
-    # Both checks hold with probability >= 1 - 1e-3 for any seed: z is the two-sided normal
-    # quantile at 1e-3 / (2 m) over the m checked entries (Bonferroni); the estimate is a sum
-    # of 4000-shot means (normal to within a Berry-Esseen term far below this rate) and the
-    # variance estimate a mean of 4000 squared deviations whose exact variance comes from the
-    # fourth central moments (sparse outcomes skew it like a Poisson count; its tail at the
-    # 4.3-sigma point of a mean-16 count is < 1e-4, inside the budget).
+    # Both checks hold with probability >= 1 - 1e-3 for any seed (Bonferroni: 5e-4 each,
+    # spread over the m checked entries and, for the sample means, over the circuits). The
+    # estimate is a sum of 4000-shot means, normal well within this rate. The variance
+    # estimate (see _estimator_moments) is checked where its normal part is precise (relative
+    # spread below 10%, an effective count above ~100: sparse outcomes make it a skewed,
+    # Poisson-like count), with the sample-mean part bounded one-sidedly; a plain normal bound
+    # on the whole failed 2 of 50 seed sets (near-symmetric two-point values put chi-square(1)
+    # tails on it).
     m = int(informative.sum())
-    z = float(norm.isf(1e-3 / (2 * m)))
+    z = float(norm.isf(5e-4 / (2 * m)))
+    z_mean = float(norm.isf(5e-4 / (2 * m * len(grad.circuits))))
     assert np.all(np.abs(est - true)[informative] <= z * true_se[informative])
-    expected_se2 = true_var * 1.0 + wilson  # unbiased s^2 plus the Wilson term R^2/(4 N^2)
-    dev = np.abs(se**2 - expected_se2)[informative]
-    assert np.all(dev <= z * np.sqrt(var_of_se2)[informative])
+    expected_se2 = true_var + wilson  # unbiased s^2 / N plus the Wilson term R^2 / (4 N^2)
+    precise = informative & (np.sqrt(normal_var) < 0.1 * expected_se2)
+    assert precise.sum() >= 2
+    diff = (se**2 - expected_se2)[precise]
+    high = z * np.sqrt(normal_var)[precise] + mean_scale[precise]
+    low = z * np.sqrt(normal_var)[precise] + z_mean**2 * mean_scale[precise]
+    assert np.all((diff <= high) & (diff >= -low))
     # exact gradient itself against finite differences for the first row
     vals = dict(zip(qc.parameters, rows[0], strict=True))
     np.testing.assert_allclose(true[0], _fd_gradient(qc, obs, vals, grad.parameters), atol=TOL)
