@@ -7,13 +7,16 @@ what is allowed. Nothing is renormalised or clipped silently.
 from __future__ import annotations
 
 import numbers
+import os
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
 __all__ = [
     "as_rng",
+    "check_seed",
     "seed_int",
+    "seed_u32",
     "check_real_vector",
     "check_nonzero_vector",
     "check_distribution",
@@ -22,9 +25,15 @@ __all__ = [
     "as_parameter_rows",
     "check_positive_int",
     "check_circuit",
+    "check_entries",
     "check_real_scalar",
     "check_finite_array",
     "check_callable",
+    "check_type",
+    "check_sequence_of",
+    "check_engine",
+    "check_target",
+    "check_magnitude",
     "check_width",
     "MAX_DENSE_QUBITS",
     "MAX_DENSE_ENTRIES",
@@ -47,25 +56,54 @@ MAX_LAYERS = 10_000
 SeedLike = int | np.random.Generator | None
 
 
-def as_rng(seed: SeedLike) -> np.random.Generator:
-    """A ``numpy.random.Generator`` from an int, a Generator (returned as is) or None.
+def check_seed(seed, name: str = "seed") -> SeedLike:
+    """A seed as every stochastic function takes it: an int ``>= 0``, a Generator or None.
+
+    The one place seeds are checked, so ``seed=-1`` anywhere is refused with a message that
+    names the argument (numpy's own says only "expected non-negative integer").
 
     Parameters
     ----------
     seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message.
+
+    Returns
+    -------
+    int, numpy.random.Generator or None
+        ``seed`` itself (a numpy integer becomes an int).
+    """
+    if seed is None or isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
+        raise TypeError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
+                        f"{type(seed).__name__} {seed!r}")
+    if seed < 0:
+        raise ValueError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
+                         f"{seed!r}")
+    return int(seed)
+
+
+def as_rng(seed: SeedLike, name: str = "seed") -> np.random.Generator:
+    """A ``numpy.random.Generator`` from an int ``>= 0``, a Generator (returned as is) or None.
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message (see :func:`check_seed`).
 
     Returns
     -------
     numpy.random.Generator
     """
+    seed = check_seed(seed, name)
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is None or (isinstance(seed, numbers.Integral) and not isinstance(seed, bool)):
-        return np.random.default_rng(seed)
-    raise TypeError(f"seed must be an int, a numpy.random.Generator or None, got {seed!r}")
+    return np.random.default_rng(seed)
 
 
-def seed_int(seed: SeedLike) -> int | None:
+def seed_int(seed: SeedLike, name: str = "seed") -> int | None:
     """An integer seed for libraries that need one (Aer's ``seed_simulator``, transpiler).
 
     Draws from the generator when given one, so a Generator still yields reproducible runs.
@@ -73,17 +111,27 @@ def seed_int(seed: SeedLike) -> int | None:
     Parameters
     ----------
     seed : int, numpy.random.Generator or None
+    name : str
+        Argument name for the error message (see :func:`check_seed`).
 
     Returns
     -------
     int or None
     """
-    if seed is None:
-        return None
+    seed = check_seed(seed, name)
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, 2**31 - 1))
-    as_rng(seed)  # type check
-    return int(seed)
+    return seed
+
+
+def seed_u32(seed: SeedLike, name: str = "seed") -> int | None:
+    """:func:`seed_int` within ``[0, 2**32 - 1]``, scikit-learn's ``random_state`` range (a
+    larger int is refused naming ``name``, not passed on to fail inside scikit-learn)."""
+    out = seed_int(seed, name)
+    if out is not None and out > 2**32 - 1:
+        raise ValueError(f"{name} must be at most 2**32 - 1 = {2**32 - 1} (scikit-learn's "
+                         f"random_state range), got {out}")
+    return out
 
 
 def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
@@ -258,6 +306,17 @@ def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
                               why="deeper circuits take minutes to build")
 
 
+def check_entries(shape: tuple[int, ...], name: str) -> None:
+    """Refuse a parameter array of ``shape`` with more than :data:`MAX_DENSE_ENTRIES` entries
+    (2 GiB of float64) before it is allocated; ``name`` says what the array is."""
+    total = 1
+    for s in shape:
+        total *= int(s)
+    if total > MAX_DENSE_ENTRIES:
+        raise ValueError(f"{name} would hold {total} numbers (shape {tuple(shape)}), more than "
+                         f"{MAX_DENSE_ENTRIES} (2 GiB of float64); use smaller sizes")
+
+
 def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:
     """A ``QuantumCircuit`` or a ``TypeError`` naming ``name``."""
     if not isinstance(circuit, QuantumCircuit):
@@ -317,6 +376,76 @@ def check_callable(value, name: str, what: str = "a callable"):
     if not callable(value):
         raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
     return value
+
+
+def check_type(value, name: str, types, expected: str, *, allow_none: bool = False):
+    """``value`` if it is an instance of ``types`` (or None with ``allow_none``), else a
+    ``TypeError`` naming ``name``, what is ``expected`` in words, and what came."""
+    if value is None and allow_none:
+        return value
+    if not isinstance(value, types):
+        extra = " or None" if allow_none else ""
+        raise TypeError(f"{name} must be {expected}{extra}, got {type(value).__name__} "
+                        f"{value!r:.80}")
+    return value
+
+
+def check_sequence_of(values, name: str, types, expected: str) -> list:
+    """``values`` as a list whose every item is an instance of ``types`` (``TypeError`` naming
+    ``name`` or ``name[i]`` otherwise; a lone item, a string or a non-iterable is refused)."""
+    if isinstance(values, (str, bytes, types)) or not hasattr(values, "__iter__"):
+        raise TypeError(f"{name} must be a sequence of {expected}, got "
+                        f"{type(values).__name__} {values!r:.80}")
+    out = list(values)
+    for i, v in enumerate(out):
+        if not isinstance(v, types):
+            raise TypeError(f"{name}[{i}] must be a {expected}, got {type(v).__name__} "
+                            f"{v!r:.80}")
+    return out
+
+
+def check_engine(engine, name: str = "engine"):
+    """An engine (anything with ``run(jobs)``: ExactEngine, SamplerEngine, AdjointEngine)."""
+    if not callable(getattr(engine, "run", None)):
+        raise TypeError(f"{name} must be an engine with run(jobs) (ExactEngine, SamplerEngine, "
+                        f"AdjointEngine), got {type(engine).__name__} {engine!r:.80}")
+    return engine
+
+
+def check_target(target, name: str = "target"):
+    """Anything a target may be given as, or None: a ``HardwareTarget`` (has ``sampler`` and
+    ``transpile``), a target name or snapshot path (``str`` / ``os.PathLike``), a Qiskit
+    ``BackendV2`` or a ``qiskit.transpiler.Target`` (``qdensity.hardware.targets.as_target``
+    turns each into a ``HardwareTarget``; this check only refuses the wrong types, by name)."""
+    if target is None or isinstance(target, (str, os.PathLike)):
+        return target
+    if all(callable(getattr(target, a, None)) for a in ("sampler", "transpile")):
+        return target
+    from qiskit.providers import BackendV2
+    from qiskit.transpiler import Target
+
+    if isinstance(target, (BackendV2, Target)):
+        return target
+    raise TypeError(f"{name} must be a HardwareTarget, a target name or snapshot path, a "
+                    f"BackendV2 or a qiskit.transpiler.Target (qdensity.targets.get_target), "
+                    f"or None; got {type(target).__name__} {target!r:.80}")
+
+
+def check_magnitude(values: np.ndarray, name: str, hint: str) -> None:
+    """Refuse finite data whose squares overflow float64 (losses and norms would be inf/NaN).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+    name : str
+    hint : str
+        How to scale the data (for the message).
+    """
+    with np.errstate(over="ignore"):
+        total = float(np.sum(np.square(values)))
+    if not np.isfinite(total):
+        raise ValueError(f"{name} is too large: its squares overflow float64 (largest |{name}| "
+                         f"= {float(np.max(np.abs(values))):.3g}); {hint}")
 
 
 def check_width(

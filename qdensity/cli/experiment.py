@@ -69,7 +69,7 @@ def add_parser(sub) -> None:
     x = sub.add_parser("experiment", help="run one of the paper's experiments over seeds: "
                                           "results JSON with 95%% confidence intervals and "
                                           "figures")
-    x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}")
+    x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}%(default).0s")
     size = x.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true",
                       help="small settings, at most a minute on two cores (the default)")
@@ -81,9 +81,10 @@ def add_parser(sub) -> None:
                            "it is ambiguous); --set may not change a setting the paper fixes")
     x.add_argument("--seeds", type=_seeds, default=None,
                    help="number of seeds (runs 0..S-1) or a list like 0,3,7 (default: 2 for "
-                        "--quick, 5 for --full)")
+                        "--quick, 5 for --full)%(default).0s")
     x.add_argument("--out", default=None, metavar="DIR",
-                   help="write DIR/NAME-MODE.json and the PNG figures there")
+                   help="write DIR/NAME-MODE.json and the PNG figures there (default: nothing "
+                        "written)%(default).0s")
     x.add_argument("--jobs", type=int, default=1,
                    help="run units (a seed, or a setting of a seed) in this many local worker "
                         "processes at once (the same as --cluster local:N)")

@@ -17,8 +17,8 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
-from qiskit import QuantumCircuit
 
+from qdensity.cli._builders import BUILDERS, _vector, build_circuit, check_size
 from qdensity.cli._devices import DEMO_OPTIONS, correction_options, corrections
 
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
@@ -32,7 +32,12 @@ MAX_CLI_SHOTS = 10**8
 
 
 class _Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2."""
+    """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2, and whose
+    ``--help`` shows every option's default (sub-commands' parsers are of this class too)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D102 - argparse API
         message = " ".join(str(message).split())
@@ -70,115 +75,6 @@ _finite_float.__name__ = "float"
 _SEED = _int_in(0, 2**32 - 1)
 
 
-def _vector(n: int, seed: int = 0) -> np.ndarray:
-    return np.random.default_rng(seed).normal(size=n)
-
-
-def _loader(layout: str) -> Callable[[int], QuantumCircuit]:
-    def make(n: int) -> QuantumCircuit:
-        from qdensity.circuits.loaders import unary_loader
-
-        return unary_loader(_vector(n), layout=layout)
-    return make
-
-
-def _ansatz(name: str) -> Callable[[int], QuantumCircuit]:
-    def make(n: int) -> QuantumCircuit:
-        from qdensity.circuits import ansatze
-
-        if name == "hardware_efficient":
-            return ansatze.hardware_efficient(n, 2)
-        if name == "equivariant_xx":
-            return ansatze.equivariant_commuting(n, "X")
-        if name == "equivariant_yy":
-            return ansatze.equivariant_commuting(n, "Y")
-        if name == "equivariant_noncommuting":
-            return ansatze.equivariant_noncommuting(n, 2)
-        if name == "reuploading":
-            return ansatze.reuploading(n)
-        return getattr(ansatze, name)(n)
-    return make
-
-
-def _density(kind: str) -> Callable[[int], QuantumCircuit]:
-    def make(n: int) -> QuantumCircuit:
-        from qdensity.circuits.ansatze import round_robin
-        from qdensity.circuits.loaders import unary_loader
-        from qdensity.circuits.preparation import deterministic_circuit, lcu_circuit
-        from qdensity.models.decompositions import by_moments
-
-        subs = by_moments(round_robin(n)).sub_unitaries
-        alpha = np.full(len(subs), 1.0 / len(subs))
-        build = deterministic_circuit if kind == "deterministic" else lcu_circuit
-        return build(subs, alpha, loader=unary_loader(_vector(n)))
-    return make
-
-
-def _gradient(n: int) -> QuantumCircuit:
-    from qiskit.quantum_info import SparsePauliOp
-
-    from qdensity.circuits.ansatze import round_robin
-    from qdensity.circuits.loaders import unary_loader
-    from qdensity.gradients import commuting_gradient
-    from qdensity.models.decompositions import by_moments
-
-    layer = by_moments(round_robin(n)).sub_unitaries[0]
-    circ = unary_loader(_vector(n)).compose(layer)
-    obs = SparsePauliOp.from_sparse_list([("Z", [q], 1.0) for q in range(n)], n)
-    return commuting_gradient(circ, obs).circuits[0]
-
-
-def _tomography(index: int) -> Callable[[int], QuantumCircuit]:
-    def make(n: int) -> QuantumCircuit:
-        from qdensity.circuits.ansatze import pyramid
-        from qdensity.circuits.loaders import unary_loader
-        from qdensity.circuits.tomography import tomography_circuits
-
-        return tomography_circuits(unary_loader(_vector(n)).compose(pyramid(n)))[index]
-    return make
-
-
-#: Named circuit builders for ``build`` and ``transpile``: name -> f(num_qubits).
-BUILDERS: dict[str, Callable[[int], QuantumCircuit]] = {
-    "loader_parallel": _loader("parallel"),
-    "loader_diagonal": _loader("diagonal"),
-    "loader_semi_diagonal": _loader("semi_diagonal"),
-    "pyramid": _ansatz("pyramid"),
-    "x_circuit": _ansatz("x_circuit"),
-    "butterfly": _ansatz("butterfly"),
-    "round_robin": _ansatz("round_robin"),
-    "hardware_efficient": _ansatz("hardware_efficient"),
-    "equivariant_xx": _ansatz("equivariant_xx"),
-    "equivariant_yy": _ansatz("equivariant_yy"),
-    "equivariant_noncommuting": _ansatz("equivariant_noncommuting"),
-    "qcnn": _ansatz("qcnn"),
-    "reuploading": _ansatz("reuploading"),
-    "deterministic": _density("deterministic"),
-    "lcu": _density("lcu"),
-    "commuting_gradient": _gradient,
-    "tomography_0": _tomography(0),
-    "tomography_1": _tomography(1),
-    "tomography_2": _tomography(2),
-}
-
-
-def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> QuantumCircuit:
-    """Build a named circuit (see :data:`BUILDERS`), its parameters bound with seeded values.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name (the message lists the known ones).
-    """
-    if name not in BUILDERS:
-        raise ValueError(f"unknown builder {name!r}; known builders: {', '.join(BUILDERS)}")
-    qc = BUILDERS[name](num_qubits)
-    if bind_seed is not None and qc.num_parameters:
-        qc = qc.assign_parameters(
-            np.random.default_rng(bind_seed).uniform(-np.pi, np.pi, qc.num_parameters))
-    return qc
-
-
 def _print_json(obj) -> None:
     """One JSON document on stdout (numpy scalars and arrays as plain numbers and lists)."""
     print(json.dumps(obj, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist")
@@ -186,10 +82,18 @@ def _print_json(obj) -> None:
 
 
 def _cmd_build(args) -> int:
+    check_size(args.name, args.size, MAX_CLI_QUBITS)
     qc = build_circuit(args.name, args.size, bind_seed=None if args.unbound else args.seed)
     out = {"name": args.name, "num_qubits": qc.num_qubits, "num_clbits": qc.num_clbits,
            "size": qc.size(), "depth": qc.depth(), "num_parameters": qc.num_parameters,
            "count_ops": dict(qc.count_ops())}
+    if args.qasm and args.qasm != "-":
+        from pathlib import Path
+
+        folder = Path(args.qasm).expanduser().resolve().parent
+        if not folder.is_dir():
+            raise ValueError(f"--qasm {args.qasm!r}: the folder {str(folder)!r} does not exist; "
+                             f"create it first (mkdir -p) or choose another path")
     if args.qasm:
         from qiskit import qasm2, transpile
 
@@ -222,6 +126,7 @@ def _cmd_build(args) -> int:
 def _cmd_transpile(args) -> int:
     from qdensity.hardware.resources import resource_report
 
+    check_size(args.name, args.size, MAX_CLI_QUBITS)
     qc = build_circuit(args.name, args.size, bind_seed=args.seed)
     # a name is sized to the circuit; a snapshot file is the device's size; noise off
     report = resource_report(qc, args.target, optimization_level=args.optimization_level,
@@ -278,7 +183,13 @@ def _cmd_table1(args) -> int:
     unknown = [a for a in args.ansatz if a not in ANSATZE]
     if unknown:
         raise ValueError(f"unknown ansatz {unknown}; known: {', '.join(ANSATZE)}")
-    rows = table1(args.n, args.ansatz or ANSATZE, layers=args.layers, copies_k=args.copies)
+    names = args.ansatz or ANSATZE
+    odd = [n for n in args.n if n & (n - 1)]
+    if "butterfly" in names and odd:
+        print(f"qdensity table1: note: the butterfly row is dropped for n = "
+              f"{', '.join(map(str, odd))} (a butterfly needs a power-of-two number of qubits)",
+              file=sys.stderr)
+    rows = table1(args.n, names, layers=args.layers, copies_k=args.copies)
     if args.json:
         _print_json(rows)
     else:
@@ -318,7 +229,8 @@ def _cmd_demo(args) -> int:
     changes = {k: getattr(args, k) for k in DEMO_OPTIONS if getattr(args, k) is not None}
     cfg = DemoConfig.quick(**changes) if args.quick else DemoConfig(**changes)
     results = run_demo(cfg, output_dir=args.output, plot=not args.no_plot,
-                       verbose=not args.json, progress=True)
+                       verbose=not args.json, progress=True,
+                       plot_name="qdensity-demo-quick.png" if args.quick else "qdensity-demo.png")
     if args.json:
         _print_json(results)
     return 0
@@ -326,19 +238,28 @@ def _cmd_demo(args) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     from qdensity.cli import experiment, results, sweep
+    from qdensity.experiments.demo import DemoConfig
     from qdensity.hardware.targets import target_help
 
-    size = _int_in(1, MAX_CLI_QUBITS)
+    any_size = _int_in(-(2**31), 2**31)  # build / transpile: checked with the builder's name
     shots = _int_in(1, MAX_CLI_SHOTS)
     p = _Parser(prog="qdensity", description="Density quantum neural networks "
                                 "on Qiskit and qiskit-aer.")
+    import importlib
+
+    version = importlib.import_module("qdensity").__version__  # the package root, imported
+    p.add_argument("--version", action="version", version=f"%(prog)s {version}")
     sub = p.add_subparsers(dest="command", required=True)
 
     b = sub.add_parser("build", help="print, draw or export a named circuit")
     b.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    b.add_argument("--size", type=size, default=4, help="number of (data) qubits")
-    b.add_argument("--draw", action="store_true", help="draw the circuit (default if no --qasm)")
-    b.add_argument("--qasm", metavar="FILE", help="write OpenQASM 2 to FILE ('-' for stdout)")
+    b.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (at least 2; "
+                   "reuploading: layers, from 1; equivariant_xx/yy from 3; butterfly: a power "
+                   "of two)")
+    b.add_argument("--draw", action="store_true",
+                   help="draw the circuit (the default without --qasm or --json)%(default).0s")
+    b.add_argument("--qasm", metavar="FILE",
+                   help="write OpenQASM 2 to FILE ('-' for stdout; default: none)%(default).0s")
     b.add_argument("--unbound", action="store_true", help="keep parameters free")
     b.add_argument("--seed", type=_SEED, default=0, help="seed of the bound parameter values")
     b.add_argument("--fold", type=_int_in(-1, 10**4), default=120,
@@ -350,7 +271,8 @@ def _parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
-    t.add_argument("--size", type=size, default=4, help="number of (data) qubits")
+    t.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (as for "
+                   "build)")
     t.add_argument("--target", default="ideal", help=target_help())
     t.add_argument("--optimization-level", type=int, default=1, choices=[0, 1, 2, 3],
                    help="Qiskit preset pass manager level")
@@ -371,9 +293,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="how the budget is split over the sub-unitaries: per_shot (draw k for "
                         "every shot), proportional (n_k ~ alpha_k) or neyman (a pilot, then "
                         "n_k ~ alpha_k sigma_k; allocation excludes the pilot_allocation)")
-    r.add_argument("--alpha", type=_finite_float, nargs="+", help="mixture (default uniform)")
+    r.add_argument("--alpha", type=_finite_float, nargs="+",
+                   help="mixture (default: uniform)%(default).0s")
     r.add_argument("--x", type=_finite_float, nargs="+",
-                   help="input vector (default seeded random)")
+                   help="input vector (default: seeded random)%(default).0s")
     r.add_argument("--seed", type=_SEED, default=0,
                    help="seed of the model, the input, the target's errors and the shots")
     correction_options(r)
@@ -383,7 +306,8 @@ def _parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
 
     tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
-    tb.add_argument("--n", type=size, nargs="+", default=[4, 8], help="qubit counts")
+    tb.add_argument("--n", type=_int_in(2, MAX_CLI_QUBITS), nargs="+", default=[4, 8],
+                    help="qubit counts (the butterfly row only for powers of two)")
     tb.add_argument("--ansatz", nargs="+", default=[], help="subset of ansätze")
     tb.add_argument("--layers", type=_int_in(1, 100), default=3,
                     help="hardware-efficient depth D")
@@ -394,7 +318,7 @@ def _parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
     e.add_argument("directory", nargs="?", default="circuits",
-                   help="where the .qasm files and their README.md index go (default: circuits)")
+                   help="where the .qasm files and their README.md index go")
     e.add_argument("--check", action="store_true",
                    help="only check the files are current (exit status 1 if not)")
     e.add_argument("--qasm3", action="store_true", help="write only the OpenQASM 3 files "
@@ -408,9 +332,13 @@ def _parser() -> argparse.ArgumentParser:
                                     "digits with sampled gradients on a noisy heavy-hex device "
                                     "at the same shot budget, beside each model's exact-training "
                                     "ceiling (about a minute)")
-    d.add_argument("--output", default=".", help="directory for qdensity-demo.png")
-    d.add_argument("--budget", type=shots, help="shot budget per model")
-    d.add_argument("--shots", type=shots, help="shots per circuit")
+    d.add_argument("--output", default=".", help="directory for qdensity-demo.png "
+                   "(qdensity-demo-quick.png with --quick)")
+    full, quick = DemoConfig(), DemoConfig.quick()
+    d.add_argument("--budget", type=shots, help=f"shot budget per model (default: {full.budget}; "
+                   f"{quick.budget} with --quick)%(default).0s")
+    d.add_argument("--shots", type=shots, help=f"shots per circuit (default: {full.shots})"
+                   "%(default).0s")
     d.add_argument("--seed", type=_SEED, default=7,
                    help="seed of the data split, the models, the device's errors and the shots")
     correction_options(d, target_help())

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from qdensity.validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
+from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    SeedLike,
+    as_rng,
+    check_nonnegative_float,
+    check_num_qubits,
+    check_positive_int,
+)
 
 __all__ = ["bars_and_dots"]
 
@@ -50,7 +57,10 @@ def bars_and_dots(
     ((4, 6), True)
     """
     num = check_positive_int(num_samples, "num_samples", minimum=1)
-    d = check_positive_int(num_qubits, "num_qubits", minimum=4)
+    d = check_num_qubits(num_qubits, minimum=4)
+    if num * d > MAX_DENSE_ENTRIES:
+        raise ValueError(f"num_samples * num_qubits = {num * d} entries exceed "
+                         f"{MAX_DENSE_ENTRIES} (2 GiB of float64); draw fewer samples")
     sigma = check_nonnegative_float(noise_std, "noise_std")
     rng = as_rng(seed)
     length = d // 2

@@ -5,7 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from qdensity.validation import SeedLike, as_rng, check_nonnegative_float, check_positive_int
+from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    SeedLike,
+    as_rng,
+    check_nonnegative_float,
+    check_positive_int,
+)
 
 __all__ = ["chebyshev_dataset", "chebyshev_split", "chebyshev"]
 
@@ -46,7 +52,8 @@ def chebyshev_dataset(
     >>> bool(np.allclose(y, 2 * X[:, 0] ** 2 - 1))
     True
     """
-    num = check_positive_int(num_samples, "num_samples", minimum=1)
+    num = check_positive_int(num_samples, "num_samples", minimum=1, maximum=MAX_DENSE_ENTRIES,
+                             why="2 GiB of float64")
     deg = check_positive_int(degree, "degree", minimum=0)
     sigma = check_nonnegative_float(noise_std, "noise_std")
     rng = as_rng(seed)
@@ -126,5 +133,6 @@ def chebyshev_split(
     """
     X_tr, y_tr = chebyshev_dataset(check_positive_int(num_train, "num_train"), degree, noise_std,
                                    seed)
-    x_te = np.linspace(-1.0, 1.0, check_positive_int(num_test, "num_test", minimum=2))
+    x_te = np.linspace(-1.0, 1.0, check_positive_int(num_test, "num_test", minimum=2,
+                                                      maximum=MAX_DENSE_ENTRIES))
     return X_tr, x_te[:, None], y_tr, chebyshev(x_te, degree)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from qdensity.validation import seed_u32
+
 __all__ = ["load_digits_features"]
 
 
@@ -42,6 +44,7 @@ def load_digits_features(
     from sklearn.decomposition import PCA
     from sklearn.model_selection import train_test_split
 
+    seed = seed_u32(seed)
     X, y = load_digits(return_X_y=True)
     X_tr, X_te, y_tr, y_te = train_test_split(X, y, test_size=test_size, random_state=seed,
                                               stratify=y)

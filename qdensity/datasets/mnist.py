@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_positive_int, seed_u32
 
 __all__ = ["load_mnist", "mnist_source", "read_idx", "IDX_FILES", "BUNDLED", "BUNDLED_TEST_SIZE"]
 
@@ -232,6 +232,7 @@ def load_mnist(
         from sklearn.decomposition import PCA
 
         k = check_positive_int(num_features, "num_features")
+        seed = seed_u32(seed)
         if k > min(X_tr.shape):
             raise ValueError(f"num_features={k} exceeds what the training split allows "
                              f"({min(X_tr.shape)})")

@@ -36,7 +36,12 @@ from qdensity.execution import _kernels
 from qdensity.execution._statevector import Program, compile_program
 from qdensity.execution.engines import _measurement_map, circuit_fingerprint
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
-from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
+from qdensity.validation import (
+    as_parameter_rows,
+    check_circuit,
+    check_positive_int,
+    check_sequence_of,
+)
 
 __all__ = ["AdjointEngine", "MAX_QUBITS", "BACKENDS"]
 
@@ -388,7 +393,7 @@ class AdjointEngine:
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Exact probabilities of every job's measured template (shots are ignored)."""
         results = []
-        for job in jobs:
+        for job in check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob"):
             bare, qubits = self._bare(job.circuit)
             probs = self.probabilities(bare, job.values)
             probs = probs.reshape((job.rows,) + (2,) * bare.num_qubits)

@@ -50,7 +50,11 @@ from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,
     SeedLike,
+    check_callable,
     check_positive_int,
+    check_sequence_of,
+    check_target,
+    check_type,
     seed_int,
 )
 from qdensity.validation import check_width as check_dense_width
@@ -86,8 +90,10 @@ class ShotLedger:
     entries: list[LedgerEntry] = field(default_factory=list)
 
     def record(self, label: str, circuits: int, shots: int) -> None:
-        """Add an entry (``shots`` is the total over the ``circuits`` rows)."""
-        self.entries.append(LedgerEntry(label, int(circuits), int(shots)))
+        """Add an entry: ``circuits`` rows, ``shots`` in total over them (ints >= 0)."""
+        self.entries.append(LedgerEntry(check_type(label, "label", str, "a str"),
+                                        check_positive_int(circuits, "circuits", minimum=0),
+                                        check_positive_int(shots, "shots", minimum=0)))
 
     @property
     def total_shots(self) -> int:
@@ -187,7 +193,7 @@ class ExactEngine:
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Exact probabilities for every row of every job (shots are ignored)."""
         results = []
-        for job in jobs:
+        for job in check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob"):
             self._check_width(job)
             compiled = self._cache(job.circuit)
             cols = _columns_for(job.circuit, compiled)
@@ -343,6 +349,11 @@ class SamplerEngine:
             raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
                              f"levels), got {optimization_level!r}")
         seed = seed_int(seed)
+        check_target(target)
+        if transpiler is not None:
+            check_callable(transpiler, "transpiler", "a callable QuantumCircuit -> QuantumCircuit")
+        check_type(ledger, "ledger", ShotLedger, "a ShotLedger", allow_none=True)
+        check_type(progress, "progress", (bool, np.bool_), "a bool")
         if target is not None:
             target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
@@ -415,7 +426,7 @@ class SamplerEngine:
         ``ValueError``. The ledger is written only once the sampler's results are back, so a
         failed job leaves it unchanged (readout calibrations excepted: they are spent).
         """
-        jobs = list(jobs)
+        jobs = check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob")
         pubs, metas = [], []
         bar = self._bar(len(jobs), "transpile", "template")
         for job in jobs:

@@ -27,8 +27,10 @@ from qdensity.circuits.measure import measured
 from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.job_results import JobResult, bits_to_probabilities, unary_frequencies
 from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
     as_parameter_rows,
     check_circuit,
+    check_engine,
     check_positive_int,
     check_width,
 )
@@ -80,8 +82,9 @@ class CircuitJob:
             raise ValueError("values must have at least one parameter row, got shape "
                              f"{vals.shape} (a job with zero rows runs nothing)")
         object.__setattr__(self, "values", vals)
-        if self.shots is not None:
-            check_positive_int(self.shots, "shots")
+        if self.shots is not None:  # the measured bits of every shot are held in memory
+            check_positive_int(self.shots, "shots", maximum=MAX_DENSE_ENTRIES // vals.shape[0],
+                               why=f"{vals.shape[0]} rows x shots <= {MAX_DENSE_ENTRIES}")
         if self.circuit.num_clbits == 0:
             raise ValueError("a CircuitJob circuit must measure into classical bits")
 
@@ -151,7 +154,7 @@ class Plan:
 
     def run(self, engine) -> Any:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
-        results = engine.run(self.jobs)
+        results = check_engine(engine).run(self.jobs)
         return self.postprocess(results)
 
     @staticmethod

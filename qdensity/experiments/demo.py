@@ -104,8 +104,10 @@ class DemoConfig:
 
     def check(self) -> None:
         """Raise ``ValueError`` naming the first bad setting."""
-        ints = {"num_qubits": 2, "num_classes": 2, "shots": 1, "budget": 1, "batch_size": 1,
-                "exact_epochs": 1, "exact_batch_size": 1, "test_size": 20, "curve_points": 1}
+        # shots >= 2: a sampled gradient estimates each circuit's variance from its shots
+        ints = {"num_qubits": 2, "num_classes": 2, "shots": 2, "budget": 1, "batch_size": 1,
+                "exact_epochs": 1, "exact_batch_size": 1, "test_size": 20, "curve_points": 1,
+                "seed": 0}
         for name, low in ints.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
@@ -150,20 +152,24 @@ def _classifier(cfg: DemoConfig, model: DensityQNN, **kwargs) -> QNNClassifier:
 
 
 def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
-             verbose: bool = True, plot: bool = True, progress: bool | None = None) -> dict:
+             verbose: bool = True, plot: bool = True, progress: bool | None = None,
+             plot_name: str = "qdensity-demo.png") -> dict:
     """Run the demo; returns the numbers it prints.
 
     Parameters
     ----------
     config : DemoConfig, optional
     output_dir : path
-        Where ``qdensity-demo.png`` is written.
+        Where the plot is written.
     verbose : bool
         Print the resource table and the results.
     plot : bool
     progress : bool, optional
         Progress bars on a terminal (transpiling the resource table, the exact trainings, then
         one training bar per model, see :mod:`qdensity.progress`); default: ``verbose``.
+    plot_name : str
+        File name of the plot in ``output_dir`` (``qdensity demo --quick`` writes
+        ``qdensity-demo-quick.png``, so it never overwrites the full demo's).
 
     Returns
     -------
@@ -177,7 +183,8 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     Raises
     ------
     ValueError
-        A bad setting in ``config`` (named in the message).
+        A bad setting in ``config`` (named in the message), or a ``budget`` that cannot pay
+        for one training step of each model (checked before anything is trained).
     """
     cfg = config or DemoConfig()
     cfg.check()
@@ -186,6 +193,16 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     t0 = time.perf_counter()
     X_tr, X_te, y_tr, y_te = _data(cfg)
     pure, dens = _models(cfg)
+    models = {"pure": pure, "density": dens}
+    # what one sampled training step costs each model: the budget must pay for one
+    step_shots = {name: density_gradient_plan(models[name], X_tr[:cfg.batch_size],
+                                              method=method, shots=cfg.shots).total_shots
+                  for name, method in _MODELS}
+    name, need = max(step_shots.items(), key=lambda kv: kv[1])
+    if cfg.budget < need:
+        raise ValueError(f"budget={cfg.budget} shots cannot pay for one training step: a step "
+                         f"of the {name} model runs {need // cfg.shots} circuits x shots="
+                         f"{cfg.shots} = {need} shots; use a budget >= {need}")
     target = get_target(cfg.target, cfg.num_qubits, seed=cfg.seed)
     say(f"qdensity demo: round-robin OrthoQNN on {cfg.num_qubits} qubits vs its layer-by-layer "
         f"density version (K = {dens.num_subunitaries}), digits 0-{cfg.num_classes - 1}")
@@ -205,7 +222,6 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
                          f"density, largest sub-unitary (k={worst})":
                              reports[f"density k={worst}"]}))
     say("")
-    models = {"pure": pure, "density": dens}
     results: dict = {}
     # the ceilings: each model trained exactly (unary engine, no shots, no noise)
     for name, _ in _MODELS:
@@ -213,7 +229,8 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
                           batch_size=cfg.exact_batch_size, verbose=progress)
         clf.fit(X_tr, y_tr)
         results[name] = {"ceiling": float(clf.score(X_te, y_te))}
-    say(f"exact training ({cfg.exact_epochs} epochs, no shots): test accuracy "
+    epochs = f"{cfg.exact_epochs} epoch{'s' if cfg.exact_epochs != 1 else ''}"
+    say(f"exact training ({epochs}, no shots): test accuracy "
         f"pure {results['pure']['ceiling']:.3f}, density {results['density']['ceiling']:.3f}"
         " (the ceilings)\n")
     every = max(1, cfg.budget // cfg.curve_points)
@@ -227,11 +244,9 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
                 curve.append((int(shots), float(est.score(X_te, y_te))))
 
         # the steps the budget allows (so the progress bar has the right length)
-        step_shots = density_gradient_plan(models[name], X_tr[:cfg.batch_size], method=method,
-                                           shots=cfg.shots).total_shots
         clf = _classifier(cfg, models[name], epochs=1000, batch_size=cfg.batch_size,
                           engine=engine, shots=cfg.shots, gradient=method, verbose=progress,
-                          max_shots=cfg.budget, max_steps=max(1, cfg.budget // step_shots),
+                          max_shots=cfg.budget, max_steps=max(1, cfg.budget // step_shots[name]),
                           callback=checkpoint)
         t = time.perf_counter()
         clf.fit(X_tr, y_tr)
@@ -258,7 +273,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
         f"chance is {1 / cfg.num_classes:.2f}")
     results["config"] = asdict(cfg)
     if plot:
-        path = Path(output_dir) / "qdensity-demo.png"
+        path = Path(output_dir) / plot_name
         _plot(results, path, cfg, target.label)
         results["plot"] = str(path.resolve())
         say(f"plot: {results['plot']}")

@@ -64,12 +64,12 @@ LABELS = {"exact": "exact (noiseless)", "raw": "device, raw", "ps": "device, HW-
 QUICK = {"target": "fake_manila", "num_qubits": 4, "classes": 4, "train_size": 200,
          "test_size": 16, "shots": 8, "budget": 1600, "batch_size": 2,
          "learning_rate": 0.1, "checkpoints": 2, "eval_shots": 64,
-         "eval_shots_sweep": [16, 256], "mitigation": True, "calibration_shots": 500,
+         "eval_shots_sweep": [16, 256], "mitigation": "auto", "calibration_shots": 500,
          "ceiling_epochs": 1}
 FULL = {"target": "fake_manila", "num_qubits": 5, "classes": 4, "train_size": None,
         "test_size": 120, "shots": 32, "budget": 600_000, "batch_size": 4,
         "learning_rate": 0.1, "checkpoints": 6, "eval_shots": 512,
-        "eval_shots_sweep": [32, 128, 512, 2048, 8192], "mitigation": True,
+        "eval_shots_sweep": [32, 128, 512, 2048, 8192], "mitigation": "auto",
         "calibration_shots": 4000, "ceiling_epochs": 10}
 
 _INSTALL = "pip install 'qdensity[ibm]'"
@@ -103,13 +103,19 @@ def check_config(config: dict) -> dict:
                          f"'fake_manila', or 'heavy_hex', 'line', ...), got {c['target']!r}")
     if is_snapshot_name(c["target"]) and not snapshots_available():
         raise ImportError(f"target {c['target']!r} is a calibrated device snapshot from "
-                          f"qiskit-ibm-runtime; install the extra: {_INSTALL} (or run with "
-                          "target='heavy_hex')")
+                          f"qiskit-ibm-runtime; install the extra: {_INSTALL}, or use a "
+                          "generic noisy device, which needs no extra: qdensity experiment "
+                          "noise --set target=heavy_hex (in Python: config={'target': "
+                          "'heavy_hex'})")
+    if c["mitigation"] == "auto":  # mthree's readout mitigation when installed, else none
+        c["mitigation"] = _have_mthree()
     if not isinstance(c["mitigation"], bool):
-        raise ValueError(f"setting 'mitigation' must be a bool, got {c['mitigation']!r}")
+        raise ValueError(f"setting 'mitigation' must be a bool or 'auto', got "
+                         f"{c['mitigation']!r}")
     if c["mitigation"] and not _have_mthree():
         raise ImportError(f"readout mitigation needs mthree; install the extra: {_INSTALL} "
-                          "(or run with mitigation=False)")
+                          "(or --set mitigation=false; the default 'auto' uses mthree only "
+                          "when it is installed)")
     n = _positive_int(c, "num_qubits", 3)
     if n > 6:
         raise ValueError(f"setting 'num_qubits' must be 3..6 (dense outcome counts and "

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from qdensity.validation import check_finite_array, check_seed
+
 __all__ = [
     "mean_ci",
     "bootstrap_ci",
@@ -94,7 +96,7 @@ def metric_bounds(name: str) -> tuple[float, float]:
 
 
 def _finite_values(values, name: str) -> np.ndarray:
-    arr = np.asarray(values, dtype=float).ravel()
+    arr = check_finite_array(values, name).ravel()
     if arr.size == 0:
         raise ValueError(f"{name} is empty: a confidence interval needs at least one value")
     if not np.all(np.isfinite(arr)):
@@ -204,6 +206,7 @@ def bootstrap_ci(
     >>> ci["estimate"], ci["low"] <= 0.3 <= ci["high"]
     (0.3, True)
     """
+    check_seed(seed)
     arr = _finite_values(values, "values")
     if arr.size < 2:
         raise ValueError(f"values needs at least 2 entries for a bootstrap, got {arr.size}")

@@ -21,6 +21,7 @@ from qdensity.models.decompositions import by_moments, cyclic_moments, odd_even
 from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
+from qdensity.validation import check_layers, check_num_qubits, check_seed
 
 ANSATZE = {"round_robin": round_robin, "pyramid": pyramid, "x": x_circuit,
            "butterfly": butterfly}
@@ -47,13 +48,14 @@ def _real(value, name: str, *, positive: bool = False, allow_none: bool = False)
         raise ValueError(f"{name} must be finite and {need}, got {value!r}")
 
 
-def _int(value, name: str, *, minimum: int = 1, allow_none: bool = False) -> None:
+def _int(value, name: str, *, minimum: int = 1, allow_none: bool = False, why: str = "") -> None:
     if value is None and allow_none:
         return
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an int, got {value!r}")
     if value < minimum:
-        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
+        raise ValueError(f"{name} must be an int >= {minimum}{' (' + why + ')' if why else ''}"
+                         f", got {value!r}")
 
 
 def check_hyperparameters(est) -> None:
@@ -66,8 +68,9 @@ def check_hyperparameters(est) -> None:
         _choice(est.decomposition, "decomposition", DECOMPOSITIONS)
         _choice(est.mixture, "mixture", MIXTURES)
         _choice(est.readout, "readout", READOUTS)
-        _int(est.depth, "depth")
-        _int(est.num_qubits, "num_qubits", minimum=2, allow_none=True)
+        check_layers(est.depth, "depth")
+        if est.num_qubits is not None:
+            check_num_qubits(est.num_qubits, minimum=2)
         if est.constant is not None:
             _real(est.constant, "constant", positive=True)
     _choice(est.optimizer, "optimizer", OPTIMIZERS)
@@ -81,18 +84,22 @@ def check_hyperparameters(est) -> None:
     if isinstance(est.engine, SamplerEngine):
         if est.shots is None:
             raise ValueError("shots must be given (shots per circuit) with a SamplerEngine engine")
-        _int(est.shots, "shots")
-    elif not (isinstance(est.engine, str) and est.engine == "exact"):
-        raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {est.engine!r}")
+        _int(est.shots, "shots", minimum=2,
+             why="a sampled gradient estimates each circuit's variance from its shots")
+    elif isinstance(est.engine, str):
+        if est.engine != "exact":
+            raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {est.engine!r}")
+    else:
+        raise TypeError(f"engine must be 'exact' or a SamplerEngine, got "
+                        f"{type(est.engine).__name__} {est.engine!r}")
     if not isinstance(est.verbose, (bool, np.bool_)):
         raise TypeError(f"verbose must be a bool, got {est.verbose!r}")
-    if est.seed is not None and not isinstance(est.seed, (numbers.Integral,
-                                                          np.random.Generator)):
-        raise TypeError(f"seed must be an int, a numpy Generator or None, got {est.seed!r}")
+    check_seed(est.seed)
     if est.callback is not None and not callable(est.callback):
         raise TypeError(f"callback must be callable (estimator, step), got {est.callback!r}")
     cbs = est.callbacks if est.callbacks is not None else ()
-    if isinstance(cbs, (str, bytes)) or not all(callable(c) for c in cbs):
+    if (isinstance(cbs, (str, bytes)) or not hasattr(cbs, "__iter__")
+            or not all(callable(c) for c in cbs)):
         raise TypeError(f"callbacks must be a list of callables (estimator, record), got {cbs!r}")
     for name in ("pre", "post"):
         layer = getattr(est, name)

@@ -21,9 +21,8 @@ for RBS models, or gradient plans through any engine with ``shots`` written to t
 
 from __future__ import annotations
 
+import contextlib
 import copy
-import json
-import os
 import time
 
 import numpy as np
@@ -33,6 +32,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from qdensity.learning import losses as _losses
+from qdensity.learning._saved import FORMAT_VERSION, read_estimator, write_estimator
 from qdensity.learning._spec import (
     build_model,
     check_hyperparameters,
@@ -41,18 +41,24 @@ from qdensity.learning._spec import (
 )
 from qdensity.learning.layer import BudgetExhausted, History, QuantumLayer
 from qdensity.learning.nn import Linear
-from qdensity.learning.parameters import get_flat, load_parameters, save_parameters, set_flat
+from qdensity.learning.parameters import get_flat, set_flat
 from qdensity.models.mixtures import softmax
 from qdensity.progress import progress_bar
-from qdensity.validation import as_rng
+from qdensity.validation import as_rng, check_magnitude
 
 __all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION"]
 
-#: Version of the file layout written by :meth:`QNNClassifier.save`.
-FORMAT_VERSION = 1
-_FORMAT = "qdensity-estimator"
-_SPEC_KEYS = ("ansatz", "decomposition", "depth", "mixture", "readout", "num_qubits",
-              "constant")
+
+
+@contextlib.contextmanager
+def _naming(names: str):
+    """Put the argument names in front of scikit-learn's data errors, which often lack them
+    ("could not convert string to float", "Found array with 0 sample(s)"); same type, same
+    text after the names."""
+    try:
+        yield
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"{names}: {exc}") from exc
 
 
 class _QNNEstimator(BaseEstimator):
@@ -146,7 +152,8 @@ class _QNNEstimator(BaseEstimator):
     def _outputs(self, X) -> np.ndarray:
         """Exact outputs of the fitted pipeline for raw ``X`` (no shots), shape (N, m)."""
         check_is_fitted(self, "model_")
-        X = validate_data(self, X, reset=False, dtype=np.float64)
+        with _naming("X"):
+            X = validate_data(self, X, reset=False, dtype=np.float64)
         exact = QuantumLayer(self.model_, "exact")
         return self._forward(self._encode(X), exact, need_grad=False)
 
@@ -157,9 +164,10 @@ class _QNNEstimator(BaseEstimator):
         self.pca_ = None
         if self.model is None and cols < X.shape[1] and fit_pca:
             self.pca_ = PCA(n_components=cols, svd_solver="full").fit(X)
-        elif self.model is not None and X.shape[1] != self.model.encoding.num_features:
-            raise ValueError(f"X has {X.shape[1]} features but the model template encodes "
-                             f"{self.model.encoding.num_features}")
+        elif self.model is not None and X.shape[1] != self.model.num_features:
+            raise ValueError(f"X has {X.shape[1]} features but the model template takes "
+                             f"{self.model.num_features} (its encoding's or the data it "
+                             f"uploads, x[0] .. x[d - 1])")
         self.model_ = build_model(self, n, rng)
         width = self.model_.num_qubits if self.model_.readout != "observable" else 1
         self.pre_ = copy.deepcopy(self.pre) if self.pre is not None else None
@@ -189,7 +197,10 @@ class _QNNEstimator(BaseEstimator):
         self
         """
         check_hyperparameters(self)
-        X, target = self._validate_xy(X, y)
+        with _naming("X and y"):
+            X, target = self._validate_xy(X, y)
+        check_magnitude(X, "X", "scale the features first (e.g. a Pipeline with "
+                         "StandardScaler)")
         if eval_set is not None:
             if not isinstance(eval_set, (tuple, list)) or len(eval_set) != 2:
                 raise ValueError("eval_set must be a pair (X_test, y_test)")
@@ -271,65 +282,22 @@ class _QNNEstimator(BaseEstimator):
         learned classes and feature count, the PCA step and all trained parameters.
         """
         check_is_fitted(self, "model_")
-        meta = {"format": _FORMAT, "version": FORMAT_VERSION, "estimator": type(self).__name__,
-                "spec": {k: getattr(self, k) for k in _SPEC_KEYS},
-                "template": self.model is not None, "n_features_in": int(self.n_features_in_),
-                "num_qubits": int(self.num_qubits_), "data_columns": int(self._data_columns_),
-                "post": self.post_ is not None, "pre": self.pre_ is not None}
-        meta.update(self._meta())
-        arrays = {f"part{i}": get_flat(p.params) for i, p in enumerate(self._parts())}
-        if self.pca_ is not None:
-            arrays.update(pca_components=self.pca_.components_, pca_mean=self.pca_.mean_)
-        arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
-        save_parameters(path, **arrays)
+        write_estimator(self, path)
 
     def load(self, path):
         """Restore an estimator saved by :meth:`save`; returns ``self``, ready to ``predict``.
 
+        Every metadata field and array size is checked against the others (and against this
+        estimator's template, ``pre`` and ``post``) before any circuit is built.
+
         Raises
         ------
         ValueError
-            For a file of another format or version, another estimator class, or parameters
-            whose sizes do not fit the model.
+            Naming the file and the field: another format or version, another estimator
+            class, a missing or ill-typed field (e.g. no ``classes``), an invalid spec, or
+            arrays whose sizes do not fit the model.
         """
-        data = load_parameters(path)
-        try:
-            meta = json.loads(bytes(data.pop("meta").astype(np.uint8)).decode())
-        except (KeyError, ValueError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{os.fspath(path)!r} is not a saved qdensity estimator (no "
-                             f"metadata; format {_FORMAT!r} version {FORMAT_VERSION})") from exc
-        if meta.get("format") != _FORMAT or meta.get("version") != FORMAT_VERSION:
-            raise ValueError(f"{os.fspath(path)!r} has format {meta.get('format')!r} version "
-                             f"{meta.get('version')!r}; this qdensity reads {_FORMAT!r} version "
-                             f"{FORMAT_VERSION}")
-        if meta["estimator"] != type(self).__name__:
-            raise ValueError(f"{os.fspath(path)!r} holds a {meta['estimator']}, not a "
-                             f"{type(self).__name__}")
-        if not meta["template"]:
-            self.set_params(**meta["spec"])
-        self.n_features_in_ = meta["n_features_in"]
-        self._load_meta(meta)
-        self._prepare(np.zeros((1, self.n_features_in_)), as_rng(0), fit_pca=False)
-        self.layer_ = QuantumLayer(self.model_, "exact")
-        if "pca_components" in data:
-            self.pca_ = PCA(n_components=meta["data_columns"])
-            self.pca_.components_ = data.pop("pca_components")
-            self.pca_.mean_ = data.pop("pca_mean")
-            self.pca_.n_features_in_ = self.n_features_in_
-        parts = self._parts()
-        flat = []
-        for i, part in enumerate(parts):
-            arr = data.get(f"part{i}")
-            want = get_flat(part.params).size
-            if arr is None or arr.size != want:
-                got = "none" if arr is None else arr.size
-                raise ValueError(f"parameters part{i} in {os.fspath(path)!r} have {got} "
-                                 f"entries, expected {want}")
-            flat.append(np.asarray(arr, dtype=float).ravel())
-        self._set(np.concatenate(flat))
-        self.history_ = History()
-        self.stopped_by_budget_ = False
-        return self
+        return read_estimator(self, path)
 
     def _meta(self) -> dict:
         return {}
@@ -477,6 +445,8 @@ class QNNRegressor(RegressorMixin, _QNNEstimator):
     def _validate_xy(self, X, y):
         X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, multi_output=True)
         y = np.asarray(y, dtype=float)
+        check_magnitude(y, "y", "wrap the estimator in sklearn.compose.TransformedTargetRegressor"
+                         "(regressor, transformer=StandardScaler())")
         self._target_ndim_ = y.ndim
         self._num_targets = 1 if y.ndim == 1 else y.shape[1]
         return X, y

@@ -24,7 +24,12 @@ import numpy as np
 
 from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine
-from qdensity.gradients.density import DensityGradient, chain_rule, density_gradient_plan
+from qdensity.gradients.density import (
+    METHODS,
+    DensityGradient,
+    chain_rule,
+    density_gradient_plan,
+)
 from qdensity.gradients.inputs import input_jacobians as _input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients, unary_circuits
@@ -57,6 +62,8 @@ class QuantumLayer:
         self.model = model
         self.engine = engine
         self.shots = shots
+        if not isinstance(gradient, str) or gradient not in METHODS:
+            raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
         self.gradient = gradient
         self.grads: dict[str, np.ndarray] = {}
         self._cache = None
@@ -66,11 +73,14 @@ class QuantumLayer:
         if isinstance(engine, SamplerEngine):
             if shots is None:
                 raise ValueError("a sampler engine needs shots (per circuit)")
-            check_positive_int(shots, "shots")
-        elif not (isinstance(engine, (AdjointEngine, ExactEngine)) or (
-                isinstance(engine, str) and engine == "exact")):
-            raise ValueError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or a "
-                             f"SamplerEngine, got {engine!r}")
+            check_positive_int(shots, "shots", minimum=2)  # sampled gradients need a variance
+        elif isinstance(engine, str):
+            if engine != "exact":
+                raise ValueError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or "
+                                 f"a SamplerEngine, got {engine!r}")
+        elif not isinstance(engine, (AdjointEngine, ExactEngine)):
+            raise TypeError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or a "
+                            f"SamplerEngine, got {type(engine).__name__} {engine!r}")
 
     @property
     def params(self) -> dict[str, np.ndarray]:

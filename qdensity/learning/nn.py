@@ -30,7 +30,7 @@ import numpy as np
 
 from qdensity.learning._checks import _check_batch, _check_grad
 from qdensity.learning.parameters import get_flat, load_parameters, save_parameters, set_flat
-from qdensity.validation import SeedLike, as_rng, check_positive_int
+from qdensity.validation import SeedLike, as_rng, check_entries, check_positive_int
 
 __all__ = [
     "Layer",
@@ -170,6 +170,7 @@ class Linear(Layer):
         super().__init__()
         self.in_features = check_positive_int(in_features, "in_features")
         self.out_features = check_positive_int(out_features, "out_features")
+        check_entries((self.in_features, self.out_features), "W (in_features, out_features)")
         if not isinstance(bias, (bool, np.bool_)):
             raise TypeError(f"bias must be a bool, got {bias!r}")
         self.bias = bool(bias)

@@ -99,6 +99,11 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
 _JSON_FORMAT = "qdensity-parameters"
 
 
+def _fortran(arr: np.ndarray) -> bool:
+    """True where ``.npy`` stores the array in Fortran order (F- but not C-contiguous)."""
+    return arr.ndim > 1 and arr.flags.f_contiguous and not arr.flags.c_contiguous
+
+
 def _check_arrays(arrays: Mapping[str, Any]) -> dict[str, np.ndarray]:
     out = {}
     for name, value in arrays.items():
@@ -140,8 +145,10 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
     Notes
     -----
     JSON layout: ``{"format": "qdensity-parameters", "version": 1, "arrays": {name:
-    {"dtype": ..., "shape": [...], "data": [flat list in C order]}}}``. Floats are written
-    with ``repr`` precision, so float64 values round-trip exactly.
+    {"dtype": ..., "shape": [...], "data": [flat list in C order]}}}``, plus ``"order": "F"``
+    for an array held in Fortran order, which comes back in that layout (as from ``.npz``):
+    matrix products depend on the layout in the last bit. Floats are written with ``repr``
+    precision, so float64 values and the results computed from them round-trip exactly.
 
     Examples
     --------
@@ -168,6 +175,8 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
                 "shape": list(arr.shape),
                 "data": arr.ravel().tolist(),
             }
+            if _fortran(arr):  # as .npy keeps it: the memory layout changes float results
+                doc["arrays"][name]["order"] = "F"
         with open(path, "w", encoding="utf-8") as fh:
             json.dump(doc, fh, allow_nan=False)
         return
@@ -244,7 +253,11 @@ def _load_json(path: str) -> dict[str, np.ndarray]:
         if flat.ndim != 1 or flat.size != math.prod(shape):
             raise ValueError(f"{path!r}: entry {name!r} has {flat.size} values in data but "
                              f"shape {list(shape)} needs {math.prod(shape)} (a flat list)")
-        out[name] = _finite(path, name, flat.reshape(shape))
+        order = entry.get("order", "C")
+        if order not in ("C", "F"):
+            raise ValueError(f"{path!r}: entry {name!r} has order {order!r}; allowed 'C' or 'F'")
+        arr = flat.reshape(shape)
+        out[name] = _finite(path, name, np.asfortranarray(arr) if order == "F" else arr)
     return out
 
 

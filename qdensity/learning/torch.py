@@ -149,8 +149,11 @@ class DensityQNNLayer(nn.Module):
         if isinstance(engine, SamplerEngine):
             if shots is None:
                 raise ValueError("shots must be given (shots per circuit) with a SamplerEngine")
-            check_positive_int(shots, "shots")
-        elif not (isinstance(engine, str) and engine == "exact"):
+            check_positive_int(shots, "shots", minimum=2)  # sampled gradients need a variance
+        elif not isinstance(engine, str):
+            raise TypeError(f"engine must be 'exact' or a SamplerEngine, got "
+                            f"{type(engine).__name__} {engine!r}")
+        elif engine != "exact":
             raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {engine!r}")
         if gradient not in METHODS:
             raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
@@ -193,8 +196,7 @@ class DensityQNNLayer(nn.Module):
     @property
     def num_features(self) -> int:
         """``d``: the width of the input."""
-        enc = self.model.encoding
-        return enc.num_features if enc is not None else self.model.num_qubits
+        return self.model.num_features or self.model.num_qubits
 
     def mixture_weights(self, x: torch.Tensor) -> torch.Tensor:
         """``alpha(x)``, shape (B, K)."""

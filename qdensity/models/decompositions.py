@@ -224,7 +224,9 @@ def _fresh_parameters(circuits: Sequence[QuantumCircuit],
         params = trainable_parameters(qc)
         vec = ParameterVector(f"{prefix}{k}", len(params))
         # = qc.assign_parameters(mapping, inplace=False), cheaper for Pauli evolutions
-        out.append(assign_fresh(qc, dict(zip(params, vec, strict=True))))
+        fresh = assign_fresh(qc, dict(zip(params, vec, strict=True)))
+        fresh.name = qc.name  # Qiskit's copy appends an instance counter ("-50")
+        out.append(fresh)
     return out
 
 

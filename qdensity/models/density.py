@@ -21,7 +21,14 @@ from qdensity.models._rows import _parameter_holder, bind_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
-from qdensity.validation import as_rng, check_circuit, check_finite_array, check_width
+from qdensity.validation import (
+    as_rng,
+    check_circuit,
+    check_finite_array,
+    check_sequence_of,
+    check_type,
+    check_width,
+)
 
 __all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
 
@@ -80,8 +87,8 @@ class DensityQNN:
         readout: str = "observable",
         seed=None,
     ):
-        subs = list(sub_unitaries) if not isinstance(sub_unitaries, QuantumCircuit) else [
-            sub_unitaries]
+        subs = [sub_unitaries] if isinstance(sub_unitaries, QuantumCircuit) else list(
+            check_sequence_of(sub_unitaries, "sub_unitaries", QuantumCircuit, "QuantumCircuit"))
         if not subs:
             raise ValueError("sub_unitaries must contain at least one circuit (K >= 1), got K = 0")
         subs = [check_circuit(c, f"sub_unitaries[{i}]") for i, c in enumerate(subs)]
@@ -90,10 +97,12 @@ class DensityQNN:
             raise ValueError(f"sub_unitaries must all have the same width, got widths "
                              f"{[c.num_qubits for c in subs]}")
         self.num_qubits = subs[0].num_qubits
+        check_type(encoding, "encoding", Encoding, "an Encoding (e.g. Encoding.unary(n))",
+                   allow_none=True)
         if encoding is not None and encoding.circuit.num_qubits != self.num_qubits:
             raise ValueError(f"encoding acts on {encoding.circuit.num_qubits} qubits but the "
                              f"sub-unitaries on {self.num_qubits}")
-        if readout not in READOUTS:
+        if not isinstance(readout, str) or readout not in READOUTS:
             raise ValueError(f"readout must be one of {READOUTS}, got {readout!r}")
         if readout != "observable":
             from qdensity.analysis.structure import is_hamming_weight_preserving
@@ -124,6 +133,7 @@ class DensityQNN:
                       else np.zeros(len(params)))
         self.training = True
         self._unary_ok = None
+        self._num_uploaded = None
 
     # ------------------------------------------------------------------ basic facts
     @property
@@ -146,14 +156,28 @@ class DensityQNN:
                              f"in model.parameters order), got {arr.shape}")
         return arr
 
-    def _check_X(self, X) -> np.ndarray:
+    def _check_X(self, X, name: str = "X") -> np.ndarray:
         """Data as a finite 2-d float array (B, d)."""
-        arr = np.atleast_2d(check_finite_array(X, "X"))
-        d = self.encoding.num_features if self.encoding is not None else arr.shape[-1]
+        arr = np.atleast_2d(check_finite_array(X, name))
+        d = self.num_features
+        if self.encoding is None and d == 0:  # the circuits take no data: any row is ignored
+            d = arr.shape[-1]
         if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] != d:
-            raise ValueError(f"X must have shape (rows >= 1, {d}) (d = the encoding's "
+            raise ValueError(f"{name} must have shape (rows >= 1, {d}) (d = the model's "
                              f"num_features), got {arr.shape}")
         return arr
+
+    @property
+    def num_features(self) -> int:
+        """Features ``d``: the encoding's, else one more than the largest uploaded ``x[i]``
+        (re-uploading, Methods eq. 10-11; 0 for a model that takes no data)."""
+        if self.encoding is not None:
+            return self.encoding.num_features
+        if self._num_uploaded is None:
+            idx = [p.index for c in self.sub_unitaries for p in c.parameters
+                   if getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX]
+            self._num_uploaded = max(idx) + 1 if idx else 0
+        return self._num_uploaded
 
     @property
     def num_subunitaries(self) -> int:
@@ -392,81 +416,10 @@ class DensityQNN:
         ``randomised_k{k}`` shots equal ``allocation[k]`` and the ``pilot_k{k}`` shots
         ``pilot_allocation[k]``; ``shots_used`` is their sum.
         """
-        from qdensity.execution.engines import SamplerEngine
-        from qdensity.execution.intervals import wilson_standard_error
-        from qdensity.execution.plans import CircuitJob, diagonal_values, measured
-        from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
-        from qdensity.models._sampling import corrected_range, shot_values
-        from qdensity.validation import check_positive_int
+        from qdensity.models._sampling import sample
 
-        budget = check_positive_int(budget, "budget")
-        if engine is not None and (mitigation is not None or postselect is not None):
-            raise ValueError("mitigation and postselect are options of the fresh engines "
-                             "sample() makes; with engine=..., set them on that engine")
-        if self.readout != "observable" or np.any(self.observable.paulis.x):
-            raise ValueError("sample() needs a diagonal (Z-type) observable readout")
-        x = self._check_X(x)
-        if x.shape[0] != 1:
-            raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
-        rng = as_rng(seed)
-        n = self.num_qubits
-        values = diagonal_values(self.observable.paulis, np.real(self.observable.coeffs), n)
-        lo, hi = float(values.min()), float(values.max())
-        ledger = engine.ledger if engine is not None else None
-
-        def engine_for_call():
-            nonlocal ledger
-            if engine is not None:
-                return engine
-            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
-                                  postselect=postselect)
-            ledger = fresh.ledger
-            return fresh
-
-        if not self.training:
-            from qdensity.circuits.preparation import deterministic_circuit
-
-            alpha = self.alpha(x)[0]
-            subs = [c.assign_parameters(dict(zip(trainable_parameters(c), self._sub_theta(k, None),
-                                                 strict=True)))
-                    for k, c in enumerate(self.sub_unitaries)]
-            loader = (self.encoding.circuit.assign_parameters(self.encoding.values(x)[0])
-                      if self.encoding is not None else None)
-            circ = measured(deterministic_circuit(subs, alpha, loader=loader))
-            res = engine_for_call().run([CircuitJob(circ, None, budget, "deterministic")])[0]
-            K = self.num_subunitaries
-            probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
-            mean = float(probs @ values)
-            var = float(probs @ values**2) - mean**2
-            return ScheduleResult(name="deterministic", estimate=mean,
-                                  standard_error=float(wilson_standard_error(var, budget,
-                                                                             hi - lo)),
-                                  allocation=np.array([budget]), per_subunitary=np.array([mean]),
-                                  shots_used=budget, pilot_allocation=None, info={})
-        circuits = [measured(self.circuit(k)) for k in range(self.num_subunitaries)]
-        rows = [self.rows(k, x) for k in range(self.num_subunitaries)]
-
-        def source(shots_per_k, rng_inner, phase: str = "main"):
-            label = "pilot" if phase == "pilot" else "randomised"
-            jobs = [CircuitJob(circuits[k], rows[k], int(s), f"{label}_k{k}")
-                    for k, s in enumerate(shots_per_k) if s > 0]
-            results = iter(engine_for_call().run(jobs))
-            out = []
-            for s in shots_per_k:
-                if s == 0:
-                    out.append(np.zeros(0))
-                    continue
-                out.append(shot_values(next(results), values, s, len(out)))
-            return out
-
-        if (mitigation is not None or postselect is not None
-                or (engine is not None and getattr(engine, "_correction", None) is not None)):
-            lo, hi = corrected_range(lo, hi)
-        runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
-        if scheduler not in runners:
-            raise ValueError(f"scheduler must be one of {sorted(runners)}, got {scheduler!r}")
-        alpha = self.alpha(x)[0]
-        return runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
+        return sample(self, x, budget, scheduler=scheduler, engine=engine, target=target,
+                      seed=seed, mitigation=mitigation, postselect=postselect)
 
     # ------------------------------------------------------------------ parameters I/O
     def get_params(self) -> dict[str, np.ndarray]:

@@ -14,7 +14,7 @@ from functools import partial
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
-from qdensity.validation import check_finite_array, check_positive_int
+from qdensity.validation import check_finite_array, check_num_qubits
 
 __all__ = ["Encoding"]
 
@@ -62,7 +62,7 @@ class Encoding:
         """
         from qdensity.circuits.loaders import loader_angles, unary_loader_template
 
-        check_positive_int(num_features, "num_features", minimum=2)
+        check_num_qubits(num_features, "num_features", minimum=2)  # one qubit per feature
         template = unary_loader_template(num_features, layout=layout, parameter_prefix="φ")
         return cls(template, partial(loader_angles, layout=layout), num_features, "unary")
 
@@ -71,7 +71,7 @@ class Encoding:
         """Angle encoding ``R_y(pi x_i / 2)`` on qubit i (paper, equivariant experiments)."""
         from qdensity.circuits.ansatze.equivariant import angle_encoding
 
-        check_positive_int(num_qubits, "num_qubits")
+        check_num_qubits(num_qubits)
         circ = angle_encoding(num_qubits)
         return cls(circ, _as_float, num_qubits, "angle")
 

@@ -31,6 +31,7 @@ from qdensity.execution.postselection import PostselectedUnary, postselected_una
 from qdensity.execution.unary import vjp
 from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
+from qdensity.validation import check_sequence_of
 
 __all__ = ["LCUQNN"]
 
@@ -70,7 +71,8 @@ class LCUQNN:
     """
 
     def __init__(self, sub_unitaries: Sequence[QuantumCircuit], mixture=None, *, seed=None):
-        subs = list(sub_unitaries) if not isinstance(sub_unitaries, QuantumCircuit) else None
+        subs = None if isinstance(sub_unitaries, QuantumCircuit) else check_sequence_of(
+            sub_unitaries, "sub_unitaries", QuantumCircuit, "QuantumCircuit")
         if not subs:
             raise ValueError("sub_unitaries must be a non-empty sequence of QuantumCircuits")
         n = subs[0].num_qubits if isinstance(subs[0], QuantumCircuit) else 0
@@ -261,9 +263,11 @@ class LCUQNN:
         PostselectedUnary
         """
         from qdensity.execution.engines import SamplerEngine
-        from qdensity.validation import check_positive_int
+        from qdensity.validation import check_positive_int, check_seed, check_type
 
         check_positive_int(shots, "shots")
+        check_type(engine, "engine", SamplerEngine, "a SamplerEngine", allow_none=True)
+        check_seed(seed)
         if engine is None:
             engine = SamplerEngine(seed=seed, progress=False)
         return self.sampling_plan(X, shots).run(engine)

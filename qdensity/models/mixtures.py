@@ -18,7 +18,14 @@ from abc import ABC, abstractmethod
 import numpy as np
 from scipy.special import erf
 
-from qdensity.validation import as_rng, check_distribution, check_positive_int, check_real_vector
+from qdensity.validation import (
+    as_rng,
+    check_distribution,
+    check_entries,
+    check_finite_array,
+    check_positive_int,
+    check_real_vector,
+)
 
 __all__ = ["Mixture", "FixedMixture", "SoftmaxMixture", "GatedMixture", "as_mixture", "softmax"]
 
@@ -108,7 +115,9 @@ class SoftmaxMixture(Mixture):
                 raise ValueError("alpha must be strictly positive to be expressed as logits")
             self.logits = np.log(a)
         else:
-            self.logits = np.zeros(check_positive_int(num_components, "num_components"))
+            k = check_positive_int(num_components, "num_components")
+            check_entries((k,), f"the logits of num_components={k}")
+            self.logits = np.zeros(k)
         self.num_components = self.logits.size
 
     @property
@@ -165,13 +174,15 @@ class GatedMixture(Mixture):
             raise ValueError(f"activation must be None or 'gelu', got {activation!r}")
         self.activation = activation
         shape = (self.num_components, self.num_features)
+        check_entries(shape, "the gate's weights (num_components, num_features)")
         if weights is None:
             weights = as_rng(seed).normal(0.0, 1.0 / math.sqrt(self.num_features), shape)
-        weights = np.asarray(weights, dtype=float)
+        weights = check_finite_array(weights, "weights")
         if weights.shape != shape:
             raise ValueError(f"weights must have shape {shape} (num_components, num_features), "
                              f"got {weights.shape}")
-        bias = np.zeros(self.num_components) if bias is None else np.asarray(bias, dtype=float)
+        bias = (np.zeros(self.num_components) if bias is None
+                else check_finite_array(bias, "bias"))
         if bias.shape != (self.num_components,):
             raise ValueError(f"bias must have shape ({self.num_components},), got {bias.shape}")
         self.weights, self.bias = weights.copy(), bias.copy()
@@ -192,9 +203,10 @@ class GatedMixture(Mixture):
     def _check_X(self, X) -> np.ndarray:
         if X is None:
             raise ValueError("a data-dependent mixture needs the data X")
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        if X.shape[1] != self.num_features:
-            raise ValueError(f"X must have {self.num_features} features, got {X.shape[1]}")
+        X = np.atleast_2d(check_finite_array(X, "X"))
+        if X.ndim != 2 or X.shape[1] != self.num_features:
+            raise ValueError(f"X must have shape (rows, {self.num_features}) ({self.num_features} "
+                             f"features), got {X.shape}")
         return X
 
     def _logits(self, X):
@@ -218,6 +230,9 @@ def as_mixture(mixture, num_components: int) -> Mixture:
     """A :class:`Mixture` from a Mixture, an alpha vector, or None (uniform, fixed)."""
     if mixture is None:
         return FixedMixture(np.full(num_components, 1.0 / num_components))
+    if isinstance(mixture, (str, bytes)):
+        raise TypeError(f"mixture must be a Mixture (FixedMixture, SoftmaxMixture, "
+                        f"GatedMixture), an alpha vector or None, got {mixture!r}")
     if not isinstance(mixture, Mixture):
         mixture = FixedMixture(mixture)
     if mixture.num_components != num_components:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from qdensity.models.mixtures import softmax
-from qdensity.validation import as_rng, check_positive_int
+from qdensity.validation import as_rng, check_entries, check_positive_int
 
 __all__ = ["SingleQubitReuploading", "REUPLOADING_ENCODINGS"]
 
@@ -63,7 +63,9 @@ class SingleQubitReuploading:
                  seed=None):
         self.num_layers = check_positive_int(num_layers, "num_layers")
         self.num_subunitaries = check_positive_int(num_subunitaries, "num_subunitaries")
-        if encoding not in REUPLOADING_ENCODINGS:
+        check_entries((self.num_subunitaries, self.num_layers, 3),
+                      "theta (num_subunitaries, num_layers, 3)")
+        if not isinstance(encoding, str) or encoding not in REUPLOADING_ENCODINGS:
             raise ValueError(f"encoding must be one of {sorted(REUPLOADING_ENCODINGS)}, got "
                              f"{encoding!r}")
         self.encoding = encoding

@@ -173,6 +173,54 @@ def test_demo_quick_json(tmp_path, capsys):
     # 3 forward + 3 commuting = 6 for the density model: ~4x more steps for the same shots
     assert res["density"]["steps"] >= 3 * res["pure"]["steps"]
     assert res["config"]["budget"] == cfg.budget and res["config"]["seed"] == 7
-    assert (tmp_path / "qdensity-demo.png").stat().st_size > 1000
-    assert res["plot"] == str((tmp_path / "qdensity-demo.png").resolve())
+    # --quick writes its own file, never the full demo's qdensity-demo.png
+    assert (tmp_path / "qdensity-demo-quick.png").stat().st_size > 1000
+    assert not (tmp_path / "qdensity-demo.png").exists()
+    assert res["plot"] == str((tmp_path / "qdensity-demo-quick.png").resolve())
     assert np.isfinite(res["density"]["curve"][-1][1])
+
+
+# ------------------------------------------------------------------ first hour: messages
+def test_version_and_help_shows_defaults(capsys):
+    from qdensity import __version__
+
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out.strip() == f"qdensity {__version__}"
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "(default: 7)" in out and "(default: 32000; 2400 with --quick)" in out
+    assert "(default: None)" not in out
+
+
+def test_build_size_and_qasm_folder_messages(capsys, tmp_path):
+    assert main(["build", "pyramid", "--size", "-3"]) == 2
+    assert "--size must be an int in [2, 64] for pyramid, got -3" in capsys.readouterr().err
+    assert main(["build", "butterfly", "--size", "6"]) == 2
+    assert "a power of two for butterfly" in capsys.readouterr().err
+    missing = tmp_path / "no" / "such" / "c.qasm"
+    assert main(["build", "pyramid", "--qasm", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "does not exist" in err and "Errno" not in err
+
+
+def test_built_circuits_have_stable_names():
+    from qdensity.cli.main import build_circuit
+
+    for name in ("pyramid", "deterministic", "commuting_gradient", "hardware_efficient"):
+        assert build_circuit(name, 4).name == build_circuit(name, 4).name == f"{name}_4"
+
+
+def test_table1_says_why_the_butterfly_row_is_dropped(capsys):
+    assert main(["table1", "--n", "3", "--ansatz", "butterfly", "pyramid"]) == 0
+    captured = capsys.readouterr()
+    assert "butterfly row is dropped for n = 3" in captured.err
+    assert "butterfly" not in captured.out
+
+
+def test_demo_refuses_a_budget_below_one_step_before_training(capsys, tmp_path):
+    assert main(["demo", "--quick", "--budget", "1", "--output", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "budget=1 shots cannot pay for one training step" in err
+    assert not list(tmp_path.iterdir())

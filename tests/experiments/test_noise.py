@@ -184,7 +184,11 @@ def test_missing_extras_say_what_to_install(monkeypatch):
     with pytest.raises(ImportError, match=r"pip install 'qdensity\[ibm\]'"):
         noise.check_config(dict(noise.QUICK))
     noise.check_config(dict(noise.QUICK, target="heavy_hex"))  # core targets need no extra
+    with pytest.raises(ImportError, match=r"--set target=heavy_hex"):
+        noise.check_config(dict(noise.QUICK))
     monkeypatch.setattr(noise, "_have_mthree", lambda: False)
+    # the default needs neither extra: mitigation 'auto' is off without mthree (and recorded)
+    assert noise.check_config(dict(noise.QUICK, target="heavy_hex"))["mitigation"] is False
     with pytest.raises(ImportError, match=r"mthree.*pip install 'qdensity\[ibm\]'"):
-        noise.check_config(dict(noise.QUICK, target="heavy_hex"))
+        noise.check_config(dict(noise.QUICK, target="heavy_hex", mitigation=True))
     noise.check_config(dict(noise.QUICK, target="heavy_hex", mitigation=False))

@@ -129,3 +129,12 @@ def test_unknown_subcommand_and_no_arguments():
     run_cli("(none)", [])
     run_cli("(none)", ["frobnicate"])
     run_cli("(none)", ["--size", "4"])
+
+
+@settings(max_examples=5, deadline=None)
+@given(budget=st.integers(1, 799))
+def test_demo_budget_below_one_step_exits_2(budget):
+    """A quick-demo step costs 2 points x 25 circuits x 16 shots = 800 shots (pure model)."""
+    with tempfile.TemporaryDirectory() as out:
+        run_cli("demo", ["demo", "--quick", "--budget", str(budget), "--output", out])
+        assert not os.listdir(out)

@@ -7,6 +7,8 @@ differences; probabilities of the gradient circuits from ``Statevector(...).prob
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from qiskit import QuantumCircuit, transpile
@@ -15,6 +17,7 @@ from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp, Statevector
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
+from scipy.stats import norm
 
 from qdensity.analysis import moments
 from qdensity.circuits.ansatze import pairs_circuit, pyramid, round_robin_pairs
@@ -404,6 +407,37 @@ def _sampled_probs(circuit: QuantumCircuit, rows: np.ndarray, shots: int, seed: 
     return out
 
 
+def _stat_seed(default: int) -> int:
+    """The sampler's seed: ``default``, or ``QDENSITY_STAT_SEED`` when set (read at call time;
+    ``benchmarks/fuzz_statistics.py`` runs the statistical tests over 50 seeds with it)."""
+    return int(os.environ.get("QDENSITY_STAT_SEED", default))
+
+
+def _estimator_moments(exact, values, shots):
+    """Exact variance of the gradient estimate, and the two parts of the estimated ``se**2``'s
+    error, from the exact outcome probabilities of every circuit; plus the Wilson term.
+
+    Per circuit with per-shot values ``v`` (outcome x parameter), probabilities ``e`` and
+    ``N`` shots, the unbiased sample variance is ``s^2 = (sum (x - mu)^2 - N (xbar - mu)^2) /
+    (N - 1)``: its first part is a mean of ``N`` terms of variance ``m4 - m2^2`` (``m2``,
+    ``m4``: central moments), normal for large effective counts; its second part is at most
+    ``z^2 m2 / (N - 1)`` when ``|xbar - mu| <= z sigma / sqrt(N)``. ``se^2`` adds ``s^2 / N``
+    over the independent circuits.
+    """
+    var = normal_var = mean_scale = wilson = 0.0
+    n = float(shots)
+    for e, v in zip(exact, values, strict=True):
+        mu = e @ v
+        m2 = np.maximum(e @ v**2 - mu**2, 0.0)
+        m4 = e @ v**4 - 4 * mu * (e @ v**3) + 6 * mu**2 * (e @ v**2) - 3 * mu**4
+        var = var + m2 / n
+        normal_var = normal_var + np.maximum(m4 - m2**2, 0.0) * n / (n - 1) ** 2 / n**2
+        mean_scale = mean_scale + m2 / (n - 1) / n
+        width = v.max(axis=0) - v.min(axis=0)
+        wilson = wilson + width**2 / (4 * n**2)
+    return var, normal_var, mean_scale, wilson
+
+
 @pytest.mark.parametrize("case", ["round_robin", "hwe", "pyramid_blocks"])
 def test_sampled_gradients_within_standard_errors(case):
     n = 4
@@ -426,24 +460,37 @@ def test_sampled_gradients_within_standard_errors(case):
     shots = 4000
     sampled, exact = [], []
     for c, circ in enumerate(grad.circuits):
-        sampled.append(_sampled_probs(circ, rows, shots, seed=100 + c))
+        sampled.append(_sampled_probs(circ, rows, shots, seed=_stat_seed(100) + c))
         exact.append(
             np.array([_exact_probs(circ, dict(zip(circ.parameters, r, strict=True))) for r in rows])
         )
     est = grad.gradient_from_probabilities(sampled)
     true = grad.gradient_from_probabilities(exact)
     se = grad.standard_error(sampled, shots)
-    true_se = np.sqrt(
-        sum(
-            np.maximum(e @ v**2 - (e @ v) ** 2, 0.0)
-            for e, v in zip(exact, grad.value_matrices(), strict=True)
-        )
-        / shots
-    )
+    true_var, normal_var, mean_scale, wilson = _estimator_moments(
+        exact, grad.value_matrices(), shots)
+    true_se = np.sqrt(true_var)
     informative = true_se > 1e-3  # parameters whose estimator is not constant
     assert informative.sum() >= 4
-    assert np.all(np.abs(est - true)[informative] <= 4 * se[informative])
-    np.testing.assert_allclose(se[informative], true_se[informative], rtol=0.15)
+    # Both checks hold with probability >= 1 - 1e-3 for any seed (Bonferroni: 5e-4 each,
+    # spread over the m checked entries and, for the sample means, over the circuits). The
+    # estimate is a sum of 4000-shot means, normal well within this rate. The variance
+    # estimate (see _estimator_moments) is checked where its normal part is precise (relative
+    # spread below 10%, an effective count above ~100: sparse outcomes make it a skewed,
+    # Poisson-like count), with the sample-mean part bounded one-sidedly; a plain normal bound
+    # on the whole failed 2 of 50 seed sets (near-symmetric two-point values put chi-square(1)
+    # tails on it).
+    m = int(informative.sum())
+    z = float(norm.isf(5e-4 / (2 * m)))
+    z_mean = float(norm.isf(5e-4 / (2 * m * len(grad.circuits))))
+    assert np.all(np.abs(est - true)[informative] <= z * true_se[informative])
+    expected_se2 = true_var + wilson  # unbiased s^2 / N plus the Wilson term R^2 / (4 N^2)
+    precise = informative & (np.sqrt(normal_var) < 0.1 * expected_se2)
+    assert precise.sum() >= 2
+    diff = (se**2 - expected_se2)[precise]
+    high = z * np.sqrt(normal_var)[precise] + mean_scale[precise]
+    low = z * np.sqrt(normal_var)[precise] + z_mean**2 * mean_scale[precise]
+    assert np.all((diff <= high) & (diff >= -low))
     # exact gradient itself against finite differences for the first row
     vals = dict(zip(qc.parameters, rows[0], strict=True))
     np.testing.assert_allclose(true[0], _fd_gradient(qc, obs, vals, grad.parameters), atol=TOL)

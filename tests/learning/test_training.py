@@ -130,7 +130,7 @@ def test_save_and_load_round_trip(tmp_path, suffix):
     np.testing.assert_allclose(fresh.decision_function(X), clf.decision_function(X), atol=1e-12)
     np.testing.assert_array_equal(fresh.predict(X), clf.predict(X))
     other = QNNClassifier(_model(n=6, seed=0), post=Linear(6, 2, seed=0), verbose=False)
-    with pytest.raises(ValueError, match="encodes 6"):
+    with pytest.raises(ValueError, match="the template has 6 qubits"):
         other.load(path)
 
 

@@ -216,3 +216,18 @@ def test_copies_and_independent():
     with pytest.raises(TypeError, match=r"circuits\[1\]"):
         independent([qc, "nope"])
     assert independent([pyramid(3), round_robin(3)]).num_parameters == 6
+
+
+def test_sub_unitary_names_are_stable():
+    """No Qiskit instance counter ("-50") in the names: the same call names the same."""
+    import re
+
+    from qdensity.circuits.ansatze import pyramid as _pyramid
+    from qdensity.models.decompositions import cyclic_moments as _cyclic
+    from qdensity.models.decompositions import independent as _independent
+
+    for dec in (_cyclic(_pyramid(4), 2), _independent([_pyramid(4), _pyramid(4)])):
+        names = [c.name for c in dec.sub_unitaries]
+        assert not any(re.search(r"-\d+$", n) for n in names), names
+    assert [c.name for c in _cyclic(_pyramid(4), 2).sub_unitaries][:2] == [
+        "pyramid_4_cyclic2_0", "pyramid_4_cyclic2_1"]

@@ -1,5 +1,7 @@
 """The sampled LCU path: lcu_template, post-selected estimates from bits, LCUQNN.sample."""
 
+import os
+
 import numpy as np
 import pytest
 from qiskit.quantum_info import Operator, Statevector
@@ -91,12 +93,18 @@ def test_exact_plan_matches_lcuqnn():
     assert np.allclose(est.success_probability, lcu.success_probability(X), atol=1e-10)
 
 
+def _stat_seed(default: int) -> int:
+    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
+    return int(os.environ.get("QDENSITY_STAT_SEED", default))
+
+
 @pytest.mark.parametrize("seed", [3, 11])
 def test_sampled_estimates_within_standard_errors(seed):
-    # 12 probabilities + 3 success probabilities per seed; each within 4.5 standard errors
+    # 12 probabilities + 3 success probabilities per seed; each within 4.5 standard errors:
+    # for normal estimates a false failure has probability <= 15 x 2 Phi(-4.5) = 1e-4
     lcu = _gated_model(seed=seed)
     X = np.random.default_rng(seed).normal(size=(3, 4))
-    est = lcu.sample(X, 4000, seed=seed)
+    est = lcu.sample(X, 4000, seed=_stat_seed(seed))
     assert est.shots == 4000 and np.all(est.successes > 0)
     z_p = (est.probabilities - lcu.predict(X)) / est.standard_error
     z_s = (est.success_probability - lcu.success_probability(X)) / est.success_standard_error

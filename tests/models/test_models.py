@@ -4,6 +4,8 @@ Oracles: density matrices built from ``Operator`` of the bound sub-unitaries (eq
 central finite differences of the exact model.
 """
 
+import os
+
 import numpy as np
 import pytest
 from qiskit.quantum_info import DensityMatrix, Operator, PauliList, SparsePauliOp, Statevector
@@ -242,6 +244,11 @@ def test_gated_mixture_wrong_shape():
         GatedMixture(4, 3, weights=np.zeros((4, 3)))
 
 
+def _stat_seed(default: int) -> int:
+    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
+    return int(os.environ.get("QDENSITY_STAT_SEED", default))
+
+
 @pytest.mark.parametrize("scheduler", ["per_shot", "proportional", "neyman"])
 def test_train_mode_samples_subunitaries_unbiased(scheduler):
     n = 4
@@ -249,8 +256,9 @@ def test_train_mode_samples_subunitaries_unbiased(scheduler):
     model = DensityQNN(dec.sub_unitaries, [0.5, 0.3, 0.2], encoding=Encoding.unary(n), seed=8)
     x = RNG.normal(size=n)
     exact = model.predict(x[None, :])[0]
-    res = model.train().sample(x, 6000, scheduler=scheduler, seed=4)
+    res = model.train().sample(x, 6000, scheduler=scheduler, seed=_stat_seed(4))
     assert res.shots_used <= 6000
+    # a normal estimate leaves 4 standard errors with probability 2 Phi(-4) = 6e-5
     assert abs(res.estimate - exact) < 4 * res.standard_error + 1e-9
 
 
@@ -260,9 +268,9 @@ def test_eval_mode_samples_the_deterministic_state():
     model = DensityQNN(dec.sub_unitaries, [0.6, 0.3, 0.1], encoding=Encoding.unary(n), seed=9)
     x = RNG.normal(size=n)
     exact = np.real(np.trace(model.observable.to_matrix() @ _rho(model, x)))
-    res = model.eval().sample(x, 8000, seed=2)
+    res = model.eval().sample(x, 8000, seed=_stat_seed(2))
     assert res.name == "deterministic" and res.shots_used == 8000
-    assert abs(res.estimate - exact) < 4 * res.standard_error
+    assert abs(res.estimate - exact) < 4 * res.standard_error  # false failure: 6e-5
 
 
 def test_sample_refuses_bad_input():

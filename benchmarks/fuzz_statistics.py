@@ -1,0 +1,67 @@
+"""Run each statistical test over many seeds and print its failure count (not part of CI).
+
+Usage: ``python benchmarks/fuzz_statistics.py [--seeds 50] [TEST_ID ...]`` from the repository
+root. A statistical test reads its sampling seed from ``QDENSITY_STAT_SEED`` at call time (its
+own fixed seed when unset) and states the probability with which it may fail for a random
+seed; over ``S`` seeds the expected failure count is ``S`` times that rate, so a count well
+above it means the bound in the test is wrong. The runs go one after another in this process
+(single-threaded, so it can run beside other work).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import sys
+import time
+
+import pytest
+
+#: Test id -> stated false-failure rate per run (see each test's comment).
+STATISTICAL_TESTS: dict[str, float] = {
+    "tests/gradients/test_commuting_gradients.py::test_sampled_gradients_within_standard_errors":
+        3e-3,  # three cases, 1e-3 each
+    "tests/execution/test_schedulers.py::test_unbiased_and_standard_error_calibrated":
+        3e-3,  # three schedulers, 1e-3 each
+    "tests/execution/test_schedulers.py::test_exact_variances_match_closed_forms": 1e-3,
+    "tests/execution/test_schedulers.py::test_proportional_beats_per_shot_when_means_differ":
+        1e-3,
+    "tests/models/test_lcu_sampling.py::test_sampled_estimates_within_standard_errors": 2e-4,
+    "tests/models/test_models.py::test_train_mode_samples_subunitaries_unbiased": 2e-4,
+    "tests/models/test_models.py::test_eval_mode_samples_the_deterministic_state": 6e-5,
+    "tests/gradients/test_shift.py::test_sampled_gradient_within_standard_errors": 1e-3,
+}
+
+
+def _run(test: str, seed: int) -> bool:
+    """One run of ``test`` with ``QDENSITY_STAT_SEED=seed``, in this process (the tests read
+    the variable at call time; importing Qiskit once, not once per seed)."""
+    os.environ["QDENSITY_STAT_SEED"] = str(seed)
+    with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
+        code = pytest.main(["-q", "-p", "no:randomly", "-p", "no:cacheprovider", test])
+    return code == 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=50, help="seeds per test (0 .. S - 1)")
+    parser.add_argument("tests", nargs="*", help="test ids (default: every statistical test)")
+    args = parser.parse_args(argv)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.path.insert(0, os.getcwd())
+    tests = args.tests or list(STATISTICAL_TESTS)
+    print(f"{'test':<90}{'failed':>8}{'expected':>10}{'seconds':>9}")
+    worst = 0.0
+    for test in tests:
+        t0 = time.perf_counter()
+        failed = [s for s in range(args.seeds) if not _run(test, s)]
+        expected = args.seeds * STATISTICAL_TESTS.get(test, 0.0)
+        print(f"{test:<90}{len(failed):>8}{expected:>10.2f}{time.perf_counter() - t0:>9.0f}"
+              + (f"  seeds {failed}" if failed else ""))
+        worst = max(worst, len(failed) - expected)
+    return 0 if worst < 1 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
