@@ -413,10 +413,9 @@ def check_engine(engine, name: str = "engine"):
 
 
 def check_target(target, name: str = "target"):
-    """Anything a target may be given as, or None: a ``HardwareTarget`` (has ``sampler`` and
-    ``transpile``), a target name or snapshot path (``str`` / ``os.PathLike``), a Qiskit
-    ``BackendV2`` or a ``qiskit.transpiler.Target`` (``qdensity.hardware.targets.as_target``
-    turns each into a ``HardwareTarget``; this check only refuses the wrong types, by name)."""
+    """Anything a target may be given as, or None: a ``HardwareTarget``, a target name or
+    snapshot path, a ``BackendV2`` or a ``qiskit.transpiler.Target`` (``as_target`` in
+    ``qdensity.hardware.targets`` builds each; this only refuses the wrong types, by name)."""
     if target is None or isinstance(target, (str, os.PathLike)):
         return target
     if all(callable(getattr(target, a, None)) for a in ("sampler", "transpile")):

@@ -36,6 +36,9 @@ KNOWN_BROKEN = {
 EXTRAS = {"torch": "torch", "optuna": "sweep", "qiskit_ibm_runtime": "ibm", "mthree": "ibm",
           "pennylane": "bench"}
 
+#: Top-level module an example may import that no extra brings (documented for clusters only).
+OTHER_PACKAGES = {"dask_jobqueue": "dask-jobqueue"}
+
 
 def _blocks() -> list[tuple[str, str, str]]:
     """``(id, kind, code)`` for every code block: kind ``python`` or ``shell``."""
@@ -98,6 +101,9 @@ def _missing_extra(code: str) -> str | None:
             top = name.split(".")[0]
             if top in EXTRAS and importlib.util.find_spec(top) is None:
                 return f"needs the {EXTRAS[top]!r} extra: pip install 'qdensity[{EXTRAS[top]}]'"
+            if top in OTHER_PACKAGES and importlib.util.find_spec(top) is None:
+                return f"needs {OTHER_PACKAGES[top]} (no extra brings it): pip install " \
+                       f"{OTHER_PACKAGES[top]}"
     return None
 
 
@@ -118,7 +124,7 @@ def test_python_block_runs_verbatim_and_alone(block, code, tmp_path):
 
 def _commands(code: str) -> list[list[str]]:
     out = []
-    for raw in code.splitlines():
+    for raw in code.replace("\\\n", " ").splitlines():  # a line continued by a backslash
         for part in raw.split("&&"):
             text = part.split("  #")[0].split(" # ")[0].strip()
             if text:

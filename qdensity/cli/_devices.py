@@ -10,14 +10,15 @@ def correction_options(parser, target_help: str | None = None) -> None:
     """``--mitigation`` and ``--postselect`` (the sampler engine's readout corrections), and
     ``--target`` (default: the command's own) when ``target_help`` is given."""
     if target_help is not None:
-        parser.add_argument("--target", help="the noisy device (default heavy_hex): "
-                            + target_help)
+        parser.add_argument("--target", help="the noisy device (default: heavy_hex): "
+                            + target_help + "%(default).0s")
     parser.add_argument("--mitigation", choices=["m3"], default=None,
                         help="readout-error mitigation of every sampled circuit (mthree's M3, "
-                             "calibrated on the target; calibration shots are counted apart)")
+                             "calibrated on the target; calibration shots are counted apart; "
+                             "default: none)%(default).0s")
     parser.add_argument("--postselect", choices=["hamming_weight"], default=None,
                         help="keep only shots of the Hamming weight the ideal circuit keeps "
-                             "(unary models)")
+                             "(unary models; default: none)%(default).0s")
 
 
 #: ``qdensity demo`` options that change the ``DemoConfig`` when given.
