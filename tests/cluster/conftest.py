@@ -25,7 +25,7 @@ from qdensity.experiments import registry
 def client():
     """A ``distributed.Client`` of a LocalCluster: two worker processes of one thread each on
     127.0.0.1."""
-    distributed = pytest.importorskip("distributed")
+    import distributed  # a core dependency
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                        host="127.0.0.1", dashboard_address=":0",
                                        silence_logs=logging.ERROR)

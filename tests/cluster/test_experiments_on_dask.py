@@ -17,8 +17,6 @@ from qdensity.cli import main
 from qdensity.cluster import parse_cluster
 from qdensity.experiments import registry
 
-pytest.importorskip("distributed")
-
 
 def _science(row: dict) -> dict:
     """A per-seed record without what depends on where and how fast it ran."""
