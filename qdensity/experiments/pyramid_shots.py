@@ -103,7 +103,12 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
         the last 10 epochs, the paper's inset), ``m/circuits_per_row``, ``m/shots``,
         ``m/num_angles``; ``pure/test_accuracy_at_density_budget`` (the pure model's accuracy at
         the last evaluation within the odd-even model's total shots); curves
-        ``m/test_vs_shots`` and ``m/test_vs_epoch``.
+        ``m/test_vs_shots`` and ``m/test_vs_epoch``. With ``trials > 0`` (the sweep), in place
+        of the initial and best accuracies, the sweep's aggregates
+        (:func:`~._sweeps.sweep_metrics`: ``m/runs_above``, ``m/runs_of``,
+        ``m/runs_above_mean``, mean, best, std and ``m/selected_accuracy``, which is also
+        ``m/test_accuracy``) and the curve ``m/trials``; the budget comparison comes from
+        :func:`combine`.
     """
     require_torch("pyramid-shots")
     from qdensity.experiments import _pyramid_shots_models as hm
