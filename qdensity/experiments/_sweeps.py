@@ -31,6 +31,8 @@ def _study(experiment: str, cfg: dict, seed: int, index: int, prefix: str, trial
     from qdensity.learning._study import settings_hash
 
     directory = work_directory()
+    if directory is not None:  # --out may name a folder the run has not made yet
+        directory.mkdir(parents=True, exist_ok=True)
     storage = (MEMORY if directory is None
                else f"sqlite:///{directory / f'{experiment}-sweeps.db'}")
     settings = {**{k: v for k, v in cfg.items() if k != "models"}, "seed": seed,

@@ -79,6 +79,7 @@ def test_sweep_aggregates_and_resumes_from_storage(tmp_path):
 
     pytest.importorskip("optuna")
     config = dict(TINY, epochs=1, trials=2, models=["pure", "odd_even"], test_size=20)
+    tmp_path = tmp_path / "not-yet-made"
     first = run("pyramid-shots", seeds=[0], config=config, out=tmp_path, progress=False)
     row = first.per_seed[0]
     for m in ("pure", "odd_even"):
