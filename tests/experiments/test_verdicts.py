@@ -15,6 +15,7 @@ from qdensity.experiments.results import ExperimentResult
 from qdensity.experiments.verdicts import (
     MARKERS,
     Claim,
+    claims_for,
     report,
     seeds_for_power,
     splice,
@@ -59,6 +60,28 @@ def test_not_comparable_and_missing_metrics():
     assert missing["verdict"] == "not comparable" and "zzz" in missing["reason"]
     one = verdict(_result([0.1]), Claim("x", "c", "a", "b"))
     assert one["verdict"] == "inconclusive" and one["seeds_needed"] is None
+
+
+def test_moe_runs_before_the_shared_sweep_are_not_comparable():
+    """A moe file without the loader's input-gradient count predates the shared sweep loop
+    (random search, old shot count): both claims not comparable, saying why; a newer one is
+    judged."""
+    rows = [{f"odd_even/{v}/{k}": 0.5 + 0.01 * i * (v == "moe")
+             for v in ("moe", "density") for k in ("mean_accuracy", "std_accuracy")}
+            for i in range(3)]
+    old = ExperimentResult("moe", "full", {"decompositions": ["odd_even"], "trials": 8},
+                           [0, 1, 2], rows)
+    for row in evaluate_result(old):
+        assert row["verdict"] == "not comparable"
+        assert "random search" in row["reason"] and "input gradients" in row["reason"]
+    new = ExperimentResult("moe", "full", {"decompositions": ["odd_even"], "trials": 8},
+                           [0, 1, 2], [{**r, "odd_even/moe/circuits/input_gradients": 28}
+                                       for r in rows])
+    assert all(r["verdict"] != "not comparable" for r in evaluate_result(new))
+
+
+def evaluate_result(result):
+    return [verdict(result, c) for c in claims_for(result)]
 
 
 def test_seeds_for_power_matches_power_tables():
