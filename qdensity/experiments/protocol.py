@@ -58,6 +58,24 @@ class PaperProtocol:
                              "either states them or leaves them open")
 
 
+def check_overrides(name: str, base: Mapping, config) -> None:
+    """Refuse ``config`` unless it is a mapping of settings that ``base`` has.
+
+    Raises
+    ------
+    TypeError
+        ``config`` not a mapping.
+    ValueError
+        A setting ``base`` does not have (the message lists the known ones).
+    """
+    if not isinstance(config, Mapping):
+        raise TypeError(f"config must be a mapping of settings, got {type(config).__name__}")
+    unknown = sorted(set(config) - set(base))
+    if unknown:
+        raise ValueError(f"config has unknown settings {unknown} for experiment {name!r}; "
+                         f"known: {sorted(base)}")
+
+
 def resolve_paper(name: str, protocol: PaperProtocol | None, config: Mapping | None) -> dict:
     """The ``--paper`` settings of experiment ``name`` with ``config``'s overrides.
 
@@ -89,12 +107,7 @@ def resolve_paper(name: str, protocol: PaperProtocol | None, config: Mapping | N
     base = dict(protocol.settings)
     if config is None:
         return base
-    if not isinstance(config, Mapping):
-        raise TypeError(f"config must be a mapping of settings, got {type(config).__name__}")
-    unknown = sorted(set(config) - set(base))
-    if unknown:
-        raise ValueError(f"config has unknown settings {unknown} for experiment {name!r}; "
-                         f"known: {sorted(base)}")
+    check_overrides(name, base, config)
     fixed = [k for k in sorted(config) if k in protocol.fixed and config[k] != base[k]]
     if fixed:
         stated = ", ".join(f"{k}={base[k]!r}" for k in fixed)

@@ -33,6 +33,7 @@ import numpy as np
 
 from qdensity.cluster import IN_PROCESS, open_client, run_units
 from qdensity.experiments import _units
+from qdensity.experiments.protocol import check_overrides, resolve_paper
 from qdensity.experiments.results import ExperimentResult, mean_ci
 from qdensity.progress import progress_bar
 
@@ -159,17 +160,11 @@ def resolve_config(experiment: Experiment, mode: str, config: Mapping | None) ->
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if mode == "paper":
-        from qdensity.experiments.protocol import resolve_paper
         return resolve_paper(experiment.name, experiment.protocol, config)
     base = dict(getattr(experiment, mode))
     if config is None:
         return base
-    if not isinstance(config, Mapping):
-        raise TypeError(f"config must be a mapping of settings, got {type(config).__name__}")
-    unknown = sorted(set(config) - set(base))
-    if unknown:
-        raise ValueError(f"config has unknown settings {unknown} for experiment "
-                         f"{experiment.name!r}; known: {sorted(base)}")
+    check_overrides(experiment.name, base, config)
     base.update(config)
     return base
 
