@@ -103,29 +103,6 @@ def _rot_v(Ar, Ai, Br, Bi, c, mkr, mki, mjr, mji):
         Bi[t] = c * bi + mjr * ai + mji * ar
 
 
-@njit(cache=True, fastmath=True, inline="always")
-def _dot(ur, ui, s, pr, pi, j, low):
-    """``sum_t conj(u[s + t]) p[j + t]`` as (real, imag)."""
-    if low < VEC:
-        sr = 0.0
-        si = 0.0
-        for t in range(low):
-            sr += ur[s + t] * pr[j + t] + ui[s + t] * pi[j + t]
-            si += ur[s + t] * pi[j + t] - ui[s + t] * pr[j + t]
-        return sr, si
-    return _dot_v(ur[s:s + low], ui[s:s + low], pr[j:j + low], pi[j:j + low])
-
-
-@njit(cache=True, fastmath=True, inline="always")
-def _dot_v(Ur, Ui, Pr, Pi):
-    sr = 0.0
-    si = 0.0
-    for t in range(Ur.shape[0]):
-        sr += Ur[t] * Pr[t] + Ui[t] * Pi[t]
-        si += Ur[t] * Pi[t] - Ui[t] * Pr[t]
-    return sr, si
-
-
 @njit(cache=True, fastmath=True)
 def apply(re, im, n, x, z, cm, pos, npos, c, mr, mi):
     """``psi_k <- c psi_k + m s_k psi_{k^x}`` on the controlled positions, ``m = mr + i mi``
@@ -177,6 +154,61 @@ def dense(re, im, n, pos, npos, offs, mat, buf):
                 s += mat[a, b] * buf[b]
             re[base + offs[a]] = s.real
             im[base + offs[a]] = s.imag
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _back_v(Ur, Ui, Vr, Vi, Ar, Ai, Br, Bi, c, mr, mi, s, sj, phi_too):
+    """One block pair of the backward sweep in one loop: returns
+    ``sum_t s conj(u_t) b_t + sj conj(v_t) a_t`` (lam = (u, v), phi = (a, b) as they come) and
+    applies ``c + m s P`` to lam (and to phi when ``phi_too``)."""
+    sr = 0.0
+    si = 0.0
+    mkr = s * mr
+    mki = s * mi
+    mjr = sj * mr
+    mji = sj * mi
+    for t in range(Ur.shape[0]):
+        ar = Ar[t]
+        ai = Ai[t]
+        br = Br[t]
+        bi = Bi[t]
+        ur = Ur[t]
+        ui = Ui[t]
+        vr = Vr[t]
+        vi = Vi[t]
+        sr += s * (ur * br + ui * bi) + sj * (vr * ar + vi * ai)
+        si += s * (ur * bi - ui * br) + sj * (vr * ai - vi * ar)
+        Ur[t] = c * ur + mkr * vr - mki * vi
+        Ui[t] = c * ui + mkr * vi + mki * vr
+        Vr[t] = c * vr + mjr * ur - mji * ui
+        Vi[t] = c * vi + mjr * ui + mji * ur
+        if phi_too:
+            Ar[t] = c * ar + mkr * br - mki * bi
+            Ai[t] = c * ai + mkr * bi + mki * br
+            Br[t] = c * br + mjr * ar - mji * ai
+            Bi[t] = c * bi + mjr * ai + mji * ar
+    return sr, si
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _diag_v(Ur, Ui, Ar, Ai, fr, fi, phi_too):
+    """``sum_t conj(u_t) a_t`` as they come, then ``u *= f`` (and ``a *= f`` when ``phi_too``),
+    ``f = fr + i fi``, in one loop."""
+    sr = 0.0
+    si = 0.0
+    for t in range(Ur.shape[0]):
+        ar = Ar[t]
+        ai = Ai[t]
+        ur = Ur[t]
+        ui = Ui[t]
+        sr += ur * ar + ui * ai
+        si += ur * ai - ui * ar
+        Ur[t] = fr * ur - fi * ui
+        Ui[t] = fr * ui + fi * ur
+        if phi_too:
+            Ar[t] = fr * ar - fi * ai
+            Ai[t] = fr * ai + fi * ar
+    return sr, si
 
 
 @njit(cache=True, fastmath=True)
@@ -283,21 +315,15 @@ def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acc
         for _ in range(outer):
             b = k | cm
             s = _sign(b & z)
-            for mm in range(M):
-                if want:
-                    dr, di = _dot(lr[mm], li[mm], b, pr, pi, b, low)
-                    accr[mm] += s * dr
-                    acci[mm] += s * di
-                    if h:
-                        dr, di = _dot(lr[mm], li[mm], b | h, pr, pi, b | h, low)
-                        accr[mm] -= s * dr
-                        acci[mm] -= s * di
-                _scale(lr[mm], li[mm], b, b + low, c + s * mr, s * mi)
-                if h:
-                    _scale(lr[mm], li[mm], b | h, (b | h) + low, c - s * mr, -s * mi)
-            _scale(pr, pi, b, b + low, c + s * mr, s * mi)
-            if h:
-                _scale(pr, pi, b | h, (b | h) + low, c - s * mr, -s * mi)
+            for half in range(2 if h else 1):
+                e = b | h if half else b
+                sh = -s if half else s
+                for mm in range(M):  # one pass per observable; the last one also scales phi
+                    dr, di = _diag_v(lr[mm, e:e + low], li[mm, e:e + low], pr[e:e + low],
+                                     pi[e:e + low], c + sh * mr, sh * mi, mm == M - 1)
+                    if want:
+                        accr[mm] += sh * dr
+                        acci[mm] += sh * di
             k = (k - free) & free
         return
     sxz = _sign(x & z)
@@ -313,14 +339,14 @@ def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acc
             j = b ^ x
             s = _sign(b & z)
             sj = s * sxz
-            for mm in range(M):
+            for mm in range(M):  # one pass per observable; the last one also moves phi
+                dr, di = _back_v(lr[mm, b:b + step], li[mm, b:b + step], lr[mm, j:j + step],
+                                 li[mm, j:j + step], pr[b:b + step], pi[b:b + step],
+                                 pr[j:j + step], pi[j:j + step], c, mr, mi, s, sj,
+                                 mm == M - 1)
                 if want:
-                    dr, di = _dot(lr[mm], li[mm], b, pr, pi, j, step)
-                    er, ei = _dot(lr[mm], li[mm], j, pr, pi, b, step)
-                    accr[mm] += s * dr + sj * er
-                    acci[mm] += s * di + sj * ei
-                _rot(lr[mm], li[mm], b, j, step, c, s * mr, s * mi, sj * mr, sj * mi)
-            _rot(pr, pi, b, j, step, c, s * mr, s * mi, sj * mr, sj * mi)
+                    accr[mm] += dr
+                    acci[mm] += di
         k = (k - free) & free
 
 
