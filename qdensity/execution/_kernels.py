@@ -60,8 +60,8 @@ class Tables:
     rot : int64 (O,)
         Rotation index ``g`` (-1 for fixed gates).
     pos, npos : int64 (O, W), (O,)
-        Sorted bit positions skipped by the pair loop (controls and the highest X bit; a dense
-        gate's qubits).
+        Sorted bit positions skipped by the pair loop (controls and the lowest X, else Z, bit;
+        a dense gate's qubits).
     offs : int64 (O, 2**MAX_DENSE)
         A dense gate's amplitude offsets; ``mat`` / ``inv`` complex128 (O, D, D) its matrix
         and inverse.
