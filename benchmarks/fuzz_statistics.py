@@ -74,7 +74,7 @@ STATISTICAL_TESTS: dict[str, float] = {
     "tests/hardware/test_mps_sampling.py::"
     "test_default_engine_picks_mps_for_unary_probabilities_at_32_qubits": 1e-3,
     "tests/hardware/test_aer_sampling.py::"
-    "test_estimates_agree_with_the_other_method_within_standard_errors": 2e-5,
+    "test_estimates_agree_with_the_other_method_within_standard_errors": 4e-5,  # 2 methods
 }
 
 
