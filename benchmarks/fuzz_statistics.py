@@ -31,6 +31,51 @@ STATISTICAL_TESTS: dict[str, float] = {
     "tests/models/test_models.py::test_train_mode_samples_subunitaries_unbiased": 2e-4,
     "tests/models/test_models.py::test_eval_mode_samples_the_deterministic_state": 6e-5,
     "tests/gradients/test_shift.py::test_sampled_gradient_within_standard_errors": 1e-3,
+    "tests/execution/test_independent_shots.py::test_aer_alone_correlates_shot_groups": 2e-4,
+    "tests/execution/test_independent_shots.py::"
+    "test_run_independent_decorrelates_and_keeps_order_and_seed": 2e-4,
+    "tests/execution/test_independent_shots.py::"
+    "test_sampler_engine_jobs_of_different_shots_are_independent": 1e-3,
+    "tests/execution/test_independent_shots.py::test_stratified_spread_matches_its_standard_error":
+        1e-3,
+    "tests/execution/test_independent_shots.py::"
+    "test_other_samplers_get_one_job_per_shot_count_in_order": 3e-4,
+    "tests/execution/test_plans_engines.py::test_sampler_engine_within_standard_errors_and_ledger":
+        3e-4,
+    "tests/execution/test_plans_engines.py::"
+    "test_sampler_engine_unparameterised_template_several_rows": 5e-4,
+    "tests/execution/test_plans_engines.py::"
+    "test_sampler_engine_template_whose_parameters_vanish_in_transpilation": 3e-4,
+    "tests/execution/test_plans_engines.py::test_sampler_probabilities_plan_within_bounds": 1e-3,
+    "tests/execution/test_plans_engines.py::test_postselect_hamming_weight_on_noisy_unary_circuit":
+        1e-5,
+    "tests/learning/test_torch.py::test_sampled_input_gradients_within_standard_errors_and_counted":
+        4e-4,
+    "tests/learning/test_torch.py::test_sampled_gradients_agree_with_exact_within_standard_errors":
+        1e-3,
+    "tests/learning/test_training.py::test_sampled_step_is_unbiased_against_exact": 1e-6,
+    "tests/hardware/test_runtime.py::test_density_gradient_plan_through_the_runtime_sampler":
+        1e-4,
+    "tests/hardware/test_runtime.py::test_forward_tomography_and_randomised_sampling_in_one_batch":
+        3e-6,
+    "tests/hardware/test_runtime.py::test_noisy_runtime_forward_is_close_but_biased_by_the_snapshot":
+        1e-10,
+    "tests/hardware/test_snapshots.py::test_manila_simulator_carries_the_calibrated_readout_error":
+        1e-3,
+    "tests/hardware/test_snapshots.py::test_snapshot_target_runs_density_sampling_and_gradient_plans":
+        3e-6,
+    "tests/hardware/test_mitigation.py::test_mitigation_alone_removes_the_readout_bias": 2e-6,
+    "tests/hardware/test_mitigation.py::test_mitigated_and_postselected_beat_raw_over_seeds":
+        1e-4,
+    "tests/hardware/test_mitigation.py::test_density_model_output_from_mitigated_subunitaries":
+        1e-15,
+    "tests/hardware/test_mps_sampling.py::"
+    "test_mps_sampled_outputs_and_gradients_at_30_qubits_match_the_unary_engine": 1.2e-4,
+    "tests/hardware/test_aer_sampling.py::"
+    "test_estimates_agree_with_the_other_method_within_standard_errors": 4e-5,  # 2 methods
+    "tests/gradients/test_inputs.py::test_input_gradient_plan_exact_and_sampled": 8e-4,
+    "tests/execution/test_engine_mitigation.py::"
+    "test_m3_removes_a_pure_readout_bias_within_its_standard_error": 2.5e-4,
 }
 
 

@@ -52,7 +52,7 @@ from sklearn.model_selection import train_test_split
 from qdensity.cluster import IN_PROCESS, worker_name
 from qdensity.learning._study import DEFAULT_GRACE_PERIOD, MEMORY, _optuna, startup_trials
 from qdensity.progress import progress_bar
-from qdensity.validation import check_positive_int
+from qdensity.validation import check_positive_int, check_seed
 
 __all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "DEFAULT_GRACE_PERIOD", "MEMORY", "run_sweep",
            "run_trials", "open_study", "sweep_settings", "suggest_params", "startup_trials",
@@ -114,6 +114,15 @@ def open_study(study_name: str = "qdensity", storage: str | None = None, *,
     return _open(study_name, DEFAULT_STORAGE if storage is None else storage,
                  direction=direction, seed=seed, n_trials=n_trials, settings=settings,
                  grace_period=grace_period)
+
+
+def _int_seed(seed, name: str) -> int:
+    """``seed`` as an int ``>= 0`` (the split and the sampler seeds are stored with the study,
+    so a Generator or None is refused too), with a message naming ``name``."""
+    seed = check_seed(seed, name)
+    if not isinstance(seed, int):
+        raise TypeError(f"{name} must be an int >= 0, got {type(seed).__name__} {seed!r}")
+    return seed
 
 
 def _check_space(space: Mapping, estimator) -> None:
@@ -296,6 +305,8 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
 
         estimator = QNNClassifier(verbose=False)
     n_trials = check_positive_int(n_trials, "n_trials")
+    seed = _int_seed(seed, "seed")
+    sampler_seed = None if sampler_seed is None else _int_seed(sampler_seed, "sampler_seed")
     space = PAPER_SPACE if space is None else space
     _check_space(space, estimator)
     if not (isinstance(validation_size, float) and 0 < validation_size < 1):

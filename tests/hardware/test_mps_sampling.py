@@ -5,6 +5,8 @@ inputs at widths a statevector cannot hold; its estimates must agree with the ex
 engine and with finite differences of it.
 """
 
+import os
+
 import numpy as np
 import pytest
 from qiskit.quantum_info import SparsePauliOp
@@ -15,6 +17,11 @@ from qdensity.ansatze import round_robin
 from qdensity.gradients import density_gradient_plan
 
 N, SHOTS = 30, 2000
+
+
+def _stat_seed(default: int) -> int:
+    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
+    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _model() -> DensityQNN:
@@ -28,10 +35,14 @@ def test_mps_sampled_outputs_and_gradients_at_30_qubits_match_the_unary_engine()
     X = np.random.default_rng(4).normal(size=(2, N))
     X[:, :4] *= 5  # weight near qubit 0, which Z_0 reads: derivatives well above the noise
     plan = density_gradient_plan(model, X, method="commuting", shots=SHOTS)
-    mps = SamplerV2(seed=0, options={"backend_options": {"method": "matrix_product_state"}})
-    grad = plan.run(SamplerEngine(mps, seed=0, progress=False))
+    mps = SamplerV2(seed=_stat_seed(0),
+                    options={"backend_options": {"method": "matrix_product_state"}})
+    grad = plan.run(SamplerEngine(mps, seed=_stat_seed(0), progress=False))
     exact = model.expert_outputs(X, method="unary")  # (B, K), no 2**30 array
-    # <Z_0> = 1 - 2p: binomial error of the exact p (never 0)
+    # <Z_0> = 1 - 2p: binomial error of the exact p (never 0). False failure: 4 outputs and
+    # fewer than 200 derivative entries at 5 standard errors (normal, 2000 shots):
+    # < 204 x 5.7e-7 = 1.2e-4
+    assert sum(j[:, 0].size for j in grad.jacobians) < 200
     p = (1.0 - exact) / 2.0
     se = 2.0 * np.sqrt(np.maximum(p * (1.0 - p), 1.0 / SHOTS) / SHOTS)
     assert np.all(np.abs(grad.outputs[..., 0] - exact) <= 5 * se)
@@ -72,6 +83,7 @@ def test_default_engine_picks_mps_for_unary_probabilities_at_32_qubits():
     exact = x**2 / np.sum(x**2)
     se = np.sqrt(np.maximum(exact * (1 - exact), 1 / shots) / shots)
     assert kept[0] == 1.0
+    # not yet a derived bound: exact binomial quantiles (1e-3 in all) failed 13 of 50 seeds
     assert np.all(np.abs(p[0] - exact) <= 5 * se)
 
 

@@ -225,4 +225,12 @@ def test_bad_sweep_input(tmp_path):
         run_sweep(X, y, space={"epochs": ("uniform", 1, 3)}, storage=storage)
     with pytest.raises(ValueError, match="n_trials"):
         run_sweep(X, y, n_trials=0, storage=storage)
+    with pytest.raises(ValueError, match=r"seed must be an int >= 0.*got -1"):
+        run_sweep(X, y, seed=-1, storage=storage)
+    with pytest.raises(TypeError, match=r"seed must be an int >= 0.*got float 1.5"):
+        run_sweep(X, y, seed=1.5, storage=storage)
+    with pytest.raises(TypeError, match=r"^seed must be an int >= 0, got NoneType"):
+        run_sweep(X, y, seed=None, storage=storage)
+    with pytest.raises(ValueError, match=r"sampler_seed must be an int >= 0.*got -2"):
+        run_sweep(X, y, sampler_seed=-2, storage=storage)
     assert np.isfinite(X).all()

@@ -3,6 +3,7 @@ finite differences of Aer statevectors, sampled gradients against exact ones, th
 gradient that lets a classical layer before it train, a gate written in torch, bad input, and
 the runnable examples."""
 
+import os
 import pickle
 import runpy
 from pathlib import Path
@@ -160,6 +161,11 @@ def test_inputs_of_any_leading_shape():
         layer(torch.zeros(2, 4, dtype=torch.float64))
 
 
+def _stat_seed(default: int) -> int:
+    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
+    return int(os.environ.get("QDENSITY_STAT_SEED", default))
+
+
 def test_sampled_input_gradients_within_standard_errors_and_counted():
     """A SamplerEngine: d/dx by shift rules on the data parameters, within 4 standard errors
     of the exact input gradient, its circuits and shots on the ledger; a unary readout has
@@ -171,7 +177,7 @@ def test_sampled_input_gradients_within_standard_errors_and_counted():
     exact = DensityQNNLayer(model)
     x = torch.tensor(X, requires_grad=True)
     exact(x).sum().backward()
-    engine = SamplerEngine(seed=5)
+    engine = SamplerEngine(seed=_stat_seed(5))
     shots = 4000
     layer = DensityQNNLayer(model, engine=engine, shots=shots)
     xs = torch.tensor(X, requires_grad=True)
@@ -182,6 +188,7 @@ def test_sampled_input_gradients_within_standard_errors_and_counted():
     # x_i enters one R_y(pi x_i / 2) per sub-unitary; its shift estimate of <Z_0> is
     # (pi / 2) (f+ - f-) / 2, variance <= (pi / 2)^2 (1 + 1) / 4 / shots; the output weighs
     # K = 2 of them by alpha = 1/2: variance <= pi^2 / 16 / shots
+    # 2 x 3 entries, each normal with sd <= se: false failure <= 6 x 2 Phi(-4) = 4e-4
     se = np.pi / 4 / np.sqrt(shots)
     assert float((xs.grad - x.grad).abs().max()) < 4 * se
     unary = DensityQNNLayer(_unary_model(), engine=SamplerEngine(seed=1), shots=100)
@@ -216,13 +223,16 @@ def test_sampled_gradients_agree_with_exact_within_standard_errors():
     exact = DensityQNNLayer(model)
     (exact(X) * w).sum().backward()
     shots = 4000
-    engine = SamplerEngine(seed=11)
+    engine = SamplerEngine(seed=_stat_seed(11))
     sampled = DensityQNNLayer(model, engine=engine, shots=shots, gradient="commuting")
     (sampled(X) * w).sum().backward()
     assert sampled.shots_spent == engine.ledger.total_shots > 0
     # every gradient entry is a sum over 4 rows x 4 outputs of |w| * (estimates of
     # probabilities or their differences, each with variance <= 1 / shots); bound the error
     se = np.sqrt((w.numpy() ** 2).sum() * 2.0 / shots)
+    # each entry normal with sd <= se; over the theta and logit entries (model.num_parameters
+    # + K <= 16): false failure <= 16 x 2 Phi(-4) = 1e-3
+    assert model.num_parameters + model.num_subunitaries <= 16
     for name in ("theta", "logits"):
         diff = getattr(sampled, name).grad - getattr(exact, name).grad
         assert float(diff.abs().max()) < 4 * se, name
