@@ -10,6 +10,7 @@ objects", item 3): noiseless n = 32 under 60 s CPU and 1 GB; n = 64 reported; no
 127-qubit snapshot at n = 32 reported.
 
     python benchmarks/bench_widths.py [--widths 32 64] [--noisy fake_kyiv] [--sub 2]
+                                      [--timeout 1800]
 """
 
 from __future__ import annotations
@@ -46,10 +47,13 @@ def _case(n: int, target: str | None, sub: int, rows: int, shots: int) -> dict:
             "shots": engine.ledger.total_shots, "max_z": err}
 
 
-def _run_child(args: list[str]) -> dict:
+def _run_child(args: list[str], timeout: float) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    out = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True,
-                         text=True, check=False)
+    try:
+        out = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True,
+                             text=True, check=False, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"error": f"ran past {timeout:.0f} s (killed)"}
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode:
         return {"error": out.stderr.strip().splitlines()[-1] if out.stderr else "failed"}
@@ -61,11 +65,13 @@ def _run_child(args: list[str]) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--widths", type=int, nargs="+", default=[32, 64])
+    ap.add_argument("--widths", type=int, nargs="*", default=[32, 64],
+                    help="noiseless widths (none: only the noisy case)")
     ap.add_argument("--noisy", default="fake_kyiv", help="127-qubit snapshot for n = 32, or ''")
     ap.add_argument("--sub", type=int, default=2, help="sub-unitaries (layers) kept")
     ap.add_argument("--rows", type=int, default=16)
     ap.add_argument("--shots", type=int, default=1000)
+    ap.add_argument("--timeout", type=float, default=1800, help="seconds per case")
     ap.add_argument("--child", nargs=2, metavar=("N", "TARGET"))
     a = ap.parse_args()
     if a.child:
@@ -78,7 +84,7 @@ def main() -> None:
     cases = [(n, "-") for n in a.widths] + ([(32, a.noisy)] if a.noisy else [])
     for n, target in cases:
         res = _run_child([str(n), target, "--sub", str(a.sub), "--rows", str(a.rows),
-                          "--shots", str(a.shots)])
+                          "--shots", str(a.shots)], a.timeout)
         name = f"n={n} {'noiseless' if target == '-' else target}"
         if "error" in res:
             print(f"{name:<26}  {res['error']}")

@@ -27,7 +27,10 @@ Training uses the raw sampled outputs (neither post-selected nor mitigated); the
 are applied to the predictions only. Calibration and evaluation shots are not part of the
 training budget (reported separately). The default target is the 5-qubit ``fake_manila``
 snapshot (needs ``pip install 'qdensity[ibm]'``); ``target="heavy_hex"`` (a seeded
-``GenericBackendV2``, core only) also works, and ``mitigation=False`` drops mthree.
+``GenericBackendV2``, core only) also works, and so does the path of a snapshot file written by
+:func:`qdensity.hardware.save_snapshot` (``--set target=PATH.json``: a paper pins the device it
+ran on; the config keeps the path, each seed's ``device`` the saved device's name);
+``mitigation=False`` drops mthree.
 Simulation uses Aer's density-matrix method (exact noise, ~6 ms per circuit row at 5 qubits;
 trajectories were 30x slower).
 """
@@ -35,6 +38,7 @@ trajectories were 30x slower).
 from __future__ import annotations
 
 import importlib.util
+import os
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +50,7 @@ from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._noise_device import VARIANTS, device_outputs
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
+from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import is_snapshot_name, snapshots_available
 from qdensity.hardware.targets import get_target
 from qdensity.learning.estimators import QNNClassifier
@@ -98,10 +103,19 @@ def check_config(config: dict) -> dict:
         ``mitigation=True`` without ``mthree``; the message says ``pip install 'qdensity[ibm]'``.
     """
     c = dict(config)
+    if isinstance(c["target"], os.PathLike):
+        c["target"] = os.fspath(c["target"])  # the JSON config keeps the path as a string
     if not isinstance(c["target"], str) or c["target"] in ("ideal",):
         raise ValueError(f"setting 'target' must name a noisy target (a snapshot such as "
-                         f"'fake_manila', or 'heavy_hex', 'line', ...), got {c['target']!r}")
-    if is_snapshot_name(c["target"]) and not snapshots_available():
+                         f"'fake_manila', 'heavy_hex', 'line', ..., or the path of a snapshot "
+                         f"file written by qdensity.hardware.save_snapshot), got "
+                         f"{c['target']!r}")
+    if is_snapshot_path(c["target"]):
+        try:  # a missing, foreign or newer file is refused here, before any data or training
+            load_snapshot(c["target"])
+        except ValueError as exc:
+            raise ValueError(f"setting 'target': {exc}") from None
+    elif is_snapshot_name(c["target"]) and not snapshots_available():
         raise ImportError(f"target {c['target']!r} is a calibrated device snapshot from "
                           f"qiskit-ibm-runtime; install the extra: {_INSTALL}, or use a "
                           "generic noisy device, which needs no extra: qdensity experiment "
@@ -208,7 +222,8 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
     c = check_config(config)
     n, seed = c["num_qubits"], int(seed)
     X_tr, X_te, y_tr, y_te = _data(c, seed)
-    target = get_target(c["target"], None if is_snapshot_name(c["target"]) else n, seed=seed)
+    fixed = is_snapshot_name(c["target"]) or is_snapshot_path(c["target"])
+    target = get_target(c["target"], None if fixed else n, seed=seed)
     if target.num_qubits < n:
         raise ValueError(f"setting 'num_qubits' ({n}) is wider than target {c['target']!r} "
                          f"({target.num_qubits} qubits)")
@@ -274,6 +289,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
             out[f"{name}/ceiling_accuracy"] = float(ref.score(X_te, y_te))
     cal = evaluator.ledger.by_label().get("readout calibration", (0, 0))
     out["mitigation/calibration_shots"] = int(cal[1])
+    out["device"] = target.name  # the device it ran on (a snapshot file's saved name)
     out["device_qubits"] = target.num_qubits
     return out
 

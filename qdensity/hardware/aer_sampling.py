@@ -45,8 +45,18 @@ engine marks its compiled form with :data:`HAMMING_WEIGHT_KEY` in ``metadata``) 
 rank at most 2 across every cut, so from :data:`MPS_FROM_QUBITS` active qubits it runs as
 ``matrix_product_state`` (noise by trajectories, one per shot), at any width. Any other PUB
 whose statevector (``16 * 2 ** a`` bytes) or density matrix would not fit in
-:func:`memory_budget` is refused before Aer allocates anything (:func:`check_memory`), with a
-``ValueError`` that names the engine, the width and the alternatives.
+:func:`memory_budget` runs as ``matrix_product_state`` when its entanglement is bounded by
+construction (:func:`mps_bond_bound`: two-qubit gates only between neighbours on the line of
+its active qubits, few enough across every cut that the bond dimension stays at most
+:data:`MPS_MAX_BOND`), and is refused otherwise, before Aer allocates anything
+(:func:`check_memory`), with a ``ValueError`` that names the engine, the width and the
+alternatives. The bound is a proof, not a guess: a state built from ``|0...0>`` by gates of
+operator Schmidt rank ``r`` has, across a cut, Schmidt rank at most the product of the ``r`` of
+the gates that cross it (and ``2 ** min(left, right)``); Aer keeps neighbour gates in place, so
+no swap raises an intermediate bond. Trajectory noise (Pauli or single-qubit Kraus operators,
+one sampled per gate) does not raise it either. Circuits outside the rule are refused rather
+than guessed at: a matrix-product state of a highly entangled circuit is exponential again
+(in memory and time), and Aer would find out only while allocating.
 """
 
 from __future__ import annotations
@@ -62,13 +72,23 @@ from qiskit_aer.primitives import SamplerV2
 
 __all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
            "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS", "MPS_FROM_QUBITS",
-           "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators"]
+           "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators",
+           "MPS_MAX_BOND", "mps_bond_bound"]
 
 #: ``metadata`` key of a compiled circuit whose ideal outcomes all have this Hamming weight.
 HAMMING_WEIGHT_KEY = "qdensity_hamming_weight"
 
 #: Active qubits from which Hamming-weight-1 circuits run as matrix-product states.
 MPS_FROM_QUBITS = 14
+
+#: Largest proven bond dimension with which a PUB too wide for a dense state runs as
+#: ``matrix_product_state`` (a tensor holds ``2 * chi**2`` amplitudes: 2 MB at 256).
+MPS_MAX_BOND = 256
+
+#: Two-qubit gates of operator Schmidt rank 2 (controlled single-qubit gates and ECR, which is
+#: CX up to single-qubit gates); any other two-qubit instruction counts as rank 4.
+_RANK_TWO = frozenset({"cx", "cy", "cz", "ch", "cp", "crx", "cry", "crz", "cs", "csdg", "csx",
+                       "cu", "cu1", "cu3", "ecr"})
 
 #: Widest circuit (active qubits) the default sampler simulates with the density matrix.
 DENSITY_MATRIX_MAX_QUBITS = 12
@@ -138,6 +158,59 @@ def density_matrix_from(num_active: int) -> int:
     return 2 ** max(a - 1 if a <= 6 else a - 2, 0)
 
 
+def mps_bond_bound(circuit: QuantumCircuit) -> int | None:
+    """A proven bound on the bond dimension of ``circuit``'s state as a matrix-product state.
+
+    The line is the circuit's active qubits in index order (what Aer simulates). Across the cut
+    after position ``c`` the Schmidt rank is at most the product of the operator Schmidt ranks
+    of the two-qubit gates acting on positions ``c`` and ``c + 1`` (2 for controlled gates and
+    ECR, 4 otherwise), and at most ``2 ** min(c + 1, a - c - 1)``.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Starting from ``|0...0>``; ``measure``, ``reset`` and ``barrier`` add nothing.
+
+    Returns
+    -------
+    int or None
+        The largest bound over all cuts (1 for a product state); None when a two-qubit gate
+        acts on qubits that are not neighbours on the line, or an instruction on three or more
+        qubits (no bound is claimed).
+
+    Examples
+    --------
+    >>> qc = QuantumCircuit(5)
+    >>> _ = qc.ry(0.3, 0)
+    >>> for q in range(4):
+    ...     _ = qc.cx(q, q + 1)
+    >>> mps_bond_bound(qc)
+    2
+    >>> _ = qc.cx(0, 4)
+    >>> mps_bond_bound(qc) is None
+    True
+    """
+    if not isinstance(circuit, QuantumCircuit):
+        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
+    used = sorted({circuit.find_bit(q).index for inst in circuit.data
+                   if inst.operation.name not in _NOT_QUBIT_WORK for q in inst.qubits})
+    where = {q: i for i, q in enumerate(used)}
+    log2 = [0.0] * max(len(used) - 1, 0)  # log2 of the bound across each cut
+    for inst in circuit.data:
+        k = len(inst.qubits)
+        if inst.operation.name in _NOT_QUBIT_WORK or k == 1:
+            continue
+        if k > 2:
+            return None
+        i, j = sorted(where[circuit.find_bit(q).index] for q in inst.qubits)
+        if j != i + 1:
+            return None
+        log2[i] += 1.0 if inst.operation.name in _RANK_TWO else 2.0
+    a = len(used)
+    worst = max((min(b, c + 1, a - c - 1) for c, b in enumerate(log2)), default=0.0)
+    return int(2 ** worst)
+
+
 def memory_budget() -> int:
     """Bytes a simulation may take: half of this machine's physical memory.
 
@@ -154,6 +227,16 @@ def memory_budget() -> int:
 
 def _gib(n: float) -> str:
     return f"{n / 2**30:.3g} GiB"
+
+
+def _dense_bytes(num_active: int, method: str) -> float | None:
+    return {"statevector": 16 * 2.0**num_active, "automatic": 16 * 2.0**num_active,
+            "density_matrix": 16 * 4.0**num_active}.get(method)
+
+
+def _fits(num_active: int, method: str) -> bool:
+    per = _dense_bytes(num_active, method)
+    return per is None or per <= memory_budget()
 
 
 def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") -> None:
@@ -174,15 +257,16 @@ def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") ->
     ValueError
         Naming the engine, the width, the bytes needed and the alternatives.
     """
-    per = {"statevector": 16 * 2.0**num_active, "automatic": 16 * 2.0**num_active,
-           "density_matrix": 16 * 4.0**num_active}.get(method)
-    if per is None or per <= memory_budget():
+    if _fits(num_active, method):
         return
+    per = _dense_bytes(num_active, method)
     raise ValueError(
         f"{engine}: Aer's {method} method on {num_active} active qubits needs {_gib(per)}, more "
         f"than the {_gib(memory_budget())} this machine allows (half its memory); "
-        f"alternatives: Hamming-weight-1 circuits (a unary loader and RBS/FBS gates) run as "
-        f"matrix-product states automatically; a low-entanglement circuit can be sampled with "
+        f"alternatives: Hamming-weight-1 circuits (a unary loader and RBS/FBS gates), and "
+        f"circuits whose two-qubit gates act only on neighbours of the line of their qubits "
+        f"with a bond dimension provably at most {MPS_MAX_BOND} (mps_bond_bound), run as "
+        f"matrix-product states automatically; another circuit can be sampled with "
         f"sampler=target.sampler(method='matrix_product_state'); the unary engine computes "
         f"RBS circuits exactly at any width; or use fewer qubits")
 
@@ -281,6 +365,12 @@ class AdaptiveSampler(SamplerV2):
         weight = (circuit.metadata or {}).get(HAMMING_WEIGHT_KEY)
         a = active_qubits(circuit)
         options = {**aer_options(a, shots, self._noisy, weight), **self._overrides}
+        if "method" not in self._overrides and not _fits(a, options["method"]):
+            bond = mps_bond_bound(circuit)  # too wide for a dense state: bounded entanglement?
+            if bond is not None and bond <= MPS_MAX_BOND:
+                options = {**options, "method": "matrix_product_state",
+                           "max_parallel_threads": 1}
+                options.pop("max_parallel_shots", None)
         check_memory(a, options["method"], "SamplerEngine (Aer SamplerV2)")
         return options
 

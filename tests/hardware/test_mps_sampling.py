@@ -101,6 +101,7 @@ def test_a_state_that_cannot_fit_is_refused_before_aer_allocates_it():
         qc.ry(0.1 * (q + 1), q)
     for q in range(n - 1):
         qc.cx(q, q + 1)
+    qc.cx(0, n - 1)  # not neighbours on the line: no proven bond bound, so no MPS either
     qc.measure_all()
     engine = SamplerEngine(seed=0, progress=False)
     job = CircuitJob(qc, np.zeros((1, 0)), 10)
