@@ -45,7 +45,13 @@ def test_notebook_executes(path, capsys):
 def test_a_missing_extra_skips_cleanly_with_an_install_hint(tmp_path):
     """The experiment notebooks' guard, run where torch cannot be imported."""
     nb = nbformat.read(NOTEBOOKS[0].parent / "experiment_pyramid_shots.ipynb", as_version=4)
-    block = nbformat.v4.new_code_cell("import sys\nsys.modules['torch'] = None  # as if absent")
+    block = nbformat.v4.new_code_cell(  # as if torch were not installed: its import fails
+        "import sys\n"
+        "class _NoTorch:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'torch' or name.startswith('torch.'):\n"
+        "            raise ModuleNotFoundError(\"No module named 'torch'\", name='torch')\n"
+        "sys.meta_path.insert(0, _NoTorch())")
     nb.cells.insert(0, block)
     NotebookClient(nb, timeout=120, kernel_name="python3",
                    resources={"metadata": {"path": str(tmp_path)}}).execute()
