@@ -10,9 +10,9 @@ seeds from ``QDENSITY_STAT_SEED`` (``benchmarks/fuzz_statistics.py`` runs them o
 """
 
 import math
-import os
 
 import numpy as np
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.circuit import Parameter
 from qiskit_aer.primitives import SamplerV2
@@ -31,11 +31,6 @@ def _ry(angle=None) -> QuantumCircuit:
     qc.ry(THETA if angle is None else angle, 0)
     qc.measure_all()
     return qc
-
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _seeds(n: int) -> range:

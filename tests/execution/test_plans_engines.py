@@ -9,10 +9,10 @@ estimates, bounds of a few standard errors at fixed seeds.
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
@@ -167,10 +167,6 @@ def test_exact_engine_bad_method():
 # Each statistical check states its false-failure rate for a random seed and takes its seed
 # from QDENSITY_STAT_SEED (benchmarks/fuzz_statistics.py runs them over 50 seeds).
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _binomial_ok(counts, shots: int, p, rate: float) -> np.ndarray:

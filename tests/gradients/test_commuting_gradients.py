@@ -7,10 +7,9 @@ differences; probabilities of the gradient circuits from ``Statevector(...).prob
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit, transpile
 from qiskit.circuit import ParameterVector
 from qiskit.circuit.library import PauliEvolutionGate
@@ -406,11 +405,6 @@ def _sampled_probs(circuit: QuantumCircuit, rows: np.ndarray, shots: int, seed: 
             out[r, k] = c / shots
     return out
 
-
-def _stat_seed(default: int) -> int:
-    """The sampler's seed: ``default``, or ``QDENSITY_STAT_SEED`` when set (read at call time;
-    ``benchmarks/fuzz_statistics.py`` runs the statistical tests over 50 seeds with it)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _estimator_moments(exact, values, shots):

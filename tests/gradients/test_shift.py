@@ -9,10 +9,10 @@ four standard errors around the exact gradient at a fixed seed.
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp, Statevector
@@ -213,10 +213,6 @@ def test_circuit_counts(rows):
     two = parameter_shift_plan(qc, obs, values, rbs_rule="two_term")
     assert two.num_circuits == rows * (2 * num_rbs + 2 * num_pauli) * 2
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def test_sampled_gradient_within_standard_errors():

@@ -1,9 +1,9 @@
 """The default Aer sampler of a target: method per PUB, reproducible, statistically unchanged."""
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.circuit import Parameter
 from scipy import stats
@@ -94,10 +94,6 @@ def test_same_seed_same_counts_across_mixed_methods():
     assert first == _counts(tgt.sampler(seed=11), pubs)
     assert first != _counts(tgt.sampler(seed=12), pubs)
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _frequencies(sampler, circuit, vals, shots):

@@ -4,10 +4,10 @@ Needs the ``ibm`` extra (CI installs it). Oracles: exact statevector values; sta
 comparisons over several fixed seeds with margins; the shots the ledger should hold.
 """
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
@@ -28,10 +28,6 @@ def _exact(qc, obs, rows):
     return np.array([np.real(Statevector(qc.assign_parameters(r)).expectation_value(obs))
                      for r in rows])
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def test_hamming_weights_brute_force():

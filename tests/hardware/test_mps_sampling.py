@@ -5,10 +5,10 @@ inputs at widths a statevector cannot hold; its estimates must agree with the ex
 engine and with finite differences of it.
 """
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit.quantum_info import SparsePauliOp
 from qiskit_aer.primitives import SamplerV2
 
@@ -18,10 +18,6 @@ from qdensity.gradients import density_gradient_plan
 
 N, SHOTS = 30, 2000
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _model() -> DensityQNN:

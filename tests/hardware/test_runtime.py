@@ -5,10 +5,10 @@ runtime sampler with an ideal noise model must agree within a few standard error
 in the PUBs the sampler was handed (the ledger must equal them), and the device's own limits.
 """
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp, Statevector
 from qiskit.transpiler import generate_preset_pass_manager
@@ -44,10 +44,6 @@ def _spy(engine):
     engine.sampler.run = spy
     return asked
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def _model(n=3, seed=1):

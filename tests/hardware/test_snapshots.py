@@ -6,10 +6,10 @@ snapshot's own calibration (coupling map, native gates, readout error per qubit)
 expectation values, and the refusal messages.
 """
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 from qiskit_ibm_runtime.fake_provider import FakeManilaV2, FakeProviderForBackendV2
@@ -49,10 +49,6 @@ def test_torino_resource_report_uses_its_coupling_map_and_cz():
             assert pair in edges or pair[::-1] in edges
     assert report.two_qubit_count == sum(1 for i in compiled.data if i.operation.num_qubits == 2)
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def test_manila_simulator_carries_the_calibrated_readout_error():

@@ -3,13 +3,13 @@ finite differences of Aer statevectors, sampled gradients against exact ones, th
 gradient that lets a classical layer before it train, a gate written in torch, bad input, and
 the runnable examples."""
 
-import os
 import pickle
 import runpy
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 
 torch = pytest.importorskip("torch")  # the optional extra; CI installs it (.ci/run)
 
@@ -160,10 +160,6 @@ def test_inputs_of_any_leading_shape():
     with pytest.raises(ValueError, match=r"\(\.\.\., d\)"):
         layer(torch.zeros(2, 4, dtype=torch.float64))
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def test_sampled_input_gradients_within_standard_errors_and_counted():

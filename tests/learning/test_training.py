@@ -1,10 +1,10 @@
 """Training loop: gradients of the whole pipeline against finite differences, sampled runs with
 an honest ledger and budget, reproducibility, saving and loading."""
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.engines import SamplerEngine
@@ -89,10 +89,6 @@ def test_sampled_training_ledger_and_budget():
     assert engine.ledger.total_shots == per_step * len(clf.history_)
     assert np.all(np.diff(clf.history_["circuits"]) == 4 * 2 * K)
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 def test_sampled_step_is_unbiased_against_exact():

@@ -1,9 +1,9 @@
 """The sampled LCU path: lcu_template, post-selected estimates from bits, LCUQNN.sample."""
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit.quantum_info import Operator, Statevector
 
 from qdensity.ansatze import pyramid, round_robin
@@ -92,10 +92,6 @@ def test_exact_plan_matches_lcuqnn():
     assert np.allclose(est.probabilities, lcu.predict(X), atol=1e-10)
     assert np.allclose(est.success_probability, lcu.success_probability(X), atol=1e-10)
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 @pytest.mark.parametrize("seed", [3, 11])

@@ -4,10 +4,10 @@ Oracles: density matrices built from ``Operator`` of the bound sub-unitaries (eq
 central finite differences of the exact model.
 """
 
-import os
 
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit.quantum_info import DensityMatrix, Operator, PauliList, SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import (
@@ -243,10 +243,6 @@ def test_gated_mixture_wrong_shape():
     with pytest.raises(ValueError, match=r"\(3, 4\)"):
         GatedMixture(4, 3, weights=np.zeros((4, 3)))
 
-
-def _stat_seed(default: int) -> int:
-    """``default``, or ``QDENSITY_STAT_SEED`` when set (``benchmarks/fuzz_statistics.py``)."""
-    return int(os.environ.get("QDENSITY_STAT_SEED", default))
 
 
 @pytest.mark.parametrize("scheduler", ["per_shot", "proportional", "neyman"])
