@@ -58,6 +58,10 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                                 why="every shot's measured bits are held in memory")
     check_type(engine, "engine", SamplerEngine, "a SamplerEngine", allow_none=True)
     check_target(target)
+    if target is not None:  # one device for the whole call: every fresh engine samples it
+        from qdensity.hardware.targets import as_target
+
+        target = as_target(target, model.num_qubits, seed=seed if isinstance(seed, int) else 0)
     if engine is not None and (mitigation is not None or postselect is not None):
         raise ValueError("mitigation and postselect are options of the fresh engines "
                          "sample() makes; with engine=..., set them on that engine")

@@ -393,10 +393,11 @@ class DensityQNN:
             Used in train mode.
         engine : SamplerEngine, optional
             Used as is for every call (note: a fixed-seed Aer sampler repeats its shots).
-        target : qdensity.targets.HardwareTarget, optional
+        target : HardwareTarget, str, path, BackendV2 or qiskit.transpiler.Target, optional
             Without ``engine``: sample on this target's (noisy) simulator, a fresh sampler per
-            call seeded from ``seed`` so a pilot and a main phase are independent. Default:
-            noiseless Aer.
+            call seeded from ``seed`` so a pilot and a main phase are independent. A name,
+            file or backend becomes one target for the whole call (a named target's device
+            seed is ``seed`` when it is an int, else 0). Default: noiseless Aer.
         seed : int or Generator, optional
         mitigation, postselect : str or None, optional
             Without ``engine``: the fresh engines' readout corrections

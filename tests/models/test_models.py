@@ -258,6 +258,22 @@ def test_train_mode_samples_subunitaries_unbiased(scheduler):
     assert abs(res.estimate - exact) < 4 * res.standard_error + 1e-9
 
 
+def test_a_named_target_is_one_device_for_the_whole_call():
+    """A target name samples the device ``get_target(name, seed=seed)`` in every phase (the
+    neyman pilot and main phase alike): the same shots as passing that device itself."""
+    from qdensity.hardware.targets import get_target
+
+    n = 3
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, [0.5, 0.3, 0.2],
+                       encoding=Encoding.unary(n), seed=2)
+    x = RNG.normal(size=n)
+    by_name = model.train().sample(x, 400, scheduler="neyman", target="line", seed=5)
+    device = get_target("line", n, seed=5)
+    by_object = model.train().sample(x, 400, scheduler="neyman", target=device, seed=5)
+    assert by_name.estimate == by_object.estimate
+    np.testing.assert_array_equal(by_name.allocation, by_object.allocation)
+
+
 def test_eval_mode_samples_the_deterministic_state():
     n = 3
     dec = by_moments(round_robin(n))
