@@ -27,10 +27,20 @@ ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
 
 
 def _trials(storage: str, name: str) -> list:
+    """The study's trials, read through a storage that holds no connection afterwards: the
+    tests poll this many times a second, and a pooled engine per call (``load_study(storage=
+    url)``) leaves its connections open until garbage collection, which exhausted the
+    server's ``max_connections`` ("sorry, too many clients already")."""
+    from sqlalchemy.pool import NullPool
+
+    rdb = optuna.storages.RDBStorage(storage, engine_kwargs={"poolclass": NullPool})
     try:
-        return optuna.load_study(study_name=name, storage=storage).get_trials(deepcopy=False)
+        return optuna.load_study(study_name=name, storage=rdb).get_trials(deepcopy=False)
     except KeyError:  # not created yet
         return []
+    finally:
+        rdb.remove_session()
+        rdb.engine.dispose()
 
 
 def test_eight_workers_started_together_on_a_fresh_storage_all_finish(fresh_storage,
@@ -71,7 +81,7 @@ def _wait_for(condition, what: str, timeout: float = 180.0):
     while time.monotonic() - t0 < timeout:
         if value := condition():
             return value
-        time.sleep(0.05)
+        time.sleep(0.2)
     pytest.fail(f"timed out waiting for {what}")
 
 
