@@ -174,6 +174,41 @@ def test_compiles_each_circuit_once():
     assert eng.compile_count == 1
 
 
+def test_a_circuit_or_observable_changed_in_place_is_not_read_stale():
+    """The engine recognises a circuit and the last observables by identity; one changed in
+    place after a run must give the changed answer (Qiskit statevectors as the oracle)."""
+    eng = AdjointEngine()
+    t = Parameter("t")
+    qc = QuantumCircuit(2)
+    qc.ry(t, 0)
+    obs = SparsePauliOp(["IZ", "ZI"], [1.0, 1.0])
+
+    def want(circuit, op, value):
+        return Statevector(circuit.assign_parameters([value])).expectation_value(op).real
+
+    assert eng.expectation(qc, obs, [[0.3]])[0, 0] == pytest.approx(want(qc, obs, 0.3))
+    qc.x(1)  # appended
+    assert eng.expectation(qc, obs, [[0.3]])[0, 0] == pytest.approx(want(qc, obs, 0.3))
+    obs.coeffs[1] = 2.5  # a coefficient changed in place
+    assert eng.expectation(qc, obs, [[0.3]])[0, 0] == pytest.approx(want(qc, obs, 0.3))
+    obs.paulis.z[0] = [False, True]  # IZ -> ZI in place
+    value, grad = eng.value_and_gradient(qc, obs, [[0.3]])
+    assert value[0, 0] == pytest.approx(want(qc, obs, 0.3))
+    fd = (want(qc, obs, 0.3 + 1e-6) - want(qc, obs, 0.3 - 1e-6)) / 2e-6
+    assert grad[0, 0, 0] == pytest.approx(fd, abs=1e-6)
+    qc.data.pop()  # removed again, and a measured copy through run()
+    assert eng.expectation(qc, obs, [[0.3]])[0, 0] == pytest.approx(want(qc, obs, 0.3))
+    meas = measured(qc)
+    p1 = eng.run([CircuitJob(meas, [[0.3]])])[0].probabilities
+    meas.x(1)
+    meas.data.insert(len(meas.data) - 2, meas.data.pop())  # the X before the measurements
+    p2 = eng.run([CircuitJob(meas, [[0.3]])])[0].probabilities
+    np.testing.assert_allclose(p2.reshape(-1), np.abs(Statevector(
+        meas.remove_final_measurements(inplace=False).assign_parameters([0.3])).data) ** 2,
+        atol=1e-12)
+    assert not np.allclose(p1, p2)
+
+
 def test_rows_are_chunked_under_the_memory_budget():
     qc = hardware_efficient(3, 2)
     vals = RNG.uniform(-np.pi, np.pi, (7, qc.num_parameters))
