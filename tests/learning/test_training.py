@@ -137,6 +137,15 @@ def test_pre_layer_trains_on_a_sampler_with_sampled_input_gradients():
                 if label.startswith("input_gradient"))
     assert spent == 2 * 4 * meta * shots  # two steps of four rows
     assert not np.allclose(est.pre_.params["W"], pre.params["W"])  # it trained
+    # max_shots covers the input-gradient circuits: a budget of 1.5 steps stops after one (the
+    # density circuits alone, forward and one commuting circuit per sub-unitary, cost less
+    # than half a step here, so a budget check that left the input circuits out would run two)
+    step = engine.ledger.total_shots // 2
+    assert spent // 2 > step // 2
+    capped = QNNClassifier(_model(n, seed=6), pre=pre, post=Linear(n, 2, seed=0),
+                           engine=SamplerEngine(seed=0), shots=shots, batch_size=4,
+                           max_steps=2, max_shots=3 * step // 2, verbose=False).fit(X, y)
+    assert capped.stopped_by_budget_ and len(capped.history_) == 1
     # one backward with a fixed upstream G (linear in the estimates): exact, then sampled
     Xb, G = X[:4], RNG.normal(size=(4, 2))
     grads = {}
