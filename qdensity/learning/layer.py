@@ -66,8 +66,9 @@ class QuantumLayer:
         How gradient circuits are built for the sampled (or exact, non-unary) path.
     input_gradients : bool
         On the plan paths (a SamplerEngine or an ExactEngine): also run the input-gradient
-        circuits every forward, so that :meth:`backward` returns ``dL/dZ``; their circuits and
-        shots count with the others. The exact and adjoint paths always return it.
+        circuits in every forward with ``need_grad``, so that :meth:`backward` returns
+        ``dL/dZ``; their circuits and shots count with the others (and against ``max_shots``).
+        The exact and adjoint paths always return it.
     """
 
     def __init__(self, model: DensityQNN, engine="exact", shots: int | None = None,
@@ -134,7 +135,7 @@ class QuantumLayer:
             self._cache = ("plan", Z, grad, res)
             return np.einsum("bk,bkm->bm", alpha, res.outputs)
         plans = [density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)]
-        if self.input_gradients:  # shift rules on the data parameters, d f_k / d x
+        if self.input_gradients and need_grad:  # shift rules on the data parameters, d f_k / d x
             plans.append(input_gradient_plan(self.model, Z, shots=self.shots))
         plan = Plan.combine(plans, "density and input gradients")
         engine = self.engine
@@ -149,7 +150,7 @@ class QuantumLayer:
             self.shots_spent += engine.ledger.total_shots - before
         self.circuits += plan.num_circuits
         grad = answers[0]
-        inputs = [est.value for est in answers[1]] if self.input_gradients else None
+        inputs = [est.value for est in answers[1]] if len(answers) > 1 else None
         alpha = self.model.alpha(Z)
         self._cache = ("plan", Z, grad, inputs)
         return np.einsum("bk,bkm->bm", np.broadcast_to(alpha, grad.outputs.shape[:2]),
