@@ -74,6 +74,13 @@ STATISTICAL_TESTS: dict[str, float] = {
     "tests/hardware/test_aer_sampling.py::"
     "test_estimates_agree_with_the_other_method_within_standard_errors": 4e-5,  # 2 methods
     "tests/gradients/test_inputs.py::test_input_gradient_plan_exact_and_sampled": 8e-4,
+    "tests/gradients/test_inputs.py::"
+    "test_input_gradient_plan_on_unary_probabilities_exact_and_sampled": 5.5e-5,
+    "tests/gradients/test_inputs.py::test_sampled_input_gradient_through_a_gated_mixture": 4.6e-6,
+    "tests/learning/test_torch.py::"
+    "test_sampled_unary_input_gradient_through_the_loader_and_a_torch_gate": 4.6e-6,
+    "tests/learning/test_training.py::"
+    "test_pre_layer_trains_on_a_sampler_with_sampled_input_gradients": 1.2e-5,
     "tests/execution/test_engine_mitigation.py::"
     "test_m3_removes_a_pure_readout_bias_within_its_standard_error": 2.5e-4,
 }

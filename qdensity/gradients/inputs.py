@@ -12,6 +12,16 @@ or from shift rules on the data parameters (:func:`input_gradient_plan`, exact o
 angle encoding, the analytic derivative of the loader angles for the unary encoding
 (``phi = arctan2(a(T), a(S))`` per RBS, ``a`` a signed entry or a sub-norm), and the
 ``jacobian`` a user gives with their own :class:`~qdensity.models.encoding.Encoding`.
+
+The model's output ``f(x) = sum_k alpha_k(x) f_k(x)`` (eq. 3) then has
+
+    dL/dx = sum_k alpha_k(x) (dL/df . d f_k / d x) + sum_k (dL/df . f_k) d alpha_k / d x
+
+(:func:`input_vjp`), the second sum nonzero for a data-dependent mixture (the
+mixture-of-experts gate, Supp. H), whose ``d alpha / d x`` is classical. Observable readouts
+and unary probabilities (the four-term RBS rule on the loader's angles, chained with
+:func:`loader_angles_jacobian`) are both sampled by :func:`input_gradient_plan`; unary
+amplitudes carry signs that no measurement gives and are differentiated exactly only.
 """
 
 from __future__ import annotations
@@ -24,7 +34,7 @@ from qdensity.execution.plans import Estimate, Plan
 from qdensity.models.exact import ExactGradients, InputColumns
 
 __all__ = ["encoding_jacobian", "loader_angles_jacobian", "input_jacobian", "input_jacobians",
-           "input_gradient_plan"]
+           "input_gradient_plan", "input_vjp"]
 
 
 def loader_angles_jacobian(X, layout: str = "parallel") -> np.ndarray:
@@ -163,13 +173,16 @@ def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
     The circuit ``V(x) U_k`` is differentiated w.r.t. every data-carrying parameter (the
     encoding's and the re-uploaded ``x[i]``) with the rules of
     :func:`~qdensity.gradients.shift.parameter_shift_plan` (two terms for Pauli rotations,
-    four for RBS), then chained to the features as in :func:`input_jacobian`. Runs on any
-    engine: exact, or sampled with ``shots`` per circuit.
+    four for RBS, Supp. E eq. 23: the unary loader's angles take the four-term rule, as later
+    gates touch their qubits), then chained to the features as in :func:`input_jacobian`
+    (through :func:`loader_angles_jacobian` for the unary encoding). Runs on any engine:
+    exact, or sampled with ``shots`` per circuit.
 
     Parameters
     ----------
     model : DensityQNN
-        With ``readout="observable"``.
+        With ``readout="observable"`` or ``"unary_probabilities"`` (the unary outcome
+        frequencies, read off the measured bits).
     X : array_like, shape (B, d)
     shots : int, optional
         Shots per shifted circuit; exact when None.
@@ -178,44 +191,88 @@ def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
     -------
     Plan
         Post-processing returns a list of K :class:`~qdensity.plans.Estimate` of shape
-        (B, 1, d) (standard errors propagated through the chain rule, shifted circuits being
-        independent). ``plan.meta["input_circuits"]`` is the number of circuits per data point,
-        summed over the sub-unitaries.
+        (B, m, d), ``m = 1`` for an observable and ``n`` for unary probabilities (standard
+        errors propagated through the chain rule, shifted circuits being independent).
+        ``plan.meta["input_circuits"]`` is the number of circuits per data point, summed over
+        the sub-unitaries, ``plan.meta["input_circuits_per_subunitary"]`` the K terms of that
+        sum; sampled, the plan spends ``B * meta["input_circuits"] * shots`` shots.
 
     Raises
     ------
     ValueError
-        For another readout (its 2**n outcome probabilities are not estimated here).
+        For ``readout="unary_amplitudes"`` (their signs are in no measured distribution).
     """
     from qdensity.gradients.shift import parameter_shift_plan
     from qdensity.models.exact import input_columns
 
-    if model.readout != "observable":
-        raise ValueError(f"input_gradient_plan needs readout='observable', got "
-                         f"{model.readout!r}; use the exact engines (QuantumLayer or the torch "
-                         "layer with engine='exact') for unary readouts")
+    if model.readout not in ("observable", "unary_probabilities"):
+        raise ValueError(f"input_gradient_plan needs readout='observable' or "
+                         f"'unary_probabilities', got {model.readout!r} (amplitude signs are "
+                         "not measured); use the exact engines (QuantumLayer or the torch "
+                         "layer with engine='exact') for unary amplitudes")
     X = np.atleast_2d(np.asarray(X, dtype=float))
+    B = max(X.shape[0], 1)
+    unary = model.readout == "unary_probabilities"
     plans, columns = [], []
     for k in range(model.num_subunitaries):
         circ = model.circuit(k)
         cols = input_columns(model, circ)
         params = [circ.parameters[c] for c in cols.columns]
-        plans.append(parameter_shift_plan(circ, model.observable, model.rows(k, X, circuit=circ),
-                                          parameters=params, shots=shots,
-                                          label=f"input_gradient_k{k}"))
+        plans.append(parameter_shift_plan(circ, None if unary else model.observable,
+                                          model.rows(k, X, circuit=circ), parameters=params,
+                                          shots=shots, label=f"input_gradient_k{k}",
+                                          unary=unary))
         columns.append(cols)
     combined = Plan.combine(plans, "input gradient")
-    per_point = sum(p.num_circuits for p in plans) // max(X.shape[0], 1)
+    per_k = [p.num_circuits // B for p in plans]
     post = partial(_input_post, combined, model, X, columns)
-    return Plan(combined.jobs, post, "input gradient", {"input_circuits": per_point})
+    return Plan(combined.jobs, post, "input gradient",
+                {"input_circuits": sum(per_k), "input_circuits_per_subunitary": per_k})
+
+
+def input_vjp(model, X, outputs: np.ndarray, jacobians, upstream: np.ndarray) -> np.ndarray:
+    """``d L / d x`` of the model's output ``f(x) = sum_k alpha_k(x) f_k(x)`` (eq. 3).
+
+    ``sum_k alpha_k (dL/df . d f_k / d x) + mixture.input_vjp(x, dL/df . f_k)``: the second
+    term, ``d alpha / d x`` times the sub-unitaries' outputs, is nonzero only for a
+    data-dependent mixture (the gate of Supp. H, eq. 26).
+
+    Parameters
+    ----------
+    model : DensityQNN
+    X : array_like, shape (B, d)
+    outputs : numpy.ndarray, shape (B, K, m)
+        ``f_k(x)``, exact or estimated.
+    jacobians : sequence of K numpy.ndarray, shape (B, m, d)
+        ``d f_k / d x`` (:func:`input_jacobians`, or the values of
+        :func:`input_gradient_plan`).
+    upstream : numpy.ndarray, shape (B, m)
+        ``d L / d f``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, d)
+    """
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    upstream = np.atleast_2d(np.asarray(upstream, dtype=float))
+    outputs = np.asarray(outputs, dtype=float)
+    alpha = np.broadcast_to(model.alpha(X), outputs.shape[:2])
+    out = np.zeros(X.shape)
+    for k, jac in enumerate(jacobians):
+        out += np.einsum("bm,bmd->bd", upstream * alpha[:, k:k + 1], jac)
+    if model.mixture.data_dependent:
+        out += model.mixture.input_vjp(X, np.einsum("bm,bkm->bk", upstream, outputs))
+    return out
 
 
 def _input_post(combined, model, X, columns, results) -> list[Estimate]:
     out = []
     for est, cols in zip(combined.postprocess(results), columns, strict=True):
-        value = input_jacobian(model, X, cols, np.asarray(est.value)[:, None, :])
-        var = _squared_chain(model, X, cols, np.asarray(est.standard_error)[:, None, :] ** 2)
-        out.append(Estimate(value, np.sqrt(var)))
+        value, err = np.asarray(est.value), np.asarray(est.standard_error)
+        if value.ndim == 2:  # an observable: one output
+            value, err = value[:, None, :], err[:, None, :]
+        var = _squared_chain(model, X, cols, err ** 2)
+        out.append(Estimate(input_jacobian(model, X, cols, value), np.sqrt(var)))
     return out
 
 

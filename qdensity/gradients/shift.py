@@ -37,6 +37,7 @@ from qdensity.execution.plans import (
     check_observable,
     expectation_plan,
     probabilities_plan,
+    unary_frequencies,
 )
 from qdensity.validation import as_parameter_rows, check_circuit
 
@@ -179,6 +180,7 @@ def parameter_shift_plan(
     shots: int | None = None,
     rbs_rule: str = "four_term",
     label: str = "shift",
+    unary: bool = False,
 ) -> Plan:
     """Plan for the gradient of ``<O>`` (or of all outcome probabilities) by parameter shift.
 
@@ -195,15 +197,23 @@ def parameter_shift_plan(
     shots : int, optional
         Shots per shifted circuit; exact when None.
     rbs_rule : {"four_term", "two_term"}
+    unary : bool
+        With ``observable=None``: differentiate only the ``n`` unary outcome probabilities
+        ``p_j = P(e_j)``, read off the measured bits when sampled (any width, no dense
+        ``2**n`` row).
 
     Returns
     -------
     Plan
         ``num_circuits = B * (sum of rule terms over occurrences) * (measurement groups)``.
         Post-processing returns an :class:`~qdensity.plans.Estimate` whose ``value`` has shape
-        (B, len(parameters)) for an observable, (B, 2**n, len(parameters)) for probabilities.
+        (B, len(parameters)) for an observable, (B, 2**n, len(parameters)) for probabilities,
+        (B, n, len(parameters)) with ``unary``.
     """
     check_circuit(circuit)
+    if unary and observable is not None:
+        raise ValueError("unary=True differentiates the unary outcome probabilities; give "
+                         "observable=None with it")
     vals = as_parameter_rows(values, circuit.num_parameters)
     params = list(circuit.parameters) if parameters is None else list(parameters)
     known = set(circuit.parameters)  # once: circuit.parameters sorts on every access
@@ -241,7 +251,8 @@ def parameter_shift_plan(
     else:
         inner = probabilities_plan(expanded, rows, shots=shots, label=label)
 
-    post = partial(_shift_post, inner, observable is not None, B, len(params), weights, occ, col)
+    post = partial(_shift_post, inner, observable is not None, B, len(params), weights, occ, col,
+                   unary)
 
     plan = Plan(inner.jobs, post, f"parameter shift ({rbs_rule}) of {circuit.name}: "
                 f"{len(occ)} occurrences, {rows.shape[0]} shifted rows")
@@ -249,13 +260,19 @@ def parameter_shift_plan(
     return plan
 
 
-def _shift_post(inner, has_observable, B, num_params, weights, occ, col, results):
+def _shift_post(inner, has_observable, B, num_params, weights, occ, col, unary, results):
     """Combine shifted evaluations into the gradient (module level, so plans pickle)."""
     raw = inner.postprocess(results)
     if has_observable:
         f, se = raw.value, raw.standard_error
         out = np.zeros((B, num_params))
         var = np.zeros((B, num_params))
+    elif unary:  # the unary frequencies, from the measured bits when sampled
+        f, _ = unary_frequencies(raw)
+        se = (binomial_standard_error(np.clip(f, 0.0, 1.0), raw.sample_size)
+              if raw.shots is not None else np.zeros_like(f))
+        out = np.zeros((B, f.shape[1], num_params))
+        var = np.zeros_like(out)
     else:
         f = raw.probabilities
         se = (binomial_standard_error(f, raw.shots) if raw.shots is not None

@@ -16,7 +16,9 @@ The output of the model (eq. 3: ``f(x) = sum_k alpha_k(x) f_k(x)``, unary probab
 default) goes through a linear read-out (``post="linear"``, the ``n -> classes`` layer of
 Fig. 11a) to logits (classifier, cross entropy) or predictions (regressor, squared error).
 Gradients come from :class:`~qdensity.learning.layer.QuantumLayer`: exact unary reverse mode
-for RBS models, or gradient plans through any engine with ``shots`` written to the ledger.
+for RBS models, or gradient plans through any engine with ``shots`` written to the ledger. A
+trainable ``pre`` layer gets ``dL/dx`` on every engine: exactly, or from shift rules on the
+data parameters (the loader's RBS angles) run with the same ``shots`` and on the same ledger.
 """
 
 from __future__ import annotations
@@ -143,10 +145,9 @@ class _QNNEstimator(BaseEstimator):
         g = self.post_.backward(grad_out) if self.post_ is not None else grad_out
         gz = self.layer_.backward(g)
         if self.pre_ is not None:
-            if gz is None:
-                raise ValueError("a trainable pre-processing layer needs input gradients, which "
-                                 "the exact engines give (not a sampler, nor a data-dependent "
-                                 "mixture); drop pre or use engine='exact'")
+            if gz is None:  # a layer built without input_gradients (fit builds it with them)
+                raise ValueError("a trainable pre-processing layer needs input gradients; "
+                                 "build the QuantumLayer with input_gradients=True")
             self.pre_.backward(gz)
 
     def _outputs(self, X) -> np.ndarray:
@@ -207,7 +208,8 @@ class _QNNEstimator(BaseEstimator):
         rng = as_rng(self.seed)
         self._prepare(X, rng)
         Z = self._encode(X)
-        self.layer_ = QuantumLayer(self.model_, self.engine, self.shots, self.gradient)
+        self.layer_ = QuantumLayer(self.model_, self.engine, self.shots, self.gradient,
+                                   input_gradients=self.pre_ is not None)
         self.layer_.max_shots = self.max_shots
         self.stopped_by_budget_ = False
         opt = make_optimizer(self)
@@ -328,8 +330,11 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
     constant : float or None
         Value loaded on the last qubit (None: no extra qubit).
     pre : layer, optional
-        A numpy layer before the encoding (trained; exact unary engine only). For classical
-        networks, use the PyTorch layer :mod:`qdensity.learning.torch`.
+        A numpy layer before the encoding, trained on every engine: with a sampler, each step
+        also runs the input-gradient circuits (shift rules on the data parameters,
+        :func:`~qdensity.gradients.inputs.input_gradient_plan`) with ``shots`` each, on the
+        ledger and under ``max_shots``; ``readout="unary_amplitudes"`` trains exactly only.
+        For classical networks, use the PyTorch layer :mod:`qdensity.learning.torch`.
     post : "linear", None or a layer
         Read-out to logits (``"linear"``: ``outputs -> classes``, Glorot initialised).
     optimizer : {"adam", "sgd", "rmsprop"}

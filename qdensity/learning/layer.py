@@ -13,7 +13,14 @@ training run. Gradients:
   ``engine`` runs the exact gradient plans on Aer instead (each template transpiled once).
 * ``engine=SamplerEngine(...)`` with ``shots``: every step runs the model's gradient plan
   (forward circuits plus parameter-shift or commuting-generator circuits) on the sampler with
-  ``shots`` per circuit; circuits and shots are read off the engine's ledger.
+  ``shots`` per circuit; circuits and shots are read off the engine's ledger. With
+  ``input_gradients=True`` (a trainable layer in front, as the estimators' ``pre``) every step
+  also runs :func:`~qdensity.gradients.inputs.input_gradient_plan` (shift rules on the data
+  parameters: the loader's RBS angles, an angle encoding's rotations, re-uploaded features),
+  in the same submission, its circuits and shots on the ledger and under ``max_shots``.
+
+Every path gives ``dL/dZ`` of eq. 3 in full, ``d alpha / d x`` times the sub-unitaries' outputs
+included when the mixture depends on the data (:func:`~qdensity.gradients.inputs.input_vjp`).
 """
 
 from __future__ import annotations
@@ -24,15 +31,17 @@ import numpy as np
 
 from qdensity.execution.adjoint import AdjointEngine
 from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.plans import Plan
 from qdensity.gradients.density import (
     METHODS,
     DensityGradient,
     chain_rule,
     density_gradient_plan,
 )
+from qdensity.gradients.inputs import input_gradient_plan, input_vjp
 from qdensity.gradients.inputs import input_jacobians as _input_jacobians
 from qdensity.models.density import DensityQNN
-from qdensity.models.exact import exact_gradients, unary_circuits
+from qdensity.models.exact import ExactGradients, exact_gradients, unary_circuits
 from qdensity.validation import check_positive_int
 
 __all__ = ["QuantumLayer", "History", "BudgetExhausted"]
@@ -55,10 +64,18 @@ class QuantumLayer:
         Shots per circuit with a sampler engine.
     gradient : {"auto", "shift", "commuting"}
         How gradient circuits are built for the sampled (or exact, non-unary) path.
+    input_gradients : bool
+        On the plan paths (a SamplerEngine or an ExactEngine): also run the input-gradient
+        circuits in every forward with ``need_grad``, so that :meth:`backward` returns
+        ``dL/dZ``; their circuits and shots count with the others (and against ``max_shots``).
+        The exact and adjoint paths always return it.
     """
 
     def __init__(self, model: DensityQNN, engine="exact", shots: int | None = None,
-                 gradient: str = "auto"):
+                 gradient: str = "auto", input_gradients: bool = False):
+        if not isinstance(input_gradients, (bool, np.bool_)):
+            raise TypeError(f"input_gradients must be a bool, got {input_gradients!r}")
+        self.input_gradients = bool(input_gradients)
         self.model = model
         self.engine = engine
         self.shots = shots
@@ -117,7 +134,10 @@ class QuantumLayer:
             alpha = np.broadcast_to(self.model.alpha(Z), res.outputs.shape[:2])
             self._cache = ("plan", Z, grad, res)
             return np.einsum("bk,bkm->bm", alpha, res.outputs)
-        plan = density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)
+        plans = [density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)]
+        if self.input_gradients and need_grad:  # shift rules on the data parameters, d f_k / d x
+            plans.append(input_gradient_plan(self.model, Z, shots=self.shots))
+        plan = Plan.combine(plans, "density and input gradients")
         engine = self.engine
         cost = plan.total_shots
         if self.max_shots is not None and cost is not None and (
@@ -125,30 +145,44 @@ class QuantumLayer:
             left = self.max_shots - self.shots_spent
             raise BudgetExhausted(f"the next step needs {cost} shots; {left} remain")
         before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
-        grad = plan.run(engine)
+        answers = plan.run(engine)  # one submission
         if isinstance(engine, SamplerEngine):
             self.shots_spent += engine.ledger.total_shots - before
         self.circuits += plan.num_circuits
+        grad = answers[0]
+        inputs = [est.value for est in answers[1]] if len(answers) > 1 else None
         alpha = self.model.alpha(Z)
-        self._cache = ("plan", Z, grad, None)
+        self._cache = ("plan", Z, grad, inputs)
         return np.einsum("bk,bkm->bm", np.broadcast_to(alpha, grad.outputs.shape[:2]),
                          grad.outputs)
 
     def backward(self, grad_F: np.ndarray) -> np.ndarray | None:
-        """Store ``grads["theta"]`` and ``grads["mixture"]``; return ``dL/dZ`` or None."""
+        """Store ``grads["theta"]`` and ``grads["mixture"]``; return ``dL/dZ``.
+
+        Parameters
+        ----------
+        grad_F : numpy.ndarray, shape (B, m)
+            ``dL/dF`` of the last :meth:`forward`.
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, d), or None
+            ``dL/dZ`` (eq. 3 differentiated in the input, the data-dependent mixture's
+            ``d alpha / dZ`` included); None on a plan path built without
+            ``input_gradients``.
+        """
         if self._cache is None:
             raise RuntimeError("backward called before forward")
         kind = self._cache[0]
         if kind == "plan":
-            _, Z, grad, exact = self._cache
+            _, Z, grad, inputs = self._cache
             g_theta, g_mix = chain_rule(self.model, Z, grad, grad_F)
             self.grads = {"theta": g_theta, "mixture": g_mix}
-            if exact is None or self.model.mixture.data_dependent:
+            if inputs is None:
                 return None
-            input_jacobians = _input_jacobians(self.model, Z, exact)
-            alpha = np.broadcast_to(self.model.alpha(Z), grad.outputs.shape[:2])
-            return sum(np.einsum("bm,bmd->bd", grad_F * alpha[:, k:k + 1], xj)
-                       for k, xj in enumerate(input_jacobians))
+            if isinstance(inputs, ExactGradients):  # the adjoint sweep's data columns
+                inputs = _input_jacobians(self.model, Z, inputs)
+            return input_vjp(self.model, Z, grad.outputs, inputs, grad_F)
         return self._backward_unary(grad_F)
 
     # exact unary path ------------------------------------------------------------
@@ -195,8 +229,9 @@ class QuantumLayer:
             g_Xn += gx
         grad_alpha = np.einsum("bm,bkm->bk", grad_F, outs)
         self.grads = {"theta": g_theta, "mixture": m.mixture.vjp(Z, grad_alpha)}
-        # through x / ||x||
-        return (g_Xn - Xn * (Xn * g_Xn).sum(axis=1, keepdims=True)) / norms
+        # through x / ||x||, plus d alpha / dZ of a data-dependent mixture (zero otherwise)
+        return ((g_Xn - Xn * (Xn * g_Xn).sum(axis=1, keepdims=True)) / norms
+                + m.mixture.input_vjp(Z, grad_alpha))
 
     def set_params(self, theta, mixture) -> None:
         self.model.set_params(theta, mixture if np.size(mixture) else None)

@@ -17,10 +17,14 @@ Gradients reach the angles, the logits, the gate's weights and the input:
   encoded, re-uploading and QCNN models too;
 * a :class:`~qdensity.execution.engines.SamplerEngine` with ``shots`` per circuit: the
   model's gradient plans (parameter shift or commuting-generator circuits, Cor. 1 and 2),
-  every shot on its ledger; when the input requires a gradient and the readout is an
-  observable, also shift rules on the data parameters
-  (:func:`~qdensity.gradients.inputs.input_gradient_plan`, its circuits and shots counted
-  too). Unary readouts get no sampled input gradient (backward says so).
+  every shot on its ledger; when the input requires a gradient, also shift rules on the data
+  parameters (:func:`~qdensity.gradients.inputs.input_gradient_plan`, in the same submission,
+  its circuits and shots counted too): for an observable readout, and for unary probabilities
+  the four-term RBS rule on the loader's angles chained with the loader's Jacobian
+  ``d phi / d x``. Unary amplitudes (signs no measurement gives) have no sampled gradient.
+
+A gate's ``d alpha / d x`` is ordinary torch autograd, so a mixture-of-experts model gets the
+whole input gradient of eq. 3 on every path.
 
 Inputs may be ``(d,)``, ``(B, d)`` or ``(..., d)``; the output has the same leading shape.
 
@@ -37,6 +41,7 @@ import torch
 from torch import nn
 
 from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.plans import Plan
 from qdensity.gradients.density import METHODS, density_gradient_plan
 from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
@@ -90,10 +95,8 @@ class _Experts(torch.autograd.Function):
         g = grad_outs.detach().cpu().numpy().astype(np.float64)
         g_theta, g_x = ctx.layer._vjp(ctx.state, ctx.theta, g, ctx.needs_input_grad[0])
         if ctx.needs_input_grad[0] and g_x is None:
-            raise RuntimeError("the input gradient needs engine='exact' (the unary engine's "
-                               "reverse mode, or the adjoint engine through the encoding and "
-                               "every re-uploaded feature), or a SamplerEngine with "
-                               "readout='observable' (shift rules on the data parameters)")
+            raise RuntimeError("the input gradient was not computed: the forward ran with an "
+                               "input that did not require a gradient")
         gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
         return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
 
@@ -267,15 +270,15 @@ class DensityQNNLayer(nn.Module):
             res = exact_gradients(m, X)
             return res.outputs, ("adjoint", X, res)
         engine = self.engine
-        plan = density_gradient_plan(m, X, method=self.gradient, shots=self.shots)
+        plans = [density_gradient_plan(m, X, method=self.gradient, shots=self.shots)]
+        if need_input:  # shift rules on the data parameters (the loader's angles too)
+            plans.append(input_gradient_plan(m, X, shots=self.shots))
+        plan = Plan.combine(plans, "density and input gradients")
         before = engine.ledger.total_shots if isinstance(engine, SamplerEngine) else 0
-        grad = plan.run(engine)
+        answers = plan.run(engine)  # one submission
         self.circuits += plan.num_circuits
-        inputs = None
-        if need_input and m.readout == "observable":  # shift rules on the data parameters
-            xplan = input_gradient_plan(m, X, shots=self.shots)
-            inputs = [est.value for est in xplan.run(engine)]
-            self.circuits += xplan.num_circuits
+        grad = answers[0]
+        inputs = [est.value for est in answers[1]] if need_input else None
         if isinstance(engine, SamplerEngine):
             self.shots_spent += engine.ledger.total_shots - before
         return grad.outputs, ("plan", grad, inputs)

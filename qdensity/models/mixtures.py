@@ -1,8 +1,9 @@
 """Mixtures: the distribution alpha over sub-unitaries (paper eq. 1, eq. 2, Supp. H).
 
 Three kinds share one interface: ``alpha(X) -> (B, K)``, a flat trainable parameter vector
-``params``, and ``vjp(X, grad_alpha) -> grad_params`` (the chain rule through the softmax and
-the gate, paper "Gradients and training").
+``params``, ``vjp(X, grad_alpha) -> grad_params`` (the chain rule through the softmax and
+the gate, paper "Gradients and training") and ``input_vjp(X, grad_alpha) -> grad_X`` (the
+same chain rule to the data, zero unless alpha depends on x).
 
 * :class:`FixedMixture`: alpha on the simplex, not trained (no parameters).
 * :class:`SoftmaxMixture`: alpha = softmax(logits), logits trained.
@@ -69,6 +70,22 @@ class Mixture(ABC):
     def vjp(self, X: np.ndarray | None, grad_alpha: np.ndarray) -> np.ndarray:
         """``sum_b sum_k grad_alpha[b, k] d alpha[b, k] / d params``, shape (M,)."""
         return np.zeros(0)
+
+    def input_vjp(self, X: np.ndarray, grad_alpha: np.ndarray) -> np.ndarray:
+        """``sum_k grad_alpha[b, k] d alpha[b, k] / d X[b, :]``, shape (B, d).
+
+        Zero for a mixture that does not depend on the data.
+
+        Parameters
+        ----------
+        X : array_like, shape (B, d)
+        grad_alpha : array_like, shape (B, K)
+
+        Returns
+        -------
+        numpy.ndarray, shape (B, d)
+        """
+        return np.zeros(np.atleast_2d(np.asarray(X, dtype=float)).shape)
 
     def _batch(self, X: np.ndarray | None) -> int:
         return 1 if X is None else int(np.atleast_2d(X).shape[0])
@@ -224,6 +241,17 @@ class GatedMixture(Mixture):
         z, dz = self._logits(X)
         g = _softmax_vjp(softmax(z), np.atleast_2d(grad_alpha)) * dz
         return np.concatenate([(g.T @ X).ravel(), g.sum(axis=0)])
+
+    def input_vjp(self, X, grad_alpha) -> np.ndarray:
+        """``d alpha / d x`` chained: ``(softmax'(z) grad_alpha * act'(z)) W``, shape (B, d)
+        (eq. 26 differentiated in ``x``; ``z = W x + b``)."""
+        X = self._check_X(X)
+        z, dz = self._logits(X)
+        grad_alpha = np.atleast_2d(np.asarray(grad_alpha, dtype=float))
+        if grad_alpha.shape != z.shape:
+            raise ValueError(f"grad_alpha must have shape {z.shape} (B, K), got "
+                             f"{grad_alpha.shape}")
+        return (_softmax_vjp(softmax(z), grad_alpha) * dz) @ self.weights
 
 
 def as_mixture(mixture, num_components: int) -> Mixture:

@@ -1,6 +1,7 @@
 """Circuits per data point, broken down, against the ledger of one real sampled training step:
-the density gradient plan (forward + parameter gradients) and the loader-angle gradient plans
-(input gradients) executed on Aer's SamplerV2, every circuit on the ledger; the input-gradient
+a QuantumLayer with input gradients on Aer's SamplerV2 (the density gradient plan, forward +
+parameter gradients, and the input-gradient plan on the loader's angles, which a trainable
+layer in front of the loader needs), every circuit on the ledger; the loader-angle shift
 circuits against finite differences of the exact unary probabilities."""
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ from qdensity.circuits.ansatze import pyramid
 from qdensity.circuits.loaders import loader_angles, unary_loader_template
 from qdensity.execution.engines import ExactEngine, SamplerEngine
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
-from qdensity.gradients.density import density_gradient_plan
 from qdensity.gradients.shift import parameter_shift_plan
+from qdensity.learning.layer import QuantumLayer
 from qdensity.models.decompositions import odd_even
 from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
@@ -49,14 +50,15 @@ def test_breakdown_matches_the_ledger_of_a_sampled_step(name):
     X = np.random.default_rng(0).uniform(0.1, 1.0, (3, N))
     breakdown = circuit_breakdown(model, X[:1], method=method, input_gradients=True)
     engine = SamplerEngine(seed=11)
-    density_gradient_plan(model, X, method=method, shots=64).run(engine)
-    params_and_forward = engine.ledger.total_circuits
-    for k in range(model.num_subunitaries):
-        _, plan = _input_plan(model, k, X, 64)
-        plan.run(engine)
+    layer = QuantumLayer(model, engine, shots=64, gradient=method, input_gradients=True)
+    layer.forward(X)
+    assert layer.backward(np.ones((len(X), N))).shape == X.shape  # d L / d x came back
     rows = len(X)
-    assert params_and_forward == rows * (breakdown["forward"]
-                                         + sum(breakdown["parameter_gradients"]))
+    spent = engine.ledger.by_label()
+    inputs = [spent[f"input_gradient_k{k}"][0] for k in range(model.num_subunitaries)]
+    assert inputs == [rows * c for c in breakdown["input_gradients"]]
+    assert engine.ledger.total_circuits - sum(inputs) == rows * (
+        breakdown["forward"] + sum(breakdown["parameter_gradients"]))
     assert engine.ledger.total_circuits == rows * breakdown["per_point"]
     assert engine.ledger.total_shots == 64 * rows * breakdown["per_point"]
     # independent counts: four-term rule per RBS angle, per loader angle, one forward

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _stats import stat_seed as _stat_seed
+from _stats import unary_input_vjp_sd
 
 torch = pytest.importorskip("torch")  # the optional extra; CI installs it (.ci/run)
 
@@ -106,6 +107,13 @@ def _qcnn_model():
     return DensityQNN([qcnn(4)], SoftmaxMixture(1), encoding=Encoding.angle(4), seed=4)
 
 
+def _angle_hea_moe_model():
+    # a data-dependent mixture on the adjoint path: the gate copied into torch
+    circ = hardware_efficient(3, 1)
+    return DensityQNN(copies(circ, 2).sub_unitaries, GatedMixture(3, 2, seed=9),
+                      encoding=Encoding.angle(3), seed=9)
+
+
 def _unary_hea_model():
     # a non-RBS circuit on the unary encoding: the input gradient goes through the loader
     return DensityQNN(copies(hardware_efficient(3, 1), 2).sub_unitaries, SoftmaxMixture(2),
@@ -113,7 +121,7 @@ def _unary_hea_model():
 
 
 @pytest.mark.parametrize("build", [_angle_hea_model, _reuploading_model, _qcnn_model,
-                                   _unary_hea_model])
+                                   _unary_hea_model, _angle_hea_moe_model])
 def test_gradcheck_inputs_and_weights_on_the_adjoint_path(build):
     """Every non-unary family: torch.autograd.gradcheck (central finite differences of the
     layer's own exact outputs) on the input and every weight at once."""
@@ -164,8 +172,7 @@ def test_inputs_of_any_leading_shape():
 
 def test_sampled_input_gradients_within_standard_errors_and_counted():
     """A SamplerEngine: d/dx by shift rules on the data parameters, within 4 standard errors
-    of the exact input gradient, its circuits and shots on the ledger; a unary readout has
-    none (backward says so)."""
+    of the exact input gradient, its circuits and shots on the ledger."""
     from qdensity.gradients.inputs import input_gradient_plan
 
     model = _angle_hea_model()
@@ -187,10 +194,40 @@ def test_sampled_input_gradients_within_standard_errors_and_counted():
     # 2 x 3 entries, each normal with sd <= se: false failure <= 6 x 2 Phi(-4) = 4e-4
     se = np.pi / 4 / np.sqrt(shots)
     assert float((xs.grad - x.grad).abs().max()) < 4 * se
-    unary = DensityQNNLayer(_unary_model(), engine=SamplerEngine(seed=1), shots=100)
-    xu = torch.rand(1, 4, dtype=torch.float64, requires_grad=True)
-    with pytest.raises(RuntimeError, match="input gradient needs engine='exact'"):
-        unary(xu).sum().backward()
+
+
+def test_sampled_unary_input_gradient_through_the_loader_and_a_torch_gate():
+    """Unary probabilities on a SamplerEngine with the model's MoE gate copied into torch:
+    d/dx from the four-term rule on the loader's RBS angles chained with d phi / dx (plus the
+    gate's d alpha / dx by autograd, times the sampled outputs) within a derived bound of the
+    exact layer's; the input-gradient shots on the ledger as the plan's meta states."""
+    from qdensity.gradients.inputs import input_gradient_plan, loader_angles_jacobian
+
+    model = _unary_model("moe", seed=8)
+    X = np.random.default_rng(9).uniform(0.2, 1.0, (2, 4))
+    w = np.random.default_rng(10).normal(size=(2, 4))
+    exact = DensityQNNLayer(model)
+    x = torch.tensor(X, requires_grad=True)
+    (exact(x) * torch.tensor(w)).sum().backward()
+    shots = 10_000
+    engine = SamplerEngine(seed=_stat_seed(12))
+    layer = DensityQNNLayer(model, engine=engine, shots=shots)
+    xs = torch.tensor(X, requires_grad=True)
+    (layer(xs) * torch.tensor(w)).sum().backward()
+    assert layer.shots_spent == engine.ledger.total_shots
+    meta = input_gradient_plan(model, X).meta
+    spent = sum(s for label, (_, s) in engine.ledger.by_label().items()
+                if label.startswith("input_gradient"))
+    assert spent == 2 * meta["input_circuits"] * shots
+    xg = torch.tensor(X, requires_grad=True)  # d alpha_k / dx of the torch gate, for the bound
+    gate_jac = torch.autograd.functional.jacobian(layer.gate, xg).numpy()  # (B, K, B, d)
+    gate_jac = np.stack([gate_jac[b, :, b, :] for b in range(2)])
+    with torch.no_grad():
+        alpha = layer.gate(torch.tensor(X)).numpy()
+    sd = unary_input_vjp_sd(alpha, loader_angles_jacobian(X), w, shots, gate_jac)
+    # B x d = 8 entries, each normal with sd below the bound, within 5 of it:
+    # false failure <= 8 x 2 Phi(-5) = 4.6e-6
+    assert np.all(np.abs(xs.grad.numpy() - x.grad.numpy()) <= 5 * sd)
 
 
 def test_gradients_match_finite_differences_of_aer_statevectors():
