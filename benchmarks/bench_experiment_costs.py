@@ -15,6 +15,12 @@ depends on its sampled batch size), the set-up of a unit (data, split), and the 
 sampled gate-level check; a unit is set-up + 32 trials (x 20 for the epochs) + the check.
 
     QDENSITY_NUM_THREADS=1 python benchmarks/bench_experiment_costs.py --units lcu-vs-single
+
+``--full noise`` times one seed of ``noise --full`` (which has no ``--paper`` mode) at two cut
+training budgets and extrapolates linearly to the full budget: a seed's evaluation, ceiling
+training and calibration do not grow with the budget, so one cut times a factor would not do.
+
+    QDENSITY_NUM_THREADS=1 python benchmarks/bench_experiment_costs.py --full noise
 """
 
 from __future__ import annotations
@@ -93,8 +99,33 @@ def lcu_units(batches=(32, 256)) -> None:
           f"{time.process_time() - c:.1f} cpu s, load {os.getloadavg()[0]:.1f}")
 
 
+def noise_full(budgets=(30_000, 90_000)) -> None:
+    """One seed of ``noise --full`` at two training budgets; the full budget's CPU seconds from
+    the line through them (cost = fixed + per shot x budget)."""
+    from qdensity.experiments.registry import get_experiment
+
+    exp = get_experiment("noise")
+    full, cpus = int(exp.full["budget"]), []
+    for b in budgets:
+        t, c = time.perf_counter(), time.process_time()
+        exp.run_seed({**exp.full, "budget": int(b)}, 0, False)
+        wall, cpu = time.perf_counter() - t, time.process_time() - c
+        cpus.append(cpu)
+        print(f"noise --full, budget {b}: {wall:.1f} wall s, {cpu:.1f} cpu s, "
+              f"load {os.getloadavg()[0]:.1f}", flush=True)
+    per_shot = (cpus[1] - cpus[0]) / (budgets[1] - budgets[0])
+    fixed = cpus[0] - per_shot * budgets[0]
+    seed = fixed + per_shot * full
+    seeds = int(exp.seeds["full"])
+    print(f"fixed {fixed:.0f} cpu s + {per_shot * 1e3:.2f} cpu s per 1000 training shots: "
+          f"{seed:.0f} cpu s per seed at budget {full}, {seeds * seed / 60:.0f} cpu min for "
+          f"its {seeds} seeds")
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--units"]:
+    if sys.argv[1:] == ["--full", "noise"]:
+        noise_full()
+    elif sys.argv[1:2] == ["--units"]:
         if sys.argv[2:] != ["lcu-vs-single"]:
             raise SystemExit("--units takes lcu-vs-single")
         lcu_units()
