@@ -1,7 +1,8 @@
 """Training loops shared by the LCU experiments (``lcu-vs-single``, ``mixing-lemma``).
 
-Minibatch Adam on one flat parameter vector (the sub-unitaries' angles, or the mixture's
-parameters alone, as Supp. C trains them), with the exact unary engine's reverse pass
+Minibatch Adam (or SGD, RMSprop: the paper's optimiser choices) on one flat parameter vector
+(the sub-unitaries' angles, or the mixture's parameters alone, as Supp. C trains them), with an
+optional l2 penalty, and the exact unary engine's reverse pass
 (:meth:`qdensity.models.lcu.LCUQNN.vjp`, :func:`qdensity.execution.unary.vjp`).
 """
 
@@ -12,10 +13,14 @@ from collections.abc import Callable
 import numpy as np
 
 from qdensity.execution.unary import forward
-from qdensity.learning.optim import Adam
+from qdensity.learning.optim import SGD, Adam, RMSprop
 from qdensity.models.lcu import LCUQNN
 
-__all__ = ["fit_epochs", "nll_grad", "orthogonal_matrix", "accuracy", "check_settings"]
+__all__ = ["fit_epochs", "nll_grad", "orthogonal_matrix", "accuracy", "check_settings",
+           "OPTIMISERS"]
+
+#: The optimisers of the paper's search space (hyperparameters appendix), by name.
+OPTIMISERS = {"adam": Adam, "sgd": SGD, "rmsprop": RMSprop}
 
 
 def check_settings(config: dict, positive_ints=(), positive_floats=(), minimum: dict | None = None
@@ -72,8 +77,9 @@ def accuracy(P: np.ndarray, y: np.ndarray) -> float:
 
 def fit_epochs(model: LCUQNN, X: np.ndarray, y: np.ndarray, *, epochs: int, batch_size: int,
                learning_rate: float, train: str, rng: np.random.Generator,
-               after_epoch: Callable[[int], None] | None = None) -> None:
-    """Minibatch Adam on the classification NLL of ``model.predict``.
+               after_epoch: Callable[[int], None] | None = None, optimizer: str = "adam",
+               l2: float = 0.0) -> None:
+    """Minibatch gradient descent on the classification NLL of ``model.predict``.
 
     Parameters
     ----------
@@ -88,17 +94,29 @@ def fit_epochs(model: LCUQNN, X: np.ndarray, y: np.ndarray, *, epochs: int, batc
         Shuffles the batches.
     after_epoch : callable, optional
         Called with the epoch number (1-based) after each epoch.
+    optimizer : {"adam", "sgd", "rmsprop"}
+    l2 : float
+        Weight of ``l2 / 2 * ||w||^2`` added to the loss of the trained parameters ``w``
+        (torch's ``weight_decay``).
     """
-    opt = Adam(lr=learning_rate)
+    if optimizer not in OPTIMISERS:
+        raise ValueError(f"optimizer must be one of {sorted(OPTIMISERS)}, got {optimizer!r}")
+    if isinstance(l2, bool) or not isinstance(l2, (int, float)) or not l2 >= 0:
+        raise ValueError(f"l2 must be a non-negative number, got {l2!r}")
+    opt = OPTIMISERS[optimizer](lr=learning_rate)
     for epoch in range(1, epochs + 1):
         order = rng.permutation(len(X))
         for start in range(0, len(X), batch_size):
             idx = order[start:start + batch_size]
-            _, g = nll_grad(model.predict(X[idx]), y[idx])
-            g_theta, g_mix = model.vjp(X[idx], g)
+            _, dP = nll_grad(model.predict(X[idx]), y[idx])
+            g_theta, g_mix = model.vjp(X[idx], dP)
+            w = model.theta if train == "theta" else model.mixture.params
+            g = g_theta if train == "theta" else g_mix
+            if l2:
+                g = g + l2 * w
             if train == "theta":
-                model.theta = opt.step(model.theta, g_theta)
+                model.theta = opt.step(w, g)
             else:
-                model.mixture.params = opt.step(model.mixture.params, g_mix)
+                model.mixture.params = opt.step(w, g)
         if after_epoch is not None:
             after_epoch(epoch)

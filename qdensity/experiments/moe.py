@@ -170,7 +170,7 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
             breakdown = circuit_breakdown(layer.model, np.full((1, n), 1.0 / np.sqrt(n)),
                                           input_gradients=True)
             shots = breakdown["per_point"] * len(data[1]) * int(cfg["shots_per_circuit"])
-            metrics, curves = sweep_metrics(prefix, runs, seed, shots, curves_above=False)
+            metrics, curves = sweep_metrics(prefix, runs, seed, shots, curves="all")
             out.update({**metrics, **breakdown_metrics(prefix, breakdown),
                         f"{prefix}/shots_per_trial": float(shots * epochs),
                         f"{prefix}/quantum_parameters": int(layer.model.num_parameters)})

@@ -92,3 +92,93 @@ def test_mixture_phase_moves_only_the_gate_and_lowers_the_loss():
                rng=rng)
     assert np.array_equal(model.theta, theta)
     assert nll_grad(model.predict(X), y)[0] < before
+
+
+def test_sgd_step_with_l2_is_the_finite_difference_gradient_plus_the_penalty():
+    """One full-batch SGD step with l2 moves theta by -lr (dNLL/dtheta + l2 theta), the
+    gradient taken by central finite differences of the loss."""
+    rng = np.random.default_rng(5)
+    X = rng.normal(size=(12, 3))
+    y = rng.integers(0, 3, 12)
+    model = LCUQNN([round_robin(3, parameter_prefix="s")], seed=3)
+    theta = model.theta.copy()
+    h, grad = 1e-6, np.zeros_like(theta)
+    for i in range(theta.size):
+        for sign in (1, -1):
+            model.theta = theta + sign * h * np.eye(theta.size)[i]
+            grad[i] += sign * nll_grad(model.predict(X), y)[0] / (2 * h)
+    model.theta = theta
+    lr, l2 = 0.1, 0.3
+    fit_epochs(model, X, y, epochs=1, batch_size=12, learning_rate=lr, train="theta",
+               rng=np.random.default_rng(0), optimizer="sgd", l2=l2)
+    assert np.allclose(model.theta, theta - lr * (grad + l2 * theta), atol=1e-7)
+
+
+@pytest.mark.parametrize("key,value", [("optimizer", "lbfgs"), ("l2", -1.0)])
+def test_fit_epochs_refuses_bad_optimiser_settings(key, value):
+    model = LCUQNN([round_robin(3, parameter_prefix="s")], seed=3)
+    kwargs = {"optimizer": "adam", "l2": 0.0, key: value}
+    with pytest.raises(ValueError, match=key):
+        fit_epochs(model, np.ones((2, 3)), np.zeros(2, dtype=int), epochs=1, batch_size=2,
+                   learning_rate=0.1, train="theta", rng=np.random.default_rng(0), **kwargs)
+
+
+def test_sweep_units_selected_trial_and_resume_from_storage(tmp_path):
+    """A 2-trial study per (model, seed): the reported accuracy is the test accuracy the
+    storage holds for the trial with the best validation score, the sweep's aggregates are
+    counted by hand from the trials, the shots from the training rows, and a rerun whose unit
+    files are gone resumes the studies (no new trials, the same numbers)."""
+    import shutil
+
+    optuna = pytest.importorskip("optuna")
+    from qdensity.learning.sweep import PAPER_SPACE
+
+    config = dict(TINY, pretrain_epochs=1, lcu_epochs=1, trials=2, sampled_points=1)
+    out = tmp_path / "not-yet-made"
+    first = run("lcu-vs-single", seeds=[1], config=config, out=out, plot=False,
+                progress=False)
+    row = first.per_seed[0]
+    storage = f"sqlite:///{out / 'lcu-vs-single-sweeps.db'}"
+    names = sorted(optuna.get_all_study_names(storage))
+    assert [n.split("-")[4] for n in names] == ["lcu", "single"]  # one study per model
+    for name in names:
+        m = name.split("-")[4]
+        trials = optuna.load_study(study_name=name, storage=storage).trials
+        assert [t.state.name for t in trials] == ["COMPLETE", "COMPLETE"]
+        for t in trials:
+            assert set(t.params) == set(PAPER_SPACE)
+            assert 1e-4 <= t.params["learning_rate"] <= 1e-2
+        best = max(trials, key=lambda t: (t.value, -t.number))
+        assert row[f"{m}/test_accuracy"] == best.user_attrs["test_accuracy"]
+        accs = [t.user_attrs["test_accuracy"] for t in trials]
+        assert row["curves"][f"{m}/trials"]["y"] == accs
+        assert row[f"{m}/runs_above"] == sum(a >= 0.8 for a in accs)
+        assert row[f"{m}/mean_accuracy"] == pytest.approx(np.mean(accs))
+        assert row["curves"][f"{m}/test_vs_epoch"]["y"] == best.user_attrs["test_by_epoch"]
+    assert row["lcu/minus_single"] == pytest.approx(row["lcu/test_accuracy"]
+                                                    - row["single/test_accuracy"])
+    # 30 training rows less the 20% validation split; round robin on 3 qubits: 3 angles
+    train_rows, spc = 24, 100
+    single_epoch = train_rows * (4 * 3 + 1) * spc
+    assert row["single/shots"] == single_epoch * 2
+    assert row["curves"]["single/test_vs_epoch"]["x"] == [1.0, 2.0]
+    lcu = row["curves"]["lcu/test_vs_shots"]
+    assert lcu["x"][0] == 2 * single_epoch  # K = 2 sub-unitaries pretrained for one epoch
+    assert row["curves"]["lcu/test_vs_epoch"]["x"] == [1.0, 2.0]  # uniform start, then the gate
+    assert row["sampled/shots"] == 64
+    for d in out.glob("*.units"):
+        shutil.rmtree(d)
+    again = run("lcu-vs-single", seeds=[1], config=config, out=out, plot=False, progress=False)
+    for name in names:
+        assert len(optuna.load_study(study_name=name, storage=storage).trials) == 2
+    a, b = dict(row), dict(again.per_seed[0])
+    for r in (a, b):
+        r.pop("seconds", None), r.pop("worker", None)
+    assert a == b
+
+
+@pytest.mark.parametrize("key,value", [("trials", -1), ("validation_fraction", 0.6),
+                                       ("validation_fraction", 1)])
+def test_bad_sweep_settings_name_the_setting(key, value):
+    with pytest.raises(ValueError, match=key):
+        run("lcu-vs-single", config={**TINY, key: value}, seeds=1, progress=False)

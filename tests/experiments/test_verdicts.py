@@ -80,6 +80,20 @@ def test_moe_runs_before_the_shared_sweep_are_not_comparable():
     assert all(r["verdict"] != "not comparable" for r in evaluate_result(new))
 
 
+def test_lcu_baseline_caveat_only_without_the_sweep():
+    """lcu-vs-single with fixed learning rates carries the weak-baseline caveat; with each model
+    tuned by its own study (trials > 0) it does not."""
+    rows = [{"lcu/minus_single": 0.1 + 0.01 * i} for i in range(3)]
+    fixed = ExperimentResult("lcu-vs-single", "full", {"trials": 0}, [0, 1, 2], rows)
+    swept = ExperimentResult("lcu-vs-single", "paper", {"trials": 32}, [0, 1, 2], rows)
+    old = ExperimentResult("lcu-vs-single", "full", {}, [0, 1, 2], rows)  # before the setting
+    assert [c.caveat.split(":")[0] for c in claims_for(fixed)] == ["a weak baseline"]
+    assert [c.caveat.split(":")[0] for c in claims_for(old)] == ["a weak baseline"]
+    [claim] = claims_for(swept)
+    assert claim.caveat == "" and claim.quantity == "lcu/minus_single"
+    assert verdict(swept, claim)["verdict"] == "reproduced"
+
+
 def evaluate_result(result):
     return [verdict(result, c) for c in claims_for(result)]
 
