@@ -127,16 +127,16 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
                                                                 plan.meta["gradient"]):
                 plan.meta["method"] = "commuting"
                 return plan
-    n = model.num_qubits
     if model.readout == "observable":
         inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
                                      label=f"shift_k{k}")
 
         post = partial(_shift_observable_post, inner)
     else:
+        # the n unary frequencies, read off the measured bits when sampled (no 2**n row)
         inner = parameter_shift_plan(circ, None, rows, parameters=params, shots=shots,
-                                     label=f"shift_k{k}")
-        post = partial(_shift_unary_post, inner, 1 << np.arange(n))
+                                     label=f"shift_k{k}", unary=True)
+        post = inner.postprocess
 
     plan = Plan(inner.jobs, post, inner.description, {"method": "shift"})
     return plan
@@ -333,11 +333,6 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
 def _shift_observable_post(inner, results):
     est = inner.postprocess(results)
     return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
-
-
-def _shift_unary_post(inner, unary, results):
-    est = inner.postprocess(results)
-    return Estimate(est.value[:, unary, :], est.standard_error[:, unary, :])
 
 
 def _commuting_post(grads, shots, results):
