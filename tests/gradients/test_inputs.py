@@ -4,10 +4,9 @@ a circuit against central finite differences of Aer statevector predictions."""
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
+from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.circuit import ParameterVector
 
@@ -136,7 +135,7 @@ def test_input_gradient_plan_exact_and_sampled():
     ref = input_jacobians(model, X, exact_gradients(model, X))
     for est, r in zip(exact, ref, strict=True):
         np.testing.assert_allclose(est.value, r, atol=1e-10)
-    seed = int(os.environ.get("QDENSITY_STAT_SEED", 3))  # benchmarks/fuzz_statistics.py
+    seed = _stat_seed(3)  # benchmarks/fuzz_statistics.py
     sampled = input_gradient_plan(model, X, shots=4000).run(SamplerEngine(seed=seed))
     # 2 sub-unitaries x 3 rows x 2 inputs, each normal (4000 shots) within 4 of its standard
     # errors: false failure <= 12 x 2 Phi(-4) = 8e-4
