@@ -104,6 +104,9 @@ def unary_frequencies(result: JobResult, postselect: bool = False):
     -------
     (numpy.ndarray (rows, m), numpy.ndarray (rows,))
         The (post-selected) unary probabilities and the Hamming-weight-1 fraction per row.
+        From bits the fraction is the count of weight-1 shots over the shots (exactly 1.0
+        when every shot has weight 1), not the sum of the ``m`` frequencies, whose rounding
+        can leave it an ulp below 1.
     """
     if result.bits is not None:
         b = result.bits
@@ -111,13 +114,16 @@ def unary_frequencies(result: JobResult, postselect: bool = False):
         hits = b & weight_one[..., None]
         if result.weights is None:
             p = hits.mean(axis=1)
+            kept = weight_one.mean(axis=1)
         else:
-            p = np.einsum("rs,rsm->rm", np.asarray(result.weights, dtype=float), hits) / b.shape[1]
+            w = np.asarray(result.weights, dtype=float)
+            p = np.einsum("rs,rsm->rm", w, hits) / b.shape[1]
+            kept = np.einsum("rs,rs->r", w, weight_one) / b.shape[1]
     else:
         probs = result.probabilities
         m = int(round(np.log2(probs.shape[1])))
         p = probs[:, 1 << np.arange(m)]
-    kept = p.sum(axis=1)
+        kept = p.sum(axis=1)
     if postselect:
         if np.any(kept <= 0):
             raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "

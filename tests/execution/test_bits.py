@@ -85,3 +85,25 @@ def test_sampled_density_gradient_from_bits_agrees_with_exact():
                           strict=True):
         assert np.all(np.abs(sj - ej) <= 5 * se + 1e-9)
     assert np.all(np.abs(sampled.outputs - exact.outputs) <= 5 * sampled.output_errors + 1e-9)
+
+
+def test_unary_kept_fraction_is_the_count_of_weight_one_shots():
+    # 4000 shots over 32 unary outcomes with these counts: the 32 frequencies count / 4000 sum
+    # to an ulp below 1 in floating point, but every shot has weight 1 (kept is 4000 / 4000)
+    counts = np.array([200, 1085, 182, 177, 79, 15, 29, 30, 10, 6, 0, 35, 69, 3, 19, 35, 0, 6,
+                       58, 6, 0, 6, 170, 105, 715, 352, 3, 15, 4, 6, 460, 120])
+    shots, m = int(counts.sum()), counts.size
+    assert np.sum(counts / shots) != 1.0  # the case the rounding bites
+    cols = np.random.default_rng(2).permutation(np.repeat(np.arange(m), counts))
+    bits = np.zeros((1, shots, m), bool)
+    bits[0, np.arange(shots), cols] = True
+    p, kept = unary_frequencies(JobResult(None, shots, None, bits=bits))
+    assert kept[0] == 1.0
+    np.testing.assert_array_equal(np.rint(p[0] * shots), counts)
+    bits[0, :7, (cols[:7] + 1) % m] = True  # 7 shots of weight 2 (none of them a repeat)
+    p, kept = unary_frequencies(JobResult(None, shots, None, bits=bits))
+    assert kept[0] == (shots - 7) / shots
+    ones = np.ones((1, shots))  # unit weights: the same fraction
+    _, kept_w = unary_frequencies(JobResult(None, shots, None, bits=bits, weights=ones,
+                                            effective_shots=np.array([shots])))
+    assert kept_w[0] == (shots - 7) / shots
