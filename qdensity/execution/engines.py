@@ -50,6 +50,7 @@ from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,
     SeedLike,
+    aer_seed,
     check_callable,
     check_positive_int,
     check_sequence_of,
@@ -358,7 +359,8 @@ class SamplerEngine:
             target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
             sampler = (target.sampler(seed=seed) if target is not None
-                       else AdaptiveSampler(NoiselessSimulators(seed), False, seed=seed))
+                       else AdaptiveSampler(NoiselessSimulators(seed), False,
+                                            seed=aer_seed(seed)))
         if not isinstance(sampler, BaseSamplerV2):
             raise TypeError(f"sampler must be a BaseSamplerV2, got {type(sampler).__name__}")
         self.sampler = sampler

@@ -70,6 +70,8 @@ from qiskit.circuit import QuantumCircuit
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
+from qdensity.validation import aer_seed
+
 __all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
            "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS", "MPS_FROM_QUBITS",
            "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators",
@@ -413,4 +415,4 @@ class NoiselessSimulators:
         self.seed = seed
 
     def __call__(self, method: str) -> AerSimulator:
-        return AerSimulator(method=method, seed_simulator=self.seed)
+        return AerSimulator(method=method, seed_simulator=aer_seed(self.seed))

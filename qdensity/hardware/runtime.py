@@ -32,7 +32,7 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
-from qdensity.validation import SeedLike, check_positive_int, seed_int
+from qdensity.validation import SeedLike, aer_seed, check_positive_int, seed_int
 
 __all__ = ["runtime_available", "runtime_options", "runtime_sampler", "require_runtime"]
 
@@ -94,7 +94,7 @@ def runtime_options(
     if shots is not None:
         out["default_shots"] = check_positive_int(shots, "shots")
     if seed is not None:
-        out["simulator"] = {"seed_simulator": seed_int(seed)}
+        out["simulator"] = {"seed_simulator": aer_seed(seed_int(seed))}
     if dynamical_decoupling is not None:
         if isinstance(dynamical_decoupling, str):
             if dynamical_decoupling not in _DD_SEQUENCES:

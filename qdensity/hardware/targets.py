@@ -68,7 +68,13 @@ from qdensity.hardware.snapshots import (
     snapshot_fields,
     snapshot_names,
 )
-from qdensity.validation import SeedLike, check_num_qubits, check_positive_int, seed_int
+from qdensity.validation import (
+    SeedLike,
+    aer_seed,
+    check_num_qubits,
+    check_positive_int,
+    seed_int,
+)
 
 __all__ = [
     "HardwareTarget",
@@ -191,7 +197,8 @@ class HardwareTarget:
         device : {"CPU", "GPU"}
             ``"GPU"`` needs ``qiskit-aer-gpu`` (see :func:`gpu_available`).
         seed : int, numpy.random.Generator or None
-            ``seed_simulator``; None uses the target's seed.
+            Seeds ``seed_simulator`` (through :func:`~qdensity.validation.aer_seed`, so nearby
+            seeds give independent trajectories); None uses the target's seed.
 
         Returns
         -------
@@ -222,7 +229,7 @@ class HardwareTarget:
         options = {
             "method": method,
             "device": device,
-            "seed_simulator": sim_seed,
+            "seed_simulator": aer_seed(sim_seed),
             "noise_model": self.noise_model if self.is_noisy else None,
         }
         if self.backend is not None:
@@ -335,14 +342,14 @@ class HardwareTarget:
             raise TypeError(f"options must be a dict of Aer options or None, got {options!r}")
         if method == "auto":
             make = _TargetSimulators(self, device, sim_seed)
-            return AdaptiveSampler(make, self.is_noisy, seed=sim_seed,
+            return AdaptiveSampler(make, self.is_noisy, seed=aer_seed(sim_seed),
                                    default_shots=default_shots, options=options)
         sim = self.simulator(method=method, device=device, seed=sim_seed)
         if fast:
             sim.set_options(**FAST_SAMPLER_OPTIONS)
         if options:
             sim.set_options(**options)
-        return SamplerV2.from_backend(sim, default_shots=default_shots, seed=sim_seed)
+        return SamplerV2.from_backend(sim, default_shots=default_shots, seed=aer_seed(sim_seed))
 
 
 HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
