@@ -124,31 +124,6 @@ def seed_int(seed: SeedLike, name: str = "seed") -> int | None:
     return seed
 
 
-def aer_seed(seed: int | None) -> int | None:
-    """The ``seed_simulator`` qiskit-aer gets for a user's integer ``seed``: a hash of it.
-
-    Aer seeds shot ``i`` of a trajectory run (noisy statevector or MPS) with
-    ``seed_simulator + i``, so runs seeded ``s`` and ``s + 1`` would draw the same shots shifted
-    by one: five "independent" seeds 0..4 of an experiment would be one sample. Hashed seeds
-    (:class:`numpy.random.SeedSequence`) lie far apart: two of them share a shot with
-    probability about ``2 * shots / 2**31``.
-
-    Parameters
-    ----------
-    seed : int or None
-        A checked integer seed (:func:`seed_int`); None stays None (Aer draws its own).
-
-    Returns
-    -------
-    int or None
-        In ``[0, 2**31 - 1]``; the same for the same ``seed``.
-    """
-    if seed is None:
-        return None
-    state = np.random.SeedSequence([int(seed) % 2**63, 0xAE5]).generate_state(1, np.uint32)
-    return int(state[0] >> 1)
-
-
 def seed_u32(seed: SeedLike, name: str = "seed") -> int | None:
     """:func:`seed_int` within ``[0, 2**32 - 1]``, scikit-learn's ``random_state`` range (a
     larger int is refused naming ``name``, not passed on to fail inside scikit-learn)."""

@@ -43,6 +43,7 @@ from qdensity.hardware.aer_sampling import (
     AdaptiveSampler,
     NoiselessSimulators,
     active_qubits,
+    aer_seed,
     check_memory,
 )
 from qdensity.hardware.targets import as_target
@@ -50,7 +51,6 @@ from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
     MAX_DENSE_QUBITS,
     SeedLike,
-    aer_seed,
     check_callable,
     check_positive_int,
     check_sequence_of,

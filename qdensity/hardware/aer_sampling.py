@@ -70,12 +70,10 @@ from qiskit.circuit import QuantumCircuit
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.validation import aer_seed
-
 __all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
            "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS", "MPS_FROM_QUBITS",
            "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators",
-           "MPS_MAX_BOND", "mps_bond_bound"]
+           "MPS_MAX_BOND", "mps_bond_bound", "aer_seed"]
 
 #: ``metadata`` key of a compiled circuit whose ideal outcomes all have this Hamming weight.
 HAMMING_WEIGHT_KEY = "qdensity_hamming_weight"
@@ -416,3 +414,29 @@ class NoiselessSimulators:
 
     def __call__(self, method: str) -> AerSimulator:
         return AerSimulator(method=method, seed_simulator=aer_seed(self.seed))
+
+
+def aer_seed(seed: int | None) -> int | None:
+    """The ``seed_simulator`` qiskit-aer gets for a user's integer ``seed``: a hash of it.
+
+    Aer seeds shot ``i`` of a trajectory run (noisy statevector or MPS) with
+    ``seed_simulator + i``, so runs seeded ``s`` and ``s + 1`` would draw the same shots shifted
+    by one: five "independent" seeds 0..4 of an experiment would be one sample. Hashed seeds
+    (:class:`numpy.random.SeedSequence`) lie far apart: two of them share a shot with
+    probability about ``2 * shots / 2**31``.
+
+    Parameters
+    ----------
+    seed : int or None
+        A checked integer seed (:func:`~qdensity.validation.seed_int`); None stays None
+        (Aer draws its own).
+
+    Returns
+    -------
+    int or None
+        In ``[0, 2**31 - 1]``; the same for the same ``seed``.
+    """
+    if seed is None:
+        return None
+    state = np.random.SeedSequence([int(seed) % 2**63, 0xAE5]).generate_state(1, np.uint32)
+    return int(state[0] >> 1)

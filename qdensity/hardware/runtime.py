@@ -32,7 +32,8 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
-from qdensity.validation import SeedLike, aer_seed, check_positive_int, seed_int
+from qdensity.hardware.aer_sampling import aer_seed
+from qdensity.validation import SeedLike, check_positive_int, seed_int
 
 __all__ = ["runtime_available", "runtime_options", "runtime_sampler", "require_runtime"]
 

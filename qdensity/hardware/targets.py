@@ -61,7 +61,7 @@ from qdensity.hardware._native import (
 )
 from qdensity.hardware._objects import backend_fields, target_fields
 from qdensity.hardware._passmanagers import check_batch, transpile_with
-from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler
+from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler, aer_seed
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import (
     is_snapshot_name,
@@ -70,7 +70,6 @@ from qdensity.hardware.snapshots import (
 )
 from qdensity.validation import (
     SeedLike,
-    aer_seed,
     check_num_qubits,
     check_positive_int,
     seed_int,

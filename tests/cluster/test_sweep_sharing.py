@@ -26,21 +26,25 @@ ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
     [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
 
 
+_STORAGES: dict[str, object] = {}
+
+
 def _trials(storage: str, name: str) -> list:
-    """The study's trials, read through a storage that holds no connection afterwards: the
-    tests poll this many times a second, and a pooled engine per call (``load_study(storage=
-    url)``) leaves its connections open until garbage collection, which exhausted the
-    server's ``max_connections`` ("sorry, too many clients already")."""
+    """The study's trials, read through one storage per URL whose engine keeps no connection
+    between reads (NullPool): the tests poll this many times a second, and a pooled engine per
+    call (``load_study(storage=url)``) left its connections open until garbage collection,
+    which exhausted the PostgreSQL server's ``max_connections`` ("too many clients already");
+    building a storage per call also re-ran its schema checks against the workers' writes."""
     from sqlalchemy.pool import NullPool
 
-    rdb = optuna.storages.RDBStorage(storage, engine_kwargs={"poolclass": NullPool})
+    rdb = _STORAGES.get(storage)
+    if rdb is None:
+        rdb = _STORAGES[storage] = optuna.storages.RDBStorage(
+            storage, engine_kwargs={"poolclass": NullPool})
     try:
         return optuna.load_study(study_name=name, storage=rdb).get_trials(deepcopy=False)
     except KeyError:  # not created yet
         return []
-    finally:
-        rdb.remove_session()
-        rdb.engine.dispose()
 
 
 def test_eight_workers_started_together_on_a_fresh_storage_all_finish(fresh_storage,

@@ -21,6 +21,7 @@ from qiskit_aer.primitives import SamplerV2
 
 import qdensity.hardware.targets as targets_mod
 from qdensity.circuits.gates import FBSGate, RBSGate
+from qdensity.hardware.aer_sampling import aer_seed
 from qdensity.hardware.noise import noise_from_backend, noise_model
 from qdensity.hardware.targets import (
     RBS_NATIVE_BASIS,
@@ -31,7 +32,6 @@ from qdensity.hardware.targets import (
     heavy_hex_distance,
     known_targets,
 )
-from qdensity.validation import aer_seed
 
 # ----------------------------------------------------------------------------------------------
 # independent oracles: channels written out by hand
