@@ -33,10 +33,15 @@ class JobResult:
     effective_shots : numpy.ndarray, shape (rows,), or None
         With ``weights``: ``N_eff = kappa N / M`` per row, the shots behind the standard
         errors (kept fraction ``kappa``, mitigation overhead ``M``).
+    readout : list or None
+        With readout mitigation, one linearisation per row (or None for a row with too many
+        observed outcomes): the delta-method variance of the row's corrected estimates over
+        its shots and the calibration's
+        (:func:`~qdensity.execution.intervals.shot_mean`'s ``linearisations``).
     """
 
     def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None,
-                 weights=None, effective_shots=None):
+                 weights=None, effective_shots=None, readout=None):
         if probabilities is None and bits is None:
             raise ValueError("JobResult needs probabilities or bits")
         if (weights is None) != (effective_shots is None):
@@ -47,6 +52,7 @@ class JobResult:
         self.bits = bits
         self.weights = weights
         self.effective_shots = effective_shots
+        self.readout = readout
 
     @property
     def probabilities(self) -> np.ndarray:

@@ -345,7 +345,8 @@ def _commuting_post(grads, shots, results):
         # sampled: estimator values on the observed bits, never a 2**n array
         parts = [g.gradient_from_bits([r.bits for r in results],
                                       [r.weights for r in results],
-                                      [r.effective_shots for r in results]) for g in grads]
+                                      [r.effective_shots for r in results],
+                                      [r.readout for r in results]) for g in grads]
         return Estimate(np.stack([v for v, _ in parts], axis=1),
                         np.stack([e for _, e in parts], axis=1))
     probs = [r.probabilities for r in results]
