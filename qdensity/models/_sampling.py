@@ -46,9 +46,10 @@ def shot_values(result, values: np.ndarray, shots: int, k: int) -> np.ndarray:
 
 
 def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
-           seed=None, mitigation: str | None = None, postselect: str | None = None):
+           seed=None, mitigation: str | None = None, postselect: str | None = None,
+           ledger=None):
     """Estimate ``f(x)`` from shots; see :meth:`DensityQNN.sample` (parameters and returns)."""
-    from qdensity.execution.engines import SamplerEngine
+    from qdensity.execution.engines import SamplerEngine, ShotLedger
     from qdensity.execution.intervals import wilson_standard_error
     from qdensity.execution.plans import CircuitJob, diagonal_values, measured
     from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
@@ -57,6 +58,10 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     budget = check_positive_int(budget, "budget", maximum=MAX_DENSE_ENTRIES,
                                 why="every shot's measured bits are held in memory")
     check_type(engine, "engine", SamplerEngine, "a SamplerEngine", allow_none=True)
+    check_type(ledger, "ledger", ShotLedger, "a ShotLedger", allow_none=True)
+    if engine is not None and ledger is not None:
+        raise ValueError("ledger is for the fresh engines sample() makes; with engine=..., "
+                         "read engine.ledger")
     check_target(target)
     if target is not None:  # one device for the whole call: every fresh engine samples it
         from qdensity.hardware.targets import as_target
@@ -78,15 +83,25 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     n = model.num_qubits
     values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
     lo, hi = float(values.min()), float(values.max())
-    ledger = engine.ledger if engine is not None else None
+    if engine is not None:
+        ledger = engine.ledger
+    elif ledger is None:
+        ledger = ShotLedger()
+    correction = None
 
     def engine_for_call():
-        nonlocal ledger
+        # a fresh sampler per phase (independent shots), one readout calibration per call:
+        # every fresh engine shares the first one's correction, so the qubits it calibrated
+        # (its calibration shots on the shared ledger) are not calibrated again
+        nonlocal correction
         if engine is not None:
             return engine
         fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
                               postselect=postselect)
-        ledger = fresh.ledger
+        if correction is None:
+            correction = fresh._correction
+        else:
+            fresh._correction = correction
         return fresh
 
     if not model.training:

@@ -173,3 +173,27 @@ def test_estimator_trains_and_predicts_through_a_mitigated_engine():
     # every other ledger entry is a training circuit row at 32 shots
     assert labels and all(shots == 32 * circuits for circuits, shots in labels.values())
     assert set(clf.predict(X)) <= {0, 1}
+
+
+def test_sample_calibrates_once_per_call():
+    """A Neyman call runs a pilot and a main phase on two fresh engines: one calibration."""
+    from qdensity import DensityQNN, Encoding, by_moments
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.execution.engines import ShotLedger
+
+    obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4)
+    model = DensityQNN(by_moments(round_robin(4)).sub_unitaries[:2], encoding=Encoding.unary(4),
+                       observable=obs, seed=1).train()
+    ledger = ShotLedger()
+    res = model.sample([0.9, 0.3, 0.2, 0.1], 400, scheduler="neyman",
+                       target=_readout_only_target(), seed=3, mitigation="m3",
+                       postselect="hamming_weight", ledger=ledger)
+    by = ledger.by_label()
+    # one calibration of the device's 4 qubits: mthree calibrates a simulator qubit by qubit,
+    # one circuit preparing |0> and one preparing |1>, 4000 shots each (the engine default)
+    assert by.pop("readout calibration") == (8, 8 * 4000)
+    assert any(label.startswith("pilot") for label in by)  # both phases ran
+    assert sum(shots for _, shots in by.values()) == res.shots_used
+    with pytest.raises(ValueError, match="ledger is for the fresh engines"):
+        model.sample([0.9, 0.3, 0.2, 0.1], 400, engine=SamplerEngine(seed=0, progress=False),
+                     ledger=ledger)
