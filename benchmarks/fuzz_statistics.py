@@ -76,6 +76,8 @@ STATISTICAL_TESTS: dict[str, float] = {
     "tests/gradients/test_inputs.py::test_input_gradient_plan_exact_and_sampled": 8e-4,
     "tests/execution/test_engine_mitigation.py::"
     "test_m3_removes_a_pure_readout_bias_within_its_standard_error": 2.5e-4,
+    "tests/execution/test_engine_mitigation.py::test_gradient_plans_use_the_engine_mitigation":
+        1e-3,
     "tests/execution/test_mitigated_errors.py::"
     "test_mitigated_expectation_error_matches_the_spread_over_seeds": 1e-3,
     "tests/execution/test_mitigated_errors.py::test_engine_m3_error_matches_the_spread_over_seeds":
