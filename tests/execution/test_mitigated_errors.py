@@ -87,3 +87,31 @@ def test_engine_m3_error_matches_the_spread_over_seeds():
             values.append(est.value[0])
             errors.append(est.standard_error[0])
         _check_spread(values, errors, _exact(x))
+
+
+def test_engine_m3_unary_output_error_matches_the_spread_over_seeds():
+    # a unary-probability readout (the per-shot indicators of the unary outcomes), near a
+    # basis state, without post-selection; outputs 0 and 1 (p = 0.92 and 0.05: 3700 and 200
+    # hits, normal; the others are too rare to be): two outputs x two checks x 2.5e-4,
+    # false failure 1e-3
+    from qdensity import DensityQNN, Encoding, by_moments
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.execution.engines import ExactEngine
+    from qdensity.gradients import density_gradient_plan
+
+    model = DensityQNN(by_moments(round_robin(4)).sub_unitaries[:1], encoding=Encoding.unary(4),
+                       readout="unary_probabilities", seed=1)
+    x = np.array([[0.97, 0.2, 0.1, 0.1]])
+    exact = density_gradient_plan(model, x, method="commuting").run(ExactEngine()).outputs.ravel()
+    plan = density_gradient_plan(model, x, method="commuting", shots=SHOTS)
+    tgt = _target()
+    first = SEEDS * stat_seed(0)
+    values, errors = [], []
+    for seed in range(first, first + SEEDS):
+        est = plan.run(SamplerEngine(target=tgt, seed=seed, progress=False, mitigation="m3",
+                                     calibration_shots=CALIBRATION_SHOTS))
+        values.append(est.outputs.ravel()[:2])
+        errors.append(est.output_errors.ravel()[:2])
+    values, errors = np.array(values), np.array(errors)
+    for j in range(2):
+        _check_spread(values[:, j], errors[:, j], exact[j])
