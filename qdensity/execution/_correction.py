@@ -40,8 +40,9 @@ from qdensity.validation import check_positive_int
 __all__: list[str] = []
 
 #: Observed outcomes per row up to which a mitigated row gets a :class:`Linearisation` (a
-#: dense ``u x u`` readout matrix on them); above, its error falls back to ``N_eff``.
-MAX_LINEARISED_OUTCOMES = 1024
+#: dense ``u x u`` readout matrix on them, built when a variance is asked for); above, its
+#: error falls back to ``N_eff``.
+MAX_LINEARISED_OUTCOMES = 512
 
 _D = (np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, -1.0]]))
 
@@ -79,23 +80,27 @@ class Linearisation:
         self.p = counts / self.shots
         self.q = np.asarray(quasi, dtype=float)
         self.keep, self.kappa = keep, float(kappa)
-        self.outcomes = np.asarray(outcomes, dtype=int)
+        self.outcomes = np.asarray(outcomes, dtype=np.intp)
         self.mats, self.state_shots = mats, state_shots
-        self.factors = [a[self.outcomes[:, j][:, None], self.outcomes[:, j][None, :]]
-                        for j, a in enumerate(mats)]
-        self.A = np.prod(self.factors, axis=0)
+
+    def _factor(self, j: int) -> np.ndarray:
+        b = self.outcomes[:, j]
+        return self.mats[j][b[:, None], b[None, :]]
 
     def variance(self, per_shot: np.ndarray, mean) -> np.ndarray:
         """``Var(V)`` for per-shot values ``(shots,)`` or ``(shots, k)`` whose corrected mean
         is ``mean`` (scalar or ``(k,)``); returns a scalar or ``(k,)``."""
         f = np.asarray(per_shot, dtype=float)[self.first]
         r = (f - mean) * self.keep.reshape((-1,) + (1,) * (f.ndim - 1)) / self.kappa
-        g = np.linalg.solve(self.A.T, r)
+        A = np.ones((len(self.p), len(self.p)))
+        for j in range(len(self.mats)):
+            A *= self._factor(j)
+        g = np.linalg.solve(A.T, r)
         var = np.maximum(np.tensordot(self.p, g**2, axes=1)
                          - np.tensordot(self.p, g, axes=1) ** 2, 0.0) / self.shots
         for j, a in enumerate(self.mats):
-            rest = np.divide(self.A, self.factors[j], out=np.zeros_like(self.A),
-                             where=self.factors[j] != 0)
+            fj = self._factor(j)
+            rest = np.divide(A, fj, out=np.zeros_like(A), where=fj != 0)
             for s in (0, 1):
                 e = float(a[1 - s, s])
                 if e <= 0.0 or e >= 1.0:
