@@ -71,10 +71,15 @@ class Linearisation:
     kappa : float
     mats : numpy.ndarray, shape (m, 2, 2)
     state_shots : numpy.ndarray, shape (m,)
+    qubits : sequence of int, length m
+        Physical qubit of each clbit (names the calibrated rates).
     """
 
-    def __init__(self, outcomes, inverse, counts, quasi, keep, kappa, mats, state_shots):
+    def __init__(self, outcomes, inverse, counts, quasi, keep, kappa, mats, state_shots,
+                 qubits):
         self.shots = int(counts.sum())
+        self.inverse = np.asarray(inverse, dtype=np.int32)
+        self.qubits = [int(q) for q in qubits]
         self.first = np.zeros(len(counts), dtype=int)
         self.first[inverse[::-1]] = np.arange(len(inverse))[::-1]
         self.p = counts / self.shots
@@ -87,17 +92,24 @@ class Linearisation:
         b = self.outcomes[:, j]
         return self.mats[j][b[:, None], b[None, :]]
 
-    def variance(self, per_shot: np.ndarray, mean) -> np.ndarray:
-        """``Var(V)`` for per-shot values ``(shots,)`` or ``(shots, k)`` whose corrected mean
-        is ``mean`` (scalar or ``(k,)``); returns a scalar or ``(k,)``."""
-        f = np.asarray(per_shot, dtype=float)[self.first]
-        r = (f - mean) * self.keep.reshape((-1,) + (1,) * (f.ndim - 1)) / self.kappa
+    def _matrix(self) -> np.ndarray:
         A = np.ones((len(self.p), len(self.p)))
         for j in range(len(self.mats)):
             A *= self._factor(j)
-        g = np.linalg.solve(A.T, r)
-        var = np.maximum(np.tensordot(self.p, g**2, axes=1)
-                         - np.tensordot(self.p, g, axes=1) ** 2, 0.0) / self.shots
+        return A
+
+    def _g(self, per_shot, mean, A) -> np.ndarray:
+        """``g = A^-T r``, the derivative of ``V`` in the frequencies ``(u,)`` or ``(u, k)``."""
+        f = np.asarray(per_shot, dtype=float)[self.first]
+        r = (f - mean) * self.keep.reshape((-1,) + (1,) * (f.ndim - 1)) / self.kappa
+        return np.linalg.solve(A.T, r)
+
+    def calibration_gradient(self, per_shot: np.ndarray, mean, A=None, g=None) -> dict:
+        """``{(physical qubit, prepared state): (dV/de, e, n)}`` for every calibrated error
+        rate ``e`` (a binomial frequency over ``n`` shots) that can move ``V``."""
+        A = self._matrix() if A is None else A
+        g = self._g(per_shot, mean, A) if g is None else g
+        out = {}
         for j, a in enumerate(self.mats):
             fj = self._factor(j)
             rest = np.divide(A, fj, out=np.zeros_like(A), where=fj != 0)
@@ -105,10 +117,29 @@ class Linearisation:
                 e = float(a[1 - s, s])
                 if e <= 0.0 or e >= 1.0:
                     continue  # a rate seen as 0 or 1 has no binomial spread to add
-                deriv = _D[s][self.outcomes[:, j], s][:, None] * (self.outcomes[:, j] == s)[None, :]
-                dv = np.tensordot(g, (rest * deriv) @ self.q, axes=([0], [0]))
-                var = var + dv**2 * e * (1 - e) / self.state_shots[j]
+                b = self.outcomes[:, j]
+                deriv = _D[s][b, s][:, None] * (b == s)[None, :]
+                dv = -np.tensordot(g, (rest * deriv) @ self.q, axes=([0], [0]))
+                out[(self.qubits[j], s)] = (dv, e, int(self.state_shots[j]))
+        return out
+
+    def variance(self, per_shot: np.ndarray, mean) -> np.ndarray:
+        """``Var(V)`` for per-shot values ``(shots,)`` or ``(shots, k)`` whose corrected mean
+        is ``mean`` (scalar or ``(k,)``); returns a scalar or ``(k,)``."""
+        A = self._matrix()
+        g = self._g(per_shot, mean, A)
+        var = np.maximum(np.tensordot(self.p, g**2, axes=1)
+                         - np.tensordot(self.p, g, axes=1) ** 2, 0.0) / self.shots
+        for dv, e, n in self.calibration_gradient(per_shot, mean, A, g).values():
+            var = var + dv**2 * e * (1 - e) / n
         return var
+
+    def influence(self, per_shot: np.ndarray, mean: float) -> np.ndarray:
+        """Per-shot values ``(shots,)`` whose mean is ``mean`` and whose sample variance over
+        the shots is the shot part of :meth:`variance` (``mean + g(b_s) - sum_b p(b) g(b)``):
+        what a scheduler that reads only per-shot values needs."""
+        g = self._g(per_shot, mean, self._matrix())
+        return mean + (g - self.p @ g)[self.inverse]
 
 
 class ReadoutCorrection:
@@ -200,6 +231,6 @@ class ReadoutCorrection:
             n_eff[r] = min(kept, 1.0) * shots / overhead
             if lins is not None:
                 lins.append(Linearisation(uniq, inverse, counts, quasi_row, keep, kept, mats,
-                                          state_shots)
+                                          state_shots, qubits)
                             if len(uniq) <= MAX_LINEARISED_OUTCOMES else None)
         return out, n_eff, lins

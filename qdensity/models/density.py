@@ -404,7 +404,8 @@ class DensityQNN:
             Without ``engine``: the fresh engines' readout corrections
             (:class:`~qdensity.execution.engines.SamplerEngine`). One call calibrates once:
             the fresh engines of its phases share one calibration. With ``engine``, set them
-            on the engine.
+            on the engine. With mitigation the standard error is the delta method's: the
+            shots' share through the scheduler, plus the calibration's.
         ledger : ShotLedger, optional
             Without ``engine``: every fresh engine of the call records its shots (readout
             calibration included) here; a new one if None. With ``engine``: must be None
