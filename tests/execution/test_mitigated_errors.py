@@ -12,7 +12,8 @@ The cases: a basis state without post-selection (every shot's flip and the calib
 error rates move the estimate, while the corrected distribution is a point: the error that
 ``M Var_q(h) / (kappa N)`` gave was 5-6x too small), and a spread state with post-selection
 (where that heuristic was 1.5x too large). 500 calibration shots per rate make the
-calibration's share of the variance large (about half, for the basis state).
+calibration's share of the variance large (about half, for the basis state). The same check
+covers the engine's unary-probability outputs and ``DensityQNN.sample`` with mitigation.
 """
 
 import numpy as np
