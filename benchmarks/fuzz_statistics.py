@@ -76,12 +76,12 @@ STATISTICAL_TESTS: dict[str, float] = {
     "tests/hardware/test_snapshots.py::test_manila_simulator_carries_the_calibrated_readout_error":
         1e-3,
     "tests/hardware/test_snapshots.py::test_snapshot_target_runs_density_sampling_and_gradient_plans":
-        3e-6,
+        4e-6,
     "tests/hardware/test_mitigation.py::test_mitigation_alone_removes_the_readout_bias": 2e-6,
     "tests/hardware/test_mitigation.py::test_mitigated_and_postselected_beat_raw_over_seeds":
         1e-4,
     "tests/hardware/test_mitigation.py::test_density_model_output_from_mitigated_subunitaries":
-        1e-15,
+        1e-6,
     "tests/hardware/test_mps_sampling.py::"
     "test_mps_sampled_outputs_and_gradients_at_30_qubits_match_the_unary_engine": 1.2e-4,
     "tests/hardware/test_mps_sampling.py::"
@@ -98,6 +98,16 @@ STATISTICAL_TESTS: dict[str, float] = {
     "test_pre_layer_trains_on_a_sampler_with_sampled_input_gradients": 1.2e-5,
     "tests/execution/test_engine_mitigation.py::"
     "test_m3_removes_a_pure_readout_bias_within_its_standard_error": 2.5e-4,
+    "tests/execution/test_engine_mitigation.py::test_gradient_plans_use_the_engine_mitigation":
+        1e-3,
+    "tests/execution/test_mitigated_errors.py::"
+    "test_mitigated_expectation_error_matches_the_spread_over_seeds": 1e-3,
+    "tests/execution/test_mitigated_errors.py::test_engine_m3_error_matches_the_spread_over_seeds":
+        1e-3,
+    "tests/execution/test_mitigated_errors.py::"
+    "test_engine_m3_unary_output_error_matches_the_spread_over_seeds": 1e-3,
+    "tests/execution/test_mitigated_errors.py::test_sample_m3_error_matches_the_spread_over_seeds":
+        5e-4,
 }
 
 

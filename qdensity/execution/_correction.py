@@ -12,8 +12,14 @@ over the corrected distribution ``q``:
   ideal circuit keeps (read off its gates) get weight 0; the rest are rescaled by the kept
   (mitigated) fraction ``kappa``.
 
-The effective shots ``N_eff = min(kappa, 1) N / M`` carry the standard errors
-(:func:`~qdensity.execution.intervals.shot_mean`).
+With mitigation, each row also gets a :class:`Linearisation`: the delta-method variance of
+``sum_b q(b) f(b)`` over the row's shots and the calibration's shots, for whatever per-shot
+``f`` a plan reads (:func:`~qdensity.execution.intervals.shot_mean` uses it). Without
+mitigation (post-selection only) the weighted mean is a ratio estimator whose variance is
+``Var_q(f) / (kappa N)``: the effective shots ``N_eff = min(kappa, 1) N / M`` carry it
+(``M = 1``). mthree's overhead ``M`` enters ``N_eff`` too, but the standard errors of a
+mitigated row come from its linearisation (``M Var_q(f) / (kappa N)`` missed the flipped shots
+and the calibration on near-basis states, and overstated spread ones).
 """
 
 from __future__ import annotations
@@ -32,6 +38,108 @@ from qdensity.hardware.mitigation import (
 from qdensity.validation import check_positive_int
 
 __all__: list[str] = []
+
+#: Observed outcomes per row up to which a mitigated row gets a :class:`Linearisation` (a
+#: dense ``u x u`` readout matrix on them, built when a variance is asked for); above, its
+#: error falls back to ``N_eff``.
+MAX_LINEARISED_OUTCOMES = 512
+
+_D = (np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, -1.0]]))
+
+
+class Linearisation:
+    """Delta-method variance of one mitigated row's corrected estimates.
+
+    The row's estimate of a per-shot function ``f`` is ``V = sum_{b in S} q(b) f(b) / kappa``
+    with ``q = A^-1 p`` on the ``u`` observed outcomes (``A[i, k] = prod_j A_j[b_ij, b_kj]``,
+    ``A_j`` the calibrated readout matrix of clbit ``j``'s qubit), ``p`` the row's frequencies
+    and ``S`` the kept outcomes. With ``r = (f - V) [b in S] / kappa`` and ``g = A^-T r``:
+    shots contribute ``Var_p(g) / N``; each calibrated error rate ``e_{j,s}`` (a binomial
+    frequency over ``n_j`` shots) contributes ``(g^T dA/de_{j,s} q)^2 e (1 - e) / n_j``
+    (the same formulas as :func:`~qdensity.execution.mitigated.mitigated_expectation`'s,
+    on the observed outcomes).
+
+    Parameters
+    ----------
+    outcomes : numpy.ndarray of bool, shape (u, m)
+    inverse : numpy.ndarray of int, shape (shots,)
+        Outcome index of every shot.
+    counts : numpy.ndarray, shape (u,)
+    quasi : numpy.ndarray, shape (u,)
+        mthree's corrected quasi-probabilities.
+    keep : numpy.ndarray of bool, shape (u,)
+    kappa : float
+    mats : numpy.ndarray, shape (m, 2, 2)
+    state_shots : numpy.ndarray, shape (m,)
+    qubits : sequence of int, length m
+        Physical qubit of each clbit (names the calibrated rates).
+    """
+
+    def __init__(self, outcomes, inverse, counts, quasi, keep, kappa, mats, state_shots,
+                 qubits):
+        self.shots = int(counts.sum())
+        self.inverse = np.asarray(inverse, dtype=np.int32)
+        self.qubits = [int(q) for q in qubits]
+        self.first = np.zeros(len(counts), dtype=int)
+        self.first[inverse[::-1]] = np.arange(len(inverse))[::-1]
+        self.p = counts / self.shots
+        self.q = np.asarray(quasi, dtype=float)
+        self.keep, self.kappa = keep, float(kappa)
+        self.outcomes = np.asarray(outcomes, dtype=np.intp)
+        self.mats, self.state_shots = mats, state_shots
+
+    def _factor(self, j: int) -> np.ndarray:
+        b = self.outcomes[:, j]
+        return self.mats[j][b[:, None], b[None, :]]
+
+    def _matrix(self) -> np.ndarray:
+        A = np.ones((len(self.p), len(self.p)))
+        for j in range(len(self.mats)):
+            A *= self._factor(j)
+        return A
+
+    def _g(self, per_shot, mean, A) -> np.ndarray:
+        """``g = A^-T r``, the derivative of ``V`` in the frequencies ``(u,)`` or ``(u, k)``."""
+        f = np.asarray(per_shot, dtype=float)[self.first]
+        r = (f - mean) * self.keep.reshape((-1,) + (1,) * (f.ndim - 1)) / self.kappa
+        return np.linalg.solve(A.T, r)
+
+    def calibration_gradient(self, per_shot: np.ndarray, mean, A=None, g=None) -> dict:
+        """``{(physical qubit, prepared state): (dV/de, e, n)}`` for every calibrated error
+        rate ``e`` (a binomial frequency over ``n`` shots) that can move ``V``."""
+        A = self._matrix() if A is None else A
+        g = self._g(per_shot, mean, A) if g is None else g
+        out = {}
+        for j, a in enumerate(self.mats):
+            fj = self._factor(j)
+            rest = np.divide(A, fj, out=np.zeros_like(A), where=fj != 0)
+            for s in (0, 1):
+                e = float(a[1 - s, s])
+                if e <= 0.0 or e >= 1.0:
+                    continue  # a rate seen as 0 or 1 has no binomial spread to add
+                b = self.outcomes[:, j]
+                deriv = _D[s][b, s][:, None] * (b == s)[None, :]
+                dv = -np.tensordot(g, (rest * deriv) @ self.q, axes=([0], [0]))
+                out[(self.qubits[j], s)] = (dv, e, int(self.state_shots[j]))
+        return out
+
+    def variance(self, per_shot: np.ndarray, mean) -> np.ndarray:
+        """``Var(V)`` for per-shot values ``(shots,)`` or ``(shots, k)`` whose corrected mean
+        is ``mean`` (scalar or ``(k,)``); returns a scalar or ``(k,)``."""
+        A = self._matrix()
+        g = self._g(per_shot, mean, A)
+        var = np.maximum(np.tensordot(self.p, g**2, axes=1)
+                         - np.tensordot(self.p, g, axes=1) ** 2, 0.0) / self.shots
+        for dv, e, n in self.calibration_gradient(per_shot, mean, A, g).values():
+            var = var + dv**2 * e * (1 - e) / n
+        return var
+
+    def influence(self, per_shot: np.ndarray, mean: float) -> np.ndarray:
+        """Per-shot values ``(shots,)`` whose mean is ``mean`` and whose sample variance over
+        the shots is the shot part of :meth:`variance` (``mean + g(b_s) - sum_b p(b) g(b)``):
+        what a scheduler that reads only per-shot values needs."""
+        g = self._g(per_shot, mean, self._matrix())
+        return mean + (g - self.p @ g)[self.inverse]
 
 
 class ReadoutCorrection:
@@ -84,13 +192,19 @@ class ReadoutCorrection:
                                  f"once") from exc
 
     def weights(self, bits: np.ndarray, compiled: QuantumCircuit, ledger
-                ) -> tuple[np.ndarray, np.ndarray]:
-        """Per-shot weights ``(rows, shots)`` and effective shots ``(rows,)`` of one job."""
+                ) -> tuple[np.ndarray, np.ndarray, list | None]:
+        """Per-shot weights ``(rows, shots)``, effective shots ``(rows,)`` and, with
+        mitigation, one :class:`Linearisation` per row (None for a row with more than
+        :data:`MAX_LINEARISED_OUTCOMES` observed outcomes) of one job."""
         rows, shots, m = bits.shape
         weight = (compiled.metadata or {}).get(HAMMING_WEIGHT_KEY)
         qubits = (_measured_qubits(compiled, m) if self.mitigation is not None else None)
         out = np.ones((rows, shots))
         n_eff = np.full(rows, float(shots))
+        lins: list | None = None
+        if qubits is not None:
+            lins = []
+            mats, state_shots = self.mitigator(ledger).readout_matrices(qubits)
         for r in range(rows):
             uniq, inverse, counts = np.unique(bits[r], axis=0, return_inverse=True,
                                               return_counts=True)
@@ -102,9 +216,12 @@ class ReadoutCorrection:
                 quasi, overhead = self.mitigator(ledger).correct_counts(
                     dict(zip(keys, counts.tolist(), strict=True)), qubits)
                 w = np.array([quasi.get(k, 0.0) for k in keys]) * shots / counts
+            quasi_row = w * counts / shots
+            keep = np.ones(len(uniq), dtype=bool)
             kept = 1.0
             if self.postselect is not None:
-                w = np.where(uniq.sum(axis=1) == weight, w, 0.0)
+                keep = uniq.sum(axis=1) == weight
+                w = np.where(keep, w, 0.0)
                 kept = float((w * counts).sum()) / shots
                 if kept <= 0:
                     raise ValueError(f"row {r} kept no shot of Hamming weight {weight} "
@@ -112,4 +229,8 @@ class ReadoutCorrection:
                 w = w / kept
             out[r] = w[inverse]
             n_eff[r] = min(kept, 1.0) * shots / overhead
-        return out, n_eff
+            if lins is not None:
+                lins.append(Linearisation(uniq, inverse, counts, quasi_row, keep, kept, mats,
+                                          state_shots, qubits)
+                            if len(uniq) <= MAX_LINEARISED_OUTCOMES else None)
+        return out, n_eff, lins

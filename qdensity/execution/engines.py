@@ -311,9 +311,10 @@ class SamplerEngine:
     (``JobResult.weights``, mean 1 per row) so that every plan the engine runs (expectations,
     unary probabilities, gradient plans, schedulers) estimates ``sum_b q(b) f(b)`` over the
     corrected distribution ``q``. Standard errors include the mitigation's own uncertainty:
-    they are those of ``N_eff = kappa N / M`` shots (``kappa`` the kept fraction, ``M``
-    mthree's mitigation overhead, the factor by which mitigation inflates the variance), with
-    the variance taken over ``q`` (:func:`~qdensity.execution.intervals.shot_mean`).
+    with ``mitigation`` they are the delta method over the row's shots and the calibration's
+    shots (``JobResult.readout``); with post-selection alone, those of ``kappa N`` shots
+    (``kappa`` the kept fraction) with the variance taken over ``q``
+    (:func:`~qdensity.execution.intervals.shot_mean`).
 
     An engine pickles with its target, sampler and settings (standard ``pickle``); an
     unpickled engine with ``mitigation`` calibrates again on first use.
@@ -466,10 +467,10 @@ class SamplerEngine:
         results = []
         for (job, shots, compiled), pub_result in zip(metas, raw, strict=True):
             bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
-            weights = n_eff = None
+            weights = n_eff = lins = None
             if self._correction is not None:
-                weights, n_eff = self._correction.weights(bits, compiled, self.ledger)
+                weights, n_eff, lins = self._correction.weights(bits, compiled, self.ledger)
             self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
             results.append(JobResult(None, shots, job, bits=bits, weights=weights,
-                                     effective_shots=n_eff))
+                                     effective_shots=n_eff, readout=lins))
         return results

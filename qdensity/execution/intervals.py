@@ -81,16 +81,19 @@ def binomial_standard_error(p, shots) -> np.ndarray:
 
 
 def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=None,
-              ddof: int = 0) -> tuple[np.ndarray, np.ndarray]:
+              ddof: int = 0, linearisations=None) -> tuple[np.ndarray, np.ndarray]:
     """Mean over shots of per-shot values and its standard error, raw or corrected.
 
     Raw: the sample mean, error :func:`wilson_standard_error` of the sample variance. With
     ``weights`` (readout mitigation and post-selection, see
     :class:`~qdensity.execution.engines.SamplerEngine`): the value is
     ``mean_s w_s x_s = sum_b q(b) x(b)`` with ``q`` the corrected distribution, and the error
-    ``sqrt(Var_q(x) / N_eff + R^2 / (4 N_eff^2))`` with ``Var_q`` taken over ``q`` clipped to
-    non-negative weights and ``N_eff = kappa N / M`` the effective shots (kept fraction
-    ``kappa``, mitigation overhead ``M``).
+    ``sqrt(var + R^2 / (4 N_eff^2))``: ``var`` is a row's linearisation's delta-method
+    variance when given (readout mitigation: shots and calibration, see
+    :class:`~qdensity.execution.engines.SamplerEngine`), else ``Var_q(x) / N_eff`` with
+    ``Var_q`` taken over ``q`` clipped to non-negative weights and ``N_eff = kappa N / M`` the
+    effective shots (kept fraction ``kappa``, mitigation overhead ``M``; exact for
+    post-selection alone, where ``M = 1``).
 
     Parameters
     ----------
@@ -103,6 +106,9 @@ def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=
         ``N_eff`` per row (required with ``weights``).
     ddof : int
         Degrees of freedom of the raw sample variance.
+    linearisations : sequence, length rows, optional
+        Per row, an object whose ``variance(per_shot_row, mean_row)`` gives the row's
+        variance (``JobResult.readout``); a None entry falls back to ``N_eff``.
 
     Returns
     -------
@@ -135,5 +141,13 @@ def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=
     q = q / np.maximum(q.sum(axis=1, keepdims=True), 1e-300)
     var = np.maximum((q * x**2).sum(axis=1) - (q * x).sum(axis=1) ** 2, 0.0)
     n = n_eff.reshape((-1,) + (1,) * (x.ndim - 2))
+    var = var / n
+    if linearisations is not None:
+        if len(linearisations) != x.shape[0]:
+            raise ValueError(f"linearisations must have {x.shape[0]} entries (one per row), "
+                             f"got {len(linearisations)}")
+        for r, lin in enumerate(linearisations):
+            if lin is not None:
+                var[r] = lin.variance(x[r], mean[r])
     width = np.asarray(value_range_width, dtype=float)
-    return mean, np.sqrt(var / n + width**2 / (4.0 * n**2))
+    return mean, np.sqrt(var + width**2 / (4.0 * n**2))

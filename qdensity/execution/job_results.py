@@ -31,12 +31,19 @@ class JobResult:
         :class:`~qdensity.execution.engines.SamplerEngine`), mean 1 per row: every estimate
         is the weighted mean ``mean_s w_s f(b_s)``. None: raw shots.
     effective_shots : numpy.ndarray, shape (rows,), or None
-        With ``weights``: ``N_eff = kappa N / M`` per row, the shots behind the standard
-        errors (kept fraction ``kappa``, mitigation overhead ``M``).
+        With ``weights``: ``N_eff = kappa N / M`` per row (kept fraction ``kappa``,
+        mitigation overhead ``M``), the shots behind the standard errors of a post-selected
+        run; a mitigated row's errors come from ``readout`` (``N_eff`` only sizes the
+        ``R^2 / (4 N_eff^2)`` floor, and serves rows without a linearisation).
+    readout : list or None
+        With readout mitigation, one linearisation per row (or None for a row with too many
+        observed outcomes): the delta-method variance of the row's corrected estimates over
+        its shots and the calibration's
+        (:func:`~qdensity.execution.intervals.shot_mean`'s ``linearisations``).
     """
 
     def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None,
-                 weights=None, effective_shots=None):
+                 weights=None, effective_shots=None, readout=None):
         if probabilities is None and bits is None:
             raise ValueError("JobResult needs probabilities or bits")
         if (weights is None) != (effective_shots is None):
@@ -47,6 +54,7 @@ class JobResult:
         self.bits = bits
         self.weights = weights
         self.effective_shots = effective_shots
+        self.readout = readout
 
     @property
     def probabilities(self) -> np.ndarray:

@@ -182,7 +182,8 @@ def _expectation_post(num_rows, constant, diagonals, results: list[JobResult]) -
         if res.bits is not None:  # parities of the measured bits, never 2**n
             per_shot = np.stack([table.on_bits(r)[:, 0] for r in res.bits])
             mean, se = shot_mean(per_shot, table.value_range()[0], weights=res.weights,
-                                 effective_shots=res.effective_shots)
+                                 effective_shots=res.effective_shots,
+                                 linearisations=res.readout)
             value += mean
             var += se**2
             continue

@@ -87,8 +87,8 @@ class _GradientCircuits:
         circuits are estimated from sampled bits (:meth:`gradient_from_bits`)."""
         return [v.dense() for v in self._values]
 
-    def gradient_from_bits(self, bits, weights=None,
-                           effective_shots=None) -> tuple[np.ndarray, np.ndarray]:
+    def gradient_from_bits(self, bits, weights=None, effective_shots=None,
+                           readout=None) -> tuple[np.ndarray, np.ndarray]:
         """Gradient and standard error from the measured bits, never a ``2**n`` array.
 
         Each shot gives one value of every parameter's estimator (parities of its bits); the
@@ -105,6 +105,8 @@ class _GradientCircuits:
             shots ``(rows,)`` (``JobResult.weights``, ``JobResult.effective_shots``; None for a
             raw circuit): the estimate and its error are then
             :func:`~qdensity.execution.intervals.shot_mean`'s weighted ones.
+        readout : sequence, optional
+            Per circuit, a mitigated run's per-row linearisations (``JobResult.readout``).
 
         Returns
         -------
@@ -126,7 +128,8 @@ class _GradientCircuits:
                 (0, b.shape[1], table.num_columns))
             w = None if weights is None else weights[c]
             mean, se = shot_mean(rows, table.value_range(), weights=w, ddof=1,
-                                 effective_shots=None if w is None else effective_shots[c])
+                                 effective_shots=None if w is None else effective_shots[c],
+                                 linearisations=None if readout is None else readout[c])
             value = value + mean
             var = var + se**2
         return np.asarray(value), np.sqrt(var)

@@ -27,7 +27,7 @@ from functools import partial
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.intervals import binomial_standard_error
+from qdensity.execution.intervals import binomial_standard_error, shot_mean
 from qdensity.execution.plans import (
     CircuitJob,
     Estimate,
@@ -340,7 +340,8 @@ def _commuting_post(grads, shots, results):
         # sampled: estimator values on the observed bits, never a 2**n array
         parts = [g.gradient_from_bits([r.bits for r in results],
                                       [r.weights for r in results],
-                                      [r.effective_shots for r in results]) for g in grads]
+                                      [r.effective_shots for r in results],
+                                      [r.readout for r in results]) for g in grads]
         return Estimate(np.stack([v for v, _ in parts], axis=1),
                         np.stack([e for _, e in parts], axis=1))
     probs = [r.probabilities for r in results]
@@ -365,8 +366,16 @@ def _forward_observable_post(inner, results):
 def _forward_unary_post(inner, unary, results):
     res = inner.postprocess(results)
     p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
-    se = (binomial_standard_error(np.clip(p, 0.0, 1.0), res.sample_size) if res.shots
-          else np.zeros_like(p))
+    if res.shots and res.readout is not None:
+        # readout-mitigated: the delta method over the shots and the calibration, on the
+        # per-shot indicators of the unary outcomes (whose weighted means p are)
+        b = res.bits
+        hits = (b & (b.sum(axis=-1) == 1)[..., None]).astype(float)
+        _, se = shot_mean(hits, 1.0, weights=res.weights, effective_shots=res.effective_shots,
+                          linearisations=res.readout)
+    else:
+        se = (binomial_standard_error(np.clip(p, 0.0, 1.0), res.sample_size) if res.shots
+              else np.zeros_like(p))
     return Estimate(p, se)
 
 

@@ -15,10 +15,10 @@ Two corrections of sampled estimates, each optional, applied in this order:
 
 :func:`qdensity.execution.mitigated.mitigated_expectation` estimates a diagonal (Z-type)
 observable ``<H> = sum_b p(b) h(b)`` this way. With ``q`` the corrected, post-selected
-distribution, ``N`` shots per row, the value is ``sum_b q(b) h(b)`` and its standard error
-``sqrt(M Var_q(h) / (kappa N))``: the ``kappa N`` shots that survive post-selection, inflated
-by the mitigation overhead (mthree's own error model). Without mitigation ``M = 1``, without
-post-selection ``kappa = 1``, and the estimate is the raw sample mean.
+distribution, the value is ``sum_b q(b) h(b)``; its standard error is the delta method over
+the row's shots and the calibration's shots (:meth:`ReadoutMitigator.readout_matrices` gives
+the calibrated matrices and the shots behind them). Without mitigation and post-selection the
+estimate is the raw sample mean.
 """
 
 from __future__ import annotations
@@ -110,6 +110,7 @@ class ReadoutMitigator:
         self.calibration_shots = 0
         self._m3 = mthree.M3Mitigation(system)
         self._calibrated: set[int] = set()
+        self._state_shots: dict[int, int] = {}
 
     @property
     def calibrated_qubits(self) -> list[int]:
@@ -129,9 +130,35 @@ class ReadoutMitigator:
         results = [exp for job in jobs for exp in job.result().results]
         spent = sum(r.shots for r in results)
         self.calibration_shots += spent
+        # shots in which each qubit was prepared in |0> (and as many in |1>): mthree's
+        # 'independent' calibration (simulators) runs two circuits per qubit, its 'balanced'
+        # and 'marginal' ones prepare every qubit in each state in half of all the shots
+        per_state = (spent // (2 * len(wanted)) if self._m3.cal_method == "independent"
+                     else spent // 2)
+        self._state_shots.update(dict.fromkeys(wanted, per_state))
         if self.ledger is not None:
             self.ledger.record("readout calibration", len(results), spent)
         self._calibrated.update(wanted)
+
+    def readout_matrices(self, qubits: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The calibrated single-qubit readout matrices and the shots each entry rests on.
+
+        Parameters
+        ----------
+        qubits : sequence of int, length m
+            Physical qubits (calibrated first if needed).
+
+        Returns
+        -------
+        (numpy.ndarray (m, 2, 2), numpy.ndarray of int (m,))
+            ``A[j][r, s]``: the estimated probability that qubit ``qubits[j]`` prepared in
+            ``s`` reads ``r`` (columns sum to 1); and the calibration shots in which it was
+            prepared in each state (each column is a binomial frequency over that many shots).
+        """
+        self.calibrate(qubits)
+        mats = np.array([np.asarray(self._m3.single_qubit_cals[int(q)], dtype=float)
+                         for q in qubits]).reshape(len(qubits), 2, 2)
+        return mats, np.array([self._state_shots[int(q)] for q in qubits], dtype=int)
 
     def correct_counts(self, counts: dict, qubits: Sequence[int]) -> tuple[dict, float]:
         """Mitigated quasi-probabilities of one row's counts, over its observed outcomes.

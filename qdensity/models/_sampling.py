@@ -5,11 +5,17 @@ by a scheduler); eval mode measures the deterministic state (Fig. 1b) with every
 
 A mitigated or post-selected :class:`~qdensity.execution.engines.SamplerEngine` weights every
 shot (``JobResult.weights``, mean 1 per row): the per-shot value ``h(b_s) w_s`` has the
-corrected mean. Its range is the observable's widened by :data:`WEIGHT_BOUND` (weights may be
-negative); a larger weight is refused rather than clipped.
+corrected mean. With readout mitigation the schedulers get instead each shot's influence value
+(``Linearisation.influence``: the corrected mean plus the shot's term of the delta method), whose
+mean is the same and whose spread is the estimate's spread over the shots; the calibration's
+share of the error, common to every sub-unitary, is added to the scheduler's standard error at
+the end. Per-shot values range over the observable's range widened by :data:`WEIGHT_BOUND`;
+a larger one is refused rather than clipped.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
@@ -29,8 +35,9 @@ def corrected_range(lo: float, hi: float) -> tuple[float, float]:
 
 
 def shot_values(result, values: np.ndarray, shots: int, k: int) -> np.ndarray:
-    """Per-shot values ``h(b_s)`` (times the shot weights of a corrected run) of one job's
-    first row; exact probabilities are turned into ``shots`` values by rounding counts."""
+    """Per-shot values ``h(b_s)`` (times the shot weights of a corrected run, or a mitigated
+    run's influence values) of one job's first row; exact probabilities are turned into
+    ``shots`` values by rounding counts."""
     if result.bits is None:
         counts = np.rint(result.probabilities[0] * shots).astype(int)
         return values[np.repeat(np.arange(counts.size), counts)]
@@ -38,6 +45,15 @@ def shot_values(result, values: np.ndarray, shots: int, k: int) -> np.ndarray:
     if result.weights is None:
         return out
     w = result.weights[0]
+    lin = None if result.readout is None else result.readout[0]
+    if lin is not None:
+        psi = lin.influence(out, float(np.mean(out * w)))
+        bound = WEIGHT_BOUND * float(np.abs(values).max())
+        if np.abs(psi).max() > bound:
+            raise ValueError(f"a mitigated shot of sub-unitary {k} has influence "
+                             f"{np.abs(psi).max():.3g} beyond {bound:.3g} ({WEIGHT_BOUND} x the "
+                             f"observable's largest value); spend more shots")
+        return psi
     if np.abs(w).max() > WEIGHT_BOUND:
         raise ValueError(f"a corrected shot of sub-unitary {k} has weight "
                          f"{np.abs(w).max():.3g} > {WEIGHT_BOUND} (a kept fraction or a "
@@ -45,10 +61,22 @@ def shot_values(result, values: np.ndarray, shots: int, k: int) -> np.ndarray:
     return out * w
 
 
+def _calibration_variance(parts: dict, alpha: np.ndarray) -> float:
+    """Variance of ``sum_k alpha_k V_k`` from the calibration every sub-unitary shares:
+    ``parts[k] = (linearisation, per-shot h, corrected mean)`` of its last job."""
+    total: dict = {}
+    for k, (lin, f, mean) in parts.items():
+        for key, (dv, e, n) in lin.calibration_gradient(f, mean).items():
+            acc = total.setdefault(key, [0.0, e, n])
+            acc[0] += alpha[k] * float(dv)
+    return float(sum(d**2 * e * (1 - e) / n for d, e, n in total.values()))
+
+
 def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
-           seed=None, mitigation: str | None = None, postselect: str | None = None):
+           seed=None, mitigation: str | None = None, postselect: str | None = None,
+           ledger=None):
     """Estimate ``f(x)`` from shots; see :meth:`DensityQNN.sample` (parameters and returns)."""
-    from qdensity.execution.engines import SamplerEngine
+    from qdensity.execution.engines import SamplerEngine, ShotLedger
     from qdensity.execution.intervals import wilson_standard_error
     from qdensity.execution.plans import CircuitJob, diagonal_values, measured
     from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
@@ -57,6 +85,10 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     budget = check_positive_int(budget, "budget", maximum=MAX_DENSE_ENTRIES,
                                 why="every shot's measured bits are held in memory")
     check_type(engine, "engine", SamplerEngine, "a SamplerEngine", allow_none=True)
+    check_type(ledger, "ledger", ShotLedger, "a ShotLedger", allow_none=True)
+    if engine is not None and ledger is not None:
+        raise ValueError("ledger is for the fresh engines sample() makes; with engine=..., "
+                         "read engine.ledger")
     check_target(target)
     if target is not None:  # one device for the whole call: every fresh engine samples it
         from qdensity.hardware.targets import as_target
@@ -78,15 +110,25 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     n = model.num_qubits
     values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
     lo, hi = float(values.min()), float(values.max())
-    ledger = engine.ledger if engine is not None else None
+    if engine is not None:
+        ledger = engine.ledger
+    elif ledger is None:
+        ledger = ShotLedger()
+    correction = None
 
     def engine_for_call():
-        nonlocal ledger
+        # a fresh sampler per phase (independent shots), one readout calibration per call:
+        # every fresh engine shares the first one's correction, so the qubits it calibrated
+        # (its calibration shots on the shared ledger) are not calibrated again
+        nonlocal correction
         if engine is not None:
             return engine
         fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
                               postselect=postselect)
-        ledger = fresh.ledger
+        if correction is None:
+            correction = fresh._correction
+        else:
+            fresh._correction = correction
         return fresh
 
     if not model.training:
@@ -122,7 +164,12 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
             if s == 0:
                 out.append(np.zeros(0))
                 continue
-            out.append(shot_values(next(results), values, s, len(out)))
+            res = next(results)
+            out.append(shot_values(res, values, s, len(out)))
+            lin = None if res.readout is None else res.readout[0]
+            if lin is not None:
+                f = values[res.bits[0] @ (1 << np.arange(res.bits.shape[-1]))]
+                calibration[len(out) - 1] = (lin, f, float(np.mean(f * res.weights[0])))
         return out
 
     if (mitigation is not None or postselect is not None
@@ -130,4 +177,9 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         lo, hi = corrected_range(lo, hi)
     runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
     alpha = model.alpha(x)[0]
-    return runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
+    calibration: dict = {}
+    res = runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
+    if calibration:
+        se = float(np.sqrt(res.standard_error**2 + _calibration_variance(calibration, alpha)))
+        res = dataclasses.replace(res, standard_error=se)
+    return res

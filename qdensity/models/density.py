@@ -374,7 +374,8 @@ class DensityQNN:
 
     # ------------------------------------------------------------------ sampling (Fig. 1, Supp. I)
     def sample(self, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
-               seed=None, mitigation: str | None = None, postselect: str | None = None):
+               seed=None, mitigation: str | None = None, postselect: str | None = None,
+               ledger=None):
         """Estimate ``f(x)`` from shots, as the current mode prescribes (Supp. I).
 
         ``train()`` mode: the randomised density QNN (Fig. 1c): the shot budget is split over the
@@ -401,8 +402,14 @@ class DensityQNN:
         seed : int or Generator, optional
         mitigation, postselect : str or None, optional
             Without ``engine``: the fresh engines' readout corrections
-            (:class:`~qdensity.execution.engines.SamplerEngine`; each fresh engine calibrates
-            on the shared ledger). With ``engine``, set them on the engine.
+            (:class:`~qdensity.execution.engines.SamplerEngine`). One call calibrates once:
+            the fresh engines of its phases share one calibration. With ``engine``, set them
+            on the engine. With mitigation the standard error is the delta method's: the
+            shots' share through the scheduler, plus the calibration's.
+        ledger : ShotLedger, optional
+            Without ``engine``: every fresh engine of the call records its shots (readout
+            calibration included) here; a new one if None. With ``engine``: must be None
+            (read ``engine.ledger``).
 
         Returns
         -------
@@ -420,7 +427,7 @@ class DensityQNN:
         from qdensity.models._sampling import sample
 
         return sample(self, x, budget, scheduler=scheduler, engine=engine, target=target,
-                      seed=seed, mitigation=mitigation, postselect=postselect)
+                      seed=seed, mitigation=mitigation, postselect=postselect, ledger=ledger)
 
     # ------------------------------------------------------------------ parameters I/O
     def get_params(self) -> dict[str, np.ndarray]:
