@@ -96,9 +96,9 @@ def _dest(old, new) -> np.ndarray:
 
 def tile(dest: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
     """A bit permutation as tiles: ``(free, offs, src, back)``. A tile holds the amplitudes that
-    differ only on bits 0-2 and on the moved bits above them (ascending), entry ``e`` at offset
-    ``offs[e]`` (so entries ``8 v .. 8 v + 7`` are contiguous); ``free`` is the mask of the
-    other bits. The permutation sets entry ``e`` to the old entry ``src[e]``; its inverse
+    differ only on bits 0-2 and on the moved bits (ascending), entry ``e`` at offset
+    ``offs[e]`` (so runs of 8 entries are contiguous); ``free`` is the mask of the other
+    bits. The permutation sets entry ``e`` to the old entry ``src[e]``; its inverse
     to ``back[e]``."""
     n = dest.size
     bits = sorted(set(range(min(3, n))) | {b for b in range(n) if dest[b] != b})
