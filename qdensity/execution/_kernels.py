@@ -17,7 +17,7 @@ separate real and imaginary parts so that the loops vectorise:
   ``2 c Im <lam_m| Pi P |phi>`` of every observable and the undoing of the gate on ``phi`` and
   every ``lam_m`` happen in the same loop over amplitude pairs;
 * a permutation of the amplitudes that moves qubits between bits (one pass through a buffer):
-  from 10 qubits on, the circuit runs in a moving layout that keeps every gate off the three
+  from 10 qubits on, the circuit runs in a moving layout that keeps every gate off the four
   lowest bits, where blocks are too short to vectorise (:mod:`qdensity.execution._layout`).
 
 The pure-numpy path of :mod:`qdensity.execution._statevector` computes the same numbers; it is

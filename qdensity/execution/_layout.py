@@ -13,7 +13,9 @@ parks on the low bits the qubits whose next gate is furthest away (Belady's rule
 the needed ones up. The gate tables are written in the layout current at each gate, and a
 last permutation restores ``phys[q] = q``, so states, observables and gradients are unchanged.
 At n = 16 this is one permutation for every 3-7 gates that would have run on short blocks
-(non-commuting: 50 permutations for 472 gates).
+(non-commuting: 50 permutations for 472 gates); a whole value-and-gradient call took 0.5-0.9
+times as long at n = 14-18 (interleaved, batch 1), and 0.85-1.05 times at n = 20, where
+every pass streams the state from memory.
 """
 
 from __future__ import annotations
