@@ -27,6 +27,7 @@ Run::
 
     python benchmarks/bench_engines.py [--section adjoint,unary] [--widths 4,8,12,16,20]
         [--batches 1,16,64] [--families hea,reup,xx,noncomm,qcnn] [--calls 50]
+        [--budget 20] [--min-calls 5]
 """
 
 from __future__ import annotations
@@ -156,9 +157,9 @@ def lightning_peer(circuit, n: int):
 
 
 # ---------------------------------------------------------------------- timing
-def interleaved(fns: dict, calls: int, budget: float) -> dict:
+def interleaved(fns: dict, calls: int, budget: float, min_calls: int = 5) -> dict:
     """Wall times of each callable, taking turns call by call (one warm-up call each); stops
-    early after ``budget`` seconds (at least 5 calls each). Returns per callable the median
+    early after ``budget`` seconds (at least ``min_calls`` each). Returns per callable the median
     and p95 wall time, the number of calls and the median process CPU time (all threads)."""
     for fn in fns.values():
         fn()
@@ -171,7 +172,7 @@ def interleaved(fns: dict, calls: int, budget: float) -> dict:
             fn()
             times[k].append(time.perf_counter() - t)
             cpu[k].append(time.process_time() - c)
-        if i >= 4 and time.perf_counter() - start > budget:
+        if i >= min_calls - 1 and time.perf_counter() - start > budget:
             break
     return {k: (float(np.median(v)), float(np.percentile(v, 95)), len(v),
                 float(np.median(cpu[k]))) for k, v in times.items()}
@@ -181,7 +182,7 @@ def _ms(t: float) -> str:
     return f"{1e3 * t:9.3f}"
 
 
-def adjoint_section(families, widths, batches, calls, budget) -> None:
+def adjoint_section(families, widths, batches, calls, budget, min_calls=5) -> None:
     print("\n## adjoint: values and gradients of <Z_0> w.r.t. every parameter (ms per call)")
     print(f"kernels: {'numba' if _kernels.available() else 'numpy'}")
     print(f"{'family':8} {'n':>3} {'B':>3} {'P':>4} | {'qd med':>9} {'qd p95':>9} "
@@ -202,7 +203,8 @@ def adjoint_section(families, widths, batches, calls, budget) -> None:
                 diff = max(np.abs(v1[:, 0] - v2).max(), np.abs(j1[:, 0] - j2).max())
                 res = interleaved({"qd": lambda e=engine, c=qc, o=obs, v=vals:
                                    e.value_and_gradient(c, o, v),
-                                   "pl": lambda p=peer, v=vals: p(v)}, calls, budget)
+                                   "pl": lambda p=peer, v=vals: p(v)}, calls, budget,
+                                  min_calls)
                 (qm, q95, cnt, qc_cpu), (pm, p95, _, pc_cpu) = res["qd"], res["pl"]
                 print(f"{fam:8} {n:3d} {B:3d} {qc.num_parameters:4d} | {_ms(qm)} {_ms(q95)} "
                       f"{q95 / qm:7.2f} | {_ms(pm)} {_ms(p95)} | {pm / qm:8.2f} "
@@ -245,13 +247,15 @@ def main(argv=None) -> None:
     ap.add_argument("--calls", type=int, default=50)
     ap.add_argument("--budget", type=float, default=20.0,
                     help="seconds per table row before fewer calls are taken")
+    ap.add_argument("--min-calls", type=int, default=5,
+                    help="calls per engine even past the budget (wide, large batches: fewer)")
     args = ap.parse_args(argv)
     ints = lambda s: [int(v) for v in s.split(",") if v]  # noqa: E731
     print(f"load average at start: {os.getloadavg()}")
     sections = args.section.split(",")
     if "adjoint" in sections:
         adjoint_section(args.families.split(","), ints(args.widths), ints(args.batches),
-                        args.calls, args.budget)
+                        args.calls, args.budget, args.min_calls)
     if "unary" in sections:
         unary_section(ints(args.unary_widths), 64, args.calls, args.budget)
     print(f"\nload average at end: {os.getloadavg()}")

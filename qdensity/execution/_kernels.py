@@ -15,7 +15,10 @@ separate real and imaginary parts so that the loops vectorise:
   compile time (a fused run);
 * the backward sweep of adjoint differentiation visits a rotation once: the derivative
   ``2 c Im <lam_m| Pi P |phi>`` of every observable and the undoing of the gate on ``phi`` and
-  every ``lam_m`` happen in the same loop over amplitude pairs.
+  every ``lam_m`` happen in the same loop over amplitude pairs;
+* a permutation of the amplitudes that moves qubits between bits (one pass through a buffer):
+  from 10 qubits on, the circuit runs in a moving layout that keeps every gate off the four
+  lowest bits, where blocks are too short to vectorise (:mod:`qdensity.execution._layout`).
 
 The pure-numpy path of :mod:`qdensity.execution._statevector` computes the same numbers; it is
 used when numba is missing or ``QDENSITY_NUMBA=0`` is set (tests run both).
@@ -51,27 +54,38 @@ class Tables:
     Attributes
     ----------
     kind : int64 (O,)
-        0 rotation, 1 fixed Pauli string, 2 fixed dense gate.
+        0 rotation, 1 fixed Pauli string, 2 fixed dense gate, 3 a permutation of the bits (the
+        moving layout of :mod:`qdensity.execution._layout`; masks and positions of every
+        operation are in the layout current at it).
     xmask, zmask, cmask : int64 (O,)
     phase : complex128 (O,)
         The string's scalar ``(-i)^{#Y}``.
     scale : float64 (O,)
         Generator coefficient ``c`` of a rotation.
     rot : int64 (O,)
-        Rotation index ``g`` (-1 for fixed gates).
+        Rotation index ``g`` (-1 for fixed gates; for a permutation, its table in ``ptab``,
+        the inverse's at ``rot + 1``).
     pos, npos : int64 (O, W), (O,)
         Sorted bit positions skipped by the pair loop (controls and the lowest X, else Z, bit;
         a dense gate's qubits).
     offs : int64 (O, 2**MAX_DENSE)
         A dense gate's amplitude offsets; ``mat`` / ``inv`` complex128 (O, D, D) its matrix
         and inverse.
+    ptab : int64 (2 x permutations, 2 + 2 D)
+        A permutation as tiles (:func:`qdensity.execution._layout.tile`): the mask of the bits
+        that stay, the tile size ``D``, the entries' offsets and their sources.
     """
 
     def __init__(self, prog):
+        from qdensity.execution import _layout
         from qdensity.execution._statevector import Fixed, Rotation
 
         ops = _fuse(prog.ops)
-        O = len(ops)
+        n = prog.num_qubits
+        masks = [_touched(op) for op in ops]
+        steps = (_layout.plan(masks, n) if n >= _layout.MIN_QUBITS
+                 else [("op", i, tuple(range(n))) for i in range(len(ops))])
+        O = len(steps)
         D = 2**MAX_DENSE
         self.kind = np.zeros(O, dtype=np.int64)
         self.xmask = np.zeros(O, dtype=np.int64)
@@ -80,21 +94,38 @@ class Tables:
         self.phase = np.ones(O, dtype=np.complex128)
         self.scale = np.zeros(O, dtype=np.float64)
         self.rot = np.full(O, -1, dtype=np.int64)
-        self.pos = np.zeros((O, max(MAX_DENSE, prog.num_qubits)), dtype=np.int64)
+        self.pos = np.zeros((O, max(MAX_DENSE, n)), dtype=np.int64)
         self.npos = np.zeros(O, dtype=np.int64)
         self.offs = np.zeros((O, D), dtype=np.int64)
         self.mat = np.zeros((O, D, D), dtype=np.complex128)
         self.inv = np.zeros((O, D, D), dtype=np.complex128)
+        perms = [_layout.tile(s[1]) for s in steps if s[0] == "perm"]
+        width = max((p[1].size for p in perms), default=0)
+        #: a permutation's row: free bits, tile size D, offsets (D), sources (D)
+        self.ptab = np.zeros((2 * len(perms), 2 + 2 * width), dtype=np.int64)
         self.ok = True
         g = 0
-        for i, op in enumerate(ops):
+        npm = 0
+        for i, step in enumerate(steps):
+            if step[0] == "perm":  # kind 3: its row at rot[i], its inverse's at rot[i] + 1
+                self.kind[i], self.rot[i] = 3, 2 * npm
+                free, offs, src, back = perms[npm]
+                D = offs.size
+                for r, to in ((2 * npm, src), (2 * npm + 1, back)):
+                    self.ptab[r, :2] = free, D
+                    self.ptab[r, 2:2 + D] = offs
+                    self.ptab[r, 2 + D:2 + 2 * D] = to
+                npm += 1
+                continue
+            op, phys = ops[step[1]], step[2]
             gather = op.gather if isinstance(op, Rotation) else getattr(op, "gather", None)
             if gather is not None:
                 self.kind[i] = 0 if isinstance(op, Rotation) else 1
-                self.xmask[i], self.zmask[i] = gather.xmask, gather.zmask
-                self.cmask[i], self.phase[i] = gather.cmask, gather.scalar
-                skip = [q for q in range(prog.num_qubits) if gather.cmask >> q & 1]
-                mask = int(gather.xmask or gather.zmask)
+                x, z, c = (_moved(m, phys) for m in (gather.xmask, gather.zmask, gather.cmask))
+                self.xmask[i], self.zmask[i], self.cmask[i] = x, z, c
+                self.phase[i] = gather.scalar
+                skip = [q for q in range(n) if c >> q & 1]
+                mask = int(x or z)
                 if mask:  # the pair partner: the lowest X (else Z) bit, so no X or Z bit
                     skip.append((mask & -mask).bit_length() - 1)  # lies below a block
                 skip.sort()
@@ -109,11 +140,12 @@ class Tables:
             if k > MAX_DENSE:
                 self.ok = False
                 continue
+            qubits = [phys[q] for q in op.qubits]
             self.kind[i] = 2
-            self.pos[i, :k] = sorted(op.qubits)
+            self.pos[i, :k] = sorted(qubits)
             self.npos[i] = k
             for a in range(2**k):
-                self.offs[i, a] = sum(((a >> b) & 1) << q for b, q in enumerate(op.qubits))
+                self.offs[i, a] = sum(((a >> b) & 1) << q for b, q in enumerate(qubits))
             self.mat[i, :2**k, :2**k] = op.matrix
             self.inv[i, :2**k, :2**k] = op.matrix.conj().T
         self.num_rotations = g
@@ -125,7 +157,27 @@ class Tables:
 
     def args(self):
         return (self.kind, self.xmask, self.zmask, self.cmask, self.phase, self.scale, self.rot,
-                self.pos, self.npos, self.offs, self.mat, self.inv)
+                self.pos, self.npos, self.offs, self.mat, self.inv, self.ptab)
+
+
+def _touched(op) -> int:
+    """The logical qubits an operation touches, as a bit mask."""
+    gather = getattr(op, "gather", None)
+    if gather is not None:
+        return int(gather.xmask | gather.zmask | gather.cmask)
+    return sum(1 << q for q in op.qubits)
+
+
+def _moved(mask: int, phys: tuple) -> int:
+    """A logical qubit mask in the layout ``phys`` (qubit q at bit phys[q])."""
+    out = 0
+    q = 0
+    while mask:
+        if mask & 1:
+            out |= 1 << phys[q]
+        mask >>= 1
+        q += 1
+    return out
 
 
 def _fuse(ops: list) -> list:

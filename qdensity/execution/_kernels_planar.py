@@ -156,6 +156,30 @@ def dense(re, im, n, pos, npos, offs, mat, buf):
             im[base + offs[a]] = s.imag
 
 
+@njit(cache=True, fastmath=True)
+def permute(re, im, n, row, br, bi):
+    """A permutation of the bits (:func:`qdensity.execution._layout.tile`) in place, one tile at
+    a time through the small buffers ``br``, ``bi``: ``row`` holds the mask of the bits that
+    stay, the tile size ``D``, the entries' offsets and the entries they take their values
+    from. (About one short-block gate's time: 1.2-1.5 ns per amplitude at n = 16.)"""
+    free = row[0]
+    D = row[1]
+    offs = row[2:2 + D]
+    src = row[2 + D:2 + 2 * D]
+    k = 0
+    for _ in range((1 << n) // D):
+        for e in range(D):
+            a = k + offs[e]
+            br[e] = re[a]
+            bi[e] = im[a]
+        for e in range(D):
+            a = k + offs[e]
+            s = src[e]
+            re[a] = br[s]
+            im[a] = bi[s]
+        k = (k - free) & free
+
+
 @njit(cache=True, fastmath=True, inline="always")
 def _back_v(Ur, Ui, Vr, Vi, Ar, Ai, Br, Bi, c, mr, mi, s, sj, phi_too):
     """One block pair of the backward sweep in one loop: returns
@@ -352,12 +376,16 @@ def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acc
 
 @njit(cache=True, fastmath=True)
 def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
-                 offs, mat, inv, buf):
+                 offs, mat, inv, ptab, buf):
     re[:] = 0.0
     im[:] = 0.0
     re[0] = 1.0
+    br = np.empty(ptab.shape[1])
+    bi = np.empty(ptab.shape[1])
     for i in range(kind.shape[0]):
-        if kind[i] == 2:
+        if kind[i] == 3:
+            permute(re, im, n, ptab[rot[i]], br, bi)
+        elif kind[i] == 2:
             dense(re, im, n, pos[i], npos[i], offs[i], mat[i], buf)
         elif kind[i] == 1:
             apply(re, im, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], 0.0,
@@ -371,28 +399,34 @@ def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, r
 
 @njit(cache=True, parallel=True, fastmath=True)
 def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
-                 offs, mat, inv):
+                 offs, mat, inv, ptab):
     for r in prange(re.shape[0]):
         buf = np.empty(offs.shape[1], dtype=np.complex128)
         _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
-                     rot, pos, npos, offs, mat, inv, buf)
+                     rot, pos, npos, offs, mat, inv, ptab, buf)
 
 
 @njit(cache=True, fastmath=True)
 def forward_serial(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
-                   npos, offs, mat, inv):
+                   npos, offs, mat, inv, ptab):
     buf = np.empty(offs.shape[1], dtype=np.complex128)
     for r in range(re.shape[0]):
         _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
-                     rot, pos, npos, offs, mat, inv, buf)
+                     rot, pos, npos, offs, mat, inv, ptab, buf)
 
 
 @njit(cache=True, fastmath=True)
 def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmask, zmask,
-                  cmask, phase, scale, rot, pos, npos, offs, mat, inv, buf, accr, acci):
+                  cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab, buf, accr, acci):
     M = lr.shape[0]
+    br = np.empty(ptab.shape[1])
+    bi = np.empty(ptab.shape[1])
     for i in range(kind.shape[0] - 1, stop - 1, -1):
-        if kind[i] == 2:
+        if kind[i] == 3:  # undo a permutation (its inverse's row follows it)
+            permute(pr, pi, n, ptab[rot[i] + 1], br, bi)
+            for mm in range(M):
+                permute(lr[mm], li[mm], n, ptab[rot[i] + 1], br, bi)
+        elif kind[i] == 2:
             dense(pr, pi, n, pos[i], npos[i], offs[i], inv[i], buf)
             for mm in range(M):
                 dense(lr[mm], li[mm], n, pos[i], npos[i], offs[i], inv[i], buf)
@@ -414,23 +448,23 @@ def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmas
 
 @njit(cache=True, parallel=True, fastmath=True)
 def backward_rows(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
-                  phase, scale, rot, pos, npos, offs, mat, inv):
+                  phase, scale, rot, pos, npos, offs, mat, inv, ptab):
     for r in prange(pr.shape[0]):
         buf = np.empty(offs.shape[1], dtype=np.complex128)
         accr = np.zeros(lr.shape[1])
         acci = np.zeros(lr.shape[1])
         _row_backward(pr[r], pi[r], lr[r], li[r], r, n, cos, sin, need, stop, dtheta, kind,
-                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, buf,
-                      accr, acci)
+                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab,
+                      buf, accr, acci)
 
 
 @njit(cache=True, fastmath=True)
 def backward_serial(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
-                    phase, scale, rot, pos, npos, offs, mat, inv):
+                    phase, scale, rot, pos, npos, offs, mat, inv, ptab):
     buf = np.empty(offs.shape[1], dtype=np.complex128)
     accr = np.zeros(lr.shape[1])
     acci = np.zeros(lr.shape[1])
     for r in range(pr.shape[0]):
         _row_backward(pr[r], pi[r], lr[r], li[r], r, n, cos, sin, need, stop, dtheta, kind,
-                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, buf,
-                      accr, acci)
+                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab,
+                      buf, accr, acci)

@@ -33,7 +33,7 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution import _kernels
-from qdensity.execution._statevector import Program, compile_program
+from qdensity.execution._statevector import Program, compile_program, real_dot
 from qdensity.execution.engines import _measurement_map, circuit_fingerprint
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
 from qdensity.validation import (
@@ -305,7 +305,7 @@ class AdjointEngine:
         for sl in self._chunks(vals.shape[0], n, 2):
             psi = self._forward(prog, vals[sl])
             for m, o in enumerate(obs):
-                out[sl, m] = np.vecdot(psi, o.apply(psi)).real
+                out[sl, m] = real_dot(psi, o.apply(psi))
         return out
 
     def value_and_gradient(self, circuit: QuantumCircuit, observables, values,
@@ -358,7 +358,7 @@ class AdjointEngine:
             both[0] = phi
             for m, o in enumerate(obs):
                 both[m + 1] = o.apply(phi)
-            values_out[sl] = np.vecdot(both[0], both[1:]).real.T
+            values_out[sl] = real_dot(both[0], both[1:]).T
             if not used.size:
                 continue
             cos, sin = self._trig(prog, vals[sl])
@@ -387,7 +387,7 @@ class AdjointEngine:
         lam = np.empty((R, M, 2**n), dtype=complex)
         for m, o in enumerate(obs):
             lam[:, m] = o.apply(phi)
-        values = np.vecdot(phi[:, None, :], lam).real
+        values = real_dot(phi[:, None, :], lam)
         if not chain.sources.size:
             return values, np.zeros((R, M, chain.num_targets))
         dtheta = np.zeros((R, M, len(prog.rotations)))

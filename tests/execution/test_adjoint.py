@@ -375,3 +375,67 @@ def test_wide_circuits_match_statevectors_and_parameter_shift(n):
             shift = (_sv_expectations(qc, obs, vals + step)
                      - _sv_expectations(qc, obs, vals - step)) / 2
             np.testing.assert_allclose(jac[:, :, p], shift, atol=1e-10)
+
+
+def _moving_layout(monkeypatch, low: int) -> None:
+    """Run the kernels in the moving layout of qdensity.execution._layout at test widths, on
+    parallel rows (both are off below 10 qubits and under the work threshold)."""
+    from qdensity.execution import _layout
+
+    monkeypatch.setattr(_layout, "MIN_QUBITS", 0)
+    monkeypatch.setattr(_layout, "LOW_BITS", low)
+    monkeypatch.setattr(_kernels, "PARALLEL_WORK", 0)
+    monkeypatch.setattr(_kernels, "LOAD_AWARE", False)
+
+
+@pytest.mark.parametrize("n, low", [(8, 2), (9, 3)])
+def test_moving_layout_matches_statevectors_and_parameter_shift(backend, monkeypatch, n, low):
+    """Gates on the low qubits run after a permutation parks other qubits there (numba path;
+    the numpy path runs the same circuit in the identity layout): values against Qiskit
+    statevectors, gradients against the exact shift rule, statevectors in qubit order."""
+    _moving_layout(monkeypatch, low)
+    qc = _wide_circuit(n)
+    eng = AdjointEngine()
+    if backend == "numba":
+        tab = _kernels.tables(eng.compile(qc))
+        assert np.count_nonzero(tab.kind == 3) >= 4  # the layout really moves
+    vals = RNG.uniform(-np.pi, np.pi, (3, qc.num_parameters))
+    obs = [SparsePauliOp("X" + "I" * (n - 2) + "Y"),
+           SparsePauliOp(["I" * (n - 3) + "ZZI", "Z" + "I" * (n - 1)], [0.4, 0.9])]
+    values, jac = eng.value_and_gradient(qc, obs, vals)
+    np.testing.assert_allclose(values, _sv_expectations(qc, obs, vals), atol=1e-12)
+    for p in range(0, qc.num_parameters, 4):
+        step = np.zeros(qc.num_parameters)
+        step[p] = np.pi / 2
+        shift = (_sv_expectations(qc, obs, vals + step)
+                 - _sv_expectations(qc, obs, vals - step)) / 2
+        np.testing.assert_allclose(jac[:, :, p], shift, atol=1e-10)
+    ref = Statevector(qc.assign_parameters(vals[0])).data
+    np.testing.assert_allclose(eng.statevector(qc, vals[:1])[0], ref, atol=1e-12)
+
+
+def test_moving_layout_runs_every_gate_kind(backend, monkeypatch):
+    """Every gate of the every-gate circuit (dense fixed gates, controls, phases, FBS parity
+    strings) on low qubits of a wider register, in a moving layout: values and central
+    finite-difference gradients of Qiskit statevectors."""
+    _moving_layout(monkeypatch, 2)
+    sub = _every_gate_circuit()
+    qc = QuantumCircuit(9)
+    qc.h(range(9))
+    qc.cx(8, 0)
+    qc.compose(sub, qubits=[0, 1, 2, 3], inplace=True)
+    qc.cz(1, 7)
+    qc.compose(sub, qubits=[6, 0, 8, 2], inplace=True)  # the same parameters again
+    if backend == "numba":
+        assert np.count_nonzero(_kernels.tables(AdjointEngine().compile(qc)).kind == 3) >= 2
+    obs = [SparsePauliOp("ZIIIIIXIY"), SparsePauliOp("IIIIIIIZZ")]
+    vals = RNG.uniform(-np.pi, np.pi, (2, qc.num_parameters))
+    values, jac = AdjointEngine().value_and_gradient(qc, obs, vals)
+    np.testing.assert_allclose(values, _sv_expectations(qc, obs, vals), atol=1e-12)
+    eps = 1e-6
+    for p in range(qc.num_parameters):
+        step = np.zeros(qc.num_parameters)
+        step[p] = eps
+        fd = (_sv_expectations(qc, obs, vals + step)
+              - _sv_expectations(qc, obs, vals - step)) / (2 * eps)
+        np.testing.assert_allclose(jac[:, :, p], fd, atol=1e-7)
