@@ -1,0 +1,84 @@
+"""A target's simulator serves Aer only the noise of the active qubits: the same channel as the
+whole model (exact density-matrix probabilities, and identical counts for a seed)."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import qiskit_aer  # noqa: F401  (registers save_probabilities)
+from qiskit import QuantumCircuit
+from qiskit_aer import AerSimulator
+
+from qdensity.hardware._served_noise import ServedNoiseSimulator, restricted_errors
+from qdensity.hardware.targets import get_target
+
+
+def _chain(n: int, first: int, width: int) -> QuantumCircuit:
+    """A noisy chain on qubits first .. first + n - 1 of a ``width``-qubit register."""
+    qc = QuantumCircuit(width, n)
+    qs = list(range(first, first + n))
+    qc.sx(qs[0])
+    qc.rz(0.7, qs[0])
+    for a, b in zip(qs, qs[1:], strict=False):
+        qc.cx(a, b)
+        qc.sx(b)
+    qc.measure(qs, range(n))
+    return qc
+
+
+def _probabilities(sim: AerSimulator, circuit: QuantumCircuit) -> np.ndarray:
+    measured = [circuit.find_bit(i.qubits[0]).index for i in circuit.data
+                if i.operation.name == "measure"]
+    qc = circuit.remove_final_measurements(inplace=False)
+    qc.save_probabilities(measured)
+    return np.asarray(sim.run(qc).result().data()["probabilities"])
+
+
+def test_density_matrix_of_active_qubits_equals_the_whole_model():
+    # oracle: Aer's density matrix with the device's whole noise model, on the same circuits;
+    # two qubit sets in turn on one simulator (each served its own errors)
+    tgt = get_target("fake_kolkata", seed=1)
+    assert tgt.num_qubits == 27
+    full = AerSimulator.from_backend(tgt.backend, method="density_matrix",
+                                     noise_model=tgt.noise_model)
+    served = tgt.simulator(method="density_matrix")
+    assert isinstance(served, ServedNoiseSimulator)
+    for circuit in (_chain(3, 0, 27), _chain(4, 12, 27), _chain(3, 0, 27)):
+        p, q = _probabilities(full, circuit), _probabilities(served, circuit)
+        assert q.shape == (2**circuit.num_clbits,)
+        np.testing.assert_allclose(q, p, atol=1e-12)
+        assert 1 - p.max() > 1e-3  # the errors are there
+    assert len(served._served[2]) == 2  # two qubit sets served
+
+
+def test_counts_for_a_seed_equal_the_whole_model_with_readout_errors():
+    tgt = get_target("heavy_hex", 4, seed=3)
+    circuit = _chain(4, 0, tgt.num_qubits)
+    for method in ("statevector", "density_matrix"):
+        full = AerSimulator.from_backend(tgt.backend, method=method, seed_simulator=5,
+                                         noise_model=tgt.noise_model)
+        served = tgt.simulator(method=method, seed=5)
+        a = full.run(circuit, shots=500).result().get_counts()
+        b = served.run(circuit, shots=500).result().get_counts()
+        assert a == b
+    assert sum(v for k, v in b.items() if k not in ("0000", "1111")) > 0  # noisy outcomes
+
+
+def test_restriction_keeps_all_qubit_errors_and_those_inside():
+    serialised = {"errors": [{"id": "all"}, {"id": "a", "gate_qubits": [[0, 1]]},
+                             {"id": "b", "gate_qubits": [[1, 5]]},
+                             {"id": "c", "gate_qubits": [[7], [1]]}]}
+    kept = restricted_errors(serialised, frozenset({0, 1, 2}))["errors"]
+    assert [e["id"] for e in kept] == ["all", "a", "c"]
+
+
+def test_served_simulator_pickles_without_its_cache():
+    tgt = get_target("heavy_hex", 4, seed=3)
+    sim = tgt.simulator(method="statevector", seed=5)
+    circuit = _chain(3, 0, tgt.num_qubits)
+    before = sim.run(circuit, shots=200).result().get_counts()
+    assert "_served" in sim.__dict__
+    copy = pickle.loads(pickle.dumps(sim))
+    assert "_served" not in copy.__dict__
+    assert copy.run(circuit, shots=200).result().get_counts() == before
