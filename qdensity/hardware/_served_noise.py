@@ -7,8 +7,9 @@ depolarising and one thermal-relaxation channel per gate and qubit, so a 27-qubi
 Aer then simulates only the active qubits (its truncation), so the errors of gates on other
 qubits are never applied: :class:`ServedNoiseSimulator` passes Aer the errors whose qubits all
 lie among the job's active qubits (and every error not tied to qubits), from a serialisation
-made once per noise model and kept per set of active qubits. The simulated channel is the same
-and so, for a seed, are the counts.
+made once per noise model (shared by every simulator that holds it, dropped with the model) and
+kept per set of active qubits. The simulated channel is the same and so, for a seed, are the
+counts.
 
 The noise model is read once per set of active qubits: change a simulator's noise with
 ``set_options(noise_model=...)``, not by editing the model it holds in place.
@@ -16,13 +17,17 @@ The noise model is read once per set of active qubits: change a simulator's nois
 
 from __future__ import annotations
 
+import weakref
+
 from qiskit.circuit import QuantumCircuit
 from qiskit_aer import AerSimulator
 
 __all__: list[str] = []
 
 _NOT_QUBIT_WORK = frozenset({"barrier"})
-_MAX_SERVED = 64  # qubit sets kept per simulator
+_MAX_SERVED = 64  # qubit sets kept per noise model
+#: id(noise model) -> (weak reference, its serialisation, {qubits: restricted errors})
+_SERIALISED: dict[int, tuple] = {}
 
 
 def _active(circuits) -> frozenset[int] | None:
@@ -69,6 +74,23 @@ def restricted_errors(serialised: dict, qubits: frozenset[int]) -> dict:
     return {**serialised, "errors": keep}
 
 
+def _served(source, qubits: frozenset[int]) -> _Serialised:
+    """``source``'s errors on ``qubits``; the whole model is serialised once per model object
+    (shared by every simulator holding it) and dropped with it."""
+    key = id(source)
+    entry = _SERIALISED.get(key)
+    if entry is None or entry[0]() is not source:
+        entry = (weakref.ref(source, lambda _, k=key: _SERIALISED.pop(k, None)),
+                 source.to_dict(serializable=True), {})
+        _SERIALISED[key] = entry
+    by_qubits = entry[2]
+    if qubits not in by_qubits:
+        if len(by_qubits) >= _MAX_SERVED:
+            by_qubits.clear()
+        by_qubits[qubits] = _Serialised(restricted_errors(entry[1], qubits))
+    return by_qubits[qubits]
+
+
 class ServedNoiseSimulator(AerSimulator):
     """``AerSimulator`` serving Aer the noise of each job's active qubits (see module)."""
 
@@ -81,18 +103,4 @@ class ServedNoiseSimulator(AerSimulator):
         qubits = _active(compiled if isinstance(compiled, list) else [compiled])
         if qubits is None:
             return out
-        cache = self.__dict__.get("_served")
-        if cache is None or cache[0] is not source:
-            cache = (source, source.to_dict(serializable=True), {})
-            self.__dict__["_served"] = cache
-        by_qubits = cache[2]
-        if qubits not in by_qubits:
-            if len(by_qubits) >= _MAX_SERVED:
-                by_qubits.clear()
-            by_qubits[qubits] = _Serialised(restricted_errors(cache[1], qubits))
-        return compiled, by_qubits[qubits]
-
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state.pop("_served", None)
-        return state
+        return compiled, _served(source, qubits)

@@ -10,7 +10,7 @@ import qiskit_aer  # noqa: F401  (registers save_probabilities)
 from qiskit import QuantumCircuit
 from qiskit_aer import AerSimulator
 
-from qdensity.hardware._served_noise import ServedNoiseSimulator, restricted_errors
+from qdensity.hardware._served_noise import _SERIALISED, ServedNoiseSimulator, restricted_errors
 from qdensity.hardware.targets import get_target
 
 
@@ -49,7 +49,8 @@ def test_density_matrix_of_active_qubits_equals_the_whole_model():
         assert q.shape == (2**circuit.num_clbits,)
         np.testing.assert_allclose(q, p, atol=1e-12)
         assert 1 - p.max() > 1e-3  # the errors are there
-    assert len(served._served[2]) == 2  # two qubit sets served
+    served_sets = _SERIALISED[id(tgt.noise_model)][2]
+    assert {len(q) for q in served_sets} == {3, 4}  # two qubit sets served, each its own errors
 
 
 def test_counts_for_a_seed_equal_the_whole_model_with_readout_errors():
@@ -73,12 +74,14 @@ def test_restriction_keeps_all_qubit_errors_and_those_inside():
     assert [e["id"] for e in kept] == ["all", "a", "c"]
 
 
-def test_served_simulator_pickles_without_its_cache():
+def test_one_serialisation_per_model_shared_by_simulators_and_pickles():
     tgt = get_target("heavy_hex", 4, seed=3)
-    sim = tgt.simulator(method="statevector", seed=5)
     circuit = _chain(3, 0, tgt.num_qubits)
-    before = sim.run(circuit, shots=200).result().get_counts()
-    assert "_served" in sim.__dict__
-    copy = pickle.loads(pickle.dumps(sim))
-    assert "_served" not in copy.__dict__
+    a, b = tgt.simulator(method="statevector", seed=5), tgt.simulator(method="density_matrix")
+    before = a.run(circuit, shots=200).result().get_counts()
+    whole = _SERIALISED[id(tgt.noise_model)][1]
+    b.run(circuit, shots=10).result()
+    assert _SERIALISED[id(tgt.noise_model)][1] is whole
+    copy = pickle.loads(pickle.dumps(a))  # a fresh noise model object: serialised anew
+    assert copy.options.noise_model is not tgt.noise_model
     assert copy.run(circuit, shots=200).result().get_counts() == before
