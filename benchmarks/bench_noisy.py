@@ -82,7 +82,9 @@ def _show(cell, key) -> str:
     if key not in cell:
         return f"{'-':>8}"
     t, pred, _ = cell[key]
-    return f"{t:>8.2f}" if t is not None else f"{'>' + format(pred, '.0f'):>8}"
+    if t is None:
+        return f"{'>' + format(pred, '.0f'):>8}"
+    return f"{t:>8.3f}" if t < 10 else f"{t:>8.1f}"
 
 
 def _cells(a) -> list[tuple[str, int, int, int]]:
