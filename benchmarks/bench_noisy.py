@@ -29,7 +29,7 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
 from qdensity.ansatze import round_robin
-from qdensity.hardware.aer_sampling import DENSITY_MATRIX_MAX_QUBITS
+from qdensity.hardware.aer_sampling import DENSITY_MATRIX_MAX_QUBITS, active_qubits
 from qdensity.hardware.targets import get_target
 from qdensity.loaders import unary_loader_template
 from qdensity.plans import measured
@@ -53,6 +53,8 @@ def _time(make, compiled, values, shots, method, repeat, max_seconds):
     sampler.run(pilot).result()
     first = time.process_time() - t0  # construction and first pilot
     second = _cpu(lambda: sampler.run(pilot).result())
+    if method == "plain":  # Aer's automatic rule: the density matrix above 2 ** a shots
+        method = "density_matrix" if shots > 2 ** active_qubits(compiled) else "statevector"
     scale = len(values) * (1 if method == "density_matrix" else shots / pilot_shots)
     predicted = second * scale
     if predicted * repeat > max_seconds:
