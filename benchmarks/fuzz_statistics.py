@@ -75,6 +75,8 @@ STATISTICAL_TESTS: dict[str, float] = {
     "test_estimates_agree_with_the_other_method_within_standard_errors": 4e-5,  # 2 methods
     "tests/hardware/test_aer_sampling.py::"
     "test_trajectories_at_few_shots_match_the_exact_noisy_distribution": 1e-4,
+    "tests/hardware/test_aer_sampling.py::"
+    "test_noisy_mps_on_its_relabelled_line_matches_the_exact_distribution": 1e-4,
     "tests/gradients/test_inputs.py::test_input_gradient_plan_exact_and_sampled": 8e-4,
     "tests/execution/test_engine_mitigation.py::"
     "test_m3_removes_a_pure_readout_bias_within_its_standard_error": 2.5e-4,

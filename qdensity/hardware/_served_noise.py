@@ -22,6 +22,8 @@ import weakref
 from qiskit.circuit import QuantumCircuit
 from qiskit_aer import AerSimulator
 
+from qdensity.hardware._mps_line import line_order, relabelled, renumbered
+
 __all__: list[str] = []
 
 _NOT_QUBIT_WORK = frozenset({"barrier"})
@@ -74,25 +76,31 @@ def restricted_errors(serialised: dict, qubits: frozenset[int]) -> dict:
     return {**serialised, "errors": keep}
 
 
-def _served(source, qubits: frozenset[int]) -> _Serialised:
-    """``source``'s errors on ``qubits``; the whole model is serialised once per model object
-    (shared by every simulator holding it) and dropped with it."""
+def _served(source, qubits: frozenset[int], position: dict[int, int] | None = None
+            ) -> _Serialised:
+    """``source``'s errors on ``qubits`` (renumbered by ``position`` when given); the whole
+    model is serialised once per model object (shared by every simulator holding it) and
+    dropped with it."""
     key = id(source)
     entry = _SERIALISED.get(key)
     if entry is None or entry[0]() is not source:
         entry = (weakref.ref(source, lambda _, k=key: _SERIALISED.pop(k, None)),
                  source.to_dict(serializable=True), {})
         _SERIALISED[key] = entry
-    by_qubits = entry[2]
-    if qubits not in by_qubits:
-        if len(by_qubits) >= _MAX_SERVED:
-            by_qubits.clear()
-        by_qubits[qubits] = _Serialised(restricted_errors(entry[1], qubits))
-    return by_qubits[qubits]
+    served = entry[2]
+    at = qubits if position is None else tuple(sorted(position.items()))
+    if at not in served:
+        if len(served) >= _MAX_SERVED:
+            served.clear()
+        errors = restricted_errors(entry[1], qubits)
+        served[at] = _Serialised(errors if position is None else renumbered(errors, position))
+    return served[at]
 
 
 class ServedNoiseSimulator(AerSimulator):
-    """``AerSimulator`` serving Aer the noise of each job's active qubits (see module)."""
+    """``AerSimulator`` serving Aer the noise of each job's active qubits (see module); with
+    the ``matrix_product_state`` method the circuits also go on the line of
+    :func:`~qdensity.hardware._mps_line.line_order`, their noise renumbered with them."""
 
     def _compile(self, circuits, **run_options):
         out = super()._compile(circuits, **run_options)
@@ -100,7 +108,13 @@ class ServedNoiseSimulator(AerSimulator):
         if not (isinstance(out, tuple) and len(out) == 2) or source is None or out[1] is not source:
             return out  # no noise, or Aer added the circuits' own error instructions to a copy
         compiled, _ = out
-        qubits = _active(compiled if isinstance(compiled, list) else [compiled])
+        compiled = compiled if isinstance(compiled, list) else [compiled]
+        qubits = _active(compiled)
         if qubits is None:
             return out
+        if run_options.get("method", self.options.method) == "matrix_product_state":
+            position = line_order(compiled, qubits)
+            if position is not None:
+                return ([relabelled(c, position) for c in compiled],
+                        _served(source, qubits, position))
         return compiled, _served(source, qubits)

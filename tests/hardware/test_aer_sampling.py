@@ -185,3 +185,19 @@ def test_trajectories_at_few_shots_match_the_exact_noisy_distribution():
     f_exp = np.append(expected[~rare], expected[rare].sum())
     # goodness of fit; false failure 1e-4 (the chi-square approximation of the test)
     assert stats.chisquare(f_obs, f_exp).pvalue > 1e-4
+
+
+def test_noisy_mps_on_its_relabelled_line_matches_the_exact_distribution():
+    # matrix-product-state trajectories put the active qubits on Aer's line by reverse
+    # Cuthill-McKee and renumber the noise with them: outcome counts against the exact noisy
+    # distribution of the device's whole model, chi-square at 1e-4
+    tgt = get_target("fake_kolkata", seed=1)
+    circuit = tgt.transpile(_ghz_ry(4))
+    sampler = tgt.sampler(seed=7919 * _stat_seed(0) + 57, method="matrix_product_state")
+    observed = _frequencies(sampler, circuit, np.array([[0.9]]), 2560)[0] * 2560
+    expected = _exact_outcomes(tgt, circuit, 0.9) * 2560
+    rare = expected < 5
+    f_obs = np.append(observed[~rare], observed[rare].sum())
+    f_exp = np.append(expected[~rare], expected[rare].sum())
+    # false failure 1e-4 (the chi-square approximation of the test)
+    assert stats.chisquare(f_obs, f_exp).pvalue > 1e-4

@@ -10,7 +10,13 @@ import qiskit_aer  # noqa: F401  (registers save_probabilities)
 from qiskit import QuantumCircuit
 from qiskit_aer import AerSimulator
 
-from qdensity.hardware._served_noise import _SERIALISED, ServedNoiseSimulator, restricted_errors
+from qdensity.hardware._mps_line import line_order, relabelled, renumbered
+from qdensity.hardware._served_noise import (
+    _SERIALISED,
+    ServedNoiseSimulator,
+    _Serialised,
+    restricted_errors,
+)
 from qdensity.hardware.targets import get_target
 
 
@@ -85,3 +91,37 @@ def test_one_serialisation_per_model_shared_by_simulators_and_pickles():
     copy = pickle.loads(pickle.dumps(a))  # a fresh noise model object: serialised anew
     assert copy.options.noise_model is not tgt.noise_model
     assert copy.run(circuit, shots=200).result().get_counts() == before
+
+
+def test_mps_line_relabelling_keeps_the_channel():
+    # a GHZ chain laid out on fake_kolkata's scattered qubits, relabelled onto Aer's line with
+    # its noise renumbered: the same density-matrix probabilities as the device's whole model
+    tgt = get_target("fake_kolkata", seed=1)
+    qc = QuantumCircuit(5, 5)
+    qc.h(0)
+    for q in range(4):
+        qc.cx(q, q + 1)
+    qc.measure(range(5), range(5))
+    circuit = tgt.transpile(qc)
+    qubits = frozenset(circuit.find_bit(q).index for i in circuit.data
+                       if i.operation.name != "barrier" for q in i.qubits)
+    position = line_order([circuit], qubits)
+    assert sorted(position.values()) == list(range(len(qubits)))
+    moved = relabelled(circuit, position)
+    assert moved.num_qubits == len(qubits) and moved.num_clbits == circuit.num_clbits
+    far = max(abs(position[circuit.find_bit(a).index] - position[circuit.find_bit(b).index])
+              for i in circuit.data if len(i.qubits) == 2 for a, b in [i.qubits])
+    assert far == 1  # a chain on the line
+    errors = renumbered(restricted_errors(tgt.noise_model.to_dict(serializable=True), qubits),
+                        position)
+
+    class _Given(AerSimulator):
+        def _compile(self, circuits, **run_options):
+            return super()._compile(circuits, **run_options)[0], _Serialised(errors)
+
+    full = AerSimulator.from_backend(tgt.backend, method="density_matrix",
+                                     noise_model=tgt.noise_model)
+    given = _Given(method="density_matrix", noise_model=tgt.noise_model)
+    p, q = _probabilities(full, circuit), _probabilities(given, moved)
+    np.testing.assert_allclose(q, p, atol=1e-12)
+    assert 1 - p[0] - p[-1] > 1e-3  # noisy
