@@ -16,6 +16,7 @@ printed per cell; read the ratios, not the seconds.
     python benchmarks/bench_noisy.py [--n 4 6 8 10 12] [--rows 1 16] [--shots 16 256 4000]
                                      [--targets heavy_hex fake_kolkata] [--repeat 3]
                                      [--cell heavy_hex 8 1 16] [--max-seconds 60]
+                                     [--one-thread]
 """
 
 from __future__ import annotations
@@ -73,7 +74,8 @@ def _measure(target, compiled, n, rows, shots, a):
     for m in a.methods:
         if m == "density_matrix" and n > DENSITY_MATRIX_MAX_QUBITS:
             continue
-        cell[m] = _time(lambda m=m: target.sampler(seed=3, method=m), method=m, **kw)
+        cell[m] = _time(lambda m=m: target.sampler(seed=3, method=m, options=a.fixed_options),
+                        method=m, **kw)
     if not a.no_plain:
         cell["plain"] = _time(lambda: SamplerV2.from_backend(
             AerSimulator.from_backend(target.backend), seed=3), method="plain", **kw)
@@ -109,8 +111,14 @@ def main() -> None:
     ap.add_argument("--max-seconds", type=float, default=60.0,
                     help="skip a sampler whose predicted repeat x per-call time exceeds this")
     ap.add_argument("--no-plain", action="store_true", help="leave out plain AerSimulator")
+    ap.add_argument("--one-thread", action="store_true",
+                    help="fixed methods on one thread (their default is all threads, which "
+                         "costs CPU on small states; the auto sampler picks threads per PUB)")
     a = ap.parse_args()
-    print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; median of {a.repeat}")
+    a.fixed_options = ({"max_parallel_threads": 1, "max_parallel_shots": 1} if a.one_thread
+                       else None)
+    print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; median of {a.repeat}; "
+          f"fixed methods on {'one thread' if a.one_thread else 'all threads'}")
     print(f"{'target':<13}{'n':>3}{'rows':>5}{'shots':>6}{'auto':>8}{'method':>8}{'setup':>7}"
           + "".join(f"{m[:6]:>8}" for m in FIXED) + f"{'plain':>8}{'auto/best':>10}"
           f"{'auto/plain':>11}{'load':>6}   (CPU seconds per call)")
