@@ -31,9 +31,9 @@ from qiskit.circuit.library import (
     get_standard_gate_name_mapping,
 )
 from qiskit.transpiler import InstructionProperties, Target
-from qiskit_aer import AerSimulator
 
 from qdensity.circuits.gates import RBSGate
+from qdensity.hardware._served_noise import ServedNoiseSimulator
 
 __all__ = ["RBS_NATIVE_BASIS", "RBS_NATIVE_NOISE"]
 
@@ -128,7 +128,7 @@ def _lower_native_xy(circuit: QuantumCircuit) -> QuantumCircuit:
     return out
 
 
-class _NativeXYSimulator(AerSimulator):
+class _NativeXYSimulator(ServedNoiseSimulator):
     """AerSimulator that lowers native ``xx_plus_yy`` gates before running (rbs_native)."""
 
     def run(self, circuits, parameter_binds=None, **run_options):

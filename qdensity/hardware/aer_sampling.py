@@ -6,25 +6,29 @@ method with :func:`aer_options`. Aer simulates only the qubits a circuit acts on
 truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
 simulation), so the choice goes by :func:`active_qubits`, not the device's width.
 
-Measured on a 2-core machine (qiskit-aer 0.18, ``heavy_hex`` noise, a density round-robin
-template, CPU time per parameter row; a row's call also pays a fixed ~0.1-0.3 s of noise-model
-set-up per Aer call):
+Measured on a 2-core machine (qiskit-aer 0.18, ``heavy_hex`` and ``fake_kolkata`` noise, a
+density round-robin template, CPU time on one thread, the noise served per active qubits by
+:class:`~qdensity.hardware._served_noise.ServedNoiseSimulator`; a call also pays ~10-40 ms
+whatever the method):
 
 ==========  ======================  ==========================  =================
 active      density matrix, per row  statevector trajectories,   crossover (shots)
 qubits                               per shot
 ==========  ======================  ==========================  =================
-4           ~2 ms                    ~0.3 ms                     ~8
-6           ~9 ms                    ~0.3 ms                     ~30
-8           ~50 ms                   ~1.1 ms                     ~45
-10          ~0.7 s                   ~3.6 ms                     ~200
+4           ~4 ms                    ~0.05 ms                    ~70-95
+6           ~20 ms                   ~0.17 ms                    ~110-135
+8           ~75 ms                   ~1.0 ms                     ~75-85
+10          ~1.1 s                   ~5.8 ms                     ~190
+12          ~22 s                    ~24 ms                      ~920
 ==========  ======================  ==========================  =================
 
-A noisy statevector trajectory costs far more than a noiseless sweep (every gate samples its
-error), so the density matrix pays from about :func:`density_matrix_from` shots on ``a`` active
-qubits (``2 ** (a - 1)`` up to 6, ``2 ** (a - 2)`` from 7: 8, 32, 64 and 256 shots at 4, 6, 8
-and 10), 2 to 4 times sooner than Aer's own ``automatic`` rule (``shots > 2 ** a``). Hence, for
-a noisy target:
+A density-matrix row pays a fixed few milliseconds (Aer rebuilds the noisy circuit's
+superoperators per parameter row) while a trajectory on a few qubits costs tens of
+microseconds, so below ~8 active qubits the crossover stays near 100 shots; above, it doubles
+per qubit (the density matrix grows as ``4 ** a``, a trajectory as ``2 ** a``). The density
+matrix pays from :func:`density_matrix_from` shots on ``a`` active qubits
+(``max(96, 2 ** (a - 2))``: 96 up to 8, then 128, 256, 512 and 1024 shots at 9 to 12). Hence,
+for a noisy target:
 
 * ``density_matrix``, one thread, when ``a <= 12`` and ``shots >= density_matrix_from(a)``:
   exact noise, one simulation per row whatever the shots (``16 * 4 ** a`` bytes: 256 MB at 12);
@@ -103,6 +107,7 @@ FAST_SAMPLER_OPTIONS = {"shot_branching_enable": False, "runtime_parameter_bind_
                         "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 _PARALLEL_STATE_QUBITS = 14
+_DENSITY_MATRIX_MIN_SHOTS = 96
 _PARALLEL_SHOT_QUBITS = 8
 _NOT_QUBIT_WORK = frozenset({"barrier"})
 
@@ -147,15 +152,15 @@ def density_matrix_from(num_active: int) -> int:
     Returns
     -------
     int
-        ``2 ** (a - 1)`` for ``a <= 6``, ``2 ** (a - 2)`` above (at least 1).
+        ``max(96, 2 ** (a - 2))`` (the module's table).
 
     Examples
     --------
-    >>> [density_matrix_from(a) for a in (4, 6, 8, 10)]
-    [8, 32, 64, 256]
+    >>> [density_matrix_from(a) for a in (4, 6, 8, 10, 12)]
+    [96, 96, 96, 256, 1024]
     """
     a = int(num_active)
-    return 2 ** max(a - 1 if a <= 6 else a - 2, 0)
+    return max(_DENSITY_MATRIX_MIN_SHOTS, 2 ** max(a - 2, 0))
 
 
 def mps_bond_bound(circuit: QuantumCircuit) -> int | None:

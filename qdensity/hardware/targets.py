@@ -61,6 +61,7 @@ from qdensity.hardware._native import (
 )
 from qdensity.hardware._objects import backend_fields, target_fields
 from qdensity.hardware._passmanagers import check_batch, transpile_with
+from qdensity.hardware._served_noise import ServedNoiseSimulator
 from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler, aer_seed
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import (
@@ -204,7 +205,9 @@ class HardwareTarget:
         qiskit_aer.AerSimulator
             ``AerSimulator.from_backend`` for ``GenericBackendV2`` targets (noise model passed
             explicitly, None when the target is noiseless). It does not transpile: run circuits
-            from :meth:`transpile`.
+            from :meth:`transpile`. Each run hands Aer only the errors of the qubits its
+            circuits act on, serialised once (``qdensity.hardware._served_noise``): the same
+            channel and counts, without re-serialising the device's whole model per call.
 
         Examples
         --------
@@ -232,10 +235,10 @@ class HardwareTarget:
             "noise_model": self.noise_model if self.is_noisy else None,
         }
         if self.backend is not None:
-            return AerSimulator.from_backend(self.backend, **options)
+            return ServedNoiseSimulator.from_backend(self.backend, **options)
         if self.name == "rbs_native":
             return _NativeXYSimulator(**options)
-        return AerSimulator(**options)
+        return ServedNoiseSimulator(**options)
 
     def transpile(
         self,
@@ -307,7 +310,7 @@ class HardwareTarget:
         method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
             ``"auto"``: an :class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`, choosing
             per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
-            active qubits from the measured crossover, 32 shots at 6; otherwise one
+            active qubits from the measured crossover, 96 shots up to 8; otherwise one
             trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).
             Any other value fixes Aer's method, as :meth:`simulator`.
         device : str

@@ -1,11 +1,12 @@
 """The default Aer sampler of a target: method per PUB, reproducible, statistically unchanged."""
 
-
 import numpy as np
 import pytest
+import qiskit_aer  # noqa: F401  (registers save_probabilities)
 from _stats import stat_seed as _stat_seed
 from qiskit import QuantumCircuit
 from qiskit.circuit import Parameter
+from qiskit_aer import AerSimulator
 from scipy import stats
 
 from qdensity.hardware.aer_sampling import (
@@ -40,10 +41,10 @@ def test_active_qubits_ignore_idle_wires_and_barriers():
 
 
 def test_rule_is_the_documented_crossover():
-    # noisy: density matrix from 2 ** (a - 1) shots (a <= 6), 2 ** (a - 2) (a > 6), up to
-    # DENSITY_MATRIX_MAX_QUBITS active qubits
+    # noisy: density matrix from max(96, 2 ** (a - 2)) shots, up to DENSITY_MATRIX_MAX_QUBITS
+    # active qubits
     for a in range(1, DENSITY_MATRIX_MAX_QUBITS + 3):
-        at = 2 ** max(a - 1 if a <= 6 else a - 2, 0)
+        at = max(96, 2 ** max(a - 2, 0))
         expect = "density_matrix" if a <= DENSITY_MATRIX_MAX_QUBITS else "statevector"
         assert aer_options(a, at, True)["method"] == expect
         if at > 1:
@@ -58,6 +59,17 @@ def test_rule_is_the_documented_crossover():
     assert aer_options(20, 10, False)["max_parallel_threads"] == 0
     with pytest.raises(ValueError, match="shots"):
         aer_options(3, 0, True)
+
+
+@pytest.mark.parametrize(("active", "shots", "method"), [
+    # few shots on a few qubits: trajectories (a density-matrix row costs ~4 ms at 4 qubits, a
+    # trajectory ~0.05 ms); the benchmark grid's cells
+    (4, 16, "statevector"), (4, 256, "density_matrix"), (6, 16, "statevector"),
+    (8, 16, "statevector"), (8, 95, "statevector"), (8, 96, "density_matrix"),
+    (10, 255, "statevector"), (10, 256, "density_matrix"), (12, 256, "statevector"),
+    (12, 4000, "density_matrix"), (13, 4000, "statevector")])
+def test_rule_on_small_cells(active, shots, method):
+    assert aer_options(active, shots, True)["method"] == method
 
 
 def test_default_sampler_chooses_per_pub_and_accepts_overrides():
@@ -84,11 +96,11 @@ def test_same_seed_same_counts_across_mixed_methods():
     tgt = get_target("line", 4, seed=2)
     wide, narrow = tgt.transpile(_ghz_ry(4)), tgt.transpile(_ghz_ry(2))
     vals = np.array([[0.3], [1.9]])
-    # one run call, two methods: 2 active qubits at 8 shots -> density matrix,
+    # one run call, two methods: 2 active qubits at 96 shots -> density matrix,
     # 4 active qubits at 3 shots -> trajectories
-    pubs = [(wide, vals, 3), (narrow, vals, 8), (wide, vals, 3)]
+    pubs = [(wide, vals, 3), (narrow, vals, 96), (wide, vals, 3)]
     a = tgt.sampler(seed=11)
-    assert a.choose(narrow, 8)["method"] == "density_matrix"
+    assert a.choose(narrow, 96)["method"] == "density_matrix"
     assert a.choose(wide, 3)["method"] == "statevector"
     first = _counts(a, pubs)
     assert first == _counts(tgt.sampler(seed=11), pubs)
@@ -130,3 +142,62 @@ def test_estimates_agree_with_the_other_method_within_standard_errors(forced):
         assert stats.chi2_contingency(table).pvalue > 1e-5
     # and noise is there: the GHZ-like state leaks outside {0000, 1111}
     assert p[:, [i for i in range(16) if i not in (0, 15)]].sum() > 0.02
+
+
+def _exact_outcomes(tgt, circuit, value: float) -> np.ndarray:
+    """Outcome distribution of ``circuit`` (clbit k is bit k) on ``tgt``'s noise: Aer's density
+    matrix with the device's whole noise model, then each measured qubit's readout confusion
+    matrix from that model."""
+    bound = circuit.assign_parameters([value])
+    where = {bound.find_bit(i.clbits[0]).index: bound.find_bit(i.qubits[0]).index
+             for i in bound.data if i.operation.name == "measure"}
+    qubits = [where[k] for k in range(len(where))]
+    free = bound.remove_final_measurements(inplace=False)
+    free.save_probabilities(qubits)
+    dm = AerSimulator.from_backend(tgt.backend, method="density_matrix",
+                                   noise_model=tgt.noise_model)
+    p = np.asarray(dm.run(free).result().data()["probabilities"]).reshape([2] * len(qubits))
+    readout = {tuple(e["gate_qubits"][0]): np.asarray(e["probabilities"])
+               for e in tgt.noise_model.to_dict()["errors"] if e["type"] == "roerror"}
+    for k, q in enumerate(qubits):  # bit k is axis len - 1 - k; confusion[true, read]
+        axis = len(qubits) - 1 - k
+        p = np.moveaxis(np.tensordot(readout[(q,)], np.moveaxis(p, axis, 0), axes=(0, 0)), 0,
+                        axis)
+    return p.reshape(-1)
+
+
+def test_trajectories_at_few_shots_match_the_exact_noisy_distribution():
+    # 4 active qubits at 64 shots per row now run as statevector trajectories (the density
+    # matrix from 96): 40 rows of one parameter value, pooled, against the exact outcome
+    # distribution (density matrix and readout confusion)
+    tgt = get_target("heavy_hex", 4, seed=5)
+    circuit = tgt.transpile(_ghz_ry(4))
+    # Aer seeds shot k with seed + k: seeds 7919 apart keep the 2560 shots' streams apart
+    sampler = tgt.sampler(seed=7919 * _stat_seed(0) + 31)
+    assert sampler.choose(circuit, 64)["method"] == "statevector"
+    vals = np.full((40, 1), 0.9)
+    observed = _frequencies(sampler, circuit, vals, 64).sum(axis=0) * 64
+    expected = _exact_outcomes(tgt, circuit, 0.9) * 40 * 64
+    assert abs(expected.sum() - 2560) < 1e-6 and expected[[i not in (0, 15) for i in
+                                                            range(16)]].sum() > 20  # noisy
+    rare = expected < 5  # pooled into one cell for the chi-square approximation
+    f_obs = np.append(observed[~rare], observed[rare].sum())
+    f_exp = np.append(expected[~rare], expected[rare].sum())
+    # goodness of fit; false failure 1e-4 (the chi-square approximation of the test)
+    assert stats.chisquare(f_obs, f_exp).pvalue > 1e-4
+
+
+def test_noisy_mps_on_its_relabelled_line_matches_the_exact_distribution():
+    # matrix-product-state trajectories put the active qubits on Aer's line by reverse
+    # Cuthill-McKee and renumber the noise with them: outcome counts against the exact noisy
+    # distribution of the device's whole model, chi-square at 1e-4
+    tgt = get_target("fake_kolkata", seed=1)
+    circuit = tgt.transpile(_ghz_ry(4))
+    sampler = tgt.sampler(seed=7919 * _stat_seed(0) + 57, method="matrix_product_state")
+    observed = _frequencies(sampler, circuit, np.array([[0.9]]), 2560)[0] * 2560
+    expected = _exact_outcomes(tgt, circuit, 0.9) * 2560
+    rare = expected < 5
+    f_obs = np.append(observed[~rare], observed[rare].sum())
+    f_exp = np.append(expected[~rare], expected[rare].sum())
+    # false failure 1e-4 (the chi-square approximation of the test)
+    assert stats.chisquare(f_obs, f_exp).pvalue > 1e-4
