@@ -63,9 +63,10 @@ def test_counts_for_a_seed_equal_the_whole_model_with_readout_errors():
     tgt = get_target("heavy_hex", 4, seed=3)
     circuit = _chain(4, 0, tgt.num_qubits)
     for method in ("statevector", "density_matrix"):
-        full = AerSimulator.from_backend(tgt.backend, method=method, seed_simulator=5,
-                                         noise_model=tgt.noise_model)
         served = tgt.simulator(method=method, seed=5)
+        full = AerSimulator.from_backend(tgt.backend, method=method,
+                                         seed_simulator=served.options.seed_simulator,
+                                         noise_model=tgt.noise_model)
         a = full.run(circuit, shots=500).result().get_counts()
         b = served.run(circuit, shots=500).result().get_counts()
         assert a == b
