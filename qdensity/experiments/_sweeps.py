@@ -102,6 +102,23 @@ def sweep_model(experiment: str, cfg: dict, seed: int, index: int, prefix: str, 
             for t in done]
 
 
+def validation_split(X_tr: np.ndarray, y_tr: np.ndarray, fraction: float, seed: int):
+    """The sweep's validation rows: ``fraction`` of the training rows, stratified by class
+    where every class can split (else at random), fixed by ``seed``.
+
+    Returns
+    -------
+    (X_train, y_train, X_validation, y_validation)
+    """
+    from sklearn.model_selection import train_test_split
+
+    counts = np.unique(y_tr, return_counts=True)[1]
+    X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr, test_size=float(fraction),
+                                              random_state=seed,
+                                              stratify=y_tr if counts.min() >= 2 else None)
+    return X_tr, y_tr, X_va, y_va
+
+
 def selected_run(runs: list[dict]) -> int:
     """Index of the run the search selects: the best validation accuracy (the first of equals)."""
     if not runs:

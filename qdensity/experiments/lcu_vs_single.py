@@ -46,7 +46,7 @@ from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._lcu_training import accuracy, check_settings, fit_epochs
 from qdensity.experiments._ortho_data import data_source
 from qdensity.experiments._ortho_data import load_data as load_ortho_data
-from qdensity.experiments._sweeps import selected_run, sweep_metrics, sweep_model
+from qdensity.experiments._sweeps import selected_run, sweep_metrics, sweep_model, validation_split
 from qdensity.experiments._units import merge_parts
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
@@ -331,17 +331,11 @@ def _trial(name: str, params: dict, rows, config: dict, rng: np.random.Generator
 def _sweep_seed(config: dict, seed: int, progress: bool) -> dict:
     """The ``trials``-trial sweep of each model in ``config["models"]`` (one unit each); the
     selected trial's accuracy and curves, the sweep's aggregates beside them."""
-    from sklearn.model_selection import train_test_split
-
     n = int(config["num_qubits"])
     E1 = int(config["pretrain_epochs"])
     X_tr, X_te, y_tr, y_te = load_data(n, config["train_size"], config["test_size"], seed,
                                        config["dataset"], config["mnist_dir"])
-    counts = np.unique(y_tr, return_counts=True)[1]  # stratified where every class can split
-    X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr,
-                                              test_size=float(config["validation_fraction"]),
-                                              random_state=seed,
-                                              stratify=y_tr if counts.min() >= 2 else None)
+    X_tr, y_tr, X_va, y_va = validation_split(X_tr, y_tr, config["validation_fraction"], seed)
     rows = (X_tr, y_tr, X_va, y_va, X_te, y_te)
     out: dict = {"data/source": data_source(config), **_breakdowns(n)}
     curves: dict = {}

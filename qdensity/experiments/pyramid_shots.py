@@ -46,7 +46,7 @@ import numpy as np
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
 from qdensity.experiments._common import curve, figure_name, plot_curves, require_torch
 from qdensity.experiments._ortho_data import check_float, check_int, data_source, load_data
-from qdensity.experiments._sweeps import sweep_metrics, sweep_model
+from qdensity.experiments._sweeps import sweep_metrics, sweep_model, validation_split
 from qdensity.experiments._units import merge_parts
 from qdensity.experiments.protocol import PaperProtocol
 from qdensity.experiments.registry import Experiment
@@ -168,17 +168,12 @@ def _sweep(config: dict, seed: int, name: str, data, num_classes: int, cpr: int,
            seeds: tuple[int, int, int], curves: dict) -> dict:
     """One model's ``trials``-trial sweep (trial ``t`` draws its classical and quantum
     initialisation and batch order from the seed's streams plus ``t``); its aggregates."""
-    from sklearn.model_selection import train_test_split
 
     from qdensity.experiments import _pyramid_shots_models as hm
     from qdensity.experiments._moe_models import train_classifier
 
     X_tr, X_te, y_tr, y_te = data
-    counts = np.unique(y_tr, return_counts=True)[1]  # stratified where every class can split
-    X_tr, X_va, y_tr, y_va = train_test_split(X_tr, y_tr,
-                                              test_size=float(config["validation_fraction"]),
-                                              random_state=seed,
-                                              stratify=y_tr if counts.min() >= 2 else None)
+    X_tr, y_tr, X_va, y_va = validation_split(X_tr, y_tr, config["validation_fraction"], seed)
     rows = (X_tr, y_tr, X_va, y_va, X_te, y_te)
     n, (net_seed, angle_seed, order_seed) = int(config["num_qubits"]), seeds
 

@@ -11,16 +11,12 @@ import time
 
 import numpy as np
 import pytest
+from _rows import science as _science
 from _toy import TOY
 
 from qdensity.cli import main
 from qdensity.cluster import parse_cluster
 from qdensity.experiments import registry
-
-
-def _science(row: dict) -> dict:
-    """A per-seed record without what depends on where and how fast it ran."""
-    return {k: v for k, v in row.items() if k not in ("seconds", "worker")}
 
 
 def _oracle(seed: int, model: int) -> float:

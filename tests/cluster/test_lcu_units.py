@@ -5,6 +5,7 @@ bit for bit (each trial draws from its own stream, wherever it runs)."""
 from __future__ import annotations
 
 import pytest
+from _rows import science as _science
 
 from qdensity.experiments import registry
 
@@ -13,9 +14,6 @@ optuna = pytest.importorskip("optuna")
 TINY = {"num_qubits": 3, "train_size": 30, "test_size": 30, "pretrain_epochs": 1,
         "lcu_epochs": 1, "batch_size": 10, "sampled_points": 0, "trials": 2}
 
-
-def _science(row: dict) -> dict:
-    return {k: v for k, v in row.items() if k not in ("seconds", "worker")}
 
 
 def test_lcu_units_on_two_workers_equal_the_in_process_run(client, tmp_path):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import shutil
 
 import pytest
+from _rows import science as _science
 
 from qdensity.experiments import registry
 
@@ -16,9 +17,6 @@ pytest.importorskip("torch")
 TINY = {"decompositions": ["butterfly"], "num_qubits": 4, "trials": 2, "epochs": 1,
         "num_train": 60, "num_test": 30}
 
-
-def _science(row: dict) -> dict:
-    return {k: v for k, v in row.items() if k not in ("seconds", "worker")}
 
 
 def test_moe_units_on_two_workers_equal_the_in_process_run_and_resume(client, tmp_path):
