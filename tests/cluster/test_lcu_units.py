@@ -15,7 +15,6 @@ TINY = {"num_qubits": 3, "train_size": 30, "test_size": 30, "pretrain_epochs": 1
         "lcu_epochs": 1, "batch_size": 10, "sampled_points": 0, "trials": 2}
 
 
-
 def test_lcu_units_on_two_workers_equal_the_in_process_run(client, tmp_path):
     local = registry.run("lcu-vs-single", seeds=[2], config=TINY, progress=False)
     remote = registry.run("lcu-vs-single", seeds=[2], config=TINY, cluster=client, out=tmp_path,

@@ -18,7 +18,6 @@ TINY = {"decompositions": ["butterfly"], "num_qubits": 4, "trials": 2, "epochs":
         "num_train": 60, "num_test": 30}
 
 
-
 def test_moe_units_on_two_workers_equal_the_in_process_run_and_resume(client, tmp_path):
     local = registry.run("moe", seeds=[1], config=TINY, progress=False)
     remote = registry.run("moe", seeds=[1], config=TINY, cluster=client, out=tmp_path,

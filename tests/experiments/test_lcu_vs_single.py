@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from _rows import assert_rerun_resumes
 
 from qdensity.ansatze import round_robin
 from qdensity.experiments import run
@@ -128,7 +129,6 @@ def test_sweep_units_selected_trial_and_resume_from_storage(tmp_path):
     storage holds for the trial with the best validation score, the sweep's aggregates are
     counted by hand from the trials, the shots from the training rows, and a rerun whose unit
     files are gone resumes the studies (no new trials, the same numbers)."""
-    import shutil
 
     optuna = pytest.importorskip("optuna")
     from qdensity.learning.sweep import PAPER_SPACE
@@ -166,15 +166,8 @@ def test_sweep_units_selected_trial_and_resume_from_storage(tmp_path):
     assert lcu["x"][0] == 2 * single_epoch  # K = 2 sub-unitaries pretrained for one epoch
     assert row["curves"]["lcu/test_vs_epoch"]["x"] == [1.0, 2.0]  # uniform start, then the gate
     assert row["sampled/shots"] == 64
-    for d in out.glob("*.units"):
-        shutil.rmtree(d)
-    again = run("lcu-vs-single", seeds=[1], config=config, out=out, plot=False, progress=False)
-    for name in names:
-        assert len(optuna.load_study(study_name=name, storage=storage).trials) == 2
-    a, b = dict(row), dict(again.per_seed[0])
-    for r in (a, b):
-        r.pop("seconds", None), r.pop("worker", None)
-    assert a == b
+    assert_rerun_resumes(run, "lcu-vs-single", 1, config, out, storage, names, row, 2,
+                         plot=False)
 
 
 @pytest.mark.parametrize("key,value", [("trials", -1), ("validation_fraction", 0.6),

@@ -3,6 +3,7 @@
 
 import numpy as np
 import pytest
+from _rows import assert_rerun_resumes
 
 from qdensity.experiments import run
 
@@ -73,7 +74,6 @@ def test_sweep_aggregates_and_resumes_from_storage(tmp_path):
     """A 2-trial sweep per (model, seed), 1 epoch: "x/N runs above 80%" counted by hand from
     the trials; a rerun whose finished units are gone resumes the studies from the storage
     (no new trials, the same numbers)."""
-    import shutil
 
     import optuna
 
@@ -99,15 +99,7 @@ def test_sweep_aggregates_and_resumes_from_storage(tmp_path):
     storage = f"sqlite:///{db}"
     names = [s.study_name for s in optuna.get_all_study_summaries(storage)]
     assert len(names) == 2  # one study per (model, seed)
-    for d in tmp_path.glob("*.units"):
-        shutil.rmtree(d)
-    again = run("pyramid-shots", seeds=[0], config=config, out=tmp_path, progress=False)
-    for name in names:
-        assert len(optuna.load_study(study_name=name, storage=storage).trials) == 2
-    a, b = dict(row), dict(again.per_seed[0])
-    for r in (a, b):
-        r.pop("seconds", None), r.pop("worker", None)
-    assert a == b
+    assert_rerun_resumes(run, "pyramid-shots", 0, config, tmp_path, storage, names, row, 2)
 
 
 @pytest.mark.parametrize("change, setting", [
