@@ -66,12 +66,15 @@ def test_eight_workers_started_together_on_a_fresh_storage_all_finish(fresh_stor
     assert all("skipped" in t.user_attrs for t in trials if t.state.name == "PRUNED")
 
 
-def _sweep_worker(storage: str, n: int) -> subprocess.Popen:
-    code = "import sys; from qdensity.cli import main; sys.exit(main(sys.argv[1:]))"
+def _sweep_worker(storage: str, n: int, stall: Path | None = None) -> subprocess.Popen:
+    """``qdensity sweep`` on ``storage``; with ``stall``, one whose first fit never ends (it
+    creates the file ``stall`` when it is mid-trial: tests/cluster/_stalling_worker.py)."""
     argv = ["sweep", "--dataset", "iris", "--num-qubits", "3", "--epochs", "8",
             "--n-trials", str(n), "--storage", storage, "--study", "shared",
             "--grace-period", "3", "--quiet"]
-    return subprocess.Popen([sys.executable, "-c", code, *argv], env=ENV,
+    head = ["-c", "import sys; from qdensity.cli import main; sys.exit(main(sys.argv[1:]))"] \
+        if stall is None else [str(HERE / "_stalling_worker.py"), str(stall)]
+    return subprocess.Popen([sys.executable, *head, *argv], env=ENV,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -80,27 +83,28 @@ def _running(storage: str, pid: int) -> list:
             if t.state.name == "RUNNING" and t.user_attrs.get("worker") == pid]
 
 
-def _wait_for(condition, what: str, timeout: float = 180.0):
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        if value := condition():
-            return value
-        time.sleep(0.2)
-    pytest.fail(f"timed out waiting for {what}")
-
-
-def test_a_killed_workers_trial_is_run_again_and_the_study_completes(fresh_storage):
-    n = 4
-    a, b = _sweep_worker(fresh_storage, n), _sweep_worker(fresh_storage, n)
+def test_a_killed_workers_trial_is_run_again_and_the_study_completes(fresh_storage, tmp_path):
+    """Worker A stalls in its first fit (a real trial takes ~40 ms, too short to catch by
+    polling); B starts, A is SIGKILLed mid-trial, and B alone brings the study to ``n``."""
+    n, flag = 4, tmp_path / "a-mid-trial"
+    a = _sweep_worker(fresh_storage, n, stall=flag)
+    b = None
     try:
-        _wait_for(lambda: _running(fresh_storage, a.pid), "worker A mid-trial")
+        t0 = time.monotonic()
+        while not flag.exists():
+            assert a.poll() is None, a.communicate()[1]  # A died before its trial
+            assert time.monotonic() - t0 < 180, "worker A never started a trial"
+            time.sleep(0.1)
+        killed = _running(fresh_storage, a.pid)  # A is alive: its trial's heartbeat runs
+        assert len(killed) == 1
+        b = _sweep_worker(fresh_storage, n)
         os.kill(a.pid, signal.SIGKILL)  # mid-trial: no chance to mark it FAIL
         a.wait(timeout=30)
+        out, err = b.communicate(timeout=300)
     finally:
         a.kill()
-    killed = _running(fresh_storage, a.pid)
-    assert len(killed) == 1
-    out, err = b.communicate(timeout=300)
+        if b is not None:
+            b.kill()
     assert b.returncode == 0, err
     assert json.loads(out)["complete"] == n
     trials = {t.number: t for t in _trials(fresh_storage, "shared")}

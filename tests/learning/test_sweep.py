@@ -46,11 +46,24 @@ WORKER = textwrap.dedent("""
     from sklearn.datasets import load_iris
     from sklearn.preprocessing import StandardScaler
     from qdensity.learning.estimators import QNNClassifier
+    from qdensity.learning import sweep
     from qdensity.learning.sweep import run_sweep
 
     storage, me, other, n = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
     X, y = load_iris(return_X_y=True)
     X = StandardScaler().fit_transform(X)
+    fit = sweep._evaluate
+
+    def evaluate(*args):
+        # the first fit of each worker waits for the other's first (a fit takes ~40 ms: one
+        # worker could otherwise finish all n before the other opens the study)
+        Path(f"{me}.fit").touch()
+        t0 = time.monotonic()
+        while not Path(f"{other}.fit").exists() and time.monotonic() - t0 < 120:
+            time.sleep(0.01)
+        return fit(*args)
+
+    sweep._evaluate = evaluate
     me.touch()
     while not other.exists():  # start together
         time.sleep(0.01)
