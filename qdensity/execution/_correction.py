@@ -39,10 +39,15 @@ from qdensity.validation import check_positive_int
 
 __all__: list[str] = []
 
-#: Observed outcomes per row up to which a mitigated row gets a :class:`Linearisation` (a
-#: dense ``u x u`` readout matrix on them, built when a variance is asked for); above, its
-#: error falls back to ``N_eff``.
-MAX_LINEARISED_OUTCOMES = 512
+#: Observed outcomes per row up to which a mitigated row gets a :class:`Linearisation` (dense
+#: ``u x u`` matrices on them, ~32 MB each at the cap, built when a variance is asked for; the
+#: same size as mthree's own direct solve); above, its error falls back to ``N_eff``, which was
+#: conservative where measured (wide registers, where ``M`` is large).
+MAX_LINEARISED_OUTCOMES = 2048
+
+#: mthree's default correction distance (``apply_correction(distance=None)``): outcomes more
+#: than this many bits apart are not connected in its reduced matrix.
+M3_DISTANCE = 3
 
 _D = (np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, -1.0]]))
 
@@ -50,14 +55,15 @@ _D = (np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, -1.0]]))
 class Linearisation:
     """Delta-method variance of one mitigated row's corrected estimates.
 
-    The row's estimate of a per-shot function ``f`` is ``V = sum_{b in S} q(b) f(b) / kappa``
-    with ``q = A^-1 p`` on the ``u`` observed outcomes (``A[i, k] = prod_j A_j[b_ij, b_kj]``,
-    ``A_j`` the calibrated readout matrix of clbit ``j``'s qubit), ``p`` the row's frequencies
-    and ``S`` the kept outcomes. With ``r = (f - V) [b in S] / kappa`` and ``g = A^-T r``:
-    shots contribute ``Var_p(g) / N``; each calibrated error rate ``e_{j,s}`` (a binomial
-    frequency over ``n_j`` shots) contributes ``(g^T dA/de_{j,s} q)^2 e (1 - e) / n_j``
-    (the same formulas as :func:`~qdensity.execution.mitigated.mitigated_expectation`'s,
-    on the observed outcomes).
+    mthree solves ``W q = p`` on the ``u`` observed outcomes (its reduced matrix): ``W[i, k] =
+    A[i, k] / c_k`` where ``A[i, k] = prod_j A_j[b_ij, b_kj]`` (``A_j`` the calibrated readout
+    matrix of clbit ``j``'s qubit) for outcomes at most ``distance`` bits apart and 0 beyond,
+    and ``c_k = sum_i A[i, k]`` (columns renormalised); ``p`` are the row's frequencies. The
+    row's estimate of a per-shot function ``f`` is ``V = sum_{b in S} q(b) f(b) / kappa``
+    (``S`` the kept outcomes). With ``r = (f - V) [b in S] / kappa`` and ``g = W^-T r``: shots
+    contribute ``Var_p(g) / N``; each calibrated error rate ``e_{j,s}`` (a binomial frequency
+    over ``n_j`` shots) contributes ``(g^T dW/de_{j,s} q)^2 e (1 - e) / n_j``, with
+    ``dW/de q = dA/de q~ - A (q~ * dc/de / c)`` and ``q~ = q / c``.
 
     Parameters
     ----------
@@ -73,10 +79,12 @@ class Linearisation:
     state_shots : numpy.ndarray, shape (m,)
     qubits : sequence of int, length m
         Physical qubit of each clbit (names the calibrated rates).
+    distance : int, optional
+        mthree's correction distance (default ``min(m, 3)``, what ``apply_correction`` uses).
     """
 
     def __init__(self, outcomes, inverse, counts, quasi, keep, kappa, mats, state_shots,
-                 qubits):
+                 qubits, distance: int | None = None):
         self.shots = int(counts.sum())
         self.inverse = np.asarray(inverse, dtype=np.int32)
         self.qubits = [int(q) for q in qubits]
@@ -87,50 +95,66 @@ class Linearisation:
         self.keep, self.kappa = keep, float(kappa)
         self.outcomes = np.asarray(outcomes, dtype=np.intp)
         self.mats, self.state_shots = mats, state_shots
+        m = self.outcomes.shape[1]
+        self.distance = min(m, M3_DISTANCE) if distance is None else int(distance)
+
+    @property
+    def kept_shots(self) -> float:
+        """Shots the row's estimate rests on, ``min(kappa, 1) N`` (for the Wilson floor)."""
+        return min(self.kappa, 1.0) * self.shots
 
     def _factor(self, j: int) -> np.ndarray:
         b = self.outcomes[:, j]
         return self.mats[j][b[:, None], b[None, :]]
 
-    def _matrix(self) -> np.ndarray:
+    def _matrix(self) -> tuple[np.ndarray, np.ndarray]:
+        """``A`` truncated at the distance ``(u, u)`` and its column sums ``c`` ``(u,)``."""
         A = np.ones((len(self.p), len(self.p)))
         for j in range(len(self.mats)):
             A *= self._factor(j)
-        return A
+        if self.distance < self.outcomes.shape[1]:
+            o = self.outcomes.astype(float)
+            A[o @ (1.0 - o).T + (1.0 - o) @ o.T > self.distance + 0.5] = 0.0
+        return A, A.sum(axis=0)
 
-    def _g(self, per_shot, mean, A) -> np.ndarray:
-        """``g = A^-T r``, the derivative of ``V`` in the frequencies ``(u,)`` or ``(u, k)``."""
+    def _g(self, per_shot, mean, A, c) -> np.ndarray:
+        """``g = W^-T r``, the derivative of ``V`` in the frequencies ``(u,)`` or ``(u, k)``."""
         f = np.asarray(per_shot, dtype=float)[self.first]
         r = (f - mean) * self.keep.reshape((-1,) + (1,) * (f.ndim - 1)) / self.kappa
-        return np.linalg.solve(A.T, r)
+        return np.linalg.solve((A / c).T, r)
 
-    def calibration_gradient(self, per_shot: np.ndarray, mean, A=None, g=None) -> dict:
+    def calibration_gradient(self, per_shot: np.ndarray, mean, matrix=None, g=None) -> dict:
         """``{(physical qubit, prepared state): (dV/de, e, n)}`` for every calibrated error
         rate ``e`` (a binomial frequency over ``n`` shots) that can move ``V``."""
-        A = self._matrix() if A is None else A
-        g = self._g(per_shot, mean, A) if g is None else g
+        A, c = self._matrix() if matrix is None else matrix
+        g = self._g(per_shot, mean, A, c) if g is None else g
+        q_c = self.q / c
         out = {}
         for j, a in enumerate(self.mats):
             fj = self._factor(j)
-            rest = np.divide(A, fj, out=np.zeros_like(A), where=fj != 0)
+            b = self.outcomes[:, j]
             for s in (0, 1):
                 e = float(a[1 - s, s])
                 if e <= 0.0 or e >= 1.0:
                     continue  # a rate seen as 0 or 1 has no binomial spread to add
-                b = self.outcomes[:, j]
-                deriv = _D[s][b, s][:, None] * (b == s)[None, :]
-                dv = -np.tensordot(g, (rest * deriv) @ self.q, axes=([0], [0]))
+                cols = np.flatnonzero(b == s)  # dA_j[b_i, b_k]/de is 0 unless b_k = s
+                rest = np.divide(A[:, cols], fj[:, cols], out=np.zeros((len(b), len(cols))),
+                                 where=fj[:, cols] != 0)
+                dA = rest * _D[s][b, s][:, None]
+                dc = dA.sum(axis=0)
+                dWq = dA @ q_c[cols] - A[:, cols] @ (q_c[cols] * dc / c[cols])
+                dv = -np.tensordot(g, dWq, axes=([0], [0]))
                 out[(self.qubits[j], s)] = (dv, e, int(self.state_shots[j]))
         return out
 
     def variance(self, per_shot: np.ndarray, mean) -> np.ndarray:
         """``Var(V)`` for per-shot values ``(shots,)`` or ``(shots, k)`` whose corrected mean
         is ``mean`` (scalar or ``(k,)``); returns a scalar or ``(k,)``."""
-        A = self._matrix()
-        g = self._g(per_shot, mean, A)
+        A, c = self._matrix()
+        g = self._g(per_shot, mean, A, c)
         var = np.maximum(np.tensordot(self.p, g**2, axes=1)
                          - np.tensordot(self.p, g, axes=1) ** 2, 0.0) / self.shots
-        for dv, e, n in self.calibration_gradient(per_shot, mean, A, g).values():
+        for dv, e, n in self.calibration_gradient(per_shot, mean, (A, c), g).values():
             var = var + dv**2 * e * (1 - e) / n
         return var
 
@@ -138,7 +162,7 @@ class Linearisation:
         """Per-shot values ``(shots,)`` whose mean is ``mean`` and whose sample variance over
         the shots is the shot part of :meth:`variance` (``mean + g(b_s) - sum_b p(b) g(b)``):
         what a scheduler that reads only per-shot values needs."""
-        g = self._g(per_shot, mean, self._matrix())
+        g = self._g(per_shot, mean, *self._matrix())
         return mean + (g - self.p @ g)[self.inverse]
 
 

@@ -88,9 +88,10 @@ def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=
     ``weights`` (readout mitigation and post-selection, see
     :class:`~qdensity.execution.engines.SamplerEngine`): the value is
     ``mean_s w_s x_s = sum_b q(b) x(b)`` with ``q`` the corrected distribution, and the error
-    ``sqrt(var + R^2 / (4 N_eff^2))``: ``var`` is a row's linearisation's delta-method
+    ``sqrt(var + R^2 / (4 n^2))``: ``var`` is a row's linearisation's delta-method
     variance when given (readout mitigation: shots and calibration, see
-    :class:`~qdensity.execution.engines.SamplerEngine`), else ``Var_q(x) / N_eff`` with
+    :class:`~qdensity.execution.engines.SamplerEngine`; ``n`` its kept shots ``min(kappa, 1)
+    N``), else ``Var_q(x) / N_eff`` (``n = N_eff``) with
     ``Var_q`` taken over ``q`` clipped to non-negative weights and ``N_eff = kappa N / M`` the
     effective shots (kept fraction ``kappa``, mitigation overhead ``M``; exact for
     post-selection alone, where ``M = 1``).
@@ -142,6 +143,7 @@ def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=
     var = np.maximum((q * x**2).sum(axis=1) - (q * x).sum(axis=1) ** 2, 0.0)
     n = n_eff.reshape((-1,) + (1,) * (x.ndim - 2))
     var = var / n
+    floor = n.copy()
     if linearisations is not None:
         if len(linearisations) != x.shape[0]:
             raise ValueError(f"linearisations must have {x.shape[0]} entries (one per row), "
@@ -149,5 +151,6 @@ def shot_mean(per_shot, value_range_width=1.0, *, weights=None, effective_shots=
         for r, lin in enumerate(linearisations):
             if lin is not None:
                 var[r] = lin.variance(x[r], mean[r])
+                floor[r] = lin.kept_shots  # not N / M: the overhead is in var already
     width = np.asarray(value_range_width, dtype=float)
-    return mean, np.sqrt(var + width**2 / (4.0 * n**2))
+    return mean, np.sqrt(var + width**2 / (4.0 * floor**2))

@@ -139,3 +139,32 @@ def test_sample_m3_error_matches_the_spread_over_seeds():
         values.append(res.estimate)
         errors.append(res.standard_error)
     _check_spread(values, errors, model.predict(np.array([x]))[0])
+
+
+def test_wide_register_m3_error_matches_the_spread_over_seeds():
+    # 14 qubits in |1...1>, 4000 shots: ~670 observed outcomes per row, past the dense
+    # linearisation's old cap (512, above which the error fell back to N_eff and came out 7x
+    # the spread: mthree's overhead M is ~400 here); the spread check only (chi-square, two
+    # sides at 2.5e-4): mthree corrects on the observed outcomes only, which leaves a bias of
+    # about one standard error at this width (measured 0.019 on a value of -0.5) that no error
+    # bar of the row's own shots can carry (the engine's docstring says so)
+    from qiskit import QuantumCircuit
+
+    n = 14
+    noise = NoiseModel()
+    noise.add_all_qubit_readout_error(ReadoutError([[0.97, 0.03], [0.12, 0.88]]))
+    tgt = get_target(GenericBackendV2(n, seed=3).target, noise_model=noise)
+    qc = QuantumCircuit(n)
+    qc.x(range(n))
+    obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0), ("ZZ", [0, 1], 0.5)], n)
+    plan = expectation_plan(qc, obs, [], shots=SHOTS)
+    values, errors = [], []
+    first = 30 * stat_seed(0)
+    for seed in range(first, first + 30):
+        est = plan.run(SamplerEngine(target=tgt, seed=seed, progress=False, mitigation="m3",
+                                     calibration_shots=CALIBRATION_SHOTS))
+        values.append(est.value[0])
+        errors.append(est.standard_error[0])
+    values, var = np.asarray(values), np.mean(np.asarray(errors) ** 2)
+    ratio = values.var(ddof=1) / var
+    assert chi2.ppf(1.25e-4, 29) / 29 < ratio < chi2.isf(1.25e-4, 29) / 29, ratio
