@@ -48,6 +48,11 @@ def available() -> bool:
     return numba is not None
 
 
+def threads() -> int:
+    """numba's thread count (1 without numba): rows a parallel region can use at once."""
+    return numba.get_num_threads() if numba is not None else 1
+
+
 class Tables:
     """A program as flat arrays for the kernels (see the module docstring).
 

@@ -218,6 +218,40 @@ def test_rows_are_chunked_under_the_memory_budget():
         np.testing.assert_allclose(a, b, atol=1e-14)
 
 
+def test_chunk_sizes_follow_both_budgets():
+    # per row 16 * 2**3 * 3 = 384 bytes: the cache budget gives 2 rows, raised to min_rows,
+    # never above what memory_budget allows (5 rows)
+    eng = AdjointEngine(memory_budget=384 * 5)
+    sizes = lambda **kw: [s.stop - s.start for s in eng._chunks(12, 3, 3, **kw)]  # noqa: E731
+    assert sizes() == [5, 5, 2]
+    assert sizes(budget=384 * 2) == [2] * 6
+    assert sizes(budget=384 * 2, min_rows=3) == [3] * 4
+    assert sizes(budget=384 * 2, min_rows=8) == [5, 5, 2]
+
+
+def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypatch):
+    # the compiled kernels run cache-sized chunks of at least numba's threads; the numpy
+    # path keeps the memory budget's one chunk (and never calls the kernels)
+    from qdensity.execution import adjoint as adjoint_module
+
+    qc = hardware_efficient(3, 2)
+    vals = RNG.uniform(-np.pi, np.pi, (9, qc.num_parameters))
+    whole = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)
+    seen = []
+    forward = _kernels.forward
+    monkeypatch.setattr(_kernels, "forward", lambda phi, *a: (seen.append(len(phi)),
+                                                               forward(phi, *a)))
+    monkeypatch.setattr(adjoint_module, "CACHE_BUDGET", 16 * 8 * 4 * 2)  # 2 rows of 4 copies
+    chunked = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)
+    if _kernels.available():
+        size = max(2, _kernels.threads())
+        assert seen == [size] * (9 // size) + ([9 % size] if 9 % size else [])
+    else:
+        assert seen == []
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-14)
+
+
 def test_refuses_wide_circuits_before_allocating():
     wide = QuantumCircuit(40)
     wide.ry(Parameter("t"), 0)
