@@ -7,28 +7,30 @@ truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-q
 simulation), so the choice goes by :func:`active_qubits`, not the device's width.
 
 Measured on a 2-core machine (qiskit-aer 0.18, ``heavy_hex`` and ``fake_kolkata`` noise, a
-density round-robin template, CPU time on one thread, the noise served per active qubits by
-:class:`~qdensity.hardware._served_noise.ServedNoiseSimulator`; a call also pays ~10-40 ms
-whatever the method):
+density round-robin template, 16 parameter rows per call, CPU time on one thread, the noise
+served per active qubits by :class:`~qdensity.hardware._served_noise.ServedNoiseSimulator`; a
+call also pays ~10 ms whatever the method):
 
 ==========  ======================  ==========================  =================
 active      density matrix, per row  statevector trajectories,   crossover (shots)
 qubits                               per shot
 ==========  ======================  ==========================  =================
-4           ~4 ms                    ~0.05 ms                    ~70-95
-6           ~20 ms                   ~0.17 ms                    ~110-135
-8           ~75 ms                   ~1.0 ms                     ~75-85
+4           ~0.6-1.3 ms              ~0.17 ms                    ~4-8
+5           ~3.6 ms                  ~0.29 ms                    ~12
+6           ~17 ms                   ~0.45 ms                    ~35-40
+7           ~87 ms                   ~0.85 ms                    ~100
+8           ~85-90 ms                ~1.8-2.0 ms                 ~45-60
 10          ~1.1 s                   ~5.8 ms                     ~190
-12          ~22 s                    ~24 ms                      ~920
+12          ~22-34 s                 ~24-42 ms                   ~800-920
 ==========  ======================  ==========================  =================
 
-A density-matrix row pays a fixed few milliseconds (Aer rebuilds the noisy circuit's
-superoperators per parameter row) while a trajectory on a few qubits costs tens of
-microseconds, so below ~8 active qubits the crossover stays near 100 shots; above, it doubles
-per qubit (the density matrix grows as ``4 ** a``, a trajectory as ``2 ** a``). The density
-matrix pays from :func:`density_matrix_from` shots on ``a`` active qubits
-(``max(96, 2 ** (a - 2))``: 96 up to 8, then 128, 256, 512 and 1024 shots at 9 to 12). Hence,
-for a noisy target:
+(An earlier version of this table, measured before the noise was served per active qubits and
+on one-row calls whose fixed cost was read as a per-row cost, put the crossover near 100 shots
+up to 8 qubits: 4-qubit calls of 16 rows x 64 shots then ran 5.8x slower than the density
+matrix.) Both costs grow with the qubits (the density matrix as ``4 ** a``, a trajectory as
+``2 ** a``), so the crossover roughly doubles per qubit; the density matrix pays from
+:func:`density_matrix_from` shots on ``a`` active qubits (8 up to 4, then 16, 32, 96 and 64 at 5
+to 8, then ``2 ** (a - 2)``: 128, 256, 512 and 1024 at 9 to 12). Hence, for a noisy target:
 
 * ``density_matrix``, one thread, when ``a <= 12`` and ``shots >= density_matrix_from(a)``:
   exact noise, one simulation per row whatever the shots (``16 * 4 ** a`` bytes: 256 MB at 12);
@@ -107,7 +109,10 @@ FAST_SAMPLER_OPTIONS = {"shot_branching_enable": False, "runtime_parameter_bind_
                         "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 _PARALLEL_STATE_QUBITS = 14
-_DENSITY_MATRIX_MIN_SHOTS = 96
+#: Measured crossovers (shots per row) up to 8 active qubits (the module's table); above,
+#: ``2 ** (a - 2)``.
+_DENSITY_MATRIX_FROM = {5: 16, 6: 32, 7: 96, 8: 64}
+_DENSITY_MATRIX_MIN_SHOTS = 8
 _PARALLEL_SHOT_QUBITS = 8
 _NOT_QUBIT_WORK = frozenset({"barrier"})
 
@@ -152,15 +157,18 @@ def density_matrix_from(num_active: int) -> int:
     Returns
     -------
     int
-        ``max(96, 2 ** (a - 2))`` (the module's table).
+        8 up to 4 active qubits, 16, 32, 96 and 64 at 5 to 8, ``2 ** (a - 2)`` above (the
+        module's table).
 
     Examples
     --------
-    >>> [density_matrix_from(a) for a in (4, 6, 8, 10, 12)]
-    [96, 96, 96, 256, 1024]
+    >>> [density_matrix_from(a) for a in (2, 4, 5, 6, 7, 8, 10, 12)]
+    [8, 8, 16, 32, 96, 64, 256, 1024]
     """
     a = int(num_active)
-    return max(_DENSITY_MATRIX_MIN_SHOTS, 2 ** max(a - 2, 0))
+    if a <= 4:
+        return _DENSITY_MATRIX_MIN_SHOTS
+    return _DENSITY_MATRIX_FROM.get(a, 2 ** (a - 2))
 
 
 def mps_bond_bound(circuit: QuantumCircuit) -> int | None:

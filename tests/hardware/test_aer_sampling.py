@@ -41,10 +41,11 @@ def test_active_qubits_ignore_idle_wires_and_barriers():
 
 
 def test_rule_is_the_documented_crossover():
-    # noisy: density matrix from max(96, 2 ** (a - 2)) shots, up to DENSITY_MATRIX_MAX_QUBITS
-    # active qubits
+    # noisy: density matrix from the measured crossover (8 up to 4 active qubits, 16, 32, 96,
+    # 64 at 5 to 8, 2 ** (a - 2) above), up to DENSITY_MATRIX_MAX_QUBITS active qubits
+    table = {5: 16, 6: 32, 7: 96, 8: 64}
     for a in range(1, DENSITY_MATRIX_MAX_QUBITS + 3):
-        at = max(96, 2 ** max(a - 2, 0))
+        at = 8 if a <= 4 else table.get(a, 2 ** (a - 2))
         expect = "density_matrix" if a <= DENSITY_MATRIX_MAX_QUBITS else "statevector"
         assert aer_options(a, at, True)["method"] == expect
         if at > 1:
@@ -62,10 +63,11 @@ def test_rule_is_the_documented_crossover():
 
 
 @pytest.mark.parametrize(("active", "shots", "method"), [
-    # few shots on a few qubits: trajectories (a density-matrix row costs ~4 ms at 4 qubits, a
-    # trajectory ~0.05 ms); the benchmark grid's cells
-    (4, 16, "statevector"), (4, 256, "density_matrix"), (6, 16, "statevector"),
-    (8, 16, "statevector"), (8, 95, "statevector"), (8, 96, "density_matrix"),
+    # the benchmark grid's cells: at 4 active qubits a density-matrix row (~1 ms) costs a few
+    # trajectories (~0.17 ms each), at 6 and 8 qubits 35-60 of them
+    (4, 7, "statevector"), (4, 16, "density_matrix"), (4, 256, "density_matrix"),
+    (6, 16, "statevector"), (6, 32, "density_matrix"),
+    (8, 16, "statevector"), (8, 63, "statevector"), (8, 64, "density_matrix"),
     (10, 255, "statevector"), (10, 256, "density_matrix"), (12, 256, "statevector"),
     (12, 4000, "density_matrix"), (13, 4000, "statevector")])
 def test_rule_on_small_cells(active, shots, method):
@@ -167,17 +169,17 @@ def _exact_outcomes(tgt, circuit, value: float) -> np.ndarray:
 
 
 def test_trajectories_at_few_shots_match_the_exact_noisy_distribution():
-    # 4 active qubits at 64 shots per row now run as statevector trajectories (the density
-    # matrix from 96): 40 rows of one parameter value, pooled, against the exact outcome
+    # 4 active qubits at 4 shots per row run as statevector trajectories (the density
+    # matrix from 8): 640 rows of one parameter value, pooled, against the exact outcome
     # distribution (density matrix and readout confusion)
     tgt = get_target("heavy_hex", 4, seed=5)
     circuit = tgt.transpile(_ghz_ry(4))
     # Aer seeds shot k with seed + k: seeds 7919 apart keep the 2560 shots' streams apart
     sampler = tgt.sampler(seed=7919 * _stat_seed(0) + 31)
-    assert sampler.choose(circuit, 64)["method"] == "statevector"
-    vals = np.full((40, 1), 0.9)
-    observed = _frequencies(sampler, circuit, vals, 64).sum(axis=0) * 64
-    expected = _exact_outcomes(tgt, circuit, 0.9) * 40 * 64
+    assert sampler.choose(circuit, 4)["method"] == "statevector"
+    vals = np.full((640, 1), 0.9)
+    observed = _frequencies(sampler, circuit, vals, 4).sum(axis=0) * 4
+    expected = _exact_outcomes(tgt, circuit, 0.9) * 640 * 4
     assert abs(expected.sum() - 2560) < 1e-6 and expected[[i not in (0, 15) for i in
                                                             range(16)]].sum() > 20  # noisy
     rare = expected < 5  # pooled into one cell for the chi-square approximation
