@@ -227,6 +227,7 @@ def test_chunk_sizes_follow_both_budgets():
     assert sizes(budget=384 * 2) == [2] * 6
     assert sizes(budget=384 * 2, min_rows=3) == [3] * 4
     assert sizes(budget=384 * 2, min_rows=8) == [5, 5, 2]
+    assert sizes(budget=100) == [5, 5, 2]  # not one row fits the cache: memory_budget's chunks
 
 
 def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypatch):
