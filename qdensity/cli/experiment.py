@@ -57,8 +57,8 @@ def _cmd_experiment(args) -> int:
         print(f"  {key:<40} {ci['mean']:.4g}  [{ci['low']:.4g}, {ci['high']:.4g}]")
     if args.out is not None:
         print(f"results: {args.out}/{args.name}-{mode}.json")
-        for path in result.figures:
-            print(f"figure: {path}")
+        for name in result.figures:
+            print(f"figure: {args.out}/{name}")
     return 0
 
 

@@ -354,6 +354,6 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
         directory = Path(out)
         result.save(directory)
         if plot:
-            result.figures = [str(p) for p in experiment.plot(result, directory)]
+            result.figures = [Path(p).name for p in experiment.plot(result, directory)]
             result.save(directory)
     return result

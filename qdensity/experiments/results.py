@@ -351,7 +351,8 @@ class ExperimentResult:
         Curve name -> point-by-point mean and confidence interval over seeds
         (:func:`qdensity.experiments.registry.curve_summary`).
     figures : list of str
-        Paths of the PNG figures written beside the JSON.
+        File names of the PNG figures written beside the JSON (names, not paths, so that the
+        folder can move).
     seconds : float or None
         Wall time of the whole run.
     versions : dict

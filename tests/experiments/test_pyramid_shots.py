@@ -1,5 +1,6 @@
 """pyramid-shots at a size far below quick: shapes, invariants, shot accounting, settings."""
 
+import json
 
 import numpy as np
 import pytest
@@ -20,7 +21,10 @@ def tiny(tmp_path_factory, checked_run):
 
 def test_seeds_files_and_cis(tiny):
     result, out = tiny
-    assert [p.rsplit("/", 1)[-1] for p in result.figures] == ["pyramid-shots-quick.png"]
+    # names beside the JSON, not the (absolute) path of the run's folder
+    assert result.figures == ["pyramid-shots-quick.png"]
+    assert json.loads((out / "pyramid-shots-quick.json").read_text())["figures"] == \
+        ["pyramid-shots-quick.png"]
 
 
 def test_circuit_counts_and_angles(tiny):

@@ -92,7 +92,7 @@ def test_run_writes_json_and_figures_with_seed_statistics(toy, tmp_path):
     assert result.curves["m/test_vs_epoch"]["mean"][-1] == pytest.approx(accs.mean())
     assert all(row["seconds"] >= 0 for row in result.per_seed)
     saved = json.loads((tmp_path / "toy-quick.json").read_text())
-    assert saved["figures"] == [str(tmp_path / "toy.png")]
+    assert saved["figures"] == ["toy.png"]  # its name beside the JSON, not a path
     assert saved["config"] == {"base": 0.5}
     assert "qiskit" in saved["versions"]
     again = ExperimentResult.load(tmp_path / "toy-quick.json")

@@ -34,6 +34,7 @@ def _check_summary_and_figures(result, clipped: bool) -> None:
             assert ci["low"] == pytest.approx(low, rel=1e-6, abs=1e-9), key
             assert ci["high"] == pytest.approx(high, rel=1e-6, abs=1e-9), key
     for name in result.figures:
+        assert "/" not in name and "\\" not in name, name  # a name beside the JSON, not a path
         assert (RESULTS / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
 
 
