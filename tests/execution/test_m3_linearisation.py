@@ -14,11 +14,9 @@ from qiskit.providers.fake_provider import GenericBackendV2
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel, ReadoutError
 
-from qdensity.execution._correction import Linearisation, ReadoutCorrection
+from qdensity.execution._correction import ReadoutCorrection
 from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY
 from qdensity.hardware.targets import get_target
-
-pytest.importorskip("mthree")
 
 M = 6
 FLIPS = [(0.02, 0.10), (0.05, 0.04), (0.01, 0.15), (0.08, 0.06), (0.03, 0.12), (0.06, 0.02)]
@@ -41,7 +39,13 @@ def _setup(postselect):
     bits = np.array([[c == "1" for c in s[::-1]] for s in mem])[None]
     corr = ReadoutCorrection("m3", "hamming_weight" if postselect else None, tgt, 400, 5)
     w, _, lins = corr.weights(bits, qc, None)
-    return corr, bits, w[0], lins[0]
+    lin = lins[0]
+    keys = ["".join("1" if b else "0" for b in u[::-1]) for u in lin.outcomes]
+    counts = np.rint(lin.p * lin.shots)
+    per_shot = _f(bits[0])
+    return {"lin": lin, "mit": corr.mitigator(None), "keys": keys, "counts": counts,
+            "per_shot": per_shot, "mean": float(np.mean(w[0] * per_shot)),
+            "f_out": per_shot[lin.first]}
 
 
 def _f(bits):
@@ -58,16 +62,15 @@ def _estimate(mit, counts: dict, keys, f_out, postselect) -> float:
     return float((q * f_out * keep).sum() / (q * keep).sum())
 
 
-def _outcome_keys(lin: Linearisation) -> list[str]:
-    return ["".join("1" if b else "0" for b in u[::-1]) for u in lin.outcomes]
+def _as_dict(case, counts=None) -> dict:
+    counts = case["counts"] if counts is None else counts
+    return dict(zip(case["keys"], counts.astype(int).tolist(), strict=True))
 
 
 def test_reduced_matrix_is_mthrees():
-    corr, bits, _, lin = _setup(False)
-    mit = corr.mitigator(None)
-    keys = _outcome_keys(lin)
-    counts = dict(zip(keys, np.rint(lin.p * lin.shots).astype(int).tolist(), strict=True))
-    W, ordered = mit._m3.reduced_cal_matrix(counts, list(range(M)), distance=3)
+    case = _setup(False)
+    lin, keys = case["lin"], case["keys"]
+    W, ordered = case["mit"]._m3.reduced_cal_matrix(_as_dict(case), list(range(M)), distance=3)
     order = [keys.index(k) for k in ordered]
     A, c = lin._matrix()
     ours = (A / c)[np.ix_(order, order)]
@@ -77,15 +80,11 @@ def test_reduced_matrix_is_mthrees():
 
 @pytest.mark.parametrize("postselect", [False, True])
 def test_calibration_gradient_matches_finite_differences_of_mthree(postselect):
-    corr, bits, w, lin = _setup(postselect)
-    mit = corr.mitigator(None)
-    keys = _outcome_keys(lin)
-    counts = dict(zip(keys, np.rint(lin.p * lin.shots).astype(int).tolist(), strict=True))
-    per_shot = _f(bits[0])
-    mean = float(np.mean(w * per_shot))
-    f_out = per_shot[lin.first]
+    case = _setup(postselect)
+    lin, mit, keys, mean, f_out = (case[k] for k in ("lin", "mit", "keys", "mean", "f_out"))
+    counts = _as_dict(case)
     assert _estimate(mit, counts, keys, f_out, postselect) == pytest.approx(mean, abs=1e-6)
-    grads = lin.calibration_gradient(per_shot, mean)
+    grads = lin.calibration_gradient(case["per_shot"], mean)
     assert len(grads) == 2 * M
     h = 2e-3
     cals = mit._m3.single_qubit_cals
@@ -104,14 +103,9 @@ def test_calibration_gradient_matches_finite_differences_of_mthree(postselect):
 
 def test_shot_gradient_matches_finite_differences_of_mthree():
     # g = W^-T r is dV/dp: moving shots between outcomes i and k moves V by (g_i - g_k) d / N
-    corr, bits, w, lin = _setup(False)
-    mit = corr.mitigator(None)
-    keys = _outcome_keys(lin)
-    counts = np.rint(lin.p * lin.shots)
-    per_shot = _f(bits[0])
-    mean = float(np.mean(w * per_shot))
-    f_out = per_shot[lin.first]
-    g = lin._g(per_shot, mean, *lin._matrix())
+    case = _setup(False)
+    lin, mit, keys, counts, f_out = (case[k] for k in ("lin", "mit", "keys", "counts", "f_out"))
+    g = lin._g(case["per_shot"], case["mean"], *lin._matrix())
     d = 2.0
     for i, k in [(0, 1), (0, len(keys) - 1), (2, 3)]:
         moved = []
