@@ -320,7 +320,7 @@ class SamplerEngine:
     ``N_eff = kappa N / M`` shots (``M`` mthree's overhead), conservative where measured.
     M3 corrects on the observed outcomes only: where many outcomes go unseen (wide registers,
     few shots) it keeps a bias that no error bar from the row's own shots carries (measured:
-    about one standard error at 14 qubits and 4,000 shots, ``bench_mitigation_errors.py``).
+    0.6-0.9 of a standard error at 14 qubits and 4,000 shots, ``bench_mitigation_errors.py``).
 
     An engine pickles with its target, sampler and settings (standard ``pickle``); an
     unpickled engine with ``mitigation`` calibrates again on first use.

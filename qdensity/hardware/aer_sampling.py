@@ -24,10 +24,7 @@ qubits                               per shot
 12          ~22-34 s                 ~24-42 ms                   ~800-920
 ==========  ======================  ==========================  =================
 
-(An earlier version of this table, measured before the noise was served per active qubits and
-on one-row calls whose fixed cost was read as a per-row cost, put the crossover near 100 shots
-up to 8 qubits: 4-qubit calls of 16 rows x 64 shots then ran 5.8x slower than the density
-matrix.) Both costs grow with the qubits (the density matrix as ``4 ** a``, a trajectory as
+Both costs grow with the qubits (the density matrix as ``4 ** a``, a trajectory as
 ``2 ** a``), so the crossover roughly doubles per qubit; the density matrix pays from
 :func:`density_matrix_from` shots on ``a`` active qubits (8 up to 4, then 16, 32, 96 and 64 at 5
 to 8, then ``2 ** (a - 2)``: 128, 256, 512 and 1024 at 9 to 12). Hence, for a noisy target:
@@ -109,8 +106,8 @@ FAST_SAMPLER_OPTIONS = {"shot_branching_enable": False, "runtime_parameter_bind_
                         "max_parallel_threads": 0, "max_parallel_shots": 0}
 
 _PARALLEL_STATE_QUBITS = 14
-#: Measured crossovers (shots per row) up to 8 active qubits (the module's table); above,
-#: ``2 ** (a - 2)``.
+#: Measured crossovers (shots per row) up to 8 active qubits (the module's table; 8 up to
+#: 4 qubits); above, ``2 ** (a - 2)``.
 _DENSITY_MATRIX_FROM = {5: 16, 6: 32, 7: 96, 8: 64}
 _DENSITY_MATRIX_MIN_SHOTS = 8
 _PARALLEL_SHOT_QUBITS = 8

@@ -146,8 +146,8 @@ def test_wide_register_m3_error_matches_the_spread_over_seeds():
     # linearisation's old cap (512, above which the error fell back to N_eff and came out 7x
     # the spread: mthree's overhead M is ~400 here); the spread check only (chi-square, two
     # sides at 2.5e-4): mthree corrects on the observed outcomes only, which leaves a bias of
-    # about one standard error at this width (measured 0.019 on a value of -0.5) that no error
-    # bar of the row's own shots can carry (the engine's docstring says so)
+    # 0.6-0.9 of a standard error at this width (measured 0.013-0.019 on a value of -0.5) that
+    # no error bar of the row's own shots can carry (the engine's docstring says so)
     from qiskit import QuantumCircuit
 
     n = 14
