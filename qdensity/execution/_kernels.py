@@ -30,6 +30,8 @@ import os
 
 import numpy as np
 
+from qdensity.cluster import idle_core
+
 __all__ = ["available", "Tables", "tables", "forward", "backward", "MAX_DENSE"]
 
 #: Widest fixed (dense) gate the kernels apply; a program with a wider one runs on numpy.
@@ -219,18 +221,14 @@ if numba is not None:
 #: Rows run in parallel threads only above this much work (amplitudes x operations, about
 #: 10-20 ms on one core): below it, waking the threads costs more than it saves.
 PARALLEL_WORK = 2**24
-#: ... and only while the machine has an idle core (1-minute load average + 1 <= cores): on a
-#: busy machine a parallel region waits for its slowest thread, and a thread that waits for a
-#: core made calls 5-15x slower than one thread (measured at a load of 13 on 2 cores).
+#: ... and only while the machine has an idle core (:func:`qdensity.cluster.idle_core`).
 LOAD_AWARE = True
 
 
 def _parallel(rows: int, n: int, ops: int) -> bool:
     if rows < 2 or numba.get_num_threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
         return False
-    if LOAD_AWARE and hasattr(os, "getloadavg"):
-        return os.getloadavg()[0] + 1 <= (os.cpu_count() or 1)
-    return True
+    return idle_core() if LOAD_AWARE else True
 
 
 def forward(states, n, cos, sin, tab: Tables) -> None:
