@@ -32,14 +32,30 @@ _MAX_SERVED = 64  # qubit sets kept per noise model
 _SERIALISED: dict[int, tuple] = {}
 
 
+def active_indices(circuit: QuantumCircuit) -> frozenset[int]:
+    """Indices of the qubits an instruction of ``circuit`` other than ``barrier`` acts on.
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+
+    Returns
+    -------
+    frozenset of int
+    """
+    used: set = set()
+    for inst in circuit.data:  # ``inst.name``: no Python object for the operation
+        if inst.name not in _NOT_QUBIT_WORK:
+            used.update(inst.qubits)
+    return frozenset(circuit.find_bit(q).index for q in used)
+
+
 def _active(circuits) -> frozenset[int] | None:
     used: set[int] = set()
     for circ in circuits:
         if not isinstance(circ, QuantumCircuit):
             return None
-        for inst in circ.data:
-            if inst.operation.name not in _NOT_QUBIT_WORK:
-                used.update(circ.find_bit(q).index for q in inst.qubits)
+        used |= active_indices(circ)
     return frozenset(used)
 
 

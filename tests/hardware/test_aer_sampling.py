@@ -9,6 +9,7 @@ from qiskit.circuit import Parameter
 from qiskit_aer import AerSimulator
 from scipy import stats
 
+from qdensity.hardware import aer_sampling
 from qdensity.hardware.aer_sampling import (
     DENSITY_MATRIX_MAX_QUBITS,
     FAST_SAMPLER_OPTIONS,
@@ -55,11 +56,56 @@ def test_rule_is_the_documented_crossover():
         # shot branching with noise samples wrong distributions in qiskit-aer 0.18.2
         assert opts["shot_branching_enable"] is False
         assert opts["runtime_parameter_bind_enable"] is True
-    assert aer_options(10, 64, True)["max_parallel_shots"] == 0
     assert aer_options(6, 16, True)["max_parallel_threads"] == 1
     assert aer_options(20, 10, False)["max_parallel_threads"] == 0
     with pytest.raises(ValueError, match="shots"):
         aer_options(3, 0, True)
+    with pytest.raises(ValueError, match="rows"):
+        aer_options(3, 10, True, rows=0)
+
+
+def _threads(opts: dict) -> str:
+    assert opts["method"] == "statevector"
+    if opts["max_parallel_threads"] == 1:
+        assert "max_parallel_shots" not in opts
+        return "one"
+    assert opts["max_parallel_threads"] == 0 and opts["max_parallel_shots"] == 0
+    return "all"
+
+
+def test_trajectories_spread_over_threads_only_for_large_calls_on_an_idle_machine(monkeypatch):
+    # the module's rule: from 8 active qubits and PARALLEL_TRAJECTORIES trajectories a call
+    # (rows x shots), or from 14 active qubits, and only while a core is idle
+    monkeypatch.setattr(aer_sampling, "idle_core", lambda: True)
+    big = aer_sampling.PARALLEL_TRAJECTORIES
+    assert _threads(aer_options(8, 16, True, rows=16)) == "one"  # 256 trajectories
+    assert _threads(aer_options(10, 16, True, rows=16)) == "one"
+    assert _threads(aer_options(12, 256, True, rows=big // 256 - 1)) == "one"
+    assert _threads(aer_options(12, 256, True, rows=big // 256)) == "all"
+    assert _threads(aer_options(7, 4, True, rows=big)) == "one"  # below 8 active qubits
+    assert _threads(aer_options(8, 4, True, rows=big // 4)) == "all"
+    assert _threads(aer_options(14, 1, True)) == "all"
+    monkeypatch.setattr(aer_sampling, "idle_core", lambda: False)  # every core busy
+    assert _threads(aer_options(12, 256, True, rows=big)) == "one"
+    assert _threads(aer_options(14, 1, True)) == "one"
+    monkeypatch.setattr(aer_sampling, "LOAD_AWARE", False)
+    assert _threads(aer_options(14, 1, True)) == "all"
+
+
+def test_the_sampler_counts_a_pubs_rows(monkeypatch):
+    monkeypatch.setattr(aer_sampling, "idle_core", lambda: True)
+    tgt = get_target("heavy_hex", 8, seed=1)
+    tqc = tgt.transpile(_ghz_ry(8))
+    sampler = tgt.sampler(seed=3)
+    assert sampler.choose(tqc, 16, rows=1)["max_parallel_threads"] == 1
+    assert sampler.choose(tqc, 16, rows=200)["max_parallel_threads"] == 0
+    seen = []
+    real = AdaptiveSampler.choose
+    monkeypatch.setattr(AdaptiveSampler, "choose",
+                        lambda self, c, s, rows=1: seen.append(rows) or real(self, c, s, rows))
+    vals = np.linspace(0, 1, 6).reshape(3, 2, 1)  # a (3, 2) array of rows: 6 rows
+    sampler.run([(tqc, vals, 4), (tqc, [0.5], 4)]).result()
+    assert seen == [6, 1]
 
 
 @pytest.mark.parametrize(("active", "shots", "method"), [
