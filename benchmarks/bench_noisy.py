@@ -6,21 +6,22 @@ circuits (a unary loader and a round-robin sub-unitary, one PUB of ``rows`` para
 Goal (issue "Hardware as objects", item 4): the automatic choice within 10% of the best fixed
 method on every cell, in CPU time of the process (Aer's threads included) per call, the fixed
 methods on one thread with ``--one-thread`` (their default, all threads, costs CPU on small
-states). Each sampler first runs a pilot (1 row, at most 32 shots) twice: the first builds its
-simulators (``setup`` column: the auto sampler's first pilot less its second), the second
-predicts the cell's time (by rows x shots for trajectories, by rows for the density matrix). A
-sampler predicted over ``--max-seconds`` for ``--repeat`` calls is not run (``>N``: the
-prediction in seconds per call; a ratio that uses a prediction is marked ``~``). The others are
-called in turn, round after round, each round starting one sampler later than the one before (so
-a change of the machine's load, or a cache another sampler left cold, falls on all of them
-alike), for ``--repeat`` rounds; then auto and the fixed methods within 1.5x of the best one go
-on until all the rounds took ``--min-seconds``. The minimum over a sampler's calls is reported
-(what the call costs, less what other processes took from it). ``auto/plain`` is given in CPU
-and in wall time (plain Aer uses all threads). The device's noise model is built and serialised
-before any timing. OpenMP threads wait passively (``OMP_WAIT_POLICY=PASSIVE`` unless set): by
-default a threaded call's threads spin for a while after it returns, and the process CPU clock
-charged that to the next call (measured: the auto sampler's 7 ms density-matrix call after plain
-Aer's threaded one read 11 ms). The machine may be shared: the load average is printed per cell.
+states). Each sampler first runs a pilot (1 row; at most 32 shots for trajectories, the cell's
+shots for the density matrix) twice: the first builds its simulators (``setup`` column: the auto
+sampler's first pilot less its second), the second predicts the cell's time (by rows x shots for
+trajectories, by rows for the density matrix). A sampler predicted over ``--max-seconds`` for
+``--repeat`` calls is not run (``>N``: the prediction in seconds per call; a ratio that uses a
+prediction is marked ``~``). The others are called in turn, round after round, each round
+starting one sampler later than the one before (so a change of the machine's load, or a cache
+another sampler left cold, falls on all of them alike), for ``--repeat`` rounds; then auto and
+the fixed methods within 1.5x of the best one go on until all the rounds took ``--min-seconds``.
+The minimum over a sampler's calls is reported (what the call costs, less what other processes
+took from it). ``auto/plain`` is given in CPU and in wall time (plain Aer uses all threads). The
+device's noise model is built and serialised before any timing. OpenMP threads wait passively
+(``OMP_WAIT_POLICY=PASSIVE`` unless set): by default a threaded call's threads spin for a while
+after it returns, and the process CPU clock charged that to the next call (measured: the auto
+sampler's 7 ms density-matrix call after plain Aer's threaded one read 11 ms). The machine may
+be shared: the load average is printed per cell.
 
     python benchmarks/bench_noisy.py [--n 4 6 8 10 12] [--rows 1 16] [--shots 16 256 4000]
                                      [--targets heavy_hex fake_kolkata] [--repeat 3]
@@ -59,16 +60,20 @@ def _clock(run) -> tuple[float, float]:
 
 
 def _prepare(make, compiled, values, shots, method):
-    """(sampler, predicted CPU seconds per call, set-up seconds) after two pilots."""
-    pilot_shots = min(shots, _PILOT_SHOTS)
+    """(sampler, predicted CPU seconds per call, set-up seconds) after two pilots.
+
+    ``method`` is the one the sampler runs the cell with; a density-matrix pilot has the cell's
+    shots (so that an automatic rule picks the same method for it), a trajectory pilot at most
+    ``_PILOT_SHOTS``."""
+    if method == "plain":  # Aer's automatic rule: the density matrix above 2 ** a shots
+        method = "density_matrix" if shots > 2 ** active_qubits(compiled) else "statevector"
+    pilot_shots = shots if method == "density_matrix" else min(shots, _PILOT_SHOTS)
     pilot = [(compiled, values[:1], pilot_shots)]
     t0 = time.process_time()
     sampler = make()
     sampler.run(pilot).result()
     first = time.process_time() - t0  # construction and first pilot
     second = _clock(lambda: sampler.run(pilot).result())[0]
-    if method == "plain":  # Aer's automatic rule: the density matrix above 2 ** a shots
-        method = "density_matrix" if shots > 2 ** active_qubits(compiled) else "statevector"
     scale = len(values) * (1 if method == "density_matrix" else shots / pilot_shots)
     return sampler, second * scale, first - second
 
