@@ -14,14 +14,14 @@ trajectories, by rows for the density matrix). A sampler predicted over ``--max-
 prediction is marked ``~``). The others are called in turn, round after round, each round
 starting one sampler later than the one before (so a change of the machine's load, or a cache
 another sampler left cold, falls on all of them alike), for ``--repeat`` rounds; then auto and
-the fixed methods within 1.5x of the best one go on until all the rounds took ``--min-seconds``.
-The minimum over a sampler's calls is reported (what the call costs, less what other processes
-took from it). ``auto/plain`` is given in CPU and in wall time (plain Aer uses all threads). The
-device's noise model is built and serialised before any timing. OpenMP threads wait passively
-(``OMP_WAIT_POLICY=PASSIVE`` unless set): by default a threaded call's threads spin for a while
-after it returns, and the process CPU clock charged that to the next call (measured: the auto
-sampler's 7 ms density-matrix call after plain Aer's threaded one read 11 ms). The machine may
-be shared: the load average is printed per cell.
+the fixed methods within 1.5x of the best one go on until their calls took ``--min-seconds`` in
+all. The minimum over a sampler's calls is reported (what the call costs, less what other
+processes took from it). ``auto/plain`` is given in CPU and in wall time (plain Aer uses all
+threads). The device's noise model is built and serialised before any timing. OpenMP threads
+wait passively (``OMP_WAIT_POLICY=PASSIVE`` unless set): by default a threaded call's threads
+spin for a while after it returns, and the process CPU clock charged that to the next call
+(measured: the auto sampler's 7 ms density-matrix call after plain Aer's threaded one read 11
+ms). The machine may be shared: the load average is printed per cell.
 
     python benchmarks/bench_noisy.py [--n 4 6 8 10 12] [--rows 1 16] [--shots 16 256 4000]
                                      [--targets heavy_hex fake_kolkata] [--repeat 3]
@@ -99,12 +99,12 @@ def _measure(target, compiled, n, rows, shots, a):
         shift = rounds % len(order)
         for k in order[shift:] + order[:shift]:
             timed[k].append(_clock(lambda k=k: prepared[k][0].run(pub).result()))
-            spent += timed[k][-1][0]
         rounds += 1
         if rounds == a.repeat:  # go on with auto and the fixed methods that may be the best
             least = {k: min(c for c, _ in calls) for k, calls in timed.items()}
             best = min((v for k, v in least.items() if k in FIXED), default=0.0)
             order = [k for k in order if k == "auto" or (k in FIXED and least[k] <= 1.5 * best)]
+        spent = sum(c for k in order for c, _ in timed[k])  # of the samplers going on
     cell = {}
     for k, (_, pred, setup) in prepared.items():
         calls = timed.get(k)
