@@ -226,7 +226,7 @@ LOAD_AWARE = True
 
 
 def _parallel(rows: int, n: int, ops: int) -> bool:
-    if rows < 2 or numba.get_num_threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
+    if rows < 2 or threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
         return False
     return idle_core() if LOAD_AWARE else True
 

@@ -415,8 +415,7 @@ class AdaptiveSampler(SamplerV2):
     def _run_pubs(self, pubs, shots):
         groups: dict = {}
         for i, pub in enumerate(pubs):
-            rows = max(int(np.prod(pub.parameter_values.shape)), 1)
-            opts = self.choose(pub.circuit, shots, rows)
+            opts = self.choose(pub.circuit, shots, max(pub.parameter_values.size, 1))
             groups.setdefault(tuple(sorted(opts.items())), (opts, []))[1].append(i)
         out: list = [None] * len(pubs)
         for g, (opts, idx) in enumerate(groups.values()):
