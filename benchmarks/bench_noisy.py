@@ -114,15 +114,20 @@ def _measure(target, compiled, n, rows, shots, a):
     return cell, chosen
 
 
-def _ratio(cell, key, others) -> str:
-    """``key`` over the least of ``others`` in CPU; ``~`` where a prediction enters."""
+def _ratio(cell, key, others) -> tuple[float, bool] | None:
+    """``key`` over the least of ``others`` in CPU, and whether a prediction enters."""
     if key not in cell or not any(o in cell for o in others):
-        return "-"
+        return None
     value = {k: (cell[k][0], False) if cell[k][0] is not None else (cell[k][2], True)
              for k in (key, *others) if k in cell}
     best = min((value[o] for o in others if o in value), key=lambda v: v[0])
     mine = value[key]
-    return f"{'~' if mine[1] or best[1] else ''}{mine[0] / best[0]:.2f}"
+    return mine[0] / best[0], mine[1] or best[1]
+
+
+def _fmt(ratio: tuple[float, bool] | None) -> str:
+    """A ratio as printed: ``-`` where none, ``~`` where a prediction enters."""
+    return "-" if ratio is None else f"{'~' if ratio[1] else ''}{ratio[0]:.2f}"
 
 
 def _show(cell, key) -> str:
@@ -152,7 +157,8 @@ def main() -> None:
                     help="fixed methods to compare")
     ap.add_argument("--repeat", type=int, default=3, help="least rounds of timed calls")
     ap.add_argument("--min-seconds", type=float, default=5.0,
-                    help="more rounds (up to 50) until the timed calls took this much CPU")
+                    help="after --repeat rounds, more (up to 50) until the calls of auto and "
+                         "the fixed methods within 1.5x of the best took this much CPU")
     ap.add_argument("--max-seconds", type=float, default=60.0,
                     help="skip a sampler whose predicted repeat x per-call time exceeds this")
     ap.add_argument("--no-plain", action="store_true", help="leave out plain AerSimulator")
@@ -170,7 +176,6 @@ def main() -> None:
           "   (CPU seconds per call)")
     worst, worst_all = 0.0, 0.0
     built: dict = {}
-    fixed = [m for m in FIXED]
     for name, n, rows, shots in _cells(a):
         if (name, n) not in built:
             target = get_target(name, None if name.startswith("fake_") else n, seed=1)
@@ -182,20 +187,20 @@ def main() -> None:
             built = {(name, n): (target, compiled)}
         target, compiled = built[(name, n)]
         cell, chosen = _measure(target, compiled, n, rows, shots, a)
-        r_best = _ratio(cell, "auto", fixed)
-        r_plain = _ratio(cell, "auto", ["plain"])
+        r_best, r_plain = _ratio(cell, "auto", FIXED), _ratio(cell, "auto", ["plain"])
         walls = [cell[k][1] for k in ("auto", "plain") if k in cell]
         r_wall = (f"{walls[0] / walls[1]:.2f}" if len(walls) == 2 and None not in walls
                   else "-")
-        if r_best != "-":
-            worst_all = max(worst_all, float(r_best.lstrip("~")))
-            if not r_best.startswith("~"):
-                worst = max(worst, float(r_best))
+        if r_best is not None:
+            worst_all = max(worst_all, r_best[0])
+            if not r_best[1]:
+                worst = max(worst, r_best[0])
         threads = "1" if chosen.get("max_parallel_threads") == 1 else "all"
         print(f"{name:<13}{n:>3}{rows:>5}{shots:>6}{_show(cell, 'auto')}"
               f"{chosen['method'][:6]:>8}{threads:>4}{cell['auto'][3]:>7.2f}"
               + "".join(_show(cell, m) for m in FIXED) + _show(cell, "plain")
-              + f"{r_best:>10}{r_plain:>11}{r_wall:>8}{os.getloadavg()[0]:>6.1f}", flush=True)
+              + f"{_fmt(r_best):>10}{_fmt(r_plain):>11}{r_wall:>8}{os.getloadavg()[0]:>6.1f}",
+              flush=True)
     print(f"worst auto / best fixed: {worst:.2f} where measured, {worst_all:.2f} with "
           f"predictions (goal <= 1.10)")
 
