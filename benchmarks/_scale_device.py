@@ -38,7 +38,7 @@ from qiskit.transpiler.passes import CheckMap, GatesInBasis
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
 from qdensity.ansatze import round_robin
-from qdensity.execution.engines import circuit_fingerprint
+from qdensity.execution._compile import circuit_fingerprint
 from qdensity.gradients import density_gradient_plan
 from qdensity.hardware.resources import resource_report
 from qdensity.hardware.targets import get_target

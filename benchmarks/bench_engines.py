@@ -49,8 +49,8 @@ from qdensity.circuits.ansatze import (
     hardware_efficient,
     qcnn,
 )
-from qdensity.execution import _kernels
-from qdensity.execution.adjoint import AdjointEngine
+from qdensity.execution import _numba
+from qdensity.execution.statevector.adjoint import AdjointEngine
 
 sys.path.insert(0, os.path.dirname(__file__))
 
@@ -184,7 +184,7 @@ def _ms(t: float) -> str:
 
 def adjoint_section(families, widths, batches, calls, budget, min_calls=5) -> None:
     print("\n## adjoint: values and gradients of <Z_0> w.r.t. every parameter (ms per call)")
-    print(f"kernels: {'numba' if _kernels.available() else 'numpy'}")
+    print(f"kernels: {'numba' if _numba.available() else 'numpy'}")
     print(f"{'family':8} {'n':>3} {'B':>3} {'P':>4} | {'qd med':>9} {'qd p95':>9} "
           f"{'p95/med':>7} | {'light med':>9} {'light p95':>9} | {'light/qd':>8} {'cpu':>8} | "
           f"{'max diff':>8} {'calls':>5}")

@@ -17,8 +17,8 @@ import numpy as np
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.ansatze import round_robin
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import expectation_plan
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.targets import get_target
 from qdensity.loaders import unary_loader
 

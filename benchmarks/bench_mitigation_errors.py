@@ -7,7 +7,7 @@ CI).
 On a 4-qubit device whose only noise is a readout error (0 -> 1 with 0.03, 1 -> 0 with 0.12),
 each seed runs a fresh calibration and fresh shots of ``<Z_0> - 0.5 <Z_1>`` on three unary
 states (a basis state, a near-basis one, a spread one), through
-:func:`~qdensity.execution.mitigated.mitigated_expectation` and through a
+:func:`~qdensity.execution.sampler.mitigated.mitigated_expectation` and through a
 ``SamplerEngine(mitigation="m3")``. It prints, per state and path, the bias of the mean, the
 spread (sd over seeds), the root-mean-square reported error and their variance ratio; a
 ratio near 1 (within the chi-square(seeds - 1) spread, about +-0.3 at 100 seeds) means the
@@ -44,9 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     from qiskit_aer.noise import NoiseModel, ReadoutError
 
     from qdensity.circuits.loaders import unary_loader
-    from qdensity.execution.engines import SamplerEngine
-    from qdensity.execution.mitigated import mitigated_expectation
     from qdensity.execution.plans import expectation_plan
+    from qdensity.execution.sampler.engine import SamplerEngine
+    from qdensity.execution.sampler.mitigated import mitigated_expectation
     from qdensity.hardware.mitigation import ReadoutMitigator
     from qdensity.hardware.targets import get_target
 

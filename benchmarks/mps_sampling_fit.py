@@ -29,8 +29,8 @@ from scipy import stats
 from qdensity import SamplerEngine, by_moments
 from qdensity.ansatze import round_robin
 from qdensity.circuits.loaders import unary_loader
-from qdensity.execution.engines import bitarray_to_bits
 from qdensity.execution.plans import measured
+from qdensity.execution.sampler.engine import bitarray_to_bits
 
 SAMPLERS = [("statevector", {}), ("matrix_product_state", {})] + [
     ("matrix_product_state", {"mps_sample_measure_algorithm": alg})

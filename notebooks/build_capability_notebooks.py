@@ -403,7 +403,7 @@ call, as above) or a hardware sampler.
 
 On a calibrated device snapshot (`fake_manila`: the coupling map, gates, T1/T2 and readout
 errors of an IBM device) noise biases the estimate by many standard errors. Two corrections
-(`qdensity.execution.mitigated.mitigated_expectation`): mthree's readout mitigation (calibrated
+(`qdensity.execution.sampler.mitigated.mitigated_expectation`): mthree's readout mitigation (calibrated
 on the same device, its shots in the ledger) and post-selection on Hamming weight 1 (a unary
 model never leaves that subspace; gate noise does). Each `f_k` is estimated with a fixed
 number of shots, then `f = sum_k alpha_k f_k`.
@@ -412,7 +412,7 @@ number of shots, then `f = sum_k alpha_k f_k`.
 import importlib.util
 
 if importlib.util.find_spec('qiskit_ibm_runtime') and importlib.util.find_spec('mthree'):
-    from qdensity.execution.mitigated import mitigated_expectation
+    from qdensity.execution.sampler.mitigated import mitigated_expectation
     from qdensity.hardware.mitigation import ReadoutMitigator
 
     device = get_target('fake_manila', n, seed=0)

@@ -46,9 +46,9 @@ _EXPORTS: dict[str, str] = {
     "Plan": "qdensity.execution.plans",
     "expectation_plan": "qdensity.execution.plans",
     "probabilities_plan": "qdensity.execution.plans",
-    "ExactEngine": "qdensity.execution.engines",
-    "SamplerEngine": "qdensity.execution.engines",
-    "ShotLedger": "qdensity.execution.engines",
+    "ExactEngine": "qdensity.execution.exact",
+    "SamplerEngine": "qdensity.execution.sampler.engine",
+    "ShotLedger": "qdensity.execution.sampler.engine",
     "get_target": "qdensity.hardware.targets",
     "known_targets": "qdensity.hardware.targets",
     "resource_report": "qdensity.hardware.resources",
@@ -105,8 +105,9 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
         unary_loader,
         unary_loader_template,
     )
-    from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+    from qdensity.execution.exact import ExactEngine
     from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
+    from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.hardware.resources import compare_reports, resource_report
     from qdensity.hardware.targets import get_target, known_targets
     from qdensity.learning.estimators import QNNClassifier, QNNRegressor

@@ -34,6 +34,11 @@ ALIASES: dict[str, str] = {
     "qdensity.engines": "qdensity.execution.engines",
     "qdensity.unary": "qdensity.execution.unary",
     "qdensity.schedulers": "qdensity.execution.schedulers",
+    # the engines' modules before each engine had a sub-package of its own
+    "qdensity.execution.adjoint": "qdensity.execution.statevector.adjoint",
+    "qdensity.execution.mitigated": "qdensity.execution.sampler.mitigated",
+    "qdensity.execution.postselection": "qdensity.execution.sampler.postselection",
+    "qdensity.execution.runtime_engine": "qdensity.execution.sampler.runtime",
     "qdensity.targets": "qdensity.hardware.targets",
     "qdensity.noise": "qdensity.hardware.noise",
     "qdensity.resources": "qdensity.hardware.resources",

@@ -293,7 +293,8 @@ def test_short_paths_are_the_canonical_modules(short):
     canonical = importlib.import_module(_aliases.ALIASES[short])
     assert module is canonical
     assert module.__name__ == module.__spec__.name == _aliases.ALIASES[short]
-    assert getattr(qdensity, short.rpartition(".")[2]) is canonical
+    parent, _, leaf = short.rpartition(".")
+    assert getattr(importlib.import_module(parent), leaf) is canonical
 
 
 def test_submodule_of_a_short_path_is_one_module():

@@ -4,8 +4,7 @@ engine with its gradients, any ``SamplerV2`` with a shot ledger, the unary engin
 shot schedulers for randomised density sampling (Fig. 1c). Targets, noise, transpilation,
 resources and mitigation are the device's side: :mod:`qdensity.hardware`."""
 
-from qdensity.execution.adjoint import AdjointEngine
-from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import (
     CircuitJob,
     Estimate,
@@ -14,6 +13,8 @@ from qdensity.execution.plans import (
     expectation_plan,
     probabilities_plan,
 )
+from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
+from qdensity.execution.statevector.adjoint import AdjointEngine
 
 __all__ = [
     "CircuitJob",

@@ -17,7 +17,7 @@ four ways:
     unrenormalised.
 ``m3_ps``
     Mitigation, then post-selection (divided by the mitigated weight-1 fraction), the
-    composition of :func:`~qdensity.execution.mitigated.mitigated_expectation`.
+    composition of :func:`~qdensity.execution.sampler.mitigated.mitigated_expectation`.
 
 The shots per data point are split over the sub-unitaries in proportion to ``alpha``
 (stratified sampling, :func:`allocate_shots`): a pure model (K = 1) and a density model get
@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.job_results import bits_to_probabilities
 from qdensity.execution.plans import CircuitJob, measured
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.mitigation import hamming_weights
 
 __all__ = ["VARIANTS", "allocate_shots", "DeviceOutputs", "device_outputs"]

@@ -24,7 +24,7 @@ import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
-from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.hardware.resources import compare_reports, resource_report
 from qdensity.hardware.targets import get_target

@@ -45,7 +45,7 @@ import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
-from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.experiments._common import curve, plot_curves
 from qdensity.experiments._noise_device import VARIANTS, device_outputs
 from qdensity.experiments.registry import Experiment

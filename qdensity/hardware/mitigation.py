@@ -13,7 +13,7 @@ Two corrections of sampled estimates, each optional, applied in this order:
    leaks weight out of it. Keeping only weight-``w`` outcomes and renormalising removes that
    leak; the *kept fraction* ``kappa`` is the (mitigated) weight found there.
 
-:func:`qdensity.execution.mitigated.mitigated_expectation` estimates a diagonal (Z-type)
+:func:`qdensity.execution.sampler.mitigated.mitigated_expectation` estimates a diagonal (Z-type)
 observable ``<H> = sum_b p(b) h(b)`` this way. With ``q`` the corrected, post-selected
 distribution, the value is ``sum_b q(b) h(b)``; its standard error is the delta method over
 the row's shots and the calibration's shots (:meth:`ReadoutMitigator.readout_matrices` gives

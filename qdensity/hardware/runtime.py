@@ -13,7 +13,7 @@ This module builds that pair for IBM's ``qiskit-ibm-runtime`` (the optional extr
 :func:`runtime_sampler` turns qdensity's few knobs (shots, seed, dynamical decoupling,
 twirling, any other runtime option) into the runtime's ``SamplerOptions``, validated when the
 sampler is made, so options the runtime rejects raise ``ValueError`` before any job is
-submitted; :func:`qdensity.execution.runtime_engine.runtime_engine` adds the device's preset pass
+submitted; :func:`qdensity.execution.sampler.runtime.runtime_engine` adds the device's preset pass
 manager. ``mode`` is a backend
 (one job per :meth:`SamplerEngine.run`), or a ``qiskit_ibm_runtime.Batch`` that groups the many
 jobs of a training run or an experiment for the provider's scheduler.

@@ -15,7 +15,7 @@ import numbers
 import numpy as np
 
 from qdensity.circuits.ansatze.hamming import butterfly, pyramid, round_robin, x_circuit
-from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.learning.optim import SGD, Adam, RMSprop
 from qdensity.models.decompositions import by_moments, cyclic_moments, odd_even
 from qdensity.models.density import DensityQNN

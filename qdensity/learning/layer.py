@@ -7,7 +7,7 @@ training run. Gradients:
 * ``engine="exact"``: exact values. RBS/FBS models on a unary encoding use the unary engine's
   reverse mode (also giving gradients w.r.t. the inputs, so a trainable pre-processing layer
   works, Fig. 11); every other model uses the adjoint statevector engine
-  (:mod:`qdensity.execution.adjoint`): one forward and one backward sweep per data row, with
+  (:mod:`~qdensity.execution.statevector`): one forward and one backward sweep per data row, with
   gradients w.r.t. the inputs too when the data enter as angles. Both engines, and the compiled
   circuits, live as long as the model. An :class:`~qdensity.engines.ExactEngine` passed as
   ``engine`` runs the exact gradient plans on Aer instead (each template transpiled once).
@@ -29,9 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from qdensity.execution.adjoint import AdjointEngine
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import Plan
+from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.statevector.adjoint import AdjointEngine
 from qdensity.gradients.density import (
     METHODS,
     DensityGradient,

@@ -11,7 +11,7 @@ Gradients reach the angles, the logits, the gate's weights and the input:
   exact, with the gradient w.r.t. the input (through ``x / ||x||``), so classical layers before
   the quantum layer train (the paper's MNIST model, Fig. 11a);
 * ``engine="exact"`` on every other model: the adjoint statevector engine
-  (:mod:`qdensity.execution.adjoint`), one sweep per row for the angles and every
+  (:mod:`qdensity.execution.statevector.adjoint`), one sweep per row for the angles and every
   data-carrying angle, chained to ``d/dx`` through the encoding's Jacobian and the re-uploaded
   features (:mod:`qdensity.gradients.inputs`), so classical layers train in front of angle-
   encoded, re-uploading and QCNN models too;
@@ -40,8 +40,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import Plan
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import METHODS, density_gradient_plan
 from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN

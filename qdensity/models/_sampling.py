@@ -76,9 +76,9 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
            seed=None, mitigation: str | None = None, postselect: str | None = None,
            ledger=None):
     """Estimate ``f(x)`` from shots; see :meth:`DensityQNN.sample` (parameters and returns)."""
-    from qdensity.execution.engines import SamplerEngine, ShotLedger
     from qdensity.execution.intervals import wilson_standard_error
     from qdensity.execution.plans import CircuitJob, diagonal_values, measured
+    from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
     from qdensity.validation import check_positive_int
 

@@ -4,7 +4,7 @@ A :class:`~qdensity.models.density.DensityQNN` keeps, for its lifetime, everythi
 evaluation needs, built on first use and never again:
 
 * the composed circuits ``V(x) U_k`` (one per sub-unitary);
-* an :class:`~qdensity.execution.adjoint.AdjointEngine` with those circuits compiled once
+* an :class:`~qdensity.execution.AdjointEngine` with those circuits compiled once
   (every model family: RBS ansatze, hardware-efficient, equivariant, QCNN, re-uploading);
 * the unary engine's compiled form of each sub-unitary (RBS/FBS models on unary inputs);
 * an Aer :class:`~qdensity.execution.engines.ExactEngine` when asked for (``method="aer"``),
@@ -44,7 +44,7 @@ def engines_of(model) -> ModelEngines:
     """The model's :class:`ModelEngines`, made on first use and kept on the model."""
     state = model.__dict__.get("_engines")
     if state is None:
-        from qdensity.execution.adjoint import AdjointEngine
+        from qdensity.execution.statevector.adjoint import AdjointEngine
 
         circuits = [model.circuit(k) for k in range(model.num_subunitaries)]
         state = ModelEngines(circuits, AdjointEngine())
@@ -163,7 +163,7 @@ def exact_outputs(model, X=None, theta=None, engine=None) -> np.ndarray:
 def aer_outputs(model, X=None, theta=None) -> np.ndarray:
     """The same as :func:`exact_outputs` from Aer statevectors (an ExactEngine kept on the
     model, each template transpiled once)."""
-    from qdensity.execution.engines import ExactEngine
+    from qdensity.execution.exact import ExactEngine
     from qdensity.execution.plans import probabilities_plan
 
     state = engines_of(model)

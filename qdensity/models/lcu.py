@@ -15,7 +15,7 @@ reports it, since it multiplies the shots an LCU model costs.
 LCU circuit (:func:`~qdensity.circuits.preparation.lcu_template`, the mixing angles bound per
 data point so a data-dependent ``alpha`` needs one template) on any ``SamplerV2``, post-select
 ``mix = 0...0`` on the measured bits and estimate the unary probabilities and the success
-probability (:func:`~qdensity.execution.postselection.postselected_unary`).
+probability (:func:`~qdensity.execution.sampler.postselection.postselected_unary`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 
 from qdensity.execution.plans import CircuitJob, JobResult, Plan, measured
-from qdensity.execution.postselection import PostselectedUnary, postselected_unary
+from qdensity.execution.sampler.postselection import PostselectedUnary, postselected_unary
 from qdensity.execution.unary import vjp
 from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
@@ -238,7 +238,7 @@ class LCUQNN:
         Returns
         -------
         Plan
-            Post-processing returns a :class:`~qdensity.execution.postselection.PostselectedUnary`
+            Post-processing returns a :class:`~.postselection.PostselectedUnary`
             (estimates of :meth:`predict` and :meth:`success_probability` with standard errors).
         """
         K, n = self.num_subunitaries, self.num_qubits
@@ -262,7 +262,7 @@ class LCUQNN:
         -------
         PostselectedUnary
         """
-        from qdensity.execution.engines import SamplerEngine
+        from qdensity.execution.sampler.engine import SamplerEngine
         from qdensity.validation import check_positive_int, check_seed, check_type
 
         check_positive_int(shots, "shots")

@@ -11,8 +11,9 @@ import numpy as np
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import hardware_efficient, round_robin
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import expectation_plan
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.experiments.results import ExperimentResult
 from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments

@@ -3,6 +3,8 @@ differences of those statevectors, and parameter-shift plans run on Aer (issue 1
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from qiskit.circuit import Gate, Parameter, ParameterVector, QuantumCircuit
@@ -20,10 +22,12 @@ from qdensity.circuits.ansatze import (
 )
 from qdensity.circuits.gates import FBSGate, RBSGate
 from qdensity.circuits.loaders import unary_loader_template
-from qdensity.execution import _kernels
-from qdensity.execution.adjoint import AdjointEngine
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution import _numba
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import CircuitJob, expectation_plan, measured
+from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.statevector import _kernels
+from qdensity.execution.statevector.adjoint import AdjointEngine
 from qdensity.gradients.shift import parameter_shift_plan
 
 RNG = np.random.default_rng(20261122)
@@ -38,10 +42,11 @@ def aer():
 def backend(request, monkeypatch):
     """Every test runs on the compiled kernels and on the numpy fallback (the path without
     numba, as ``QDENSITY_NUMBA=0`` gives it)."""
-    if request.param == "numba" and not _kernels.available():
-        pytest.skip("numba (the 'fast' extra) is not installed")
+    if request.param == "numba" and not _numba.available():
+        assert os.environ.get("QDENSITY_NUMBA", "1") == "0", "numba is a core dependency"
+        pytest.skip("QDENSITY_NUMBA=0 switches the compiled kernels off")
     if request.param == "numpy":
-        monkeypatch.setattr(_kernels, "numba", None)
+        monkeypatch.setattr(_numba, "numba", None)
     return request.param
 
 
@@ -244,8 +249,8 @@ def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypat
                                                                forward(phi, *a)))
     monkeypatch.setattr(adjoint_module, "CACHE_BUDGET", 16 * 8 * 4 * 2)  # 2 rows of 4 copies
     chunked = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)
-    if _kernels.available():
-        size = max(2, _kernels.threads())
+    if _numba.available():
+        size = max(2, _numba.threads())
         assert seen == [size] * (9 // size) + ([9 % size] if 9 % size else [])
     else:
         assert seen == []
@@ -357,9 +362,9 @@ def test_qdensity_numba_0_selects_the_numpy_path():
     import sys
 
     env = dict(os.environ, QDENSITY_NUMBA="0")
-    code = ("from qdensity.execution import _kernels; "
-            "from qdensity.execution.adjoint import AdjointEngine; "
-            "print(_kernels.available(), AdjointEngine().backend)")
+    code = ("from qdensity.execution import _numba; "
+            "from qdensity.execution.statevector.adjoint import AdjointEngine; "
+            "print(_numba.available(), AdjointEngine().backend)")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out == ["False", "auto"]
@@ -413,9 +418,9 @@ def test_wide_circuits_match_statevectors_and_parameter_shift(n):
 
 
 def _moving_layout(monkeypatch, low: int) -> None:
-    """Run the kernels in the moving layout of qdensity.execution._layout at test widths, on
+    """Run the kernels in the moving layout of statevector._layout at test widths, on
     parallel rows (both are off below 10 qubits and under the work threshold)."""
-    from qdensity.execution import _layout
+    from qdensity.execution.statevector import _layout
 
     monkeypatch.setattr(_layout, "MIN_QUBITS", 0)
     monkeypatch.setattr(_layout, "LOW_BITS", low)

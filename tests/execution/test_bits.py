@@ -11,18 +11,18 @@ from qiskit.quantum_info import SparsePauliOp, Statevector
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.analysis.pauli import MAX_DENSE_QUBITS
 from qdensity.ansatze import round_robin
-from qdensity.execution.engines import (
-    ExactEngine,
-    SamplerEngine,
-    bitarray_to_bits,
-    bitarray_to_probabilities,
-)
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import (
     CircuitJob,
     JobResult,
     bits_to_probabilities,
     expectation_plan,
     unary_frequencies,
+)
+from qdensity.execution.sampler.engine import (
+    SamplerEngine,
+    bitarray_to_bits,
+    bitarray_to_probabilities,
 )
 from qdensity.gradients import density_gradient_plan
 

@@ -20,8 +20,8 @@ from qiskit_ibm_runtime.fake_provider import FakeManilaV2
 from scipy.stats import norm
 
 from qdensity.circuits.loaders import unary_loader
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import expectation_plan, probabilities_plan, unary_frequencies
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
 from qdensity.hardware.targets import get_target
 
@@ -105,7 +105,7 @@ def test_postselection_on_a_noiseless_engine_changes_nothing():
 def test_gradient_plans_use_the_engine_mitigation():
     from qdensity import DensityQNN, Encoding, by_moments
     from qdensity.circuits.ansatze import round_robin
-    from qdensity.execution.engines import ExactEngine
+    from qdensity.execution.exact import ExactEngine
     from qdensity.gradients import density_gradient_plan
 
     obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4)
@@ -186,7 +186,7 @@ def test_sample_calibrates_once_per_call():
     """A Neyman call runs a pilot and a main phase on two fresh engines: one calibration."""
     from qdensity import DensityQNN, Encoding, by_moments
     from qdensity.circuits.ansatze import round_robin
-    from qdensity.execution.engines import ShotLedger
+    from qdensity.execution.sampler.engine import ShotLedger
 
     obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4)
     model = DensityQNN(by_moments(round_robin(4)).sub_unitaries[:2], encoding=Encoding.unary(4),

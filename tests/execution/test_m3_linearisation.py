@@ -14,7 +14,7 @@ from qiskit.providers.fake_provider import GenericBackendV2
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel, ReadoutError
 
-from qdensity.execution._correction import ReadoutCorrection
+from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY
 from qdensity.hardware.targets import get_target
 

@@ -24,9 +24,9 @@ from qiskit_aer.noise import NoiseModel, ReadoutError
 from scipy.stats import chi2, norm
 
 from qdensity.circuits.loaders import unary_loader
-from qdensity.execution.engines import SamplerEngine
-from qdensity.execution.mitigated import mitigated_expectation
 from qdensity.execution.plans import expectation_plan
+from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.sampler.mitigated import mitigated_expectation
 from qdensity.hardware.mitigation import ReadoutMitigator
 from qdensity.hardware.targets import get_target
 
@@ -97,7 +97,7 @@ def test_engine_m3_unary_output_error_matches_the_spread_over_seeds():
     # false failure 1e-3
     from qdensity import DensityQNN, Encoding, by_moments
     from qdensity.circuits.ansatze import round_robin
-    from qdensity.execution.engines import ExactEngine
+    from qdensity.execution.exact import ExactEngine
     from qdensity.gradients import density_gradient_plan
 
     model = DensityQNN(by_moments(round_robin(4)).sub_unitaries[:1], encoding=Encoding.unary(4),

@@ -21,7 +21,7 @@ from scipy.stats import binom
 
 from qdensity.circuits.ansatze import hardware_efficient
 from qdensity.circuits.gates import RBSGate
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import (
     CircuitJob,
     Plan,
@@ -32,6 +32,7 @@ from qdensity.execution.plans import (
     probabilities_plan,
     z_parities,
 )
+from qdensity.execution.sampler.engine import SamplerEngine
 
 
 def random_circuit(n: int, seed: int) -> QuantumCircuit:

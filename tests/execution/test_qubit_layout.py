@@ -1,4 +1,4 @@
-"""The moving qubit layout of the compiled adjoint kernels (qdensity.execution._layout): the
+"""The moving qubit layout of the compiled adjoint kernels (statevector._layout): the
 plan's invariants, and the permutation kernel against numpy's transpose. Values and gradients
 in a moving layout are tested against Qiskit in test_adjoint.py."""
 
@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from qdensity.execution import _kernels, _layout
+from qdensity.execution import _numba
+from qdensity.execution.statevector import _layout
 
 
 def test_plan_keeps_gates_off_the_low_bits_and_ends_at_home():
@@ -53,9 +54,9 @@ def _transposed(state: np.ndarray, dest: np.ndarray) -> np.ndarray:
 
 
 def test_permute_kernel_moves_bits_like_a_transpose():
-    if not _kernels.available():
-        pytest.skip("numba (the 'fast' extra) is not installed")
-    from qdensity.execution import _kernels_planar
+    if not _numba.available():
+        pytest.skip("QDENSITY_NUMBA=0 switches the compiled kernels off")
+    from qdensity.execution.statevector import _kernels_planar
 
     rng = np.random.default_rng(3)
     n = 10

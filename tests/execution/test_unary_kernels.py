@@ -1,7 +1,7 @@
 """The unary engine's sparse-matrix kernels (shared angles) against dense Givens products.
 
-The compiled gate loop (:mod:`qdensity.execution._unary_kernels`) and every path of
-``qdensity.execution._unary_plan`` (full layers fused in pairs or left single,
+The compiled gate loop (:mod:`qdensity.execution.unary._kernels`) and every path of
+``qdensity.execution.unary._plan`` (full layers fused in pairs or left single,
 in-place sparse layers, odd ``n`` padding, the reverse pass's dot chunks, the plain scipy
 fallback) is checked against the oracle ``O = R_G ... R_1`` built from explicit ``n x n``
 rotation matrices, and its derivative ``O_after R'_g O_before`` per gate.
@@ -9,12 +9,16 @@ rotation matrices, and its derivative ``O_after R'_g O_before`` per gate.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
-from qdensity.execution import _kernels, _unary_plan, _unary_threads
+from qdensity.execution import _numba
 from qdensity.execution.unary import UnaryCircuit, forward, orthogonal_matrix, vjp
+from qdensity.execution.unary import _plan as _unary_plan
+from qdensity.execution.unary import _threads as _unary_threads
 
 TOL = 1e-11
 
@@ -23,10 +27,11 @@ TOL = 1e-11
 def backend(request, monkeypatch):
     """Every oracle test runs on the compiled gate loop (the fast extra) and on the numpy /
     scipy layer kernels (the path without numba, as ``QDENSITY_NUMBA=0`` gives it)."""
-    if request.param == "numba" and not _kernels.available():
-        pytest.skip("numba (the 'fast' extra) is not installed")
+    if request.param == "numba" and not _numba.available():
+        assert os.environ.get("QDENSITY_NUMBA", "1") == "0", "numba is a core dependency"
+        pytest.skip("QDENSITY_NUMBA=0 switches the compiled kernels off")
     if request.param == "numpy":
-        monkeypatch.setattr(_kernels, "numba", None)
+        monkeypatch.setattr(_numba, "numba", None)
     return request.param
 
 
@@ -173,7 +178,7 @@ def threads(monkeypatch):
     """Force column blocks in threads at any width (the numpy path's threads: the compiled
     path has none); returns a setter of the thread count and the list of block counts the
     forward passes used."""
-    monkeypatch.setattr(_kernels, "numba", None)
+    monkeypatch.setattr(_numba, "numba", None)
     monkeypatch.setattr(_unary_threads, "MIN_WORK", 0)
     monkeypatch.setattr(_unary_threads, "MIN_COLUMNS", 1)
     used = []

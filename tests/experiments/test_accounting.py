@@ -11,7 +11,8 @@ import pytest
 
 from qdensity.circuits.ansatze import pyramid
 from qdensity.circuits.loaders import loader_angles, unary_loader_template
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
 from qdensity.gradients.shift import parameter_shift_plan
 from qdensity.learning.layer import QuantumLayer

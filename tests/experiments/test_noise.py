@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.experiments import noise, run
 from qdensity.experiments._noise_device import allocate_shots, device_outputs
 from qdensity.hardware.targets import get_target

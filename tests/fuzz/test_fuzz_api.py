@@ -33,7 +33,8 @@ from qdensity.cli._builders import build_circuit
 from qdensity.datasets.bars_and_dots import bars_and_dots
 from qdensity.datasets.chebyshev import chebyshev_dataset
 from qdensity.datasets.digits import load_digits_features
-from qdensity.execution.engines import ExactEngine, SamplerEngine, ShotLedger
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
 from qdensity.experiments.results import bootstrap_ci
 from qdensity.learning.estimators import QNNClassifier, QNNRegressor
 from qdensity.learning.layer import QuantumLayer

@@ -18,9 +18,10 @@ from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.intervals import binomial_standard_error, wilson_standard_error
 from qdensity.execution.plans import CircuitJob, expectation_plan, measured, probabilities_plan
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.execution.schedulers import (
     allocate_neyman,
     allocate_proportional,

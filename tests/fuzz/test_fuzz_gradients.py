@@ -16,7 +16,7 @@ from qiskit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import pyramid, round_robin
-from qdensity.execution.engines import ExactEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.gradients import commuting_gradient
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.gradients.shift import parameter_shift_plan

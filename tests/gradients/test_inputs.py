@@ -16,7 +16,8 @@ from qiskit.circuit import ParameterVector
 
 from qdensity.circuits.ansatze import hardware_efficient, qcnn, round_robin
 from qdensity.circuits.loaders import loader_angles
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.inputs import (
     encoding_jacobian,
     input_gradient_plan,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from qdensity.circuits.ansatze import hardware_efficient, round_robin
-from qdensity.execution.engines import ExactEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments, copies

@@ -19,7 +19,8 @@ from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity.circuits.ansatze import pyramid, round_robin
 from qdensity.circuits.gates import RBSGate
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.shift import expand_occurrences, parameter_shift_plan, shift_rules
 
 EXACT = ExactEngine()

@@ -6,7 +6,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.circuits.ansatze import pyramid
 from qdensity.circuits.loaders import unary_loader
-from qdensity.execution.engines import ExactEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import expectation_plan
 from qdensity.hardware.targets import gpu_available
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from qiskit import QuantumCircuit
 
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import CircuitJob
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.aer_sampling import MPS_MAX_BOND, mps_bond_bound
 
 N, THETA, SHOTS = 40, 1.1, 2000  # 40 qubits: a statevector needs 16 TiB

@@ -21,9 +21,10 @@ from scipy.stats import norm
 from qdensity.circuits.ansatze import pyramid, round_robin
 from qdensity.circuits.loaders import unary_loader
 from qdensity.circuits.tomography import reconstruct, tomography_circuits
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import CircuitJob, expectation_plan
-from qdensity.execution.runtime_engine import runtime_engine
+from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.sampler.runtime import runtime_engine
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.hardware.runtime import runtime_options, runtime_sampler
 from qdensity.models import DensityQNN, Encoding

@@ -19,8 +19,8 @@ from scipy.stats import binom, norm
 import qdensity.hardware.snapshots as snapshots
 from qdensity.circuits.ansatze import round_robin
 from qdensity.cli import build_circuit, main
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import expectation_plan
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.hardware.resources import resource_report
 from qdensity.hardware.targets import get_target, known_targets

@@ -19,8 +19,8 @@ from qiskit_ibm_runtime import SamplerV2 as RuntimeSamplerV2
 from qiskit_ibm_runtime.fake_provider import FakeKolkataV2, FakeManilaV2
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import CircuitJob, expectation_plan, measured
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.resources import resource_report
 from qdensity.hardware.snapshot_files import SNAPSHOT_VERSION, save_snapshot
 from qdensity.hardware.targets import get_target

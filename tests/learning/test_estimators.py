@@ -19,7 +19,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from qdensity import QNNClassifier as TopLevelClassifier
 from qdensity.circuits.ansatze import round_robin
-from qdensity.execution.engines import SamplerEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.learning.estimators import QNNClassifier, QNNRegressor
 from qdensity.learning.training import QNNClassifier as OldPathClassifier
 from qdensity.models import DensityQNN, Encoding

@@ -17,8 +17,9 @@ from qdensity.circuits.ansatze import (
     reuploading,
     round_robin,
 )
-from qdensity.execution.adjoint import AdjointEngine
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.statevector.adjoint import AdjointEngine
 from qdensity.learning.training import QNNRegressor, QuantumLayer
 from qdensity.models import (
     DensityQNN,

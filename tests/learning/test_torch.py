@@ -19,7 +19,7 @@ from torch import nn  # noqa: E402
 from torch.autograd import gradcheck  # noqa: E402
 
 from qdensity.circuits.ansatze import hardware_efficient, round_robin  # noqa: E402
-from qdensity.execution.engines import SamplerEngine  # noqa: E402
+from qdensity.execution.sampler.engine import SamplerEngine  # noqa: E402
 from qdensity.learning.torch import DensityQNNLayer, MoEGate  # noqa: E402
 from qdensity.models import DensityQNN, Encoding  # noqa: E402
 from qdensity.models.decompositions import by_moments, copies  # noqa: E402

@@ -27,7 +27,7 @@ from qiskit.providers.fake_provider import GenericBackendV2  # noqa: E402
 from qiskit_aer.noise import NoiseModel, ReadoutError  # noqa: E402
 
 from qdensity.circuits.ansatze import round_robin  # noqa: E402
-from qdensity.execution.engines import SamplerEngine  # noqa: E402
+from qdensity.execution.sampler.engine import SamplerEngine  # noqa: E402
 from qdensity.hardware.targets import get_target  # noqa: E402
 from qdensity.learning.torch import DensityQNNLayer  # noqa: E402
 from qdensity.models import DensityQNN, Encoding  # noqa: E402

@@ -8,7 +8,8 @@ from _stats import stat_seed as _stat_seed
 from _stats import unary_input_vjp_sd
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.inputs import input_gradient_plan, loader_angles_jacobian
 from qdensity.learning import losses
 from qdensity.learning.nn import Linear

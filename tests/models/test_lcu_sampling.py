@@ -10,9 +10,9 @@ from qdensity.ansatze import pyramid, round_robin
 from qdensity.circuits.loaders import loader_angles
 from qdensity.circuits.preparation import lcu_circuit, lcu_template
 from qdensity.decompositions import by_moments
-from qdensity.execution.engines import ExactEngine
+from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import JobResult
-from qdensity.execution.postselection import postselected_unary
+from qdensity.execution.sampler.postselection import postselected_unary
 from qdensity.mixtures import GatedMixture, SoftmaxMixture
 from qdensity.models.lcu import LCUQNN
 

@@ -17,7 +17,8 @@ from qdensity.circuits.ansatze import (
     pyramid,
     round_robin,
 )
-from qdensity.execution.engines import ExactEngine, SamplerEngine
+from qdensity.execution.exact import ExactEngine
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients import commuting_blocks
 from qdensity.gradients.density import chain_rule, density_gradient_plan
 from qdensity.models import DensityQNN, Encoding
@@ -297,7 +298,7 @@ def test_sample_refuses_bad_input():
 
 @pytest.mark.parametrize("scheduler", ["proportional", "neyman"])
 def test_sample_ledger_labels_pilot_apart_from_allocation(scheduler):
-    from qdensity.execution.engines import SamplerEngine
+    from qdensity.execution.sampler.engine import SamplerEngine
 
     n = 4
     dec = by_moments(round_robin(n))

@@ -15,7 +15,7 @@ respect to *every* circuit parameter: trainable angles and data-uploading angles
 
 Rows of parameter values are simulated together as one array (batched over data rows); rows
 are processed in chunks that keep the working memory under ``memory_budget`` bytes.
-Supported gates and the compiled form are described in :mod:`qdensity.execution._statevector`.
+Supported gates and the compiled form are described in :mod:`._program`.
 
 The widest circuit accepted is ``max_qubits`` (default :data:`MAX_QUBITS` = 20, 16 MiB per row
 and state); a wider one is refused before anything is allocated.
@@ -32,10 +32,11 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution import _kernels
-from qdensity.execution._statevector import Program, compile_program, real_dot
-from qdensity.execution.engines import _measurement_map, circuit_fingerprint
+from qdensity.execution import _numba
+from qdensity.execution._compile import _measurement_map, circuit_fingerprint
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
+from qdensity.execution.statevector import _kernels
+from qdensity.execution.statevector._program import Program, compile_program, real_dot
 from qdensity.validation import (
     as_parameter_rows,
     check_circuit,
@@ -64,7 +65,7 @@ class _Observable:
     """``O psi`` for a SparsePauliOp (a diagonal plus gathers) or a real diagonal."""
 
     def __init__(self, obs, n: int):
-        from qdensity.execution._statevector import _Gather
+        from qdensity.execution.statevector._program import _Gather
 
         self.diagonal = None
         self.terms = []
@@ -107,7 +108,7 @@ class AdjointEngine:
     memory_budget : int
         Bytes of working state per chunk of rows (default 256 MiB).
     backend : {"auto", "numba", "numpy"}
-        ``"auto"``: the compiled kernels of :mod:`qdensity.execution._kernels` when numba is
+        ``"auto"``: the compiled kernels of :mod:`._kernels` when numba is
         installed (the ``fast`` extra) and ``QDENSITY_NUMBA`` is not ``0``, else numpy
         gathers. Both give the same numbers to rounding.
 
@@ -136,7 +137,7 @@ class AdjointEngine:
         self.memory_budget = check_positive_int(memory_budget, "memory_budget")
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-        if backend == "numba" and not _kernels.available():
+        if backend == "numba" and not _numba.available():
             raise ValueError("backend='numba' needs numba (pip install 'qdensity[fast]') and "
                              "QDENSITY_NUMBA unset or 1")
         self.backend = backend
@@ -207,7 +208,7 @@ class AdjointEngine:
         return None if self.backend == "numpy" else _kernels.tables(prog)
 
     def _forward(self, prog: Program, values: np.ndarray) -> np.ndarray:
-        from qdensity.execution._statevector import Rotation
+        from qdensity.execution.statevector._program import Rotation
 
         R = values.shape[0]
         tab = self._tables(prog)
@@ -341,7 +342,7 @@ class AdjointEngine:
         (numpy.ndarray (R, M), numpy.ndarray (R, M, len(wrt)))
             Values and Jacobians.
         """
-        from qdensity.execution._statevector import Rotation
+        from qdensity.execution.statevector._program import Rotation
 
         prog, vals = self._rows(circuit, values)
         obs = self._observables(observables, prog.num_qubits)
@@ -362,7 +363,7 @@ class AdjointEngine:
         # compiled kernels: chunks about a last-level cache, so that a chunk's forward states
         # are still cached when its backward sweep reads them (rows in threads need a few)
         cached = {} if tab is None else {"budget": min(self.memory_budget, CACHE_BUDGET),
-                                         "min_rows": _kernels.threads()}
+                                         "min_rows": _numba.threads()}
         for sl in self._chunks(R, n, M + 2, **cached):
             if tab is not None:
                 values_out[sl], jac[sl] = self._sweep_compiled(prog, tab, obs, vals[sl], needs,

@@ -23,8 +23,8 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.engines import SamplerEngine
 from qdensity.execution.plans import CircuitJob, check_observable, diagonal_values, measured
+from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
 from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
 

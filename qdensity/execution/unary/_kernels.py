@@ -1,11 +1,11 @@
-"""Compiled layer loop of the unary engine (numba, the ``fast`` extra).
+"""Compiled layer loop of the unary engine (numba).
 
 The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` applied gate by
 gate, in circuit order, to the rows of ``Z`` (n, B) in place: ``Z[i], Z[j] <- c Z[i] - s Z[j],
 s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes, DESIGN.md). A row is a contiguous run of
 ``B`` numbers, so each gate is one vectorised loop, with no per-layer gathers, scatters or
 sparse-matrix bookkeeping. Without numba (or with ``QDENSITY_NUMBA=0``) the engine keeps its
-numpy/scipy layer kernels (:mod:`qdensity.execution._unary_plan`), which give the same numbers
+numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which give the same numbers
 to rounding.
 """
 
@@ -13,17 +13,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from qdensity.execution import _kernels
+from qdensity.execution import _numba
 
 __all__ = ["available", "givens"]
 
 
 def available() -> bool:
-    """True when the compiled kernels run (see :func:`qdensity.execution._kernels.available`)."""
-    return _kernels.available()
+    """True when the compiled kernels run (see :func:`qdensity.execution._numba.available`)."""
+    return _numba.available()
 
 
-if _kernels.numba is not None:
+if _numba.available():
     from numba import njit
 
     @njit(cache=True)

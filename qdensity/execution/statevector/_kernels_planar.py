@@ -1,10 +1,10 @@
-"""The compiled loops of :mod:`qdensity.execution._kernels` on a planar state.
+"""The compiled loops of :mod:`qdensity.execution.statevector._kernels` on a planar state.
 
 A state is two float64 arrays, real parts and imaginary parts (a batch: ``(R, 2**n)`` each).
 numba's complex arithmetic does not vectorise, and neither does an interleaved float view
 (stride-2 access); contiguous blocks of separate real and imaginary parts do, about 4x faster
 per gate on AVX2/AVX-512. Every Pauli operation's pair partner is its lowest X (else Z) bit
-(see :class:`~qdensity.execution._kernels.Tables`), so no X bit lies below the block of ``low``
+(see :class:`._kernels.Tables`), so no X bit lies below the block of ``low``
 contiguous amplitudes and the partner block is contiguous too; each block has one sign unless a
 Z bit outside X lies below it (``rzx``-like strings, taken one amplitude at a time).
 """
@@ -158,7 +158,7 @@ def dense(re, im, n, pos, npos, offs, mat, buf):
 
 @njit(cache=True, fastmath=True)
 def permute(re, im, n, row, br, bi):
-    """A permutation of the bits (:func:`qdensity.execution._layout.tile`) in place, one tile at
+    """A permutation of the bits (:func:`._layout.tile`) in place, one tile at
     a time through the small buffers ``br``, ``bi``: ``row`` holds the mask of the bits that
     stay, the tile size ``D``, the entries' offsets and the entries they take their values
     from. (About one short-block gate's time: 1.2-1.5 ns per amplitude at n = 16.)"""

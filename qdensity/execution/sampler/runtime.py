@@ -7,7 +7,7 @@ device once and checked against it before any job is submitted.
 
 from __future__ import annotations
 
-from qdensity.execution.engines import SamplerEngine, ShotLedger
+from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
 from qdensity.hardware.runtime import require_runtime, runtime_sampler
 from qdensity.validation import SeedLike, seed_int
 

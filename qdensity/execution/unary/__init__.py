@@ -44,12 +44,12 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
-from qdensity.execution._unary_inputs import batch as _batch
-from qdensity.execution._unary_inputs import inputs as _inputs
-from qdensity.execution._unary_inputs import values as _values
-from qdensity.execution._unary_layers import Layer, check_gate_list, schedule
-from qdensity.execution._unary_plan import Plan, make_plan, reverse
-from qdensity.execution._unary_plan import rotate_columns as _rotate
+from qdensity.execution.unary._inputs import batch as _batch
+from qdensity.execution.unary._inputs import inputs as _inputs
+from qdensity.execution.unary._inputs import values as _values
+from qdensity.execution.unary._layers import Layer, check_gate_list, schedule
+from qdensity.execution.unary._plan import Plan, make_plan, reverse
+from qdensity.execution.unary._plan import rotate_columns as _rotate
 from qdensity.validation import check_circuit
 
 __all__ = [

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from qdensity.execution import _unary_kernels
-from qdensity.execution._unary_layers import backward, rotate
-from qdensity.execution._unary_threads import blocks, num_threads, run_blocks, split
+from qdensity.execution.unary import _kernels as _unary_kernels
+from qdensity.execution.unary._layers import backward, rotate
+from qdensity.execution.unary._threads import blocks, num_threads, run_blocks, split
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs

@@ -1,7 +1,7 @@
-"""Compiled statevector kernels of the adjoint engine (numba, the ``fast`` extra).
+"""Compiled statevector kernels of the adjoint engine (numba).
 
-A compiled :class:`~qdensity.execution._statevector.Program` becomes flat tables (one row per
-operation) and two kernels (:mod:`qdensity.execution._kernels_planar`) run the whole circuit per
+A compiled :class:`._program.Program` becomes flat tables (one row per
+operation) and two kernels (:mod:`._kernels_planar`) run the whole circuit per
 parameter row, rows in parallel (``prange``), every gate in place on the row's state, held as
 separate real and imaginary parts so that the loops vectorise:
 
@@ -18,42 +18,23 @@ separate real and imaginary parts so that the loops vectorise:
   every ``lam_m`` happen in the same loop over amplitude pairs;
 * a permutation of the amplitudes that moves qubits between bits (one pass through a buffer):
   from 10 qubits on, the circuit runs in a moving layout that keeps every gate off the four
-  lowest bits, where blocks are too short to vectorise (:mod:`qdensity.execution._layout`).
+  lowest bits, where blocks are too short to vectorise (:mod:`._layout`).
 
-The pure-numpy path of :mod:`qdensity.execution._statevector` computes the same numbers; it is
+The pure-numpy path of :mod:`._program` computes the same numbers; it is
 used when numba is missing or ``QDENSITY_NUMBA=0`` is set (tests run both).
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from qdensity.cluster import idle_core
+from qdensity.execution import _numba
 
-__all__ = ["available", "Tables", "tables", "forward", "backward", "MAX_DENSE"]
+__all__ = ["Tables", "tables", "forward", "backward", "MAX_DENSE"]
 
 #: Widest fixed (dense) gate the kernels apply; a program with a wider one runs on numpy.
 MAX_DENSE = 3
-
-try:  # the ``fast`` extra
-    if os.environ.get("QDENSITY_NUMBA", "1").strip() in ("0", "false", "no", "off"):
-        raise ImportError("disabled by QDENSITY_NUMBA")
-    import numba
-except ImportError:  # pragma: no cover - exercised with QDENSITY_NUMBA=0
-    numba = None
-
-
-def available() -> bool:
-    """True when numba is installed and not disabled by ``QDENSITY_NUMBA=0``."""
-    return numba is not None
-
-
-def threads() -> int:
-    """numba's thread count (1 without numba): rows a parallel region can use at once."""
-    return numba.get_num_threads() if numba is not None else 1
-
 
 class Tables:
     """A program as flat arrays for the kernels (see the module docstring).
@@ -62,7 +43,7 @@ class Tables:
     ----------
     kind : int64 (O,)
         0 rotation, 1 fixed Pauli string, 2 fixed dense gate, 3 a permutation of the bits (the
-        moving layout of :mod:`qdensity.execution._layout`; masks and positions of every
+        moving layout of :mod:`qdensity.execution.statevector._layout`; masks and positions of every
         operation are in the layout current at it).
     xmask, zmask, cmask : int64 (O,)
     phase : complex128 (O,)
@@ -79,13 +60,13 @@ class Tables:
         A dense gate's amplitude offsets; ``mat`` / ``inv`` complex128 (O, D, D) its matrix
         and inverse.
     ptab : int64 (2 x permutations, 2 + 2 D)
-        A permutation as tiles (:func:`qdensity.execution._layout.tile`): the mask of the bits
+        A permutation as tiles (:func:`._layout.tile`): the mask of the bits
         that stay, the tile size ``D``, the entries' offsets and their sources.
     """
 
     def __init__(self, prog):
-        from qdensity.execution import _layout
-        from qdensity.execution._statevector import Fixed, Rotation
+        from qdensity.execution.statevector import _layout
+        from qdensity.execution.statevector._program import Fixed, Rotation
 
         ops = _fuse(prog.ops)
         n = prog.num_qubits
@@ -189,7 +170,7 @@ def _moved(mask: int, phys: tuple) -> int:
 
 def _fuse(ops: list) -> list:
     """Consecutive fixed one-qubit gates on one qubit multiplied into one (in circuit order)."""
-    from qdensity.execution._statevector import Fixed
+    from qdensity.execution.statevector._program import Fixed
 
     out: list = []
     for op in ops:
@@ -205,7 +186,7 @@ def _fuse(ops: list) -> list:
 def tables(prog) -> Tables | None:
     """The program's kernel tables (made once, kept on the program), or None when the kernels
     cannot run it (numba missing or disabled, or a fixed gate wider than MAX_DENSE)."""
-    if numba is None:
+    if not _numba.available():
         return None
     tab = prog.__dict__.get("_tables")
     if tab is None:
@@ -214,8 +195,8 @@ def tables(prog) -> Tables | None:
     return tab if tab.ok else None
 
 
-if numba is not None:
-    from qdensity.execution import _kernels_planar as _planar
+if _numba.available():
+    from qdensity.execution.statevector import _kernels_planar as _planar
 
 
 #: Rows run in parallel threads only above this much work (amplitudes x operations, about
@@ -226,7 +207,7 @@ LOAD_AWARE = True
 
 
 def _parallel(rows: int, n: int, ops: int) -> bool:
-    if rows < 2 or threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
+    if rows < 2 or _numba.threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
         return False
     return idle_core() if LOAD_AWARE else True
 

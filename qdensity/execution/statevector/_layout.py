@@ -1,6 +1,6 @@
 """Qubit layout of the adjoint engine's compiled kernels: gates kept off the lowest bits.
 
-The kernels of :mod:`qdensity.execution._kernels_planar` vectorise over blocks of contiguous
+The kernels of :mod:`._kernels_planar` vectorise over blocks of contiguous
 amplitudes, ``2**p`` long for a gate whose lowest qubit (or control) sits at bit ``p``. On bits
 0-2 the blocks are 1-4 amplitudes and a gate costs 5-10 times a gate on a high bit, which made
 the gates on qubits 0-2 (a third of a 16-qubit non-commuting circuit) most of its time;
@@ -8,7 +8,7 @@ on bit 3 a block of 8 still costs 2-3 times a long one.
 
 So the kernels run the circuit in a moving layout: logical qubit ``q`` lives at bit
 ``phys[q]``, and before a gate that touches a qubit at a bit below :data:`LOW_BITS`, one
-permutation of the amplitudes (:func:`qdensity.execution._kernels_planar.permute`, one pass)
+permutation of the amplitudes (:func:`._kernels_planar.permute`, one pass)
 parks on the low bits the qubits whose next gate is furthest away (Belady's rule) and brings
 the needed ones up. The gate tables are written in the layout current at each gate, and a
 last permutation restores ``phys[q] = q``, so states, observables and gradients are unchanged.

@@ -1,0 +1,379 @@
+"""The sampler engine: honest shots through any ``BaseSamplerV2``.
+
+:class:`SamplerEngine` runs a plan's jobs through qiskit-aer's sampler by default, or a
+hardware provider's primitive unchanged: one PUB per template with a parameter array, never
+one job per row; each template is transpiled once and reused; every run is written to a
+:class:`ShotLedger`. It keeps the measured bits (``JobResult.bits``,
+``(rows, shots, num_clbits)``): estimates come from parities and observed outcomes with memory
+``O(rows x shots)`` whatever the width.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.primitives import BaseSamplerV2
+
+from qdensity.execution._compile import (
+    AerTranspiler,
+    MarkedTranspiler,
+    TargetTranspiler,
+    TranspileCache,
+    _columns_for,
+)
+from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
+from qdensity.execution.sampler._correction import ReadoutCorrection
+from qdensity.execution.sampler._independent import run_independent
+from qdensity.hardware._device import check_for_device, check_width, device_of
+from qdensity.hardware.aer_sampling import (
+    AdaptiveSampler,
+    NoiselessSimulators,
+    active_qubits,
+    aer_seed,
+    check_memory,
+)
+from qdensity.hardware.targets import as_target
+from qdensity.progress import progress_bar, wait_for
+from qdensity.validation import (
+    SeedLike,
+    check_callable,
+    check_positive_int,
+    check_sequence_of,
+    check_target,
+    check_type,
+    seed_int,
+)
+
+__all__ = [
+    "SamplerEngine",
+    "ShotLedger",
+    "LedgerEntry",
+    "bitarray_to_probabilities",
+    "bitarray_to_bits",
+]
+
+
+@dataclass
+class LedgerEntry:
+    """One sampled job: what it was for, how many circuits (rows) and shots it spent."""
+
+    label: str
+    circuits: int
+    shots: int
+
+
+@dataclass
+class ShotLedger:
+    """Running account of every sampled execution.
+
+    Attributes
+    ----------
+    entries : list of LedgerEntry
+    """
+
+    entries: list[LedgerEntry] = field(default_factory=list)
+
+    def record(self, label: str, circuits: int, shots: int) -> None:
+        """Add an entry: ``circuits`` rows, ``shots`` in total over them (ints >= 0)."""
+        self.entries.append(LedgerEntry(check_type(label, "label", str, "a str"),
+                                        check_positive_int(circuits, "circuits", minimum=0),
+                                        check_positive_int(shots, "shots", minimum=0)))
+
+    @property
+    def total_shots(self) -> int:
+        """Shots spent so far."""
+        return sum(e.shots for e in self.entries)
+
+    @property
+    def total_circuits(self) -> int:
+        """Circuit executions (parameter rows) so far."""
+        return sum(e.circuits for e in self.entries)
+
+    def by_label(self) -> dict[str, tuple[int, int]]:
+        """``{label prefix: (circuits, shots)}``, labels cut at the first ``[``."""
+        out: dict[str, tuple[int, int]] = {}
+        for e in self.entries:
+            key = e.label.split("[", 1)[0]
+            c, s = out.get(key, (0, 0))
+            out[key] = (c + e.circuits, s + e.shots)
+        return out
+
+    def summary(self) -> str:
+        """A short text table of circuits and shots per label."""
+        lines = [f"{'label':<28}{'circuits':>10}{'shots':>12}"]
+        for key, (c, s) in self.by_label().items():
+            lines.append(f"{key:<28}{c:>10}{s:>12}")
+        lines.append(f"{'total':<28}{self.total_circuits:>10}{self.total_shots:>12}")
+        return "\n".join(lines)
+
+
+def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
+
+    Parameters
+    ----------
+    bitarray : qiskit.primitives.BitArray
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
+    rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (rows, shots, num_bits)
+        Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
+    """
+    shots = bitarray.num_shots if shots is None else int(shots)
+    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
+    # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
+    bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
+    return bits[..., : bitarray.num_bits].astype(bool)
+
+
+def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
+
+    Parameters
+    ----------
+    bitarray : qiskit.primitives.BitArray
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
+    rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows, 2**num_bits)
+
+    Raises
+    ------
+    ValueError
+        Above ``MAX_DENSE_QUBITS`` (24) bits; use :func:`bitarray_to_bits`.
+    """
+    return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
+
+
+class SamplerEngine:
+    """Shots through a ``BaseSamplerV2``, one PUB per template, transpiled once.
+
+    Parameters
+    ----------
+    sampler : BaseSamplerV2, optional
+        Any V2 sampler (a hardware provider's included). Default: qiskit-aer's, seeded with
+        ``seed``, choosing Aer's method per PUB
+        (:class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`: matrix-product states for
+        wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
+        before Aer allocates it), noiseless unless a ``target`` is given.
+    target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
+        Where circuits are transpiled and, when ``sampler`` is None, whose (noisy) simulator
+        samples: anything :func:`~qdensity.hardware.targets.get_target` accepts (a fake or real
+        backend, ``AerSimulator.from_backend(...)``, a ``Target``, a snapshot file, a name;
+        a name without a size gets the device's, so pass a ``HardwareTarget`` for sized ones).
+        A template wider than the device is refused before transpiling, naming both widths.
+    transpiler : callable, optional
+        ``QuantumCircuit -> QuantumCircuit``; overrides ``target``'s transpilation. With neither,
+        circuits are transpiled for ``AerSimulator``.
+    seed : int or numpy.random.Generator, optional
+        Seeds the default sampler and the transpiler so runs repeat exactly.
+    ledger : ShotLedger, optional
+        Written on every run; a fresh one is made if not given.
+    default_shots : int
+        Shots per row for jobs that do not say (exact jobs are sampled with this many).
+    optimization_level : int
+        Of the transpiler, 0 to 3.
+    progress : bool
+        On a terminal, a run that lasts longer than :attr:`progress_delay` seconds shows one
+        bar per phase: ``transpile`` (templates) and ``sample`` (circuits, shots in the
+        postfix). The sampler gets one call, so the ``sample`` bar's clock runs while it waits
+        and the bar fills when the call returns. False (or no terminal): silent.
+    mitigation : {"m3"} or None
+        Readout-error mitigation of every job (mthree's M3, calibrated on ``target``'s
+        simulator or the provider sampler's backend; calibration shots go on the ledger as
+        ``"readout calibration"``, once per physical qubit).
+    postselect : {"hamming_weight"} or None
+        Keep only the shots whose Hamming weight is the one the ideal circuit keeps (read off
+        its gates: X gates on ``|0...0>`` then Hamming-weight-preserving gates, e.g. a unary
+        loader and RBS/FBS sub-unitaries); other readouts are refused with a ``ValueError``.
+    calibration_shots : int
+        Shots per M3 calibration circuit.
+
+    Notes
+    -----
+    With ``mitigation`` or ``postselect`` every result carries per-shot weights
+    (``JobResult.weights``, mean 1 per row) so that every plan the engine runs (expectations,
+    unary probabilities, gradient plans, schedulers) estimates ``sum_b q(b) f(b)`` over the
+    corrected distribution ``q``. Standard errors include the mitigation's own uncertainty:
+    with ``mitigation`` they are the delta method over the row's shots and the calibration's
+    shots (``JobResult.readout``); with post-selection alone, those of ``kappa N`` shots
+    (``kappa`` the kept fraction) with the variance taken over ``q``
+    (:func:`~qdensity.execution.intervals.shot_mean`). The delta method is exact for
+    mthree's solve on a row's observed outcomes (its reduced matrix: correction distance 3,
+    columns renormalised) up to 2048 distinct outcomes per row; above, the error is that of
+    ``N_eff = kappa N / M`` shots (``M`` mthree's overhead), conservative where measured.
+    M3 corrects on the observed outcomes only: where many outcomes go unseen (wide registers,
+    few shots) it keeps a bias that no error bar from the row's own shots carries (measured:
+    0.6-0.9 of a standard error at 14 qubits and 4,000 shots, ``bench_mitigation_errors.py``).
+
+    An engine pickles with its target, sampler and settings (standard ``pickle``); an
+    unpickled engine with ``mitigation`` calibrates again on first use.
+
+    Examples
+    --------
+    Passing a hardware provider's primitive instead of Aer's::
+
+        engine = SamplerEngine(sampler=provider_sampler, transpiler=pass_manager.run)
+
+    A device given as an object, with mitigation::
+
+        engine = SamplerEngine(target=FakeManilaV2(), mitigation="m3",
+                               postselect="hamming_weight", seed=1)
+    """
+
+    def __init__(
+        self,
+        sampler: BaseSamplerV2 | None = None,
+        *,
+        target=None,
+        transpiler: Callable[[QuantumCircuit], QuantumCircuit] | None = None,
+        seed: SeedLike = None,
+        ledger: ShotLedger | None = None,
+        default_shots: int = 1024,
+        optimization_level: int = 1,
+        progress: bool = True,
+        mitigation: str | None = None,
+        postselect: str | None = None,
+        calibration_shots: int = 4000,
+    ):
+        if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
+                or optimization_level not in (0, 1, 2, 3)):
+            raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
+                             f"levels), got {optimization_level!r}")
+        seed = seed_int(seed)
+        check_target(target)
+        if transpiler is not None:
+            check_callable(transpiler, "transpiler", "a callable QuantumCircuit -> QuantumCircuit")
+        check_type(ledger, "ledger", ShotLedger, "a ShotLedger", allow_none=True)
+        check_type(progress, "progress", (bool, np.bool_), "a bool")
+        if target is not None:
+            target = as_target(target, seed=0 if seed is None else seed)
+        if sampler is None:
+            sampler = (target.sampler(seed=seed) if target is not None
+                       else AdaptiveSampler(NoiselessSimulators(seed), False,
+                                            seed=aer_seed(seed)))
+        if not isinstance(sampler, BaseSamplerV2):
+            raise TypeError(f"sampler must be a BaseSamplerV2, got {type(sampler).__name__}")
+        self.sampler = sampler
+        self.target = target
+        self._device = device_of(sampler)  # a provider's backend: circuits are checked against it
+        if transpiler is None:
+            transpiler = (TargetTranspiler(target, optimization_level, seed)
+                          if target is not None else AerTranspiler(optimization_level, seed))
+        self._cache = TranspileCache(MarkedTranspiler(transpiler))
+        self.ledger = ledger if ledger is not None else ShotLedger()
+        self.default_shots = check_positive_int(default_shots, "default_shots")
+        self.progress = bool(progress)
+        self._correction = None
+        if mitigation is not None or postselect is not None:
+            self._correction = ReadoutCorrection(
+                mitigation, postselect, target if target is not None else self._device,
+                calibration_shots, seed)
+
+    @property
+    def mitigation(self) -> str | None:
+        """The readout mitigation applied to every job (None: raw counts)."""
+        return None if self._correction is None else self._correction.mitigation
+
+    @property
+    def postselect(self) -> str | None:
+        """The post-selection applied to every job (None: every shot kept)."""
+        return None if self._correction is None else self._correction.postselect
+
+    #: Seconds a phase must last before its progress bar draws.
+    progress_delay: float = 1.0
+
+    def _bar(self, total: int, desc: str, unit: str):
+        return progress_bar(total, desc=desc, unit=unit, verbose=self.progress,
+                            delay=self.progress_delay, leave=True)
+
+    @property
+    def transpile_count(self) -> int:
+        """How many templates have been transpiled (each once)."""
+        return self._cache.misses
+
+    def compiled(self, circuit: QuantumCircuit) -> QuantumCircuit:
+        """The transpiled form of a template (transpiled once, then cached), as submitted."""
+        return self._cache(circuit)
+
+    def _check_plain_aer(self, compiled: QuantumCircuit) -> None:
+        """A plain Aer ``SamplerV2`` (not adaptive): refuse a state that would not fit."""
+        from qiskit_aer.primitives import SamplerV2
+
+        if isinstance(self.sampler, SamplerV2) and not isinstance(self.sampler, AdaptiveSampler):
+            method = getattr(getattr(self.sampler, "_backend", None), "options", None)
+            method = getattr(method, "method", "automatic")
+            check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
+
+    def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
+        """Sample every job: one PUB each, all in one sampler call (progress: see the class).
+
+        On a seeded Aer ``SamplerV2`` PUBs of different shot counts go in one call per count,
+        each with its own seed (:mod:`qdensity.execution.sampler._independent`: Aer would give them
+        the same random stream, correlating their shots).
+
+        Every template is checked first, before anything is submitted: against the device
+        when the sampler names one (a job wider than the device or holding an instruction it
+        cannot run), against the memory an Aer simulation would need, and against the
+        engine's mitigation and post-selection (a readout they cannot correct); each raises
+        ``ValueError``. The ledger is written only once the sampler's results are back, so a
+        failed job leaves it unchanged (readout calibrations excepted: they are spent).
+        """
+        jobs = check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob")
+        pubs, metas = [], []
+        bar = self._bar(len(jobs), "transpile", "template")
+        for job in jobs:
+            label = job.label or job.circuit.name
+            if self._device is not None:
+                check_width(job.circuit, self._device, label)
+            if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
+                raise ValueError(f"job {label!r} needs {job.circuit.num_qubits} qubits but "
+                                 f"target {self.target.name!r} has {self.target.num_qubits}; "
+                                 f"use a wider device or a smaller model")
+            compiled = self._cache(job.circuit)
+            if self._device is not None:
+                check_for_device(compiled, self._device, label)
+            self._check_plain_aer(compiled)
+            if self._correction is not None:
+                self._correction.check(job.circuit, compiled, label)
+            cols = _columns_for(job.circuit, compiled)
+            shots = job.shots if job.shots is not None else self.default_shots
+            if compiled.num_parameters:
+                pubs.append((compiled, job.values[:, cols], shots))
+            else:
+                # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
+                # sample rows * shots at once and split them into rows below.
+                pubs.append((compiled, None, shots * job.rows))
+            metas.append((job, shots, compiled))
+            bar.update()
+        bar.close()
+        if not pubs:
+            return []
+        rows = sum(job.rows for job, _, _ in metas)
+        with self._bar(rows, "sample", "circuit") as bar:
+            bar.set_postfix(shots=sum(job.rows * shots for job, shots, _ in metas), refresh=False)
+            raw = run_independent(self.sampler, pubs, lambda job: wait_for(job, bar))
+            bar.update(rows)
+        results = []
+        for (job, shots, compiled), pub_result in zip(metas, raw, strict=True):
+            bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
+            weights = n_eff = lins = None
+            if self._correction is not None:
+                weights, n_eff, lins = self._correction.weights(bits, compiled, self.ledger)
+            self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
+            results.append(JobResult(None, shots, job, bits=bits, weights=weights,
+                                     effective_shots=n_eff, readout=lins))
+        return results
