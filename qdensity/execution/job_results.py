@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qdensity.execution.intervals import binomial_standard_error, shot_mean
 from qdensity.validation import MAX_DENSE_QUBITS
 
 __all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
@@ -99,7 +100,7 @@ def bits_to_probabilities(bits: np.ndarray, weights: np.ndarray | None = None) -
     return np.bincount(flat.ravel(), weights=w, minlength=rows * dim).reshape(rows, dim) / shots
 
 
-def unary_frequencies(result: JobResult, postselect: bool = False):
+def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std: bool = False):
     """Frequencies of the unary outcomes ``e_j`` (only bit ``j`` set), from bits or exact.
 
     Parameters
@@ -107,34 +108,70 @@ def unary_frequencies(result: JobResult, postselect: bool = False):
     result : JobResult
     postselect : bool
         Divide by the kept (Hamming-weight-1) fraction of each row.
+    return_std : bool
+        Also return the standard errors of the frequencies (keyword only; the default keeps
+        the two-value return).
 
     Returns
     -------
-    (numpy.ndarray (rows, m), numpy.ndarray (rows,))
+    (numpy.ndarray (rows, m), numpy.ndarray (rows,)[, numpy.ndarray (rows, m)])
         The (post-selected) unary probabilities and the Hamming-weight-1 fraction per row.
         From bits the fraction is the count of weight-1 shots over the shots (exactly 1.0
         when every shot has weight 1), not the sum of the ``m`` frequencies, whose rounding
-        can leave it an ulp below 1.
+        can leave it an ulp below 1. With ``return_std``, third: their standard errors,
+        Wilson-floored (:mod:`qdensity.execution.intervals`, never zero for sampled rows;
+        zero for exact ones). Raw shots: :func:`~qdensity.execution.intervals.
+        binomial_standard_error` over the shots (post-selected: over the kept shots). A
+        corrected run (``weights``): :func:`~qdensity.execution.intervals.shot_mean` of the
+        per-shot indicators (the readout linearisations' delta method when mitigated;
+        post-selected, of the ratio's per-shot influence ``(h_s - p_j [|b_s| = 1]) / kept``).
+        Frequencies without bits but with ``shots`` use the binomial error of ``shots``.
     """
+    se = None
     if result.bits is not None:
         b = result.bits
         weight_one = b.sum(axis=-1) == 1
         hits = b & weight_one[..., None]
+        shots = b.shape[1]
         if result.weights is None:
             p = hits.mean(axis=1)
             kept = weight_one.mean(axis=1)
+            if return_std:
+                if postselect:
+                    n_kept = np.maximum(weight_one.sum(axis=1), 1)[:, None]
+                    p_ps = hits.sum(axis=1) / n_kept
+                    se = binomial_standard_error(p_ps, n_kept)
+                else:
+                    se = binomial_standard_error(p, shots)
         else:
             w = np.asarray(result.weights, dtype=float)
-            p = np.einsum("rs,rsm->rm", w, hits) / b.shape[1]
-            kept = np.einsum("rs,rs->r", w, weight_one) / b.shape[1]
+            p = np.einsum("rs,rsm->rm", w, hits) / shots
+            kept = np.einsum("rs,rs->r", w, weight_one) / shots
+            if return_std:
+                x = hits.astype(float)
+                if postselect and np.all(kept > 0):
+                    ratio = p / kept[:, None]
+                    x = (x - ratio[:, None, :] * weight_one[..., None]) / kept[:, None, None]
+                    width = 1.0 / np.minimum(kept, 1.0)[:, None]
+                else:
+                    width = 1.0
+                _, se = shot_mean(x, width, weights=w, effective_shots=result.effective_shots,
+                                  linearisations=result.readout)
     else:
         probs = result.probabilities
         m = int(round(np.log2(probs.shape[1])))
         p = probs[:, 1 << np.arange(m)]
         kept = p.sum(axis=1)
+        if return_std:
+            if result.shots:
+                q = p / np.where(kept > 0, kept, 1.0)[:, None] if postselect else p
+                n = np.maximum(kept * result.shots, 1.0)[:, None] if postselect else result.shots
+                se = binomial_standard_error(np.clip(q, 0.0, 1.0), n)
+            else:
+                se = np.zeros_like(p)
     if postselect:
         if np.any(kept <= 0):
             raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
                              "Hamming weight 1")
         p = p / kept[:, None]
-    return p, kept
+    return (p, kept, se) if return_std else (p, kept)
