@@ -41,14 +41,20 @@ def shot_values(result, values: np.ndarray, shots: int, k: int) -> np.ndarray:
     if result.bits is None:
         counts = np.rint(result.probabilities[0] * shots).astype(int)
         return values[np.repeat(np.arange(counts.size), counts)]
-    out = values[result.bits[0] @ (1 << np.arange(result.bits.shape[-1]))]
+    return corrected_values(result, values[result.bits[0] @ (1 << np.arange(
+        result.bits.shape[-1]))], float(np.abs(values).max()), k)
+
+
+def corrected_values(result, out: np.ndarray, largest: float, k: int) -> np.ndarray:
+    """Per-shot values ``out`` (shots,) of one job's first row, corrected as
+    :func:`shot_values` says (``largest``: the largest ``|h|`` a shot can take)."""
     if result.weights is None:
         return out
     w = result.weights[0]
     lin = None if result.readout is None else result.readout[0]
     if lin is not None:
         psi = lin.influence(out, float(np.mean(out * w)))
-        bound = WEIGHT_BOUND * float(np.abs(values).max())
+        bound = WEIGHT_BOUND * largest
         if np.abs(psi).max() > bound:
             raise ValueError(f"a mitigated shot of sub-unitary {k} has influence "
                              f"{np.abs(psi).max():.3g} beyond {bound:.3g} ({WEIGHT_BOUND} x the "
@@ -102,14 +108,28 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         raise ValueError(f"scheduler must be one of ('per_shot', 'proportional', 'neyman'), "
                          f"got {scheduler!r}")
     rng = as_rng(seed)
-    if model.readout != "observable" or np.any(model.observable.paulis.x):
-        raise ValueError("sample() needs a diagonal (Z-type) observable readout")
+    if model.readout == "unary_amplitudes":
+        raise ValueError("sample() cannot estimate readout='unary_amplitudes' (shots see "
+                         "|y_j|^2, never the sign of y_j); build the model with "
+                         "readout='unary_probabilities', or use predict() (exact)")
+    if model.readout == "observable" and np.any(model.observable.paulis.x):
+        raise ValueError("sample() needs a diagonal (I/Z) observable; rotate the measurement "
+                         "basis into the sub-unitaries (qdensity.execution.plans."
+                         "basis_rotation), or use readout='unary_probabilities'")
+    unary = model.readout == "unary_probabilities"
+    if unary and scheduler == "neyman":
+        raise ValueError("scheduler='neyman' allocates shots for one scalar output; "
+                         "readout='unary_probabilities' has one output per qubit: use "
+                         "scheduler='per_shot' or 'proportional'")
     x = model._check_X(x, "x")
     if x.shape[0] != 1:
         raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
     n = model.num_qubits
-    values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
-    lo, hi = float(values.min()), float(values.max())
+    if unary:
+        values, lo, hi = None, 0.0, 1.0
+    else:
+        values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
+        lo, hi = float(values.min()), float(values.max())
     if engine is not None:
         ledger = engine.ledger
     elif ledger is None:
@@ -143,6 +163,8 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         circ = measured(deterministic_circuit(subs, alpha, loader=loader))
         res = engine_for_call().run([CircuitJob(circ, None, budget, "deterministic")])[0]
         K = model.num_subunitaries
+        if unary:
+            return _deterministic_unary(res, K, n, budget)
         probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
         mean = float(probs @ values)
         var = float(probs @ values**2) - mean**2
@@ -151,6 +173,10 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                                                                          hi - lo)),
                               allocation=np.array([budget]), per_subunitary=np.array([mean]),
                               shots_used=budget, pilot_allocation=None, info={})
+    corrected = (mitigation is not None or postselect is not None
+                 or (engine is not None and getattr(engine, "_correction", None) is not None))
+    if unary:
+        return _randomised_unary(model, x, budget, scheduler, engine_for_call, rng, corrected)
     circuits = [measured(model.circuit(k)) for k in range(model.num_subunitaries)]
     rows = [model.rows(k, x) for k in range(model.num_subunitaries)]
 
@@ -172,8 +198,7 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                 calibration[len(out) - 1] = (lin, f, float(np.mean(f * res.weights[0])))
         return out
 
-    if (mitigation is not None or postselect is not None
-            or (engine is not None and getattr(engine, "_correction", None) is not None)):
+    if corrected:
         lo, hi = corrected_range(lo, hi)
     runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
     alpha = model.alpha(x)[0]
@@ -183,3 +208,86 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         se = float(np.sqrt(res.standard_error**2 + _calibration_variance(calibration, alpha)))
         res = dataclasses.replace(res, standard_error=se)
     return res
+
+
+def _deterministic_unary(res, K: int, n: int, budget: int):
+    """Eval mode of a unary-probability model: the data register's unary frequencies."""
+    from qdensity.execution.job_results import JobResult, unary_frequencies
+    from qdensity.execution.schedulers import ScheduleResult
+
+    if res.bits is not None:  # the data register is clbits K .. K + n - 1; mix is traced out
+        data = JobResult(None, res.shots, res.job, bits=res.bits[..., K:], weights=res.weights,
+                         effective_shots=res.effective_shots, readout=res.readout)
+    else:
+        probs = res.probabilities.reshape(-1, 2**n, 2**K).sum(axis=2)
+        data = JobResult(probs, res.shots, res.job)
+    p, _, se = unary_frequencies(data, return_std=True)
+    return ScheduleResult(name="deterministic", estimate=p[0], standard_error=se[0],
+                          allocation=np.array([budget]), per_subunitary=p, shots_used=budget,
+                          pilot_allocation=None, info={"readout": "unary_probabilities"})
+
+
+def _unary_hits(result, j: int, shots: int) -> np.ndarray:
+    """Per-shot indicator of outcome ``e_j`` (only bit ``j`` set) of one job's first row."""
+    if result.bits is None:
+        count = int(np.rint(result.probabilities[0, 1 << j] * shots))
+        return np.concatenate([np.ones(count), np.zeros(shots - count)])
+    b = result.bits[0]
+    return (b[:, j] & (b.sum(axis=-1) == 1)).astype(float)
+
+
+def _randomised_unary(model, x, budget, scheduler, engine_for_call, rng, corrected: bool):
+    """Train mode of a unary-probability model: the scheduler's allocation (one draw, shared
+    by every output ``j``), its estimate and standard error of each ``p_j`` (Fig. 1c)."""
+    from qdensity.execution.plans import CircuitJob, measured
+    from qdensity.execution.schedulers import ScheduleResult, per_shot, proportional
+
+    K, n = model.num_subunitaries, model.num_qubits
+    circuits = [measured(model.circuit(k)) for k in range(K)]
+    rows = [model.rows(k, x) for k in range(K)]
+    runs: dict = {}  # allocation -> results, so every output j reads the same shots
+
+    def results_for(shots_per_k):
+        key = tuple(int(v) for v in shots_per_k)
+        if key not in runs:
+            jobs = [CircuitJob(circuits[k], rows[k], s, f"randomised_k{k}")
+                    for k, s in enumerate(key) if s > 0]
+            done = iter(engine_for_call().run(jobs))
+            runs[key] = [next(done) if s > 0 else None for s in key]
+        return key, runs[key]
+
+    lo, hi = corrected_range(0.0, 1.0) if corrected else (0.0, 1.0)
+    alpha = model.alpha(x)[0]
+    runner = {"per_shot": per_shot, "proportional": proportional}[scheduler]
+    draw = int(rng.integers(2**63))
+    parts = []
+    for j in range(n):
+        calibration: dict = {}
+
+        def source(shots_per_k, _rng=None, j=j, calibration=calibration):
+            key, results = results_for(shots_per_k)
+            out = []
+            for k, (s, res) in enumerate(zip(key, results, strict=True)):
+                if s == 0:
+                    out.append(np.zeros(0))
+                    continue
+                h = _unary_hits(res, j, s)
+                out.append(corrected_values(res, h, 1.0, k))
+                lin = None if res.readout is None else res.readout[0]
+                if lin is not None:
+                    calibration[k] = (lin, h, float(np.mean(h * res.weights[0])))
+            return out
+
+        res = runner(alpha, budget, source, seed=draw, value_range=(lo, hi))
+        if calibration:
+            se = float(np.sqrt(res.standard_error**2 + _calibration_variance(calibration,
+                                                                             alpha)))
+            res = dataclasses.replace(res, standard_error=se)
+        parts.append(res)
+    first = parts[0]
+    return ScheduleResult(name=first.name, estimate=np.array([r.estimate for r in parts]),
+                          standard_error=np.array([r.standard_error for r in parts]),
+                          allocation=first.allocation,
+                          per_subunitary=np.stack([r.per_subunitary for r in parts], axis=1),
+                          shots_used=first.shots_used, pilot_allocation=None,
+                          info={"readout": "unary_probabilities"})

@@ -353,7 +353,26 @@ class DensityQNN:
         return (aer_outputs if method == "aer" else exact_outputs)(self, X, theta)
 
     def expectation_plan(self, k: int, X=None, theta=None, *, shots: int | None = None) -> Plan:
-        """Plan for ``f_k(x) = Tr(O U_k rho(x) U_k^dagger)`` over the rows of X."""
+        """Plan for ``f_k(x) = Tr(O U_k rho(x) U_k^dagger)`` over the rows of X.
+
+        Serves ``readout="observable"`` only (its answer is an
+        :class:`~qdensity.execution.plans.Estimate` of shape (B,)).
+
+        Raises
+        ------
+        ValueError
+            For a unary readout, whose output is a vector per row: sample it with
+            :func:`~qdensity.execution.plans.probabilities_plan` of ``circuit(k)`` and
+            ``rows(k, X)`` read by :func:`~qdensity.execution.plans.unary_frequencies`,
+            with :meth:`sample` (one point), or with an estimator's ``estimate``.
+        """
+        if self.readout != "observable":
+            raise ValueError(
+                f"expectation_plan serves readout='observable'; this model's readout is "
+                f"{self.readout!r}, whose output has shape (B, {self.num_qubits}): use "
+                "probabilities_plan(model.circuit(k), model.rows(k, X)) with "
+                "unary_frequencies, model.sample(x, budget) (unary_probabilities), or "
+                "QNNClassifier.estimate / QNNRegressor.estimate")
         circ = self.circuit(k)
         return expectation_plan(circ, self.observable, self.rows(k, X, theta), shots=shots,
                                 label=f"forward_k{k}")
@@ -415,7 +434,17 @@ class DensityQNN:
         -------
         qdensity.schedulers.ScheduleResult
             Estimate, standard error, allocation and shots used (``allocation`` is ``[budget]``
-            in eval mode).
+            in eval mode). For ``readout="unary_probabilities"`` ``estimate`` and
+            ``standard_error`` are arrays of shape (n,) (the unary probabilities ``p_j`` of
+            eq. 3 and their errors) and ``per_subunitary`` has shape (K, n) (train mode) or
+            (1, n) (eval mode): one allocation, drawn once, serves every ``j``.
+
+        Raises
+        ------
+        ValueError
+            ``readout="unary_amplitudes"`` (shots do not see signs), a non-diagonal
+            observable, or ``scheduler="neyman"`` with unary probabilities (Neyman allocates
+            for one scalar output).
 
         Notes
         -----
