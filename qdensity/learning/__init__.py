@@ -5,7 +5,8 @@ own (:mod:`~.nn`, :mod:`~.optim`, :mod:`~.losses`) and parameter files (:mod:`~.
 progress bars come from :mod:`qdensity.progress`. :mod:`~.training` keeps the first release's
 import path."""
 
-from qdensity.learning.estimators import QNNClassifier, QNNRegressor
+from qdensity.learning.estimators import QNNClassifier, QNNRegressor, UnscaledFeaturesWarning
 from qdensity.learning.layer import History, QuantumLayer
 
-__all__ = ["QuantumLayer", "History", "QNNClassifier", "QNNRegressor"]
+__all__ = ["QuantumLayer", "History", "QNNClassifier", "QNNRegressor",
+           "UnscaledFeaturesWarning"]

@@ -15,6 +15,7 @@ import os
 
 import numpy as np
 from sklearn.decomposition import PCA
+from sklearn.preprocessing import StandardScaler
 
 from qdensity.learning._spec import check_hyperparameters, encoded_width
 from qdensity.learning.layer import History, QuantumLayer
@@ -25,7 +26,8 @@ from qdensity.validation import MAX_CIRCUIT_QUBITS, as_rng
 FORMAT = "qdensity-estimator"
 #: Version of the file layout written by ``save``.
 FORMAT_VERSION = 1
-SPEC_KEYS = ("ansatz", "decomposition", "depth", "mixture", "readout", "num_qubits", "constant")
+SPEC_KEYS = ("ansatz", "decomposition", "depth", "mixture", "readout", "num_qubits", "constant",
+             "scale")
 _COMMON = {"format": str, "version": int, "estimator": str, "spec": dict, "template": bool,
            "n_features_in": int, "num_qubits": int, "data_columns": int, "post": bool,
            "pre": bool}
@@ -81,7 +83,8 @@ def check_saved(est, meta: dict, data: dict, path) -> dict:
     meta : dict
         The file's metadata (see :func:`read_meta`).
     data : dict of numpy.ndarray
-        The file's arrays (``part{i}``, ``pca_components``, ``pca_mean``).
+        The file's arrays (``part{i}``, ``pca_components``, ``pca_mean``, ``scaler_mean``,
+        ``scaler_scale``).
     path : path-like
         For the messages.
 
@@ -122,7 +125,8 @@ def check_saved(est, meta: dict, data: dict, path) -> dict:
                              f"{model.num_features} features")
         width_q = model.num_parameters + model.mixture.params.size
     else:
-        spec = meta["spec"]
+        # files written before ``scale`` existed held unscaled models: read as scale=False
+        spec = {"scale": False, **meta["spec"]} if isinstance(meta["spec"], dict) else {}
         if set(spec) != set(SPEC_KEYS):
             raise ValueError(f"{name!r}: the spec must hold exactly {list(SPEC_KEYS)}, got "
                              f"{sorted(spec)}")
@@ -139,7 +143,8 @@ def check_saved(est, meta: dict, data: dict, path) -> dict:
         width_q = None
     readout = (est.model.readout if meta["template"] else spec["readout"])
     width = n if readout != "observable" else 1
-    _check_arrays(est, meta, data, name, width, targets, width_q)
+    _check_arrays(est, meta, data, name, width, targets, width_q,
+                  scaled=not meta["template"] and spec["scale"] is True)
     return spec
 
 
@@ -160,13 +165,19 @@ def _targets(meta: dict, name: str, kind: str) -> int:
     return m
 
 
-def _check_arrays(est, meta, data, name, width, targets, width_q) -> None:
+def _check_arrays(est, meta, data, name, width, targets, width_q, scaled: bool) -> None:
     parts = 1 + int(meta["pre"]) + int(meta["post"])
     want = {f"part{i}" for i in range(parts)}
     n_in, cols = meta["n_features_in"], meta["data_columns"]
     pca = not meta["template"] and cols < n_in
     if pca:
         want |= {"pca_components", "pca_mean"}
+    if scaled:
+        want |= {"scaler_mean", "scaler_scale"}
+        for key in ("scaler_mean", "scaler_scale"):
+            if key in data and np.shape(data[key]) != (n_in,):
+                raise ValueError(f"{name!r}: {key} has shape {np.shape(data[key])}, expected "
+                                 f"({n_in},) (n_features_in)")
     if set(data) != want:
         raise ValueError(f"{name!r} holds the arrays {sorted(data)}; its metadata needs "
                          f"exactly {sorted(want)}")
@@ -224,6 +235,8 @@ def write_estimator(est, path) -> None:
     arrays = {f"part{i}": get_flat(p.params) for i, p in enumerate(est._parts())}
     if est.pca_ is not None:
         arrays.update(pca_components=est.pca_.components_, pca_mean=est.pca_.mean_)
+    if est.scaler_ is not None:
+        arrays.update(scaler_mean=est.scaler_.mean_, scaler_scale=est.scaler_.scale_)
     arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
     save_parameters(path, **arrays)
 
@@ -239,6 +252,12 @@ def read_estimator(est, path):
     est._load_meta(meta)
     est._prepare(np.zeros((1, est.n_features_in_)), as_rng(0), fit_pca=False)
     est.layer_ = QuantumLayer(est.model_, "exact")
+    if "scaler_mean" in data:
+        est.scaler_ = StandardScaler()
+        est.scaler_.mean_ = data.pop("scaler_mean")
+        est.scaler_.scale_ = data.pop("scaler_scale")
+        est.scaler_.var_ = est.scaler_.scale_**2
+        est.scaler_.n_features_in_ = est.n_features_in_
     if "pca_components" in data:
         est.pca_ = PCA(n_components=meta["data_columns"])
         est.pca_.components_ = data.pop("pca_components")

@@ -73,6 +73,9 @@ def check_hyperparameters(est) -> None:
             check_num_qubits(est.num_qubits, minimum=2)
         if est.constant is not None:
             _real(est.constant, "constant", positive=True)
+        if not isinstance(est.scale, (bool, np.bool_)):
+            raise TypeError(f"scale must be a bool (standardise the features before PCA and "
+                            f"the encoding), got {est.scale!r}")
     _choice(est.optimizer, "optimizer", OPTIMIZERS)
     _real(est.learning_rate, "learning_rate", positive=True)
     _real(est.l2, "l2")

@@ -7,10 +7,19 @@ They behave like scikit-learn's own (``clone``, ``Pipeline``, ``GridSearchCV``,
 
 The model is given either as a spec (``ansatz``, ``decomposition``, ``depth``, ``mixture``,
 ``readout``; the unary encoding of eq. 1 on ``num_qubits`` qubits) or as a :class:`DensityQNN`
-template, which ``fit`` deep-copies and never mutates. The qubit count follows the data:
+template, which ``fit`` deep-copies and never mutates. A spec model encodes the data in three
+steps, all fitted in ``fit`` and applied by :meth:`~QNNClassifier.transform`: standardisation
+(``scale=True``, kept in ``scaler_``), then PCA to ``num_qubits - 1`` columns when
+``num_qubits`` is set and smaller than the features (kept in ``pca_``; zero padding when
+larger), then a constant qubit. The qubit count follows the data:
 ``n = n_features + 1`` (the last qubit carries ``constant``, so that the norm of ``x`` reaches
-the model and an all-zero row can be loaded; ``constant=None`` drops it). With ``num_qubits``
-the data are reduced by PCA (fitted in ``fit``, kept in ``pca_``) or padded with zeros to fit.
+the model and an all-zero row can be loaded; ``constant=None`` drops it); ``num_qubits=6``
+means PCA to 5 features plus the constant qubit. ``fit`` logs the mapping (logger
+``qdensity.learning.estimators``, level INFO).
+
+``predict``, ``predict_proba`` and ``decision_function`` are exact whatever engine trained
+the model; :meth:`~QNNClassifier.estimate` samples the same answer with shots on a
+:class:`~qdensity.execution.engines.SamplerEngine` and returns standard errors.
 
 The output of the model (eq. 3: ``f(x) = sum_k alpha_k(x) f_k(x)``, unary probabilities by
 default) goes through a linear read-out (``post="linear"``, the ``n -> classes`` layer of
@@ -23,17 +32,26 @@ data parameters (the loader's RBS angles) run with the same ``shots`` and on the
 
 from __future__ import annotations
 
-import contextlib
 import copy
+import logging
 import time
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
 from sklearn.decomposition import PCA
+from sklearn.preprocessing import StandardScaler
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from qdensity.execution.plans import Estimate
 from qdensity.learning import losses as _losses
+from qdensity.learning._encoding import (
+    EncodingMixin,
+    UnscaledFeaturesWarning,
+    _naming,
+    warn_if_unscaled,
+)
+from qdensity.learning._estimate import EstimateMixin
 from qdensity.learning._saved import FORMAT_VERSION, read_estimator, write_estimator
 from qdensity.learning._spec import (
     build_model,
@@ -48,28 +66,18 @@ from qdensity.models.mixtures import softmax
 from qdensity.progress import progress_bar
 from qdensity.validation import as_rng, check_magnitude
 
-__all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION"]
+__all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION", "UnscaledFeaturesWarning"]
+
+_LOG = logging.getLogger(__name__)
 
 
-
-@contextlib.contextmanager
-def _naming(names: str):
-    """Put the argument names in front of scikit-learn's data errors, which often lack them
-    ("could not convert string to float", "Found array with 0 sample(s)"); same type, same
-    text after the names."""
-    try:
-        yield
-    except (TypeError, ValueError) as exc:
-        raise type(exc)(f"{names}: {exc}") from exc
-
-
-class _QNNEstimator(BaseEstimator):
+class _QNNEstimator(EncodingMixin, EstimateMixin, BaseEstimator):
     """Shared machinery; see :class:`QNNClassifier` for the parameters."""
 
     def __init__(self, model=None, *, ansatz="round_robin", decomposition="layers", depth=1,
                  mixture="softmax", readout="unary_probabilities", num_qubits=None,
-                 constant=1.0, pre=None, post="linear", optimizer="adam", learning_rate=0.05,
-                 l2=0.0, epochs=10, batch_size=32, engine="exact", shots=None,
+                 constant=1.0, scale=True, pre=None, post="linear", optimizer="adam",
+                 learning_rate=0.05, l2=0.0, epochs=10, batch_size=32, engine="exact", shots=None,
                  gradient="auto", max_steps=None, max_shots=None, seed=0, verbose=True,
                  callback=None, callbacks=None):
         self.model = model
@@ -80,6 +88,7 @@ class _QNNEstimator(BaseEstimator):
         self.readout = readout
         self.num_qubits = num_qubits
         self.constant = constant
+        self.scale = scale
         self.pre = pre
         self.post = post
         self.optimizer = optimizer
@@ -98,18 +107,6 @@ class _QNNEstimator(BaseEstimator):
         self.callbacks = callbacks
 
     # ---------------------------------------------------------------- the data path
-    def _encode(self, X: np.ndarray) -> np.ndarray:
-        """Features of the quantum layer: PCA / zero padding, then the constant qubit."""
-        if self.model is not None:
-            return X
-        Z = self.pca_.transform(X) if self.pca_ is not None else X
-        n, cols = self.num_qubits_, self._data_columns_
-        if Z.shape[1] < cols:
-            Z = np.hstack([Z, np.zeros((Z.shape[0], cols - Z.shape[1]))])
-        if cols < n:
-            Z = np.hstack([Z, np.full((Z.shape[0], n - cols), float(self.constant))])
-        return Z
-
     def _parts(self):
         parts = [] if self.pre_ is None else [self.pre_]
         parts.append(self.layer_)
@@ -152,17 +149,17 @@ class _QNNEstimator(BaseEstimator):
 
     def _outputs(self, X) -> np.ndarray:
         """Exact outputs of the fitted pipeline for raw ``X`` (no shots), shape (N, m)."""
-        check_is_fitted(self, "model_")
-        with _naming("X"):
-            X = validate_data(self, X, reset=False, dtype=np.float64)
-        exact = QuantumLayer(self.model_, "exact")
-        return self._forward(self._encode(X), exact, need_grad=False)
+        Z = self.transform(X)  # checks that the estimator is fitted
+        return self._forward(Z, QuantumLayer(self.model_, "exact"), need_grad=False)
 
     # ---------------------------------------------------------------- fit
     def _prepare(self, X, rng, *, fit_pca: bool = True):
         n, cols = encoded_width(self, X.shape[1])
         self.num_qubits_, self._data_columns_ = n, cols
-        self.pca_ = None
+        self.pca_ = self.scaler_ = None
+        if self.model is None and self.scale and fit_pca:
+            self.scaler_ = StandardScaler().fit(X)
+            X = self.scaler_.transform(X)
         if self.model is None and cols < X.shape[1] and fit_pca:
             self.pca_ = PCA(n_components=cols, svd_solver="full").fit(X)
         elif self.model is not None and X.shape[1] != self.model.num_features:
@@ -205,8 +202,11 @@ class _QNNEstimator(BaseEstimator):
         if eval_set is not None:
             if not isinstance(eval_set, (tuple, list)) or len(eval_set) != 2:
                 raise ValueError("eval_set must be a pair (X_test, y_test)")
+        if self.model is not None or not self.scale:
+            warn_if_unscaled(X, f"{type(self).__name__}.fit(X)")
         rng = as_rng(self.seed)
         self._prepare(X, rng)
+        _LOG.info("%s: %s", type(self).__name__, self.encoding_description())
         Z = self._encode(X)
         self.layer_ = QuantumLayer(self.model_, self.engine, self.shots, self.gradient,
                                    input_gradients=self.pre_ is not None)
@@ -329,6 +329,11 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
         Width of the model; the data are PCA-reduced (or zero-padded) to fit.
     constant : float or None
         Value loaded on the last qubit (None: no extra qubit).
+    scale : bool
+        Standardise the features (``StandardScaler``, fitted in ``fit``) before PCA and the
+        encoding; spec models only (a template takes the data as given). Without it,
+        features whose spreads differ by orders of magnitude raise
+        :class:`UnscaledFeaturesWarning`.
     pre : layer, optional
         A numpy layer before the encoding, trained on every engine: with a sampler, each step
         also runs the input-gradient circuits (shift rules on the data parameters,
@@ -369,6 +374,9 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
     history_ : History
         Per step (``history_["loss"]``) and per epoch (``history_.epochs``).
     n_features_in_, num_qubits_ : int
+        ``num_qubits_ = num_qubits`` if set, else ``n_features_in_ + 1`` (the constant
+        qubit; ``num_qubits=6`` on 30 features: PCA to 5 plus the constant).
+    scaler_ : sklearn.preprocessing.StandardScaler or None
     pca_ : sklearn.decomposition.PCA or None
 
     Examples
@@ -402,16 +410,24 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
         return float(np.mean(out.argmax(axis=1) == target))
 
     def decision_function(self, X) -> np.ndarray:
-        """Logits, shape (N, C); for two classes the margin ``l_1 - l_0``, shape (N,)."""
+        """Logits, shape (N, C); for two classes the margin ``l_1 - l_0``, shape (N,).
+        Exact, whatever engine trained the model."""
         out = self._outputs(X)
         return out[:, 1] - out[:, 0] if out.shape[1] == 2 else out
 
     def predict_proba(self, X) -> np.ndarray:
-        """Class probabilities ``softmax(logits)``, shape (N, C)."""
+        """Class probabilities ``softmax(logits)``, shape (N, C).
+
+        Exact (the unary or statevector engine), whatever engine trained the model; for a
+        sampled answer with standard errors use :meth:`estimate`.
+        """
         return softmax(self._outputs(X))
 
     def predict(self, X) -> np.ndarray:
-        """Labels from ``classes_``, shape (N,)."""
+        """Labels from ``classes_``, shape (N,).
+
+        Exact, whatever engine trained the model (see :meth:`estimate` for shots).
+        """
         out = self._outputs(X)
         return self.classes_[out.argmax(axis=1)]
 
@@ -463,9 +479,18 @@ class QNNRegressor(RegressorMixin, _QNNEstimator):
         return -float(self._loss(out, target)[0])
 
     def predict(self, X) -> np.ndarray:
-        """Predictions, shape (N,) or (N, m)."""
+        """Predictions, shape (N,) or (N, m).
+
+        Exact (the unary or statevector engine), whatever engine trained the model; for a
+        sampled answer with standard errors use :meth:`estimate`.
+        """
         out = self._outputs(X)
         return out[:, 0] if self._target_ndim_ == 1 else out
+
+    def _shape_estimate(self, est: Estimate) -> Estimate:
+        if self._target_ndim_ == 1:
+            return Estimate(est.value[:, 0], est.standard_error[:, 0])
+        return est
 
     def _meta(self) -> dict:
         return {"target_ndim": self._target_ndim_, "num_targets": self._num_targets}

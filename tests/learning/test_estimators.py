@@ -88,10 +88,13 @@ def test_fitted_estimator_pickles():
 
 
 def test_pca_data_path_against_an_oracle():
-    """num_qubits with PCA: logits = W^T f([PCA(x), c]) + b with f the exact model (eq. 3)."""
+    """num_qubits with PCA: logits = W^T f([PCA(x), c]) + b with f the exact model (eq. 3)
+    (scale=False: the PCA of the raw pixels; the standardised path: tests/learning/
+    test_estimate.py)."""
     X, y = load_digits(return_X_y=True)
     X, y = X[:40], y[:40]
-    clf = QNNClassifier(num_qubits=6, constant=2.0, epochs=2, verbose=False).fit(X, y)
+    clf = QNNClassifier(num_qubits=6, constant=2.0, scale=False, epochs=2,
+                        verbose=False).fit(X, y)
     assert clf.model_.num_qubits == 6 and clf.pca_.n_components_ == 5
     pca = PCA(5, svd_solver="full").fit(X)
     Z = np.hstack([pca.transform(X), np.full((len(X), 1), 2.0)])

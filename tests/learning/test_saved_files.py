@@ -106,7 +106,9 @@ def test_both_sizes_edited_is_caught_by_the_read_out(fitted, tmp_path):
         meta["spec"]["num_qubits"] = 1000
         meta["num_qubits"], meta["data_columns"] = 1000, 999
         meta["n_features_in"] = 999
+        meta["spec"]["scale"] = False  # the scaler's arrays would betray the width at once
         data.pop("pca_components"), data.pop("pca_mean")
+        data.pop("scaler_mean"), data.pop("scaler_scale")
     path = _edit(fitted, tmp_path, change)
     with pytest.raises(ValueError, match="too few for a model on 1000 qubits"):
         QNNClassifier().load(path)
