@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from qdensity.cli._help import texts
+
 __all__ = ["add_parser"]
 
 
@@ -29,6 +31,21 @@ def _seeds(text: str) -> list[int] | int:
     return values[0] if "," not in text else values
 
 
+def _listing(rows: list[dict], width: int = 100) -> str:
+    """The experiments by the part of the paper they reproduce (figure, section), then what
+    they compare; wrapped to ``width`` columns."""
+    import textwrap
+
+    out = []
+    for row in rows:
+        pad = " " * 17
+        out.append(textwrap.fill(row["paper"], width, initial_indent=f"{row['name']:<15}  ",
+                                 subsequent_indent=pad))
+        out.append(textwrap.fill(row["title"], width, initial_indent=pad + "compares: ",
+                                 subsequent_indent=pad + "  "))
+    return "\n".join(out)
+
+
 def _cmd_experiment(args) -> int:
     from qdensity.experiments.registry import EXPERIMENTS, get_experiment, run
 
@@ -40,8 +57,7 @@ def _cmd_experiment(args) -> int:
         if args.json:
             print(json.dumps(rows, indent=2))
         else:
-            for row in rows:
-                print(f"{row['name']:<15} {row['title']}  [{row['paper']}]")
+            print(_listing(rows))
         return 0
     if args.name is None:
         raise ValueError(f"name an experiment (one of: {', '.join(EXPERIMENTS)}) or --list")
@@ -68,7 +84,7 @@ def add_parser(sub) -> None:
 
     x = sub.add_parser("experiment", help="run one of the paper's experiments over seeds: "
                                           "results JSON with 95%% confidence intervals and "
-                                          "figures")
+                                          "figures", **texts("experiment"))
     x.add_argument("name", nargs="?", help=f"one of: {', '.join(EXPERIMENTS)}%(default).0s")
     size = x.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true",

@@ -20,6 +20,7 @@ import numpy as np
 
 from qdensity.cli._builders import BUILDERS, _vector, build_circuit, check_size
 from qdensity.cli._devices import DEMO_OPTIONS, correction_options, corrections
+from qdensity.cli._help import Formatter, texts
 
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
 
@@ -33,10 +34,11 @@ MAX_CLI_SHOTS = 10**8
 
 class _Parser(argparse.ArgumentParser):
     """An ``ArgumentParser`` whose errors are one line on stderr and exit status 2, and whose
-    ``--help`` shows every option's default (sub-commands' parsers are of this class too)."""
+    ``--help`` shows every option's default and keeps the description's and the examples' line
+    breaks (sub-commands' parsers are of this class too)."""
 
     def __init__(self, *args, **kwargs):
-        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kwargs.setdefault("formatter_class", Formatter)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D102 - argparse API
@@ -81,6 +83,23 @@ def _print_json(obj) -> None:
                      else str(o)))
 
 
+def _qasm_text(qc, version: int) -> str:
+    """OpenQASM 3 of ``qc`` (its gates defined in the file, parameters kept as inputs), or
+    OpenQASM 2 unrolled into ``qelib1.inc`` gates (parameters must be bound)."""
+    if version == 3:
+        from qiskit import qasm3
+
+        return qasm3.dumps(qc)
+    if qc.num_parameters:
+        raise ValueError("OpenQASM 2 has no free parameters: drop --unbound, or use "
+                         "--qasm-version 3 (the default)")
+    from qiskit import qasm2, transpile
+
+    from qdensity.cli.export import QASM2_BASIS
+
+    return qasm2.dumps(transpile(qc, basis_gates=list(QASM2_BASIS), optimization_level=0))
+
+
 def _cmd_build(args) -> int:
     check_size(args.name, args.size, MAX_CLI_QUBITS)
     qc = build_circuit(args.name, args.size, bind_seed=None if args.unbound else args.seed)
@@ -95,11 +114,7 @@ def _cmd_build(args) -> int:
             raise ValueError(f"--qasm {args.qasm!r}: the folder {str(folder)!r} does not exist; "
                              f"create it first (mkdir -p) or choose another path")
     if args.qasm:
-        from qiskit import qasm2, transpile
-
-        from qdensity.cli.export import QASM2_BASIS
-
-        text = qasm2.dumps(transpile(qc, basis_gates=list(QASM2_BASIS), optimization_level=0))
+        text = _qasm_text(qc, args.qasm_version)
         if args.qasm == "-":
             out["qasm"] = text
             if not args.json:
@@ -251,7 +266,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"%(prog)s {version}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    b = sub.add_parser("build", help="print, draw or export a named circuit")
+    b = sub.add_parser("build", help="print, draw or export a named circuit", **texts("build"))
     b.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
     b.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (at least 2; "
                    "reuploading: layers, from 1; equivariant_xx/yy from 3; butterfly: a power "
@@ -259,7 +274,10 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--draw", action="store_true",
                    help="draw the circuit (the default without --qasm or --json)%(default).0s")
     b.add_argument("--qasm", metavar="FILE",
-                   help="write OpenQASM 2 to FILE ('-' for stdout; default: none)%(default).0s")
+                   help="write OpenQASM to FILE ('-' for stdout; default: none)%(default).0s")
+    b.add_argument("--qasm-version", type=int, choices=[2, 3], default=3,
+                   help="OpenQASM 3 (gate definitions, free parameters as inputs) or 2 "
+                        "(qelib1.inc gates, bound parameters)")
     b.add_argument("--unbound", action="store_true", help="keep parameters free")
     b.add_argument("--seed", type=_SEED, default=0, help="seed of the bound parameter values")
     b.add_argument("--fold", type=_int_in(-1, 10**4), default=120,
@@ -269,7 +287,8 @@ def _parser() -> argparse.ArgumentParser:
                         "qasm / qasm_file / drawing when asked)")
     b.set_defaults(func=_cmd_build)
 
-    t = sub.add_parser("transpile", help="resource report of a named circuit on a target")
+    t = sub.add_parser("transpile", help="resource report of a named circuit on a target",
+                       **texts("transpile"))
     t.add_argument("name", help=f"one of: {', '.join(BUILDERS)}")
     t.add_argument("--size", type=any_size, default=4, help="number of (data) qubits (as for "
                    "build)")
@@ -283,7 +302,7 @@ def _parser() -> argparse.ArgumentParser:
     t.set_defaults(func=_cmd_transpile)
 
     r = sub.add_parser("run", help="estimate a density model's output on a noisy target "
-                                   "under a shot budget")
+                                   "under a shot budget", **texts("run"))
     r.add_argument("--size", type=_int_in(2, MAX_RUN_QUBITS), default=6,
                    help="qubits of the round-robin model")
     r.add_argument("--target", default="heavy_hex", help=target_help())
@@ -305,7 +324,8 @@ def _parser() -> argparse.ArgumentParser:
                         "per_subunitary, shots_used (the ScheduleResult's fields)")
     r.set_defaults(func=_cmd_run)
 
-    tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans")
+    tb = sub.add_parser("table1", help="rebuild the paper's Table 1 from real gradient plans",
+                        **texts("table1"))
     tb.add_argument("--n", type=_int_in(2, MAX_CLI_QUBITS), nargs="+", default=[4, 8],
                     help="qubit counts (the butterfly row only for powers of two)")
     tb.add_argument("--ansatz", nargs="+", default=[], help="subset of ansätze")
@@ -316,7 +336,8 @@ def _parser() -> argparse.ArgumentParser:
     tb.add_argument("--json", action="store_true", help="print a JSON list of rows")
     tb.set_defaults(func=_cmd_table1)
 
-    e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits")
+    e = sub.add_parser("export", help="write (or --check) the reference OpenQASM circuits",
+                       **texts("export"))
     e.add_argument("directory", nargs="?", default="circuits",
                    help="where the .qasm files and their README.md index go")
     e.add_argument("--check", action="store_true",
@@ -331,7 +352,7 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="train a round-robin OrthoQNN and its density version on "
                                     "digits with sampled gradients on a noisy heavy-hex device "
                                     "at the same shot budget, beside each model's exact-training "
-                                    "ceiling (about a minute)")
+                                    "ceiling (about a minute)", **texts("demo"))
     d.add_argument("--output", default=".", help="directory for qdensity-demo.png "
                    "(qdensity-demo-quick.png with --quick)")
     full, quick = DemoConfig(), DemoConfig.quick()

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+from qdensity.cli._help import texts
+
 __all__ = ["add_parser"]
 
 _SWEEP_DATASETS = ("digits", "iris", "wine", "breast_cancer")
@@ -53,7 +55,7 @@ def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
     ``seed_type`` are the command's argparse types)."""
     sw = sub.add_parser("sweep", help="optuna hyperparameter sweep of a QNNClassifier (the "
                                       "paper's space); start it on many machines with one "
-                                      "--storage to share a study")
+                                      "--storage to share a study", **texts("sweep"))
     sw.add_argument("--dataset", default="digits", help=f"one of: {', '.join(_SWEEP_DATASETS)}")
     sw.add_argument("--samples", type=int_in(2, 10**7),
                     help="use only the first SAMPLES rows (at least 2, at most the dataset's)")

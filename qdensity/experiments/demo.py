@@ -16,6 +16,7 @@ ceilings as horizontal lines.
 
 from __future__ import annotations
 
+import textwrap
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -188,7 +189,7 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     """
     cfg = config or DemoConfig()
     cfg.check()
-    say = print if verbose else (lambda *a, **k: None)
+    say = _printer(verbose)
     progress = verbose if progress is None else bool(progress)
     t0 = time.perf_counter()
     X_tr, X_te, y_tr, y_te = _data(cfg)
@@ -266,8 +267,8 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
         })
         r = results[name]
         say(f"{name:<8} {method:<10} steps {r['steps']:>4}  circuits {r['circuits']:>6}  shots "
-            f"{r['shots']:>7}  test accuracy {acc:.3f} = {r['fraction_of_ceiling']:.0%} of its "
-            f"ceiling {ceiling:.3f}  ({r['seconds']:.0f} s)")
+            f"{r['shots']:>7}  ({r['seconds']:.0f} s)\n{'':<8} test accuracy {acc:.3f} = "
+            f"{r['fraction_of_ceiling']:.0%} of its ceiling {ceiling:.3f}")
     say(f"\nshot budget {cfg.budget} per model, {cfg.shots} shots per circuit, batch "
         f"{cfg.batch_size}; test accuracy is exact (noiseless) on {len(y_te)} held-out digits; "
         f"chance is {1 / cfg.num_classes:.2f}")
@@ -280,6 +281,25 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     results["seconds"] = time.perf_counter() - t0
     say(f"total time {results['seconds']:.0f} s")
     return results
+
+
+def _printer(verbose: bool):
+    """``print`` with every line wrapped to 100 columns (a line starting with spaces keeps
+    them), or a function that prints nothing."""
+    if not verbose:
+        return lambda *a, **k: None
+
+    def say(text: str = "") -> None:
+        lines = []
+        for line in str(text).split("\n"):
+            if len(line) <= 100:
+                lines.append(line)
+                continue
+            indent = " " * (len(line) - len(line.lstrip()))
+            lines.append(textwrap.fill(line, 100, subsequent_indent=indent + "  "))
+        print("\n".join(lines))
+
+    return say
 
 
 def _plot(results: dict, path: Path, cfg: DemoConfig, label: str) -> None:

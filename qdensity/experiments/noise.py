@@ -333,7 +333,8 @@ EXPERIMENT = Experiment(
     name="noise",
     title="pure vs density QNN at equal shot budgets on a noisy device snapshot, with and "
           "without Hamming-weight-1 post-selection and mthree readout mitigation",
-    paper="beyond the paper (issue 14 item 5); models of Fig. 3 / 6 and Table 1",
+    paper="beyond the paper (a noisy device at equal shot budgets); models of Fig. 3 / 6 and "
+          "Table 1",
     quick=QUICK,
     full=FULL,
     run_seed=run_seed,

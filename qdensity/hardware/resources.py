@@ -160,20 +160,24 @@ def resource_report(
     return _count(compiled, name=circuit.name, target=hw.label)
 
 
-def compare_reports(reports: Mapping[str, ResourceReport]) -> str:
+def compare_reports(reports: Mapping[str, ResourceReport], *, width: int = 100) -> str:
     """Side-by-side table of several reports, with ratios to the first.
 
     Parameters
     ----------
     reports : mapping of str to ResourceReport
         Column name -> report, in column order; the first is the reference.
+    width : int
+        Widest line (``>= 40``). A table wider than this names its columns ``[1]``, ``[2]``,
+        ... under a legend of the report names, and is cut into blocks of columns (each
+        repeating the metric column) that fit.
 
     Returns
     -------
     str
         Rows are :data:`METRICS` and ``gates[<name>]`` for every gate in any report; columns
         are the reports, then one ratio column ``"<name>/<first>"`` per other report
-        (``n/a`` for 0/0, ``inf`` for x/0).
+        (``n/a`` for 0/0, ``inf`` for x/0); no line longer than ``width``.
 
     Examples
     --------
@@ -187,6 +191,8 @@ def compare_reports(reports: Mapping[str, ResourceReport]) -> str:
         raise TypeError(f"reports must be a mapping name -> ResourceReport, got {reports!r}")
     if not reports:
         raise ValueError("reports must hold at least one ResourceReport")
+    if isinstance(width, bool) or not isinstance(width, int) or width < 40:
+        raise ValueError(f"width must be an int >= 40 (columns), got {width!r}")
     for key, rep in reports.items():
         if not isinstance(key, str):
             raise TypeError(f"reports keys must be str, got {key!r}")
@@ -208,7 +214,13 @@ def compare_reports(reports: Mapping[str, ResourceReport]) -> str:
         values = [value(reports[n], metric) for n in names]
         ratios = [_ratio(v, values[0]) for v in values[1:]]
         rows.append((metric, *map(str, values), *ratios))
-    return _format_table(header, rows)
+    text = _format_table(header, rows)
+    if max(len(line) for line in text.splitlines()) <= width:
+        return text
+    labels = [f"[{i + 1}]" for i in range(len(names))]
+    legend = [f"{label} {name}"[:width] for label, name in zip(labels, names, strict=True)]
+    header = ["metric", *labels, *(f"{lab}/{labels[0]}" for lab in labels[1:])]
+    return "\n".join(legend) + "\n\n" + _format_blocks(header, rows, width)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -276,6 +288,23 @@ def _ratio(value: int, reference: int) -> str:
     if reference == 0:
         return "n/a" if value == 0 else "inf"
     return f"{value / reference:.2f}"
+
+
+def _format_blocks(header: list[str], rows: list[tuple[str, ...]], width: int) -> str:
+    """:func:`_format_table` cut into blocks of columns (the first repeated in each) whose
+    lines fit ``width``; blocks separated by a blank line."""
+    widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header))]
+    blocks, current, used = [], [], widths[0]
+    for k in range(1, len(header)):
+        if current and used + 2 + widths[k] > width:
+            blocks.append(current)
+            current, used = [], widths[0]
+        current.append(k)
+        used += 2 + widths[k]
+    blocks.append(current)
+    return "\n\n".join(_format_table([header[0], *(header[k] for k in cols)],
+                                      [(r[0], *(r[k] for k in cols)) for r in rows])
+                         for cols in blocks)
 
 
 def _format_table(header: list[str], rows: list[tuple[str, ...]]) -> str:

@@ -61,13 +61,24 @@ def test_every_builder_builds(name):
 
 
 def test_build_draw_and_qasm(tmp_path, capsys):
-    path = tmp_path / "rr.qasm"
-    assert main(["build", "round_robin", "--size", "4", "--qasm", str(path)]) == 0
-    from qiskit import qasm2
+    from qiskit import qasm2, qasm3
     from qiskit.quantum_info import Operator
 
-    loaded = qasm2.loads(path.read_text())
+    path = tmp_path / "rr.qasm"
+    assert main(["build", "round_robin", "--size", "4", "--qasm", str(path)]) == 0
+    assert path.read_text().startswith("OPENQASM 3.0")  # 3 by default, as everywhere else
+    loaded = qasm3.loads(path.read_text())
     assert Operator(loaded).equiv(Operator(build_circuit("round_robin", 4)))
+    path2 = tmp_path / "rr2.qasm"
+    assert main(["build", "round_robin", "--size", "4", "--qasm", str(path2),
+                 "--qasm-version", "2"]) == 0
+    loaded = qasm2.loads(path2.read_text())
+    assert Operator(loaded).equiv(Operator(build_circuit("round_robin", 4)))
+    capsys.readouterr()
+    assert main(["build", "round_robin", "--unbound", "--qasm", "-", "--qasm-version", "2"]) == 2
+    assert "OpenQASM 2 has no free parameters" in capsys.readouterr().err
+    assert main(["build", "round_robin", "--unbound", "--qasm", "-"]) == 0
+    assert "input float[64]" in capsys.readouterr().out  # free parameters kept as inputs
     assert main(["build", "pyramid", "--size", "3", "--draw"]) == 0
     assert "Rbs" in capsys.readouterr().out
 
@@ -133,7 +144,7 @@ def test_build_json_matches_the_circuit(tmp_path, capsys):
     path = tmp_path / "rr.qasm"
     assert main(["build", "round_robin", "--size", "4", "--qasm", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["qasm_file"] == str(path) and path.read_text().startswith("OPENQASM 2.0")
+    assert out["qasm_file"] == str(path) and path.read_text().startswith("OPENQASM 3.0")
 
 
 def test_export_check_is_current(capsys):
