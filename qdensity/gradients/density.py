@@ -27,7 +27,6 @@ from functools import partial
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.intervals import binomial_standard_error, shot_mean
 from qdensity.execution.plans import (
     CircuitJob,
     Estimate,
@@ -365,17 +364,9 @@ def _forward_observable_post(inner, results):
 
 def _forward_unary_post(inner, unary, results):
     res = inner.postprocess(results)
-    p, _ = unary_frequencies(res)  # from the observed outcomes when sampled
-    if res.shots and res.readout is not None:
-        # readout-mitigated: the delta method over the shots and the calibration, on the
-        # per-shot indicators of the unary outcomes (whose weighted means p are)
-        b = res.bits
-        hits = (b & (b.sum(axis=-1) == 1)[..., None]).astype(float)
-        _, se = shot_mean(hits, 1.0, weights=res.weights, effective_shots=res.effective_shots,
-                          linearisations=res.readout)
-    else:
-        se = (binomial_standard_error(np.clip(p, 0.0, 1.0), res.sample_size) if res.shots
-              else np.zeros_like(p))
+    # from the observed outcomes when sampled; errors binomial over the (effective) shots, or
+    # a mitigated row's delta method over its shots and the calibration
+    p, _, se = unary_frequencies(res, return_std=True)
     return Estimate(p, se)
 
 

@@ -27,7 +27,7 @@ from qdensity.execution.intervals import shot_mean
 from qdensity.execution.plans import CircuitJob, Estimate, measured
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.models.mixtures import softmax
-from qdensity.validation import check_positive_int, check_type
+from qdensity.validation import MAX_DENSE_ENTRIES, check_positive_int, check_type
 
 __all__ = ["sampled_estimate", "EstimateMixin"]
 
@@ -110,9 +110,15 @@ def sampled_estimate(est, Z: np.ndarray, engine, shots: int, classifier: bool) -
     if model.readout == "observable" and np.any(model.observable.paulis.x):
         raise ValueError("estimate() needs a diagonal (I/Z) observable; this model's "
                          "observable has X or Y terms")
+    K, B = model.num_subunitaries, Z.shape[0]
+    m = model.num_qubits if model.readout == "unary_probabilities" else 1
+    per_row = shots * max(m, est._num_targets)
+    if B * per_row > MAX_DENSE_ENTRIES:
+        raise ValueError(f"estimate() holds {shots} shots x {max(m, est._num_targets)} values "
+                         f"per row; {B} rows exceed {MAX_DENSE_ENTRIES} entries: estimate at "
+                         f"most {max(MAX_DENSE_ENTRIES // per_row, 1)} rows at a time")
     if est.pre_ is not None:
         Z = copy.deepcopy(est.pre_).forward(Z)
-    K, B = model.num_subunitaries, Z.shape[0]
     jobs = [CircuitJob(measured(model.circuit(k)), model.rows(k, Z), shots, f"estimate_k{k}")
             for k in range(K)]
     results = engine.run(jobs)  # one submission, one PUB per sub-unitary

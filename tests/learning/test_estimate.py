@@ -160,6 +160,8 @@ def test_estimate_refuses_bad_input(small, cancer):
         small.estimate(X, engine="exact", shots=10)
     with pytest.raises(ValueError, match="seed"):
         small.estimate(X, engine=SamplerEngine(seed=0, progress=False), shots=10, seed=1)
+    with pytest.raises(ValueError, match="rows at a time"):
+        small.estimate(cancer[0][:300], shots=10**6)  # refused before anything runs
     with pytest.raises(NotFittedError):
         QNNClassifier().estimate(X, shots=10)
     amp = QNNClassifier(num_qubits=3, readout="unary_amplitudes", epochs=1,
@@ -187,6 +189,23 @@ def test_unary_probability_model_samples_within_its_errors(mode, scheduler):
     assert res.estimate.shape == res.standard_error.shape == (4,)
     assert np.all(np.abs(res.estimate - exact) < Z5 * res.standard_error)
     assert res.shots_used == 3000
+
+
+@pytest.mark.parametrize("options", [{"mitigation": "m3"}, {"postselect": "hamming_weight"}])
+def test_unary_probability_sampling_corrects_a_readout_only_device(options):
+    # weight-preserving circuits and readout errors only: M3 recovers the exact p_j;
+    # post-selection the readout channel's weight-1 part, renormalised
+    target, p01, p10 = _readout_only_target()
+    model = _unary_model()
+    x = np.array([1.0, 2.0, 3.0, 4.0])
+    res = model.sample(x, 4000, target=target, seed=stat_seed(12), **options)
+    exact = model.predict(x[None])[0]
+    if "postselect" in options:  # the oracle: the readout channel, weight 1 kept, renormalised
+        stay = (1 - p01) * (1 - p10) ** 3  # e_j read as e_j
+        move = p01 * p10 * (1 - p10) ** 2  # e_i read as e_j: bit i lost, bit j gained
+        q = exact * stay + (1 - exact) * move
+        exact = q / q.sum()
+    assert np.all(np.abs(res.estimate - exact) < Z5 * res.standard_error)
 
 
 def test_sample_refuses_what_it_cannot_estimate():
