@@ -6,6 +6,7 @@ import argparse
 import json
 
 from qdensity.cli._help import texts
+from qdensity.cli.results import print_summary
 
 __all__ = ["add_parser"]
 
@@ -69,8 +70,7 @@ def _cmd_experiment(args) -> int:
         print(json.dumps(result.to_dict(), indent=2))
         return 0
     print(f"{args.name} ({mode}, seeds {result.seeds}, {result.seconds:.0f} s)")
-    for key, ci in result.summary.items():
-        print(f"  {key:<40} {ci['mean']:.4g}  [{ci['low']:.4g}, {ci['high']:.4g}]")
+    print_summary(result.summary)
     if args.out is not None:
         print(f"results: {args.out}/{args.name}-{mode}.json")
         for name in result.figures:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from qdensity.cli._help import texts
 
-__all__ = ["add_parser", "is_headline", "QUICK", "WIDTH"]
+__all__ = ["add_parser", "is_headline", "print_summary", "QUICK", "WIDTH"]
 
 
 #: Metrics that count or size a run rather than score it (a path segment matching one of
@@ -87,6 +87,13 @@ def _cmd_show(args) -> int:
                           "config": result.config, "summary": summary}, indent=2))
         return 0
     print(f"{result.name} ({result.mode}, seeds {result.seeds})")
+    print_summary(summary)
+    return 0
+
+
+def print_summary(summary: dict) -> None:
+    """Mean and 95% CI per metric: the headline metrics first, then counts and sizes; lines
+    within :data:`WIDTH`."""
     head = {k: v for k, v in summary.items() if is_headline(k)}
     rest = {k: v for k, v in summary.items() if k not in head}
     width = min(max((len(k) for k in summary), default=0), 50)
@@ -95,7 +102,6 @@ def _cmd_show(args) -> int:
             print(f"{title}:")
             for key, ci in part.items():
                 print(_row(key, ci, width))
-    return 0
 
 
 def _cmd_merge(args) -> int:
