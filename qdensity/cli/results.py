@@ -135,24 +135,26 @@ def _judged(rows: list[dict]) -> list[dict]:
     return out
 
 
-def _print_report(rows: list[dict]) -> None:
+def _print_report(paths: list[Path], rows: list[dict]) -> None:
     """The verdicts as wrapped text, one block per results file, within :data:`WIDTH`."""
-    if not rows:
-        print("no claims of the paper to judge in these files")
-        return
-    last = None
-    for row in rows:
-        if row["file"] != last:
-            last = row["file"]
-            print(f"{row['file']} ({row['mode']})")
-        ci = (f"{row['mean']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}], {row['n']} seeds"
-              if "mean" in row else "")
-        print(textwrap.fill(f"{row['verdict']}: {row['claim']}", WIDTH, initial_indent="  ",
-                            subsequent_indent="    "))
-        detail = "; ".join(t for t in (f"{row['quantity']} = {ci}" if ci else row["quantity"],
-                                       row.get("reason", ""),
-                                       row.get("caveat", "") and f"caveat: {row['caveat']}") if t)
-        print(textwrap.fill(detail, WIDTH, initial_indent="    ", subsequent_indent="    "))
+    from qdensity.experiments.results import ExperimentResult
+
+    for path in paths:
+        mine = [r for r in rows if r["file"] == path.name]
+        mode = mine[0]["mode"] if mine else ExperimentResult.load(path).mode
+        print(f"{path.name} ({mode})")
+        if not mine:
+            print("  no claim of the paper to judge in this file")
+        for row in mine:
+            ci = (f"{row['mean']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}], {row['n']} "
+                  "seeds" if "mean" in row else "")
+            print(textwrap.fill(f"{row['verdict']}: {row['claim']}", WIDTH, initial_indent="  ",
+                                subsequent_indent="    "))
+            caveat = f"caveat: {row['caveat']}" if row.get("caveat") else ""
+            detail = "; ".join(t for t in (f"{row['quantity']} = {ci}" if ci else row["quantity"],
+                                           row.get("reason", ""), caveat) if t)
+            print(textwrap.fill(detail, WIDTH, initial_indent="    ",
+                                subsequent_indent="    "))
 
 
 def _cmd_report(args) -> int:
@@ -171,7 +173,7 @@ def _cmd_report(args) -> int:
         elif not paths:
             print(f"no results files (*.json) in {str(directory)!r}")
         else:
-            _print_report(rows)
+            _print_report(paths, rows)
         return 0
     docs = Path(args.docs)
     missing = [n for n in ("README.md", "EXPERIMENTS.md") if not (docs / n).is_file()]

@@ -148,5 +148,8 @@ def test_results_report_in_any_folder_never_judges_a_quick_run(tmp_path, capsys,
     (tmp_path / "EXPERIMENTS.md").write_text("x\n")
     assert main(["results", "report", "--dir", str(folder), "--check"]) == 2
     assert "quick runs" in capsys.readouterr().err
+    _result(folder, "full", name="noise")  # an experiment beyond the paper: no claims
+    assert main(["results", "report", "--dir", str(folder)]) == 0
+    assert "noise-full.json (full)\n  no claim of the paper" in capsys.readouterr().out
     assert main(["results", "report", "--dir", str(tmp_path / "absent")]) == 2
     assert "is not a folder" in capsys.readouterr().err
