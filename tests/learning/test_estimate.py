@@ -98,6 +98,11 @@ def test_regressor_estimate_is_shaped_like_predict():
     est = reg.estimate(X[:4], shots=2000, seed=stat_seed(1))
     assert est.value.shape == est.standard_error.shape == (4,)
     assert np.all(np.abs(est.value - reg.predict(X[:4])) < Z5 * est.standard_error)
+    obs = QNNRegressor(readout="observable", mixture="moe", epochs=2, verbose=False)
+    obs.fit(X, X[:, 0])  # <Z_0> read out, a data-dependent mixture
+    est = obs.estimate(X[:4], shots=2000, seed=stat_seed(6))
+    assert est.value.shape == (4,)
+    assert np.all(np.abs(est.value - obs.predict(X[:4])) < Z5 * est.standard_error)
     reg2 = QNNRegressor(epochs=1, verbose=False).fit(X, X[:, :2])
     est2 = reg2.estimate(X[:3], shots=500, seed=0)
     assert est2.value.shape == reg2.predict(X[:3]).shape == (3, 2)
