@@ -119,3 +119,22 @@ def test_both_sizes_edited_is_caught_by_the_read_out(fitted, tmp_path):
     path = _edit(fitted, tmp_path, grow)
     with pytest.raises(ValueError, match=r"part1 \(post\) has 12 entries, expected 3003"):
         QNNClassifier().load(path)
+
+
+def test_a_file_from_before_scale_loads_as_unscaled(tmp_path):
+    X = np.random.default_rng(1).normal(size=(30, 4))
+    Y = (X[:, 0] > 0).astype(int)
+    old = QNNClassifier(num_qubits=3, scale=False, epochs=1, verbose=False).fit(X, Y)
+
+    def drop(meta, data):  # what save wrote before the scale parameter existed
+        del meta["spec"]["scale"]
+    back = QNNClassifier().load(_edit(old, tmp_path, drop))
+    assert back.scale is False and back.scaler_ is None
+    np.testing.assert_allclose(back.predict_proba(X), old.predict_proba(X))
+
+
+def test_scaler_arrays_are_checked(fitted, tmp_path):
+    def shrink(meta, data):
+        data["scaler_mean"] = data["scaler_mean"][:2]
+    with pytest.raises(ValueError, match="scaler_mean has shape"):
+        QNNClassifier().load(_edit(fitted, tmp_path, shrink))
