@@ -259,7 +259,9 @@ def _parser() -> argparse.ArgumentParser:
     any_size = _int_in(-(2**31), 2**31)  # build / transpile: checked with the builder's name
     shots = _int_in(1, MAX_CLI_SHOTS)
     p = _Parser(prog="qdensity", description="Density quantum neural networks "
-                                "on Qiskit and qiskit-aer.")
+                                "on Qiskit and qiskit-aer.",
+                epilog="examples:\n  qdensity build pyramid --size 6\n  qdensity demo --quick\n"
+                       "  qdensity experiment --list\n  qdensity COMMAND --help")
     import importlib
 
     version = importlib.import_module("qdensity").__version__  # the package root, imported
