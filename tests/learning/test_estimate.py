@@ -244,6 +244,13 @@ def test_unary_frequencies_standard_errors_are_binomial_and_wilson_floored():
     n_kept = kept[:, None] * shots
     np.testing.assert_allclose(se_ps, np.sqrt(p_ps * (1 - p_ps) / n_kept
                                               + 1.0 / (4 * n_kept**2)))
+    # unit weights (a corrected run that corrected nothing): the same errors, through the
+    # weighted path (post-selected: the ratio's per-shot influence)
+    ones = JobResult(None, shots, None, bits=bits, weights=np.ones((2, shots)),
+                     effective_shots=np.full(2, float(shots)))
+    np.testing.assert_allclose(unary_frequencies(ones, return_std=True)[2], se)
+    np.testing.assert_allclose(unary_frequencies(ones, postselect=True, return_std=True)[2],
+                               se_ps)
     exact = JobResult(np.full((1, 8), 1 / 8), None, None)
     assert np.all(unary_frequencies(exact, return_std=True)[2] == 0.0)
 
