@@ -44,6 +44,7 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution.unary import _torch as _on_torch
 from qdensity.execution.unary._inputs import batch as _batch
 from qdensity.execution.unary._inputs import inputs as _inputs
 from qdensity.execution.unary._inputs import values as _values
@@ -340,6 +341,8 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     [1.0, 0.0, 0.0, 0.0]
     """
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(X, values):
+        return _on_torch.forward(compiled, X, values)
     Z, angles, single = _batch(compiled, X, values)
     if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
         Z = _rotate(np.eye(compiled.num_qubits), compiled, angles) @ Z
@@ -402,6 +405,8 @@ def vjp(
     if reduce not in ("none", "sum"):
         raise ValueError(f"reduce must be 'none' or 'sum', got {reduce!r}")
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(X, values, grad_Y, outputs):
+        return _on_torch.vjp(compiled, X, values, grad_Y, reduce, outputs)
     Z, angles, single = _batch(compiled, X, values)
     n, B = Z.shape
     try:
@@ -456,6 +461,8 @@ def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarr
     [[0.0], [1.0]]
     """
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(x, values):
+        return _on_torch.jacobian(compiled, x, values)
     x = _inputs(compiled, x, "x")
     if x.ndim != 1:
         raise ValueError(f"x must have shape ({compiled.num_qubits},), got {x.shape}")
