@@ -283,8 +283,8 @@ def test_adjoint_torch_bad_arguments(kwargs, error, match):
 
 
 def test_a_state_that_does_not_fit_is_refused_before_allocation(monkeypatch):
-    """One row of a 12-qubit sweep with two observables holds 2 M + 3 = 7 states of
-    2**12 complex128 amplitudes: 7 * 4096 * 16 = 458752 bytes; with 100 kB free it is refused,
+    """One row of a 12-qubit sweep with two observables plans for 3 M + 3 = 9 states of
+    2**12 complex128 amplitudes: 9 * 4096 * 16 = 589824 bytes; with 100 kB free it is refused,
     and no state tensor is created (torch.zeros / torch.empty would be the first)."""
     monkeypatch.setattr(device_helpers, "free_bytes", lambda device: 100_000)
     qc = hardware_efficient(12, 1)
@@ -293,7 +293,7 @@ def test_a_state_that_does_not_fit_is_refused_before_allocation(monkeypatch):
     for name in ("zeros", "empty"):
         real = getattr(torch, name)
         monkeypatch.setattr(torch, name, lambda *a, _r=real, **k: made.append(a) or _r(*a, **k))
-    with pytest.raises(ValueError, match=r"needs 458752 bytes .* 100000 bytes"):
+    with pytest.raises(ValueError, match=r"needs 589824 bytes .* 100000 bytes"):
         eng.value_and_gradient(qc, ["Z" + "I" * 11, "I" * 11 + "Z"],
                                np.zeros((1, qc.num_parameters)))
     assert not any(a and isinstance(a[0], tuple) and 4096 in a[0] for a in made)

@@ -243,10 +243,12 @@ def value_and_gradient(engine, prog, observables, vals, cols, like):
     chain = ops.coefficients[t.as_tensor(cols, dtype=t.int64, device=engine.device)].T
     values_out = t.empty((R, M), dtype=real, device=engine.device)
     jac = t.zeros((R, M, cols.size), dtype=real, device=engine.device)
-    for sl in engine._chunks(R, n, M + 2):
+    # per row: [phi, lam_1 .. lam_M], a gate's temporary of the same size, M products of a
+    # derivative, and a spare state
+    copies = 3 * M + 3
+    for sl in engine._chunks(R, n, copies):
         rows = sl.stop - sl.start
-        # [phi, lam_1 .. lam_M], a gate's temporary of the same size, the products of a grad
-        _fits(engine, rows, n, 2 * M + 3, f"the adjoint sweep of {rows} row(s) of {n}-qubit "
+        _fits(engine, rows, n, copies, f"the adjoint sweep of {rows} row(s) of {n}-qubit "
               f"states with {M} observable(s)")
         phi = _forward(engine, prog, ops, vals[sl])
         both = t.empty((M + 1,) + tuple(phi.shape), dtype=engine.dtype, device=engine.device)
