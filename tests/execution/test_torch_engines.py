@@ -245,6 +245,21 @@ def test_adjoint_tensor_values_give_tensors_and_complex64_is_float32():
     np.testing.assert_allclose(j32.numpy(), ref[1], atol=1e-5)
 
 
+def test_adjoint_torch_sees_an_observable_changed_in_place():
+    qc = hardware_efficient(3, 1)
+    vals = np.random.default_rng(8).uniform(-3, 3, size=(2, qc.num_parameters))
+    eng = AdjointEngine(backend="torch")
+    op, diag = SparsePauliOp.from_list([("ZII", 1.0)]), np.ones(8)
+    eng.value_and_gradient(qc, [op, diag], vals)
+    op.coeffs[0] = -2.0
+    diag[:] = np.arange(8.0)
+    got = eng.value_and_gradient(qc, [op, diag], vals)[0]
+    for r in range(2):
+        exact = Statevector(qc.assign_parameters(vals[r]))
+        assert abs(got[r, 0] + 2 * exact.expectation_value(SparsePauliOp("ZII")).real) < TOL
+        assert abs(got[r, 1] - exact.probabilities() @ np.arange(8.0)) < TOL
+
+
 def test_adjoint_torch_runs_plans_like_the_numpy_engine():
     from qdensity.execution.plans import probabilities_plan
 

@@ -179,12 +179,40 @@ class _Observable:
         return out
 
 
+def _snapshot(obs):
+    """What an observable is now (to see an in-place change of a cached one)."""
+    if isinstance(obs, SparsePauliOp):
+        p = obs.paulis
+        return p.x.copy(), p.z.copy(), p.phase.copy(), obs.coeffs.copy()
+    if isinstance(obs, np.ndarray):
+        return (obs.copy(),)
+    return (obs,)
+
+
+def _same(a: tuple, b: tuple) -> bool:
+    return len(a) == len(b) and all(
+        (x == y) if isinstance(x, str) else
+        (isinstance(x, np.ndarray) and isinstance(y, np.ndarray) and x.shape == y.shape
+         and np.array_equal(x, y)) for x, y in zip(a, b, strict=True))
+
+
 def _observables(engine, observables, n: int) -> list[_Observable]:
+    """The observables on the device; the last call's are reused while the same objects (a
+    training loop) are unchanged (checking and simplifying an operator costs milliseconds)."""
     if isinstance(observables, (str, SparsePauliOp, np.ndarray)):
         observables = [observables]
+    observables = list(observables)
+    last = engine.__dict__.get("_torch_observables")
+    if (last is not None and last[0] == n and len(last[1]) == len(observables)
+            and all(a is b or (isinstance(a, str) and a == b)
+                    for a, b in zip(last[1], observables, strict=True))
+            and all(_same(_snapshot(o), s) for o, s in zip(observables, last[2], strict=True))):
+        return last[3]
     out = [_Observable(o, n, engine, i) for i, o in enumerate(observables)]
     if not out:
         raise ValueError("observables must hold at least one observable")
+    engine.__dict__["_torch_observables"] = (n, observables, [_snapshot(o) for o in
+                                                              observables], out)
     return out
 
 
