@@ -14,6 +14,7 @@ torch = pytest.importorskip("torch")  # the optional extra; CI installs it (.ci/
 
 from qiskit import QuantumCircuit  # noqa: E402
 from qiskit.circuit import ParameterVector  # noqa: E402
+from qiskit.circuit.library import PauliEvolutionGate  # noqa: E402
 from qiskit.quantum_info import SparsePauliOp, Statevector  # noqa: E402
 
 from qdensity.circuits.ansatze import (  # noqa: E402
@@ -164,7 +165,8 @@ def test_unary_vjp_bad_grad_shape():
 # ---------------------------------------------------------------------------- adjoint engine
 def _mixed_circuit():
     """Every op kind of the compiled program: fixed Paulis and matrices, controlled
-    rotations, phases, u gates, a parameter in two gates, an affine angle."""
+    rotations, phases, u gates, diagonal rotations, a parameter in several gates, an affine
+    angle."""
     p = ParameterVector("p", 6)
     qc = QuantumCircuit(4)
     qc.h(0)
@@ -178,6 +180,12 @@ def _mixed_circuit():
     qc.swap(1, 2)
     qc.cry(p[0], 3, 0)
     qc.append(RBSGate(p[2]), [1, 3])
+    # diagonal rotations: one Z, controlled, two Z's, and four (past the sliced ones)
+    qc.rz(p[3], 2)
+    qc.crz(p[4], 0, 2)
+    qc.rzz(p[5], 1, 3)
+    qc.append(PauliEvolutionGate(SparsePauliOp("ZZZZ"), time=p[1]), range(4))
+    qc.ry(p[0], 3)
     return qc
 
 
