@@ -76,12 +76,15 @@ class _Pauli:
             v = v.narrow(-1 - q, 1, 1)
         return v
 
-    def apply(self, v):
-        """A new tensor: the Pauli string on ``v`` (already narrowed to the controls)."""
+    def apply(self, v, factor=None):
+        """A new tensor: the Pauli string on ``v`` (already narrowed to the controls), times
+        ``factor`` (a tensor broadcast over the rows) if given, in the same pass."""
         p = v.flip([-1 - q for q in self.x]) if self.x else v.clone()
         for q in self.z:
             p.narrow(-1 - q, 1, 1).neg_()
-        if self.scalar != 1:
+        if factor is not None:
+            p.mul_(factor * self.scalar if self.scalar != 1 else factor)
+        elif self.scalar != 1:
             p.mul_(self.scalar)
         return p
 
@@ -163,8 +166,7 @@ def _forward(engine, prog, ops, vals):
                 for eig, part in pauli.parts(sel):
                     part.mul_(cos[g] - 1j * eig * sin[g])
             else:
-                p = pauli.apply(sel)
-                p.mul_(-1j * sin[g])
+                p = pauli.apply(sel, -1j * sin[g])
                 sel.mul_(cos[g])
                 sel.add_(p)
             g += 1
