@@ -20,6 +20,8 @@ Supported gates and the compiled form are described in :mod:`._program`.
 The widest circuit accepted is ``max_qubits`` (default :data:`MAX_QUBITS` = 20, 16 MiB per row
 and state); a wider one is refused before anything is allocated.
 
+``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
+
 :class:`AdjointEngine` also runs :class:`~qdensity.plans.Plan` s (exact probabilities of the
 measured templates), so it can stand in for :class:`~qdensity.engines.ExactEngine` without Aer.
 """

@@ -25,6 +25,10 @@ several gates) or fixed numbers. Parameter values are given in ``circuit.paramet
 Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
 :func:`compile_unary`; compile once when calling repeatedly.
 
+Torch tensors (the optional ``torch`` extra): when an array argument of :func:`forward`,
+:func:`vjp` or :func:`jacobian` is a ``torch.Tensor``, the same layers run on its device (CPU
+or CUDA) and dtype (float32 or float64) and the results are tensors there (:mod:`._torch`).
+
 Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
 per thread) runs the forward pass as contiguous column blocks in threads, with results
 bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
