@@ -17,7 +17,8 @@ Values are compared across devices: each cell prints the largest absolute differ
 outputs and gradients from the CPU reference (numpy/numba; where that was skipped, from the
 GPU float64 column). A cell whose predicted time (the engine's last measured cell scaled by
 ``2**n x rows`` for the adjoint, ``gates x batch`` for the unary) exceeds ``--budget`` seconds
-is skipped and marked ``skip``; a state that does not fit in a device's memory is refused by
+is skipped and marked ``skip`` (so is every cell after ``--deadline`` seconds, marked
+``deadline``); a state that does not fit in a device's memory is refused by
 the engine (``refused``). Times are medians of ``--repeats`` calls after one warm-up call
 (GPU calls synchronised). Without CUDA the GPU columns say ``no GPU`` and the CPU columns run;
 without JAX its column says so.
@@ -26,7 +27,7 @@ Run::
 
     python benchmarks/bench_gpu.py [--out bench_gpu.json] [--unary-widths 64,256,1024,4096]
         [--batch 1024] [--adjoint-widths 16,20,24,26,28,30] [--adjoint-batches 1,16,64]
-        [--budget 30] [--repeats 5]
+        [--budget 20] [--repeats 5] [--deadline 480]
 """
 
 from __future__ import annotations
@@ -79,10 +80,15 @@ class _Predictor:
     """Skips a cell whose time, scaled from the engine's last cell by ``cost``, is past the
     budget."""
 
+    #: ``time.perf_counter()`` past which every cell is skipped (``--deadline``).
+    deadline = float("inf")
+
     def __init__(self, budget: float):
         self.budget, self.last = budget, {}
 
     def skip(self, key: str, cost: float) -> float | None:
+        if time.perf_counter() > self.deadline:
+            return float("inf")
         prev = self.last.get(key)
         if prev is None:
             return None
@@ -105,7 +111,8 @@ def _ratio(results: dict, a: str, b: str, key: str) -> float:
 
 
 def _skip(seconds: float, width: int) -> str:
-    return f"{f'skip ~{seconds:.0f}s':>{width}}"
+    text = "deadline" if seconds == float("inf") else f"skip ~{seconds:.0f}s"
+    return f"{text:>{width}}"
 
 
 def _diff(a, b) -> float:
@@ -163,8 +170,11 @@ def unary_section(widths, batch, repeats, budget, gpu: bool) -> list[dict]:
             g, tg = _median(grad, dev, repeats, budget)
             pred.record(name, cost, tf + tg)
             results[name] = {"forward_s": tf, "grad_s": tg, "y": y, "g": g}
-        jx = None if pred.skip("jax", cost) is not None else jax_calls(n, batch)
-        if jx is not None:
+        skipped = pred.skip("jax", cost)
+        jx = None if skipped is not None else jax_calls(n, batch)
+        if skipped is not None:
+            results["jax"] = {"skipped_predicted_s": skipped}
+        elif jx is not None:
             y, tf = _median(jx["forward"], "jax", repeats, budget)
             g, tg = _median(jx["grad"], "jax", repeats, budget)
             pred.record("jax", cost, tf + tg)
@@ -293,14 +303,18 @@ def main(argv=None) -> int:
     ap.add_argument("--batch", type=int, default=1024)
     ap.add_argument("--adjoint-widths", type=ints, default=[16, 20, 24, 26, 28, 30])
     ap.add_argument("--adjoint-batches", type=ints, default=[1, 16, 64])
-    ap.add_argument("--budget", type=float, default=30.0,
+    ap.add_argument("--budget", type=float, default=20.0,
                     help="seconds a cell may take (predicted from the engine's last cell)")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--deadline", type=float, default=480.0,
+                    help="seconds after which the remaining cells are skipped (the JSON is "
+                         "still written)")
     ap.add_argument("--out", default=None, metavar="JSON")
     args = ap.parse_args(argv)
     if torch is None:
         print("torch is not installed: pip install 'qdensity[torch]'")
         return 1
+    _Predictor.deadline = time.perf_counter() + args.deadline
     gpu = _cuda()
     machine = _machine(gpu)
     print(f"machine: {machine}")
