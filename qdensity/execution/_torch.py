@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import sys
+import weakref
 
 __all__: list[str] = []
 
@@ -117,3 +118,19 @@ def real_dtype(x):
     if x.dtype not in (t.float32, t.float64):
         raise TypeError(f"tensors must be float32 or float64, got dtype {x.dtype}")
     return x.dtype
+
+
+_CACHES: dict[int, tuple] = {}
+
+
+def cache_of(owner) -> dict:
+    """A dict for the device objects (index tables, matrices, observables) kept for ``owner``
+    while it lives, held outside its attributes: pickling or copying ``owner`` never carries
+    device tensors, and a pickle written after a GPU run loads where no GPU is."""
+    key = id(owner)
+    hit = _CACHES.get(key)
+    if hit is not None and hit[0]() is owner:
+        return hit[1]
+    ref = weakref.ref(owner, lambda _ref, key=key: _CACHES.pop(key, None))
+    _CACHES[key] = (ref, {})
+    return _CACHES[key][1]

@@ -343,3 +343,19 @@ def test_core_package_imports_without_torch():
                          timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split("\n")[:2] == ["[1.0, 0.0, 0.0]", "ImportError True"]
+
+
+def test_pickles_carry_no_device_tensors():
+    """The torch caches live beside the engine and the compiled circuit, not in them: a pickle
+    written after a GPU run loads where no GPU is."""
+    import pickle
+
+    qc = hardware_efficient(3, 1)
+    eng = AdjointEngine(backend="torch")
+    eng.value_and_gradient(qc, "ZII", np.zeros((1, qc.num_parameters)))
+    c = compile_unary(pyramid(4))
+    forward(c, torch.zeros(2, 4, dtype=torch.float64), np.zeros(6))
+    for obj in (eng, c):
+        data = pickle.dumps(obj)
+        assert b"_rebuild_tensor" not in data
+        pickle.loads(data)

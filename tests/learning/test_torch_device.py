@@ -126,3 +126,21 @@ def test_the_layer_computes_on_the_device_of_its_inputs(mixture):
 def test_bad_engine_names_the_choices():
     with pytest.raises(ValueError, match="'exact', 'torch' or a SamplerEngine"):
         DensityQNNLayer(_unary_model(), engine="cuda")
+
+
+def test_quantum_layer_takes_the_torch_adjoint_engine():
+    """The scikit-learn side's QuantumLayer with ``AdjointEngine(backend="torch")``: numpy in,
+    numpy out, the numpy engine's outputs and input gradients."""
+    from qdensity.execution.statevector.adjoint import AdjointEngine
+    from qdensity.learning.layer import QuantumLayer
+
+    Z = np.random.default_rng(3).uniform(0.1, 1.0, size=(4, 3))
+    G = np.random.default_rng(4).normal(size=(4, 1))
+    results = []
+    for engine in (AdjointEngine(backend="torch"), AdjointEngine(backend="numpy")):
+        layer = QuantumLayer(_angle_model(), engine=engine)
+        out = layer.forward(Z)
+        results.append((out, layer.backward(G), layer.grads["theta"]))
+    for a, b in zip(*results, strict=True):
+        assert isinstance(a, np.ndarray)
+        np.testing.assert_allclose(a, b, atol=1e-10)

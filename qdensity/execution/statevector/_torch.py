@@ -19,7 +19,7 @@ import itertools
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution._torch import check_fits, is_tensor, resolve_device, torch
+from qdensity.execution._torch import cache_of, check_fits, is_tensor, resolve_device, torch
 from qdensity.execution.plans import check_observable
 
 __all__: list[str] = []
@@ -115,7 +115,7 @@ class _Ops:
 
 
 def _ops(engine, prog) -> _Ops:
-    cache = engine.__dict__.setdefault("_torch_ops", {})
+    cache = cache_of(engine)
     hit = cache.get(id(prog))
     if hit is None or hit[0] is not prog:
         hit = cache[id(prog)] = (prog, _Ops(prog, engine.device, engine.dtype))
@@ -229,7 +229,7 @@ def _observables(engine, observables, n: int) -> list[_Observable]:
     if isinstance(observables, (str, SparsePauliOp, np.ndarray)):
         observables = [observables]
     observables = list(observables)
-    last = engine.__dict__.get("_torch_observables")
+    last = cache_of(engine).get("observables")
     if (last is not None and last[0] == n and len(last[1]) == len(observables)
             and all(a is b or (isinstance(a, str) and a == b)
                     for a, b in zip(last[1], observables, strict=True))
@@ -238,8 +238,8 @@ def _observables(engine, observables, n: int) -> list[_Observable]:
     out = [_Observable(o, n, engine, i) for i, o in enumerate(observables)]
     if not out:
         raise ValueError("observables must hold at least one observable")
-    engine.__dict__["_torch_observables"] = (n, observables, [_snapshot(o) for o in
-                                                              observables], out)
+    cache_of(engine)["observables"] = (n, observables, [_snapshot(o) for o in observables],
+                                       out)
     return out
 
 

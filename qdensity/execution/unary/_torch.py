@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from qdensity.execution._torch import check_fits, is_tensor, real_dtype, torch
+from qdensity.execution._torch import cache_of, check_fits, is_tensor, real_dtype, torch
 
 __all__: list[str] = []
 
@@ -128,7 +128,7 @@ class _Tables:
 
 
 def _tables(compiled, device, dtype) -> _Tables:
-    cache = compiled.__dict__.setdefault("_torch_tables", {})
+    cache = cache_of(compiled)
     key = (str(device), str(dtype))
     tab = cache.get(key)
     if tab is None:
