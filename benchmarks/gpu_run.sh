@@ -9,7 +9,9 @@
 #
 #   wheels   on a machine WITH network: download the wheels qdensity needs beyond what the GPU
 #            machine has (qiskit, qiskit-aer, distributed, ...) into $WHEELS for Python
-#            $WHEELS_PY (default 3.12), manylinux x86_64; carry that folder (<= 64 MiB).
+#            $WHEELS_PY (default 3.12), manylinux x86_64, minus $SKIP_WHEELS (default numpy,
+#            scipy, numba, llvmlite, jax: the GPU machine has them); carry that folder
+#            (<= 64 MiB with the repository).
 #   install  pip install --no-index --find-links $WHEELS (nothing from the network), then
 #            check that qdensity imports and torch sees the GPU.
 #   gpu      bench_gpu.py -> $RESULTS/bench_gpu.json (+ .txt)
@@ -37,16 +39,24 @@ NEEDED="qiskit qiskit-aer numba scipy scikit-learn matplotlib tqdm distributed"
 
 wheels() {
     mkdir -p "$WHEELS"
+    # shellcheck disable=SC2086
     "$PYTHON" -m pip download --only-binary=:all: --python-version "${WHEELS_PY:-3.12}" \
         --platform manylinux2014_x86_64 --platform manylinux_2_17_x86_64 \
         --platform manylinux_2_28_x86_64 -d "$WHEELS" $NEEDED
+    # what the GPU machine has already (torch, jax and numba-cuda bring these): dropped to keep
+    # the folder under the 64 MiB that may be carried
+    for skip in ${SKIP_WHEELS:-numpy scipy llvmlite numba jax jaxlib ml_dtypes opt_einsum}; do
+        rm -f "$WHEELS/$skip"-[0-9]*.whl
+    done
     du -sh "$WHEELS"
 }
 
 install() {
-    # every wheel in the folder, resolved against the folder and what is installed
+    # the packages qdensity needs, from the folder; what is installed already and satisfies
+    # them stays (numpy, scipy, numba of the GPU machine are not replaced)
     if compgen -G "$WHEELS/*.whl" > /dev/null; then
-        "$PYTHON" -m pip install --no-index --find-links "$WHEELS" "$WHEELS"/*.whl
+        # shellcheck disable=SC2086
+        "$PYTHON" -m pip install --no-index --find-links "$WHEELS" $NEEDED
     else
         echo "no wheels in $WHEELS: using what is installed"
     fi
