@@ -166,20 +166,30 @@ def unary_section(widths, batch, repeats, budget, gpu: bool) -> list[dict]:
             if skipped is not None:
                 results[name] = {"skipped_predicted_s": skipped}
                 continue
-            y, tf = _median(fwd, dev, repeats, budget)
-            g, tg = _median(grad, dev, repeats, budget)
+            try:
+                y, tf = _median(fwd, dev, repeats, budget)
+                g, tg = _median(grad, dev, repeats, budget)
+            except (RuntimeError, MemoryError, ValueError) as exc:  # out of memory, refused
+                results[name] = {"failed": f"{type(exc).__name__}: {str(exc)[:300]}"}
+                if gpu:
+                    torch.cuda.empty_cache()
+                continue
             pred.record(name, cost, tf + tg)
             results[name] = {"forward_s": tf, "grad_s": tg, "y": y, "g": g}
         skipped = pred.skip("jax", cost)
-        jx = None if skipped is not None else jax_calls(n, batch)
         if skipped is not None:
             results["jax"] = {"skipped_predicted_s": skipped}
-        elif jx is not None:
-            y, tf = _median(jx["forward"], "jax", repeats, budget)
-            g, tg = _median(jx["grad"], "jax", repeats, budget)
-            pred.record("jax", cost, tf + tg)
-            results["jax"] = {"forward_s": tf, "grad_s": tg, "y": y, "g": g,
-                              "compile_s": jx["compile_s"]}
+        else:
+            try:  # jax.grad keeps every layer's activations: it may run out of memory
+                jx = jax_calls(n, batch)
+                if jx is not None:
+                    y, tf = _median(jx["forward"], "jax", repeats, budget)
+                    g, tg = _median(jx["grad"], "jax", repeats, budget)
+                    pred.record("jax", cost, tf + tg)
+                    results["jax"] = {"forward_s": tf, "grad_s": tg, "y": y, "g": g,
+                                      "compile_s": jx["compile_s"]}
+            except Exception as exc:  # noqa: BLE001 - XLA's errors have no common public base
+                results["jax"] = {"failed": f"{type(exc).__name__}: {str(exc)[:300]}"}
         ref = next((results[k] for k in ("numpy", "torch-gpu") if "y" in results.get(k, {})),
                    None)
         diffs = {k: _diff((r["y"], r["g"]), (ref["y"], ref["g"]))
@@ -189,6 +199,8 @@ def unary_section(widths, batch, repeats, budget, gpu: bool) -> list[dict]:
             r = results.get(c)
             if r is None:
                 cells.append(f"{'(no jax)' if c == 'jax' else '-':>19}")
+            elif "failed" in r:
+                cells.append(f"{'failed':>19}")
             elif "y" not in r:
                 cells.append(_skip(r["skipped_predicted_s"], 19))
             else:
@@ -199,6 +211,9 @@ def unary_section(widths, batch, repeats, budget, gpu: bool) -> list[dict]:
         print(f"{n:>5} {uc.num_gates:>8} | " + " | ".join(cells) + " | "
               + " ".join(f"{r:>9.2f}" for r in ratios)
               + f" | {max(diffs.values(), default=float('nan')):>8.1e}", flush=True)
+        for k, r in results.items():
+            if "failed" in r:
+                print(f"      {k}: {r['failed']}")
         row["engines"] = {k: {kk: vv for kk, vv in r.items() if kk not in ("y", "g")}
                           for k, r in results.items()}
         row["max_abs_diff_vs_reference"] = diffs
@@ -267,6 +282,9 @@ def adjoint_section(widths, batches, repeats, budget, gpu: bool) -> list[dict]:
             print(f"{n:>3} {B:>4} {qc.num_parameters:>4} | " + " ".join(cells)
                   + f" | {ratios[0]:>8.2f} {ratios[1]:>8.2f} | "
                   f"{max(diffs.values(), default=float('nan')):>8.1e}", flush=True)
+            for k, r in res.items():
+                if "refused" in r:
+                    print(f"      {k}: {r['refused']}")
             rows.append({"n": n, "rows": B, "parameters": qc.num_parameters,
                          "engines": {k: {kk: vv for kk, vv in r.items() if kk not in ("v", "j")}
                                      for k, r in res.items()},
