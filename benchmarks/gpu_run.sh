@@ -23,7 +23,11 @@
 # Environment: WHEELS (default wheels), RESULTS (default $OUT if set, else results/gpu),
 # PYTHON (default python3), EXPERIMENT (default orthoqnn-depth: 6 units per seed), SEEDS
 # (default 8: 48 units), MODE (default full), CONFIGS (default local:1,local:4,local:16),
-# BENCH_GPU_ARGS (extra arguments of bench_gpu.py, e.g. "--budget 20").
+# BENCH_GPU_ARGS (arguments of bench_gpu.py; default "--deadline 300").
+#
+# Timing: install well under a minute; gpu about 5 minutes (its --deadline); cluster about
+# 4-6 minutes (local:1 runs the 48 units one after another). A caller with a 10-minute limit
+# per command runs "install && gpu" in one call and "cluster" in the next.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 STAGE=${1:-all}
@@ -71,7 +75,8 @@ EOF
 gpu() {
     mkdir -p "$RESULTS"
     # shellcheck disable=SC2086
-    "$PYTHON" benchmarks/bench_gpu.py --out "$RESULTS/bench_gpu.json" ${BENCH_GPU_ARGS:-} \
+    "$PYTHON" benchmarks/bench_gpu.py --out "$RESULTS/bench_gpu.json" \
+        ${BENCH_GPU_ARGS:---deadline 300} \
         | tee "$RESULTS/bench_gpu.txt"
 }
 
