@@ -83,17 +83,29 @@ FREE_FRACTION = 0.9
 
 def free_bytes(device) -> int | None:
     """Bytes a new allocation may use on ``device``: ``torch.cuda.mem_get_info`` on a GPU,
-    the available physical memory on the CPU, None where nothing is allocated (``meta``) or
-    nothing is known."""
+    the available physical memory (``MemAvailable``) on the CPU, None where nothing is
+    allocated (``meta``) or nothing is known."""
     t = torch()
     if device.type == "cuda":
         return int(t.cuda.mem_get_info(device)[0])
     if device.type == "cpu":
-        try:
-            return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
-            return None
+        return _host_available()
     return None
+
+
+def _host_available() -> int | None:
+    """The kernel's ``MemAvailable`` (free plus reclaimable caches), else free pages."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return None
 
 
 def check_fits(device, nbytes: int, what: str) -> None:

@@ -329,6 +329,16 @@ def test_gpu_free_memory_is_read_from_mem_get_info(monkeypatch):
     device_helpers.check_fits(torch.device("cuda"), 10**8, "a state")  # fits
 
 
+def test_cpu_bound_is_the_available_host_memory():
+    import os
+
+    total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    assert 0 < device_helpers.free_bytes(torch.device("cpu")) <= total
+    assert device_helpers.free_bytes(torch.device("meta")) is None
+    with pytest.raises(ValueError, match=f"needs {2 * total} bytes"):
+        device_helpers.check_fits(torch.device("cpu"), 2 * total, "a state")
+
+
 def test_core_package_imports_without_torch():
     code = ("import sys; sys.modules['torch'] = None\n"
             "import numpy as np, qdensity\n"
