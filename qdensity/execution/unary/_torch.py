@@ -212,19 +212,20 @@ def backward(Y, G, compiled, angles, per_example: bool):
         a = b - 2 * L
         o = a // 2
         r = tab.rows2[a:b]
-        W = YG.index_select(0, r)
-        if P:
+        W = YG.index_select(0, r)  # rows [i; j], columns [u | g]
+        Wr = W.roll(L, 0)  # rows [j; i]
+        if P and per_example:
             d = W[L:, B:] * W[:L, :B]
             d -= W[:L, B:] * W[L:, :B]
-            if per_example:
-                grad.index_add_(0, tab.pidx[o:o + L], d * tab.coef[o:o + L, None])
-            else:
-                t.sum(d, dim=1, out=per_gate[o:o + L])
+            grad.index_add_(0, tab.pidx[o:o + L], d * tab.coef[o:o + L, None])
+        elif P:  # rows [u_i g_j; u_j g_i] summed over the batch, then first minus second
+            sums = (W[:, :B] * Wr[:, B:]).sum(dim=1)
+            t.sub(sums[:L], sums[L:], out=per_gate[o:o + L])
         C, S = _trig(tab, angles, shared, a, b)
         if C.shape[1] != 1:
             C, S = t.cat([C, C], dim=1), t.cat([S, S], dim=1)
         new = W * C
-        new.addcmul_(W.roll(L, 0), S, value=-1.0)
+        new.addcmul_(Wr, S, value=-1.0)
         YG.index_copy_(0, r, new)
         b = a
     if per_gate is not None:
