@@ -112,6 +112,11 @@ class _Tables:
         order = np.concatenate(gates) if gates else np.zeros(0, dtype=np.intp)
         as_long = lambda a: t.as_tensor(np.asarray(a, dtype=np.int64), device=device)  # noqa: E731
         self.rows2 = as_long(np.concatenate([layer.rows for layer in layers]) if layers else [])
+        # [first; second; second; first] per layer: a layer's pairs and their swap, one gather
+        self.rows4 = as_long(np.concatenate([np.concatenate([layer.rows,
+                                                             np.roll(layer.rows, g.size)])
+                                             for layer, g in zip(layers, gates, strict=True)])
+                             if layers else [])
         self.gates2 = as_long(np.concatenate([np.concatenate([g, g]) for g in gates])
                               if gates else [])
         sgn = [np.concatenate([-np.ones(g.size), np.ones(g.size)]) for g in gates]
@@ -177,9 +182,9 @@ def rotate(Z, compiled, angles):
         b = a + 2 * L
         r = tab.rows2[a:b]
         C, S = _trig(tab, angles, shared, a, b)
-        W = Z.index_select(0, r)
-        new = W * C
-        new.addcmul_(W.roll(L, 0), S)
+        W = Z.index_select(0, tab.rows4[2 * a:2 * b])  # [z_i; z_j; z_j; z_i]
+        new = W[:2 * L] * C
+        new.addcmul_(W[2 * L:], S)
         Z.index_copy_(0, r, new)
         a = b
     return Z
@@ -212,8 +217,8 @@ def backward(Y, G, compiled, angles, per_example: bool):
         a = b - 2 * L
         o = a // 2
         r = tab.rows2[a:b]
-        W = YG.index_select(0, r)  # rows [i; j], columns [u | g]
-        Wr = W.roll(L, 0)  # rows [j; i]
+        W4 = YG.index_select(0, tab.rows4[2 * a:2 * b])  # rows [i; j; j; i], columns [u | g]
+        W, Wr = W4[:2 * L], W4[2 * L:]
         if P and per_example:
             d = W[L:, B:] * W[:L, :B]
             d -= W[:L, B:] * W[L:, :B]
