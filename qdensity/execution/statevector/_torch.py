@@ -50,12 +50,12 @@ class _Pauli:
         self.z = _bits(gather.zmask)
         self.controls = _bits(gather.cmask)
         self.scalar = complex(gather.scalar)
+        self.slices = self._slices()
 
     #: Diagonal strings with up to this many Z's are applied slice by slice (2**k slices).
     MAX_SLICED = 3
 
-    @property
-    def slices(self):
+    def _slices(self):
         """For a diagonal string (no X or Y) of at most :data:`MAX_SLICED` Z's: its eigenvalue
         on each pattern of the Z qubits' bits; else None."""
         if self.x or len(self.z) > self.MAX_SLICED:
