@@ -34,6 +34,7 @@ from qdensity.hardware.aer_sampling import (
     active_qubits,
     aer_seed,
     check_memory,
+    sampler_method,
 )
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
@@ -310,12 +311,9 @@ class SamplerEngine:
         return self._cache(circuit)
 
     def _check_plain_aer(self, compiled: QuantumCircuit) -> None:
-        """A plain Aer ``SamplerV2`` (not adaptive): refuse a state that would not fit."""
-        from qiskit_aer.primitives import SamplerV2
-
-        if isinstance(self.sampler, SamplerV2) and not isinstance(self.sampler, AdaptiveSampler):
-            method = getattr(getattr(self.sampler, "_backend", None), "options", None)
-            method = getattr(method, "method", "automatic")
+        """A fixed-method Aer sampler (not adaptive): refuse a state that would not fit."""
+        method = sampler_method(self.sampler)
+        if method is not None:
             check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
 
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
