@@ -367,16 +367,3 @@ def aer_seed(seed: int | None) -> int | None:
         return None
     state = np.random.SeedSequence([int(seed) % 2**63, 0xAE5]).generate_state(1, np.uint32)
     return int(state[0] >> 1)
-
-
-#: The samplers, defined in :mod:`qdensity.hardware.aer_samplers` (which builds on this
-#: module's choices) and still importable from here.
-_SAMPLERS = frozenset({"AdaptiveSampler", "AerSampler", "NoiselessSimulators", "sampler_method"})
-
-
-def __getattr__(name: str):
-    if name in _SAMPLERS:
-        from qdensity.hardware import aer_samplers
-
-        return getattr(aer_samplers, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

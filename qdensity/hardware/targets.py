@@ -308,7 +308,7 @@ class HardwareTarget:
         shots : int or None
             Default shots per PUB; None means 1024.
         method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
-            ``"auto"``: an :class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`, choosing
+            ``"auto"``: an :class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`, choosing
             per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
             active qubits from the measured crossover, 8 to 96 shots up to 8 qubits; otherwise one
             trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).

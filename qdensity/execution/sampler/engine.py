@@ -28,14 +28,8 @@ from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilitie
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._independent import run_independent
 from qdensity.hardware._device import check_for_device, check_width, device_of
-from qdensity.hardware.aer_sampling import (
-    AdaptiveSampler,
-    NoiselessSimulators,
-    active_qubits,
-    aer_seed,
-    check_memory,
-    sampler_method,
-)
+from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
+from qdensity.hardware.aer_sampling import active_qubits, aer_seed, check_memory
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
@@ -167,7 +161,7 @@ class SamplerEngine:
     sampler : BaseSamplerV2, optional
         Any V2 sampler (a hardware provider's included). Default: qiskit-aer's, seeded with
         ``seed``, choosing Aer's method per PUB
-        (:class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`: matrix-product states for
+        (:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`: matrix-product states for
         wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
         before Aer allocates it), noiseless unless a ``target`` is given.
     target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
