@@ -56,7 +56,8 @@ def _cmd_experiment(args) -> int:
     for key, ci in result.summary.items():
         print(f"  {key:<40} {ci['mean']:.4g}  [{ci['low']:.4g}, {ci['high']:.4g}]")
     if args.out is not None:
-        print(f"results: {args.out}/{args.name}-{mode}.json")
+        saved = result.saved_to  # this run's own file (another run's settings: a named one)
+        print(f"results: {saved if saved is not None else f'{args.out}/{args.name}-{mode}.json'}")
         for name in result.figures:
             print(f"figure: {args.out}/{name}")
     return 0
