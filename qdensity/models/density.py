@@ -155,8 +155,7 @@ class DensityQNN:
 
     @property
     def observable(self) -> SparsePauliOp:
-        """``O`` of the observable readout (checked on set: a ``SparsePauliOp`` or Pauli label
-        on :attr:`num_qubits` qubits)."""
+        """``O`` of the observable readout (checked on set, on :attr:`num_qubits` qubits)."""
         return self._observable
 
     @observable.setter
@@ -480,6 +479,14 @@ class DensityQNN:
         if mixture is not None:
             self.mixture.params = check_finite_array(mixture, "mixture")
         return self
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickle, also a model pickled before its structure became properties."""
+        for old, new in (("sub_unitaries", "_subs"), ("observable", "_observable")):
+            if old in state:
+                state[new] = state.pop(old)
+        stale = ("_unary_ok", "_num_uploaded", "_engines", "_commuting_cache")
+        self.__dict__.update({k: v for k, v in state.items() if k not in stale})
 
     def __sklearn_clone__(self) -> DensityQNN:
         """``sklearn.base.clone`` of an estimator holding this model as a template: a copy."""

@@ -136,3 +136,20 @@ def test_copied_model_derives_its_own():
     twin.observable = SparsePauliOp("XXII")
     np.testing.assert_allclose(np.ravel(twin.predict(X)), _oracle(twin, X), atol=1e-10)
     np.testing.assert_allclose(np.ravel(model.predict(X)), _oracle(model, X), atol=1e-10)
+
+
+def test_a_model_pickled_before_the_store_unpickles_and_stays_right():
+    import pickle
+
+    model = _model()
+    model.predict(X)
+    state = dict(model.__dict__)  # the attribute layout of earlier releases
+    state["sub_unitaries"], state["observable"] = state.pop("_subs"), state.pop("_observable")
+    state.pop("_derived")
+    state["_unary_ok"], state["_num_uploaded"] = True, None
+    old = DensityQNN.__new__(DensityQNN)
+    old.__setstate__(state)
+    back = pickle.loads(pickle.dumps(old))
+    np.testing.assert_allclose(np.ravel(back.predict(X)), _oracle(back, X), atol=1e-10)
+    back.observable = SparsePauliOp("IXXI")
+    np.testing.assert_allclose(np.ravel(back.predict(X)), _oracle(back, X), atol=1e-10)
