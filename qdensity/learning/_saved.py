@@ -57,7 +57,7 @@ def read_meta(data: dict, path) -> dict:
     name = os.fspath(path)
     try:
         meta = json.loads(bytes(np.asarray(data.pop("meta")).astype(np.uint8)).decode())
-    except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
+    except (KeyError, ValueError, TypeError, UnicodeDecodeError, RecursionError) as exc:
         raise ValueError(f"{name!r} is not a saved qdensity estimator (no metadata; format "
                          f"{FORMAT!r} version {FORMAT_VERSION})") from exc
     if not isinstance(meta, dict):

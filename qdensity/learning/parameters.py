@@ -276,6 +276,9 @@ def _load_json(path: str) -> dict[str, np.ndarray]:
             doc = json.load(fh)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{path!r} is not valid JSON: {exc}") from exc
+        except RecursionError as exc:
+            raise ValueError(f"{path!r} nests deeper than a parameter file does (a few levels)"
+                             ) from exc
         except UnicodeDecodeError as exc:
             raise ValueError(f"{path!r} is not a UTF-8 text (JSON) file: {exc}") from exc
     if not isinstance(doc, dict) or doc.get("format") != _JSON_FORMAT:

@@ -167,3 +167,12 @@ def test_an_array_claiming_more_than_its_member_is_refused(tmp_path):
     _npz_with_member(path, "part0.npy", (10**10,), bytes(16))  # 80 GB claimed, 16 B held
     with pytest.raises(ValueError, match=r"liar.npz.*part0.npy.*claims shape \(10000000000,\)"):
         load_parameters(path)
+
+
+def test_deeply_nested_json_is_a_clear_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(ValueError, match="deep.json.*nests deeper"):
+        load_parameters(path)
+    with pytest.raises(ValueError, match="deep.json"):
+        QNNClassifier().load(path)
