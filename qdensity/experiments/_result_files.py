@@ -155,6 +155,8 @@ def read_fields(path: Path, version: int, allowed: set[str], where: str) -> dict
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"cannot read {where}: {exc}") from exc
+    except RecursionError as exc:
+        raise ValueError(f"cannot read {where}: nested deeper than a results file") from exc
     if not isinstance(data, dict) or data.get("format") != version:
         found = data.get("format") if isinstance(data, dict) else None
         raise ValueError(f"{str(path)!r} is not a qdensity results file of format "

@@ -215,3 +215,14 @@ def test_merge_refuses_bad_seeds_and_accepts_runs_differing_in_worker():
                                                       {"v": 2.0, "worker": "tcp://b:2"}])
     merged = merge_results([a, b])
     assert merged.seeds == [0, 1] and merged.summary["v"]["mean"] == pytest.approx(1.5)
+
+
+def test_deeply_nested_results_file_is_a_clear_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(ValueError, match="deep.json.*nested deeper"):
+        ExperimentResult.load(path)
+    _result([0]).save(tmp_path)  # a folder whose results file is unreadable still takes runs
+    (tmp_path / "toy-quick.json").write_text("[" * 200_000)
+    path = _result([1]).save(tmp_path)
+    assert path.name.startswith("toy-quick-") and json.loads(path.read_text())["seeds"] == [1]
