@@ -1,12 +1,13 @@
 """qdensity uses the public API of qiskit and qiskit-aer only (a release may change the rest).
 
-An AST scan of ``qdensity/`` for three things: ``x._name`` where ``_name`` is a private
-attribute of a qiskit or qiskit-aer class qdensity handles (read or written, ``x`` any object but
-``self``/``cls``: qdensity's own objects share few such names, and those are listed below with
-their reason); ``self._name`` inside a qdensity class that subclasses a qiskit or qiskit-aer
-class, where ``_name`` belongs to that base; and a method of such a subclass that overrides a
-private method of its base. The private names come from the classes themselves (``dir`` and the
-``self._name`` attributes their source assigns), so a new use of any of them fails here.
+An AST scan of ``qdensity/`` for three things: ``x._name`` (or ``getattr(x, "_name")``)
+where ``_name`` is a private attribute of a qiskit or qiskit-aer class qdensity handles (read
+or written, ``x`` any object but ``self``/``cls``: qdensity's own objects share few such names,
+and those are listed below with their reason); ``self._name`` inside a qdensity class that
+subclasses a qiskit or qiskit-aer class, where ``_name`` belongs to that base; and a method of
+such a subclass that overrides a private method of its base. The private names come from the
+classes themselves (``dir`` and the ``self._name`` attributes their source assigns), so a new
+use of any of them fails here.
 
 Documented extension hooks are not private use: ``Gate._define`` (how a gate gives its
 definition) and ``BackendV2._default_options`` (an abstract method a backend must implement).
@@ -110,6 +111,11 @@ def _uses() -> list[tuple[str, str, str, int]]:
                         and node.value.id in {"self", "cls"} and node.attr in inherited):
                     found.append((rel, node.value.id, node.attr, node.lineno))
         for node in ast.walk(tree):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id in {"getattr", "setattr", "hasattr", "delattr"}
+                    and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+                    and node.args[1].value in PRIVATE):  # the same, spelled as a string
+                found.append((rel, ast.unparse(node.args[0]), node.args[1].value, node.lineno))
             if not isinstance(node, ast.Attribute) or node.attr not in PRIVATE:
                 continue
             if isinstance(node.value, ast.Name) and node.value.id in {"self", "cls"}:
