@@ -1,5 +1,9 @@
 """Every notebook in notebooks/ runs top to bottom (small settings), so none can rot.
 
+The notebooks are jupytext percent scripts (``notebooks/*.py``: ``# %%`` opens a code cell,
+``# %% [markdown]`` a markdown cell); jupytext reads them into notebooks and nbclient runs them
+in a kernel, as the documentation build does.
+
 A notebook whose optional extra is missing prints ``skipped: ... pip install ...`` and ends
 cleanly; its test is then skipped with that install hint. The notebooks take minutes, so each
 test says on the terminal which notebook runs (even under ``pytest -q``).
@@ -12,11 +16,23 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
+jupytext = pytest.importorskip("jupytext", reason="the notebooks are jupytext scripts: "
+                               "pip install -e '.[dev]'")
+
+NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.py"))
 
 
 def test_there_are_notebooks():
-    assert NOTEBOOKS
+    assert len(NOTEBOOKS) == 13
+    assert not list(NOTEBOOKS[0].parent.glob("*.ipynb"))  # one authoring format
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: f"notebook:{p.stem}")
+def test_a_notebook_is_a_percent_script_with_a_title(path):
+    nb = jupytext.read(path)
+    assert nb.metadata["jupytext"]["text_representation"]["format_name"] == "percent"
+    assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# ")
+    assert any(c.cell_type == "code" for c in nb.cells)
 
 
 def _text(output) -> str:
@@ -29,7 +45,7 @@ def test_notebook_executes(path, capsys):
     with capsys.disabled():  # name what runs: a notebook takes up to a minute
         sys.stderr.write(f"\n[running notebooks/{path.name}] ")
         sys.stderr.flush()
-    nb = nbformat.read(path, as_version=4)
+    nb = jupytext.read(path)
     NotebookClient(nb, timeout=300, kernel_name="python3",
                    resources={"metadata": {"path": str(path.parent)}}).execute()
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
@@ -44,7 +60,7 @@ def test_notebook_executes(path, capsys):
 
 def test_a_missing_extra_skips_cleanly_with_an_install_hint(tmp_path):
     """The experiment notebooks' guard, run where torch cannot be imported."""
-    nb = nbformat.read(NOTEBOOKS[0].parent / "experiment_pyramid_shots.ipynb", as_version=4)
+    nb = jupytext.read(NOTEBOOKS[0].parent / "experiment_pyramid_shots.py")
     block = nbformat.v4.new_code_cell(  # as if torch were not installed: its import fails
         "import sys\n"
         "class _NoTorch:\n"
