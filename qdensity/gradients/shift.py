@@ -1,6 +1,6 @@
 """Parameter-shift gradients as plans (paper Supp. E, eq. 23).
 
-* Pauli rotations ``exp(-i t r P)`` (rx/ry/rz: r = 1/2; Pauli evolutions: r = |c|): the
+* Pauli rotations ``exp(-i t r P)`` (rx/ry/rz: r = 1/2; Pauli evolutions: ``r = |c|``): the
   two-term rule ``df/dt = r [f(t + pi/(4r)) - f(t - pi/(4r))]``.
 * RBS and FBS (generator eigenvalues {-1, 0, 1}): the four-term rule of eq. 23,
   ``df/dt = [f(t + pi/4) - f(t - pi/4)] - (sqrt(2) - 1)/2 [f(t + pi/2) - f(t - pi/2)]``,
