@@ -78,7 +78,8 @@ html_static_path: list[str] = []
 
 def _home(module: str) -> str:
     """The public module that documents what ``module`` defines: ``module`` itself, or the
-    package above its first private part (``qdensity.gradients._direct`` -> ``qdensity.gradients``)."""
+    package above its first private part (``qdensity.gradients._direct`` ->
+    ``qdensity.gradients``)."""
     parts = module.split(".")
     for i, part in enumerate(parts):
         if part.startswith("_"):
