@@ -6,7 +6,7 @@
   ``df/dt = [f(t + pi/4) - f(t - pi/4)] - (sqrt(2) - 1)/2 [f(t + pi/2) - f(t - pi/2)]``,
   exact for every input and observable. ``rbs_rule="two_term"`` gives the pi/4 two-term rule,
   exact only when no later gate touches the gate's qubits and the observable is diagonal
-  (DESIGN.md); it is offered to show that fact, not for use.
+  (docs/design.md, "Measured facts"); it is offered to show that fact, not for use.
 * Controlled rotations ``crx, cry, crz`` (generator ``|1><1| (x) P/2``, eigenvalues
   {-1/2, 0, 1/2}): the same four-term rule with angles doubled and coefficients halved,
   ``df/dt = [f(t + pi/2) - f(t - pi/2)]/2 - (sqrt(2) - 1)/4 [f(t + pi) - f(t - pi)]``.
