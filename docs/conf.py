@@ -27,7 +27,7 @@ release = version = qdensity.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.napoleon",
+    "numpydoc",
     "sphinx.ext.mathjax",
     "sphinxarg.ext",
     "myst_nb",
@@ -60,10 +60,9 @@ autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 autodoc_typehints_format = "short"
-napoleon_numpy_docstring = True
-napoleon_google_docstring = False
-napoleon_use_rtype = False
-napoleon_use_ivar = True  # a class's "Attributes" section beside its documented properties
+# numpydoc renders the numpy-style sections; class members are listed by autodoc itself
+numpydoc_show_class_members = False
+numpydoc_validation_checks: set[str] = set()
 
 html_theme = "alabaster"
 html_title = f"qdensity {release}"
