@@ -203,7 +203,7 @@ if importlib.util.find_spec('qiskit_ibm_runtime') is not None:
     # a 7-qubit IBM snapshot
     targets['fake_nairobi'] = get_target('fake_nairobi', seed=3, noise=False)
 else:
-    print("device snapshots need the ibm extra: pip install 'qdensity[ibm]' (qiskit-ibm-runtime)")
+    print("device snapshots need the ibm extra: pip install -e '.[ibm]' (qiskit-ibm-runtime)")
 reports = {}
 for cname, circ in circuits.items():
     reports[cname] = {t: resource_report(circ, tgt, seed=0) for t, tgt in targets.items()}

@@ -26,7 +26,7 @@
 # (mthree) recover of the accuracy when the device, not a simulator, makes the predictions?
 #
 # Both models are trained with sampled gradient circuits on the noisy Aer simulator of a calibrated
-# IBM device snapshot (`fake_manila`, 5 qubits; needs `pip install 'qdensity[ibm]'`;
+# IBM device snapshot (`fake_manila`, 5 qubits; needs `pip install -e '.[ibm]'`;
 # `target="heavy_hex"` runs without the extra), on 4-class digits (PCA to `n` features, unary
 # amplitude encoding, linear read-out), with the same budget of training shots. Training uses the
 # raw counts; the corrections are applied to the predictions only. Test accuracy is scored five

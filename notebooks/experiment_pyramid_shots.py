@@ -27,7 +27,7 @@
 #
 # The cell below runs the experiment at `quick` size (scikit-learn's 8x8 digits, 200 training
 # images, 2 epochs): it exercises the whole pipeline in seconds, it does not show the scientific
-# result. It needs the PyTorch extra (`pip install 'qdensity[torch]'`).
+# result. It needs the PyTorch extra (`pip install -e '.[torch]'`).
 
 # %%
 import tempfile

@@ -189,5 +189,5 @@ if importlib.util.find_spec('qiskit_ibm_runtime') and importlib.util.find_spec('
     assert abs(both[0] - exact) < 5 * both[1] + 0.03
     assert abs(both[0] - exact) < abs(raw[0] - exact)
 else:
-    print("readout mitigation needs the ibm extra: pip install 'qdensity[ibm]' "
+    print("readout mitigation needs the ibm extra: pip install -e '.[ibm]' "
           "(qiskit-ibm-runtime and mthree)")
