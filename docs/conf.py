@@ -78,19 +78,60 @@ html_static_path: list[str] = []
 def _home(module: str) -> str:
     """The public module that documents what ``module`` defines: ``module`` itself, or the
     package above its first private part (``qdensity.gradients._direct`` ->
-    ``qdensity.gradients``)."""
+    ``qdensity.gradients``), or the package above a module whose name the package rebinds to
+    a function of the same name (``qdensity.circuits.ansatze.qcnn`` is the function ``qcnn``
+    there, so autosummary cannot give that module a page of its own)."""
+    import importlib
+
     parts = module.split(".")
     for i, part in enumerate(parts):
         if part.startswith("_"):
             return ".".join(parts[:i])
+    for i in range(2, len(parts) + 1):
+        parent = importlib.import_module(".".join(parts[:i - 1]))
+        if not isinstance(getattr(parent, parts[i - 1], None), type(importlib)):
+            return ".".join(parts[:i - 1])
     return module
 
 
+_PAGES: dict[tuple[str, str], str] = {}
+
+
+def _pages() -> dict[tuple[str, str], str]:
+    """``(defining module, qualified name) -> the module whose page documents it``, for every
+    class and function in the ``__all__`` of a public module: its :func:`_home` where that
+    module exports it, else the exporting module nearest to where it is defined."""
+    import importlib
+    import pkgutil
+
+    if _PAGES:
+        return _PAGES
+    exporters: dict[tuple[str, str], set[str]] = {}
+    for info in pkgutil.walk_packages(qdensity.__path__, "qdensity."):
+        if any(part.startswith("_") for part in info.name.split(".")):
+            continue
+        module = importlib.import_module(info.name)
+        page = _home(info.name)
+        for attr in getattr(module, "__all__", []):
+            obj = getattr(module, attr, None)
+            defined = getattr(obj, "__module__", None)
+            if callable(obj) and isinstance(defined, str) and defined.startswith("qdensity"):
+                exporters.setdefault((defined, obj.__qualname__), set()).add(page)
+    for key, pages in exporters.items():
+        home = _home(key[0])
+        if home in pages:
+            _PAGES[key] = home
+        else:
+            def shared(page, key=key):
+                return len(os.path.commonprefix([page.split("."), key[0].split(".")]))
+            _PAGES[key] = sorted(pages, key=lambda page: (-shared(page), page))[0]
+    return _PAGES
+
+
 def _skip(app, what, name, obj, skip, options):
-    """Each public name is documented once, on the page of the module that defines it (or of
-    the package that re-exports it from a private ``_name.py``); packages that re-export a
-    name link to it there. scikit-learn's ``set_<method>_request`` methods (metadata routing)
-    are scikit-learn's, documented there."""
+    """Each public name is documented once, on the page chosen by :func:`_pages`; packages
+    that re-export a name link to it there. scikit-learn's ``set_<method>_request`` methods
+    (metadata routing) are scikit-learn's, documented there."""
     if name.startswith("set_") and name.endswith("_request"):
         return True
     if what == "module":
@@ -98,9 +139,10 @@ def _skip(app, what, name, obj, skip, options):
         current = (getattr(document, "autodoc_module", "") if document is not None
                    else app.env.temp_data.get("autodoc:module"))
         defined = getattr(obj, "__module__", None)
-        if (current and isinstance(defined, str) and defined.startswith("qdensity")
-                and callable(obj) and _home(defined) != current):
-            return True
+        if current and callable(obj) and isinstance(defined, str):
+            page = _pages().get((defined, getattr(obj, "__qualname__", name)))
+            if page is not None and page != current:
+                return True
     return skip
 
 

@@ -2,13 +2,17 @@
 
 The notebooks are jupytext percent scripts (``notebooks/*.py``: ``# %%`` opens a code cell,
 ``# %% [markdown]`` a markdown cell); jupytext reads them into notebooks and nbclient runs them
-in a kernel, as the documentation build does.
+in a kernel, as the documentation build does. Where ``QDENSITY_DOCS_HTML`` names a site built
+with the notebooks executed (``.ci/run``), a notebook is not run twice: the test reads the
+notebook the build executed (``jupyter_execute/`` beside the HTML), after checking that its
+code cells are those of the script as it is now.
 
 A notebook whose optional extra is missing prints ``skipped: ... pip install ...`` and ends
 cleanly; its test is then skipped with that install hint. The notebooks take minutes, so each
 test says on the terminal which notebook runs (even under ``pytest -q``).
 """
 
+import os
 import sys
 from pathlib import Path
 
@@ -40,14 +44,34 @@ def _text(output) -> str:
     return "".join(text) if isinstance(text, list) else str(text)
 
 
+def _code(nb) -> list[str]:
+    return [c.source.strip() for c in nb.cells if c.cell_type == "code"]
+
+
+def _executed_by_the_docs_build(path: Path):
+    """The notebook the documentation build executed from ``path``, or None."""
+    site = os.environ.get("QDENSITY_DOCS_HTML")
+    if not site:
+        return None
+    built = Path(site).parent / "jupyter_execute" / "notebooks" / f"{path.stem}.ipynb"
+    if not built.is_file():
+        return None
+    nb = nbformat.read(built, as_version=4)
+    assert _code(nb) == _code(jupytext.read(path)), f"{built} is stale: rebuild the site"
+    return nb
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: f"notebook:{p.stem}")
 def test_notebook_executes(path, capsys):
-    with capsys.disabled():  # name what runs: a notebook takes up to a minute
-        sys.stderr.write(f"\n[running notebooks/{path.name}] ")
-        sys.stderr.flush()
-    nb = jupytext.read(path)
-    NotebookClient(nb, timeout=300, kernel_name="python3",
-                   resources={"metadata": {"path": str(path.parent)}}).execute()
+    nb = _executed_by_the_docs_build(path)
+    if nb is None:
+        with capsys.disabled():  # name what runs: a notebook takes up to a minute
+            sys.stderr.write(f"\n[running notebooks/{path.name}] ")
+            sys.stderr.flush()
+        nb = jupytext.read(path)
+        NotebookClient(nb, timeout=300, kernel_name="python3",
+                       resources={"metadata": {"path": str(path.parent)}}).execute()
+    assert all(c.get("execution_count") for c in nb.cells if c.cell_type == "code")
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     errors = [o for o in outputs if o.get("output_type") == "error"]
     assert not errors
