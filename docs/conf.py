@@ -69,6 +69,8 @@ html_title = f"qdensity {release}"
 html_theme_options = {
     "description": "Density quantum neural networks on Qiskit",
     "fixed_sidebar": True,
+    "page_width": "1240px",  # code lines are up to 100 characters
+    "sidebar_width": "240px",
     "show_relbars": True,
 }
 html_sidebars = {"**": ["about.html", "navigation.html", "relations.html", "searchbox.html"]}
