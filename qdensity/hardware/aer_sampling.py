@@ -12,10 +12,10 @@ density round-robin template, 16 parameter rows per call, CPU time on one thread
 served per active qubits by :class:`~qdensity.hardware._served_noise.ServedNoiseSimulator`; a
 call also pays ~10 ms whatever the method):
 
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 active      density matrix, per row  statevector trajectories,   crossover (shots)
 qubits                               per shot
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 4           ~0.6-1.3 ms              ~0.17 ms                    ~4-8
 5           ~3.6 ms                  ~0.29 ms                    ~12
 6           ~17 ms                   ~0.45 ms                    ~35-40
@@ -23,7 +23,7 @@ qubits                               per shot
 8           ~85-90 ms                ~1.8-2.0 ms                 ~45-60
 10          ~1.1 s                   ~5.8 ms                     ~190
 12          ~22-34 s                 ~24-42 ms                   ~800-920
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 
 Both costs grow with the qubits (the density matrix as ``4 ** a``, a trajectory as
 ``2 ** a``), so the crossover roughly doubles per qubit; the density matrix pays from

@@ -18,10 +18,11 @@ map and native gates to transpile against, a noise model, and factories for a se
     A trapped-ion-like all-to-all device whose native two-qubit gate is the beam splitter
     ``xx_plus_yy`` (``XXPlusYYGate``), next to the Molmer-Sorensen gate ``rxx`` and the
     one-qubit gates ``rz`` (virtual), ``sx``, ``x``. Because ``RBSGate(theta)`` *equals*
-    ``XXPlusYYGate(2 theta, pi/2)`` (DESIGN.md, measured facts), :meth:`HardwareTarget.transpile`
-    first writes every RBS (also inside gates such as FBS whose definitions hold RBS gates) as
-    that native gate, so a circuit of ``m`` RBS gates (paper eq. 8) transpiles to exactly ``m``
-    native two-qubit gates and nothing else; other two-qubit gates translate through ``rxx``.
+    ``XXPlusYYGate(2 theta, pi/2)`` (docs/design.md, "Measured facts"),
+    :meth:`HardwareTarget.transpile` first writes every RBS (also inside gates such as FBS whose
+    definitions hold RBS gates) as that native gate, so a circuit of ``m`` RBS gates (paper
+    eq. 8) transpiles to exactly ``m`` native two-qubit gates and nothing else; other two-qubit
+    gates translate through ``rxx``.
     The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
     transpilation and sampling.
 ``fake_manila``, ``fake_torino``, ... (one per backend of ``qiskit_ibm_runtime.fake_provider``)

@@ -3,7 +3,7 @@
 For a circuit ``U = U_G ... U_1`` whose parameterised gates are rotations
 ``U_g = exp(-i theta_g c_g G_g)`` and an observable ``O``, adjoint differentiation (Jones and
 Gacon, arXiv:2009.02823) gives every derivative of ``f = <psi|O|psi>`` from one forward and one
-backward sweep:
+backward sweep::
 
     phi = U |0>,  lam = O phi;  for g = G .. 1:
         d f / d theta_g = 2 c_g Im <lam| G_g |phi>,   phi <- U_g^dag phi,   lam <- U_g^dag lam
