@@ -51,7 +51,7 @@ from qdensity.experiments._equivariant_models import (
     single_model,
     train_recorded,
 )
-from qdensity.experiments.protocol import PaperProtocol
+from qdensity.experiments.protocol import Departure, PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.models.warm_start import warm_start
@@ -242,8 +242,18 @@ PAPER = PaperProtocol(
               "pretrain_steps": "'1000 epochs' in the Methods, '500 epochs for each model' in "
                                 "the shot count; 1000 here, --set pretrain_steps=500 for the "
                                 "other reading"},
-    departures=("an 'epoch' is one optimiser step of one batch of 20, as in the code the paper "
-                "adapts (Bowles et al.)",),
+    departures=(
+        Departure("an 'epoch' is one optimiser step of one batch of 20, as in the code the "
+                  "paper adapts (Bowles et al.)"),
+        Departure("read-out: a trained linear head on the model's scalar output with cross "
+                  "entropy (QNNClassifier; the density model keeps the base model's head), "
+                  "where the paper reads f = sum_i <Z_i> (Methods) with the adapted code's "
+                  "sign and square loss: another model than the paper's", touches=("*",)),
+        Departure("each seed draws its own data and initialisation, where Fig. 5 shows 5 runs "
+                  "from the same initialisation: the mean gain is asked over initialisations "
+                  "too, the same question over a wider population"),
+        Departure("one encoding angle per run: the adapted code's 0.5 x by default, the "
+                  "Methods' pi x / 2 only with --set angle_scale=1.5708 (a second run)")),
     source="Methods 'Equivariant density QNN' (10 qubits, sigma = 1.8, 1000 / 100 points, "
            "batch 20, Adam 1e-3, alpha = (0.99, 0.01) trainable)")
 
