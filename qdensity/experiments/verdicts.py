@@ -66,9 +66,9 @@ def departures_for(result: ExperimentResult) -> list[tuple[str, tuple[str, ...]]
     """The departures of one results file: ``(text, claim keys touched)`` pairs.
 
     A ``full`` run whose settings are not all the paper's (readings included) is a reduced
-    protocol touching every claim; a ``paper`` run has its protocol's departures (those that apply to it) and one for
-    each setting outside the paper's readings that differs from the present ``--paper``
-    settings. A name that is not an experiment of the registry has none.
+    protocol touching every claim; a ``paper`` run has its protocol's departures (those that
+    apply to it) and one for each setting outside the paper's readings that differs from the
+    present ``--paper`` settings. A name that is not an experiment of the registry has none.
     """
     from qdensity.experiments.registry import EXPERIMENTS, get_experiment
 
