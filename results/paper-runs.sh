@@ -2,6 +2,8 @@
 # The paper-protocol runs still missing, cheapest first, one after another (each resumable:
 # rerunning this script skips every finished unit under its --out folder).
 # Start:  cd REPO && PYTHONPATH=$PWD nohup nice -n 10 bash results/paper-runs.sh > paper-runs.log 2>&1 &
+# Results land in results/ (and results/t3/, results/angle-pi-over-2/, results/pyramid-seeds-3-4/,
+# whose pyramid file merges with results/pyramid-shots-paper.json: qdensity results merge).
 set -u
 QD=${QD:-qdensity}
 export QDENSITY_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
@@ -15,6 +17,8 @@ run() {  # run NAME OUT [args...]
 run orthoqnn-depth results --seeds 8
 # ~90-200 CPU s per seed, both settings (Methods T_4, Supp. J T_2)
 run reuploading results --seeds 6
+# Supp. J's T_3 panel (Fig. 18), ~half a reuploading seed each
+run reuploading results/t3 --seeds 6 --set setting='"t3"'
 # ~700 CPU s per seed (3 families), the adapted code's 0.5 x angle, then the Methods' pi x / 2
 run equivariant results --seeds 3
 run equivariant results/angle-pi-over-2 --seeds 3 --set angle_scale=1.5708

@@ -252,6 +252,21 @@ CLAIMS: tuple[Claim, ...] = (
           "supervised_mixing_corollary): E|h - f| <= delta_1^2 / (4 ||O||_inf) + 2 delta_2",
           "bound", "lemma1/lemma1_bound", "lemma1/density_error"),
     *_moe(),
+    Claim("dropout/mitigates", "trained by the randomised preparation and predicting with the "
+          "deterministic one, the density model overfits less than the vanilla model "
+          "(generalisation gap)", "Quantum dropout: 'we propose the randomised implementation "
+          "... as the state preparation method for the training phase ... the deterministic "
+          "density QNN as the inference mode'; 'the density QNN still can, in some capacity, "
+          "mitigate overfitting, and perform the effective action of dropout'", "superiority",
+          "vanilla/gap", "dropout/gap"),
+    Claim("dropout/level-with-exact", "dropout training loses little or nothing in test MSE "
+          "against exact training of the same density model", "Quantum dropout: 'Due to the "
+          "linearity of the model, this has the effect of weighting the contributions of each "
+          "sub-unitary QNN by the corresponding coefficients, exactly as in classical dropout'",
+          "non-inferiority", "dropout/test_mse", "exact/test_mse", sign=-1,
+          margins=(0.01, 0.005), margin_reason="a quarter and an eighth of the variance of "
+          "Supp. J's label noise (0.04): test-MSE differences small beside what the noise "
+          "alone adds"),
 )
 
 

@@ -208,23 +208,25 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     thin = {f"D{d}/test_vs_{kind}": [f"D{d}/sub{k}/test_vs_{kind}" for k in range(64)]
             for d in depths for kind in ("epoch", "shots")}
     first = f"D{min(depths)}"
+    drawn = any("/sub" in name for name in result.curves)
+    note = "; thin: the pretrained sub-unitaries" if drawn else ""
+    n = len(result.seeds)
+    y = [f"test accuracy, mean of {n} seeds"] * 2
     top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
                                                             f"{first}/test_vs_epoch"]),
                                ("test accuracy vs shots", ["pure/test_vs_shots",
                                                            f"{first}/test_vs_shots"])],
                       Path(directory) / figure_name(result, "orthoqnn-depth-shallow.png"),
-                      title="round-robin OrthoQNN vs shallow density QNN (Fig. 7 top; thin: "
-                            "the pretrained sub-unitaries)",
-                      labels=labels, log_x=(False, True), thin=thin)
+                      title=f"round-robin OrthoQNN vs shallow density QNN (Fig. 7 top{note})",
+                      labels=labels, log_x=(False, True), thin=thin, y_labels=y)
     names = ["pure"] + [f"D{d}" for d in depths]
     bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
                                                                for m in names]),
                                   ("test accuracy vs shots", [f"{m}/test_vs_shots"
                                                               for m in names])],
                          Path(directory) / figure_name(result, "orthoqnn-depth-depths.png"),
-                         title="density QNN sub-unitary depth D (Fig. 7 bottom; thin: the "
-                               "pretrained sub-unitaries)",
-                         labels=labels, log_x=(False, True), thin=thin)
+                         title=f"density QNN sub-unitary depth D (Fig. 7 bottom{note})",
+                         labels=labels, log_x=(False, True), thin=thin, y_labels=y)
     return [top, bottom]
 
 
