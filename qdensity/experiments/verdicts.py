@@ -279,6 +279,10 @@ def report(directory: str | Path) -> dict[str, str]:
                    else "")
         lines.append(f"| {c.text} (`{c.key}`) | {c.kind} | {c.line} | {margins} | "
                      f"{files if c.key in judged else '*no run*'} |")
+    lines += ["", "Every departure of the `--paper` protocols from the paper, and the claims "
+              "it touches (those read *not comparable* where a run has it):", "",
+              "| experiment | departure | claims touched |", "|---|---|---|"]
+    lines += _departure_table()
     sweeps = _sweep_table(paths)
     if sweeps:
         lines += ["", "The paper's sweep aggregation (hyperparameters appendix): trials that "
@@ -286,6 +290,21 @@ def report(directory: str | Path) -> dict[str, str]:
                   "| run | model | trials >= 0.8 per seed | mean of those |", "|---|---|---|---|",
                   *sweeps]
     return {"README.md": readme, "EXPERIMENTS.md": "\n".join(lines)}
+
+
+def _departure_table() -> list[str]:
+    from qdensity.experiments.registry import EXPERIMENTS, get_experiment
+
+    lines = []
+    for name in EXPERIMENTS:
+        protocol = get_experiment(name).protocol
+        for d in () if protocol is None else protocol.departures:
+            touched = ("every claim" if "*" in d.touches else
+                       ", ".join(f"`{k}`" for k in d.touches) or "none")
+            if d.applies is not None:
+                touched += " (in the runs that have it)"
+            lines.append(f"| `{name}` | {d.text} | {touched} |")
+    return lines
 
 
 def _sweep_table(paths) -> list[str]:
