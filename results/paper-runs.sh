@@ -19,9 +19,10 @@ run orthoqnn-depth results --seeds 8
 run reuploading results --seeds 6
 # Supp. J's T_3 panel (Fig. 18), ~half a reuploading seed each
 run reuploading results/t3 --seeds 6 --set setting='"t3"'
-# ~700 CPU s per seed (3 families), the adapted code's 0.5 x angle, then the Methods' pi x / 2
-run equivariant results --seeds 3
-run equivariant results/angle-pi-over-2 --seeds 3 --set angle_scale=1.5708
+# ~700 CPU s per seed (3 families), 5 runs from one initialisation (Fig. 5), sum_i Z_i read-out;
+# the adapted code's 0.5 x angle, then the Methods' pi x / 2
+run equivariant results --seeds 5
+run equivariant results/angle-pi-over-2 --seeds 5 --set angle_scale=1.5708
 # pyramid-shots: seeds 3 and 4 beside the committed 0-2 (merge with `qdensity results merge`)
 run pyramid-shots results/pyramid-seeds-3-4 --seeds 3,4
 # the LCU / single sweep (6 units of 32 trials)
