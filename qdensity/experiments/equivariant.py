@@ -32,6 +32,13 @@ at scale 0.5.
 
 One "epoch" of the paper's Fig. 5 is one Adam step on a mini-batch of 20 (Bowles et al.'s
 iteration); test accuracy is scored on the test set every ``eval_every`` steps.
+
+Read-out (``readout``): ``"sum_z"`` (``--paper``) trains the paper's ``f = sum_i <Z_i>`` itself
+with the adapted code's square loss against the +-1 labels and predicts its sign; ``"head"``
+(``--quick``, ``--full``) puts a trained linear head with cross entropy on it (the density model
+keeps the base model's head). ``same_initialisation`` (``--paper``): every run (seed) uses one
+data set and one set of initial angles, drawn from seed 0, and differs only in batch order, as
+Fig. 5's "5 independent training runs, from the same initialisation".
 """
 
 from __future__ import annotations
