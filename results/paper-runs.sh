@@ -18,7 +18,7 @@ run orthoqnn-depth results --seeds 8
 # ~90-200 CPU s per seed, both settings (Methods T_4, Supp. J T_2)
 run reuploading results --seeds 6
 # Supp. J's T_3 panel (Fig. 18), ~half a reuploading seed each
-run reuploading results/t3 --seeds 6 --set setting='"t3"'
+run reuploading results/t3 --seeds 14 --set setting='"t3"'
 # ~700 CPU s per seed (3 families), 5 runs from one initialisation (Fig. 5), sum_i Z_i read-out;
 # the adapted code's 0.5 x angle, then the Methods' pi x / 2
 run equivariant results --seeds 5
