@@ -51,6 +51,7 @@ EXPERIMENTS: dict[str, str] = {
     "reuploading": "reuploading",
     "lcu-vs-single": "lcu_vs_single",
     "mixing-lemma": "mixing_lemma",
+    "dropout": "dropout",
     "noise": "noise",
 }
 
