@@ -145,8 +145,8 @@ def readout_channel(spec) -> ReadoutChannel | None:
     """
     from qdensity.hardware.targets import HardwareTarget
 
-    if spec is None:
-        return None
+    if spec is None or isinstance(spec, ReadoutChannel):
+        return spec
     if isinstance(spec, HardwareTarget):
         if not spec.is_noisy:
             return None
