@@ -406,3 +406,151 @@ def test_per_qubit_readout_shorter_than_circuit_refused():
 def test_bad_seed_refused(seed):
     with pytest.raises((TypeError, ValueError), match="seed"):
         HammingWeightSampler(seed=seed)
+
+
+# -- SamplerEngine picks it wherever it is exact ----------------------------------------------
+
+
+def _classifier(n: int, rows: int, shots: int):
+    from qdensity import DensityQNN, Encoding, by_moments
+    from qdensity.ansatze import round_robin
+    from qdensity.gradients import density_gradient_plan
+
+    subs = by_moments(round_robin(n)).sub_unitaries
+    model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
+    X = np.random.default_rng(1).normal(size=(rows, n))
+    return model, X, density_gradient_plan(model, X, method="commuting", shots=shots)
+
+
+def _readout_target(n: int, p: float):
+    from qiskit.transpiler import Target
+
+    from qdensity import get_target
+
+    noise = NoiseModel()
+    noise.add_all_qubit_readout_error(ReadoutError([[1 - p, p], [p, 1 - p]]))
+    device = Target.from_configuration(["cz", "rz", "sx", "x", "measure"], num_qubits=n)
+    return get_target(device, seed=0, noise_model=noise)
+
+
+@pytest.mark.parametrize("readout", [0.0, 0.04])
+def test_engine_answers_equal_in_law_whichever_sampler(readout):
+    from qdensity import SamplerEngine
+
+    n, rows, shots = 5, 3, 3000
+    model, X, plan = _classifier(n, rows, shots)
+    target = _readout_target(n, readout) if readout else None
+    out = {}
+    for choice in ("auto", "never"):
+        engine = SamplerEngine(target=target, seed=3, progress=False, hamming_weight=choice)
+        out[choice] = (plan.run(engine), engine.ledger)
+    (ga, la), (gb, lb) = out["auto"], out["never"]
+    assert {e.sampler for e in la.entries} == {"hamming_weight"}
+    assert {e.sampler for e in lb.entries} == {"AdaptiveSampler"}
+    assert [(e.label, e.circuits, e.shots) for e in la.entries] == [
+        (e.label, e.circuits, e.shots) for e in lb.entries]
+    # two independent estimates of the same outcome probabilities: z-test, Bonferroni over cells
+    a, b = ga.outputs, gb.outputs
+    pooled = (a + b) / 2
+    se = np.sqrt(np.maximum(pooled * (1 - pooled), 1.0 / shots) * 2 / shots)
+    bound = stats.norm.isf(ALPHA / (2 * a.size))
+    assert np.max(np.abs(a - b) / se) < bound
+    # and each against the exact law (outcome e_j read as itself or from e_i, two flips)
+    exact = model.expert_outputs(X, method="unary")
+    exact = (1 - readout) ** n * exact + readout**2 * (1 - readout) ** (n - 2) * (1 - exact)
+    se = np.sqrt(np.maximum(exact * (1 - exact), 1.0 / shots) / shots)
+    assert np.max(np.abs(a - exact) / se) < bound
+    # the sampled Jacobians agree within their own standard errors
+    for ja, jb, ea, eb in zip(ga.jacobians, gb.jacobians, ga.jacobian_errors,
+                              gb.jacobian_errors, strict=True):
+        scale = np.sqrt(ea**2 + eb**2) + 1e-12
+        cells = sum(j.size for j in ga.jacobians)
+        assert np.max(np.abs(ja - jb) / scale) < stats.norm.isf(ALPHA / (2 * cells))
+
+
+def test_engine_sends_other_templates_to_aer_and_always_refuses_them():
+    from qdensity import SamplerEngine
+    from qdensity.execution.plans import CircuitJob
+
+    qc = QuantumCircuit(3)
+    qc.x(0)
+    qc.append(RBSGate(0.3), [0, 1])
+    qc.h(2)
+    qc.measure_all()
+    ok = QuantumCircuit(3)
+    ok.x(0)
+    ok.append(RBSGate(0.3), [0, 2])
+    ok.measure_all()
+    jobs = [CircuitJob(qc, np.zeros((2, 0)), 50, "mixed"), CircuitJob(ok, np.zeros((2, 0)), 50,
+                                                                     "kept")]
+    engine = SamplerEngine(seed=0, progress=False)
+    results = engine.run(jobs)
+    assert [e.sampler for e in engine.ledger.entries] == ["AdaptiveSampler", "hamming_weight"]
+    assert [r.bits.shape for r in results] == [(2, 50, 3), (2, 50, 3)]
+    assert engine.transpile_count == 1  # the Hamming-weight job is not transpiled
+    always = SamplerEngine(seed=0, progress=False, hamming_weight="always")
+    with pytest.raises(ValueError, match="'h'"):
+        always.run(jobs)
+    assert always.ledger.entries == []
+
+
+def test_engine_gate_noise_goes_to_aer_or_is_refused():
+    from qdensity import SamplerEngine, get_target
+
+    target = get_target("line", 3, seed=1)
+    ok = QuantumCircuit(3)
+    ok.x(0)
+    ok.append(RBSGate(0.3), [0, 2])
+    ok.measure_all()
+    from qdensity.execution.plans import CircuitJob
+
+    engine = SamplerEngine(target=target, seed=0, progress=False)
+    engine.run([CircuitJob(ok, np.zeros((1, 0)), 20, "noisy")])
+    assert engine.ledger.entries[0].sampler == "AdaptiveSampler"
+    always = SamplerEngine(target=target, seed=0, progress=False, hamming_weight="always")
+    with pytest.raises(ValueError, match="gate noise"):
+        always.run([CircuitJob(ok, np.zeros((1, 0)), 20, "noisy")])
+
+
+def test_engine_seeded_runs_repeat():
+    from qdensity import SamplerEngine
+
+    _, _, plan = _classifier(4, 2, 100)
+    bits = [[r.bits for r in SamplerEngine(seed=9, progress=False).run(plan.jobs)]
+            for _ in range(2)]
+    for x, y in zip(*bits, strict=True):
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("bad", ["yes", None, 1])
+def test_engine_bad_hamming_weight_option(bad):
+    from qdensity import SamplerEngine
+
+    with pytest.raises(ValueError, match="hamming_weight"):
+        SamplerEngine(hamming_weight=bad)
+
+
+def test_engine_always_with_mitigation_refused():
+    from qdensity import SamplerEngine
+
+    with pytest.raises(ValueError, match="hamming_weight='always'.*mitigation"):
+        SamplerEngine(hamming_weight="always", mitigation="m3")
+
+
+def test_density_qnn_sample_uses_the_hamming_sampler():
+    from qiskit.quantum_info import SparsePauliOp
+
+    from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
+    from qdensity.ansatze import round_robin
+
+    n = 4
+    subs = by_moments(round_robin(n)).sub_unitaries
+    model = DensityQNN(subs, encoding=Encoding.unary(n),
+                       observable=SparsePauliOp("ZIII"), seed=0)
+    x = np.random.default_rng(2).normal(size=(1, n))
+    engine = SamplerEngine(seed=1, progress=False)
+    est = model.sample(x, 4000, engine=engine, seed=1)
+    assert {e.sampler for e in engine.ledger.entries} == {"hamming_weight"}
+    exact = float(np.ravel(model.predict(x, method="statevector"))[0])
+    # |Z| <= 1, so the estimate's standard deviation is at most 1 / sqrt(4000); 4.5 sd: 7e-6
+    assert abs(float(np.ravel(est.estimate)[0]) - exact) < 4.5 / np.sqrt(4000)
