@@ -554,3 +554,29 @@ def test_density_qnn_sample_uses_the_hamming_sampler():
     exact = float(np.ravel(model.predict(x, method="statevector"))[0])
     # |Z| <= 1, so the estimate's standard deviation is at most 1 / sqrt(4000); 4.5 sd: 7e-6
     assert abs(float(np.ravel(est.estimate)[0]) - exact) < 4.5 / np.sqrt(4000)
+
+
+def test_engine_results_keep_shots_packed_and_unpack_the_same_bits():
+    import pickle
+
+    from qdensity import SamplerEngine
+    from qdensity.execution.sampler._packed_result import PackedJobResult
+
+    qc = _measured(random_circuit(10, 1, seed=3, parameterised=True, unary_only=True))
+    from qdensity.execution.plans import CircuitJob
+
+    values = np.random.default_rng(0).uniform(-3, 3, (3, qc.num_parameters))
+    job = CircuitJob(qc, values, 64, "packed")
+    (res,) = SamplerEngine(seed=2, progress=False).run([job])
+    assert isinstance(res, PackedJobResult)
+    direct = HammingWeightSampler(seed=0).compile(qc)
+    assert direct.weight == 1
+    bits = res.bits
+    assert bits.shape == (3, 64, 10) and bits.dtype == bool
+    assert res.bits is bits  # unpacked once while held
+    np.testing.assert_array_equal(bits.sum(axis=-1), 1)  # weight 1 on every shot
+    again = pickle.loads(pickle.dumps(res))
+    np.testing.assert_array_equal(again.bits, bits)
+    freq = res.probabilities
+    assert freq.shape == (3, 2**10)
+    np.testing.assert_allclose(freq.sum(axis=1), 1.0)

@@ -28,6 +28,7 @@ from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilitie
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._hamming_readout import readout_channel
 from qdensity.execution.sampler._independent import run_independent
+from qdensity.execution.sampler._packed_result import PackedJobResult
 from qdensity.execution.sampler.hamming import HammingWeightSampler
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_sampling import (
@@ -463,12 +464,19 @@ class SamplerEngine:
         results = []
         aer_name = type(self.sampler).__name__
         for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
-            bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
+            packed = pub_result.join_data()
+            bits = bitarray_to_bits(packed, job.rows, shots) if i not in hw else None
             weights = n_eff = lins = None
             if self._correction is not None:
-                weights, n_eff, lins = self._correction.weights(bits, compiled, self.ledger)
+                weights, n_eff, lins = self._correction.weights(
+                    bitarray_to_bits(packed, job.rows, shots) if bits is None else bits,
+                    compiled, self.ledger)
             self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots,
                                "hamming_weight" if i in hw else aer_name)
-            results.append(JobResult(None, shots, job, bits=bits, weights=weights,
-                                     effective_shots=n_eff, readout=lins))
+            if i in hw:  # kept packed until read: device widths hold every job's shots
+                results.append(PackedJobResult(packed, job.rows, shots, job, weights=weights,
+                                               effective_shots=n_eff, readout=lins))
+            else:
+                results.append(JobResult(None, shots, job, bits=bits, weights=weights,
+                                         effective_shots=n_eff, readout=lins))
         return results
