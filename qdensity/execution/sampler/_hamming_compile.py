@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from qiskit.circuit import ParameterExpression, QuantumCircuit
+from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
 from qiskit.quantum_info import Operator
 
 #: Gates with a vectorised block (angles evaluated for all rows at once).
@@ -131,6 +131,8 @@ class HammingTemplate:
 
 
 def _angle(value, position: dict, inst_name: str) -> Angle:
+    if isinstance(value, Parameter):  # the common case: the angle is a parameter itself
+        return Angle("linear", offset=0.0, index=position[value], coefficient=1.0)
     if not isinstance(value, ParameterExpression) or not value.parameters:
         return Angle("const", offset=float(value))
     if len(value.parameters) == 1:

@@ -417,9 +417,9 @@ class SamplerEngine:
             template = self._hamming_template(job.circuit, label)
             if template is not None:
                 # exact in the weight-k subspace: no transpilation, no Aer
-                marker = QuantumCircuit(job.circuit.num_qubits, job.circuit.num_clbits,
-                                        metadata={HAMMING_WEIGHT_KEY: template.weight})
+                marker = None  # what the correction reads of a compiled circuit: its weight
                 if self._correction is not None:
+                    marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
                     self._correction.check(job.circuit, marker, label)
                 hw_pubs.append(len(metas))
                 pubs.append((job.circuit, job.values, shots) if job.circuit.num_parameters
@@ -464,7 +464,8 @@ class SamplerEngine:
         results = []
         aer_name = type(self.sampler).__name__
         for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
-            packed = pub_result.join_data()
+            data = pub_result.data
+            packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()
             bits = bitarray_to_bits(packed, job.rows, shots) if i not in hw else None
             weights = n_eff = lins = None
             if self._correction is not None:

@@ -308,8 +308,9 @@ class HammingWeightSampler(BaseSamplerV2):
         for creg in circuit.cregs:
             idx = [circuit.find_bit(b).index for b in creg]
             arr = bits[:, :, idx].reshape(shape + (shots, len(idx)))
-            data[creg.name] = (BitArray.from_bool_array(arr, order="little") if len(idx)
-                               else BitArray(np.zeros(shape + (shots, 0), dtype=np.uint8), 0))
+            # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
+            packed = np.packbits(arr, axis=-1, bitorder="little")[..., ::-1]
+            data[creg.name] = BitArray(np.ascontiguousarray(packed), len(idx))
         meta = {"shots": shots, "circuit_metadata": circuit.metadata,
                 "simulator_metadata": {"sampler": "hamming_weight",
                                        "hamming_weight": template.weight,
