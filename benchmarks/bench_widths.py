@@ -14,8 +14,14 @@ symmetric readout error (``--readout``), which the sampler applies to the drawn 
 Goals (issue "Fast by default"): n = 32 under 2 s CPU, n = 128 under 15 s, n = 256 under 60 s,
 each under 1 GB; n = 1024 reported; also with a readout-noisy target.
 
+``--sampler-only`` skips the gradient plan and its post-processing: it builds the plan's kind
+of templates directly (loader + sub-unitary, and the same with an RBS(pi/4) layer on the
+sub-unitary's pairs: two per sub-unitary, random parameter rows) and times their sampling
+alone, to measure the sampler at widths where the plan takes long to build.
+
     python benchmarks/bench_widths.py [--widths 32 128 256 1024] [--noisy-widths 32 256]
-                                      [--readout 0.02] [--hamming auto] [--timeout 1800]
+                                      [--readout 0.02] [--hamming auto] [--sampler-only]
+                                      [--timeout 1800]
 """
 
 from __future__ import annotations
@@ -73,6 +79,45 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str)
             "max_z": err, "samplers": samplers, "sub": len(subs)}
 
 
+def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
+                  hamming: str) -> dict:
+    """Only the sampling: the plan's kind of templates built directly (no gradient plan)."""
+    import numpy as np
+    from qiskit import QuantumCircuit
+
+    from qdensity import Encoding, SamplerEngine, by_moments
+    from qdensity.ansatze import round_robin
+    from qdensity.circuits.gates import RBSGate
+    from qdensity.execution.plans import CircuitJob
+
+    t0 = time.process_time()
+    subs = by_moments(round_robin(n)).sub_unitaries
+    subs = subs[:sub] if sub else subs
+    loader = Encoding.unary(n).circuit
+    rng = np.random.default_rng(1)
+    jobs = []
+    for k, body in enumerate(subs):
+        for diag in (False, True):
+            qc = QuantumCircuit(n, name=f"k{k}{'d' if diag else ''}")
+            qc.compose(loader, inplace=True)
+            qc.compose(body, inplace=True)
+            if diag:  # an RBS(pi/4) on each pair of the sub-unitary, as a diagonalising layer
+                for inst in body.data:
+                    qc.append(RBSGate(np.pi / 4), inst.qubits)
+            qc.measure_all()
+            jobs.append(CircuitJob(qc, rng.uniform(-np.pi, np.pi, (rows, qc.num_parameters)),
+                                   shots, qc.name))
+    t1 = time.process_time()
+    target = _readout_target(n, readout) if readout else None
+    engine = SamplerEngine(target=target, seed=0, progress=False, hamming_weight=hamming)
+    engine.run(jobs)
+    t2 = time.process_time()
+    samplers = sorted({e.sampler for e in engine.ledger.entries})
+    return {"build_s": t1 - t0, "sample_s": t2 - t1, "post_s": float("nan"),
+            "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
+            "max_z": float("nan"), "samplers": samplers, "sub": len(subs)}
+
+
 def _run_child(args: list[str], timeout: float) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
@@ -107,20 +152,27 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=16)
     ap.add_argument("--shots", type=int, default=1000)
     ap.add_argument("--timeout", type=float, default=1800, help="seconds per case")
+    ap.add_argument("--sampler-only", action="store_true",
+                    help="no gradient plan: time sampling the plan's kind of templates (loader "
+                         "+ sub-unitary, and + an RBS(pi/4) layer on its pairs; 2 per "
+                         "sub-unitary), built directly; 'build' is then building those")
     ap.add_argument("--child", nargs=2, metavar=("N", "READOUT"))
     a = ap.parse_args()
     if a.child:
         n, readout = int(a.child[0]), float(a.child[1])
-        print(json.dumps(_case(n, readout, a.sub, a.rows, a.shots, a.hamming)))
+        case = _sampler_case if a.sampler_only else _case
+        print(json.dumps(case(n, readout, a.sub, a.rows, a.shots, a.hamming)))
         return
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; hamming_weight="
-          f"{a.hamming!r}, {a.rows} rows x {a.shots} shots")
+          f"{a.hamming!r}, {a.rows} rows x {a.shots} shots"
+          + ("; sampler only (no gradient plan)" if a.sampler_only else ""))
     print(f"{'case':<22}{'K':>5}{'cpu s':>8}{'build':>8}{'sample':>8}{'post':>8}{'wall s':>8}"
           f"{'peak MB':>9}{'circuits':>9}{'shots':>10}{'max |z|':>8}  sampler")
     cases = [(n, 0.0) for n in a.widths] + [(n, a.readout) for n in a.noisy_widths]
     for n, readout in cases:
         res = _run_child([str(n), str(readout), "--sub", str(a.sub), "--rows", str(a.rows),
-                          "--shots", str(a.shots), "--hamming", a.hamming], a.timeout)
+                          "--shots", str(a.shots), "--hamming", a.hamming]
+                         + (["--sampler-only"] if a.sampler_only else []), a.timeout)
         name = f"n={n} " + (f"readout {readout:g}" if readout else "noiseless")
         if "error" in res:
             print(f"{name:<22}  {res['error']}")
