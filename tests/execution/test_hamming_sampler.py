@@ -516,10 +516,17 @@ def test_engine_seeded_runs_repeat():
     from qdensity import SamplerEngine
 
     _, _, plan = _classifier(4, 2, 100)
-    bits = [[r.bits for r in SamplerEngine(seed=9, progress=False).run(plan.jobs)]
-            for _ in range(2)]
-    for x, y in zip(*bits, strict=True):
-        np.testing.assert_array_equal(x, y)
+
+    def two_runs():
+        engine = SamplerEngine(seed=9, progress=False)
+        return [[r.bits.copy() for r in engine.run(plan.jobs)] for _ in range(2)]
+
+    first, again = two_runs(), two_runs()
+    for run_a, run_b in zip(first, again, strict=True):  # the same sequence of runs repeats
+        for x, y in zip(run_a, run_b, strict=True):
+            np.testing.assert_array_equal(x, y)
+    # successive runs of one engine draw fresh shots
+    assert any(not np.array_equal(x, y) for x, y in zip(first[0], first[1], strict=True))
 
 
 @pytest.mark.parametrize("bad", ["yes", None, 1])

@@ -177,7 +177,9 @@ class SamplerEngine:
         ``seed``, choosing Aer's method per PUB
         (:class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`: matrix-product states for
         wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
-        before Aer allocates it), noiseless unless a ``target`` is given.
+        before Aer allocates it), noiseless unless a ``target`` is given. Templates that keep
+        a fixed Hamming weight are sampled exactly in their subspace instead (see
+        ``hamming_weight``).
     target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
         Where circuits are transpiled and, when ``sampler`` is None, whose (noisy) simulator
         samples: anything :func:`~qdensity.hardware.targets.get_target` accepts (a fake or real
@@ -220,7 +222,9 @@ class SamplerEngine:
         (applied to the drawn bits, of the qubits with the circuit's own indices), and no
         ``mitigation``; other templates go to Aer. ``"always"``: every template, refusing one
         outside its scope with a ``ValueError``. ``"never"``: Aer (or ``sampler``) only. The
-        choice is recorded per job in the ledger (``LedgerEntry.sampler``).
+        choice is recorded per job in the ledger (``LedgerEntry.sampler``). Its shots come from
+        one stream seeded by ``seed``: an engine built with the same seed repeats the same
+        sequence of runs exactly, and successive runs draw independent shots.
 
     Notes
     -----
@@ -370,8 +374,10 @@ class SamplerEngine:
                         raise
                     readout, why = None, "gate noise"
             if why is None:
-                seed = (None if self._seed is None else int(np.random.SeedSequence(
-                    [self._seed % 2**63, 0x4A5]).generate_state(1, np.uint32)[0]))
+                # a stream, not an int: successive runs draw independent shots, and an engine
+                # built with the same seed repeats the whole sequence
+                seed = (None if self._seed is None else np.random.default_rng(
+                    np.random.SeedSequence([self._seed % 2**63, 0x4A5])))
                 self._hamming_sampler = HammingWeightSampler(seed=seed, readout_error=readout)
             self._hamming_why = why
         return self._hamming_sampler

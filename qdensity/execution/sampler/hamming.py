@@ -40,6 +40,8 @@ __all__ = ["HammingWeightSampler", "MAX_DIMENSION"]
 
 #: Largest subspace (amplitudes per row) the sampler computes: ``2**26`` (1 GiB complex).
 MAX_DIMENSION = 2**26
+#: Compiled templates kept (oldest dropped first).
+_CACHE_TEMPLATES = 4096
 #: Amplitudes (rows x dimension) computed at once; rows go in chunks of this size.
 _CHUNK_AMPLITUDES = 2**23
 
@@ -225,6 +227,8 @@ class HammingWeightSampler(BaseSamplerV2):
                 f"of {n} qubits has C({n}, {k}) = {dim} states, more than max_dimension = "
                 f"{self.max_dimension}; use fewer qubits or a smaller Hamming weight")
         compiled = _Compiled(template)
+        if len(self._compiled) >= _CACHE_TEMPLATES:  # bounded: plans rebuilt per step
+            self._compiled.pop(next(iter(self._compiled)))
         self._compiled[id(circuit)] = (circuit, compiled)
         return compiled
 
