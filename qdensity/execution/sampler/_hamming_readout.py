@@ -1,6 +1,7 @@
 """Readout errors as the classical channel they are: each measured bit flips with the
 probability of its qubit and its value (``p(1|0)``, ``p(0|1)``), independently per shot and
-clbit, as qiskit-aer applies a single-qubit ``ReadoutError`` to every ``measure``.
+clbit, as qiskit-aer applies a single-qubit ``ReadoutError`` to every ``measure`` (the flips
+themselves: :func:`~qdensity.execution.sampler._hamming_bits.flip_readout`).
 
 :func:`readout_channel` reads the probabilities from numbers, a qiskit-aer ``NoiseModel``
 (whose every other error is gate noise, refused by name), a qdensity ``HardwareTarget``, a
@@ -19,8 +20,6 @@ from qiskit_aer.noise import NoiseModel
 
 _ALTERNATIVE = ("sample with qiskit-aer instead (SamplerEngine(hamming_weight='never') or the "
                 "target's sampler)")
-#: Shot-clbit pairs whose uniforms are drawn at once.
-_CHUNK = 2**22
 
 
 @dataclass(frozen=True)
@@ -48,19 +47,6 @@ class ReadoutChannel:
         p10 = np.where(inside, self.p10[np.minimum(qubits, max(size - 1, 0))] if size else d10,
                        d10)
         return p01.astype(float), p10.astype(float)
-
-    def apply(self, bits: np.ndarray, qubits: np.ndarray, rng: np.random.Generator) -> None:
-        """Flip measured bits in place: ``bits`` (N, c) bool, ``qubits`` (c,) measured qubit of
-        each column."""
-        p01, p10 = self.for_qubits(qubits)
-        if not (np.any(p01) or np.any(p10)):
-            return
-        n, c = bits.shape
-        step = max(1, _CHUNK // max(c, 1))
-        for start in range(0, n, step):
-            part = bits[start:start + step]
-            u = rng.random(part.shape)
-            part ^= u < np.where(part, p10, p01)
 
 
 def _prob(value, name: str) -> float:

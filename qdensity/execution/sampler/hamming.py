@@ -31,6 +31,11 @@ from qiskit.primitives import (
 from qiskit.primitives.containers.sampler_pub import SamplerPub
 from qiskit.providers import JobStatus
 
+from qdensity.execution.sampler._hamming_bits import (
+    clbits_of_qubits,
+    flip_readout,
+    pack_outcomes,
+)
 from qdensity.execution.sampler._hamming_compile import HammingTemplate, compile_template
 from qdensity.execution.sampler._hamming_readout import ReadoutChannel, readout_channel
 from qdensity.execution.sampler._hamming_subspace import SubspaceProgram
@@ -284,18 +289,19 @@ class HammingWeightSampler(BaseSamplerV2):
         values = (pub.parameter_values.as_array(circuit.parameters).reshape(rows, p)
                   if p else np.zeros((rows, 0)))
         template = comp.template
-        measured = [(c, q) for c, q in enumerate(template.measured) if q is not None]
-        cols = np.array([c for c, _ in measured], dtype=np.int64)
-        mqubits = np.array([q for _, q in measured], dtype=np.int64)
-        bits = np.zeros((rows, shots, circuit.num_clbits), dtype=bool)
+        nclbits = circuit.num_clbits
+        nbytes = (nclbits + 7) // 8
+        packed = np.zeros((rows * shots, nbytes), dtype=np.uint8)
+        cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
+                        dtype=np.int64)
         if cols.size:
             outcome_qubits = comp.outcome_qubits()  # (D, k)
             dim = outcome_qubits.shape[0]
-            # where each measured qubit's bit sits: which outcome holds qubit q
-            holds = np.zeros((dim, cols.size), dtype=bool)
-            for j, q in enumerate(mqubits):
-                holds[:, j] = np.any(outcome_qubits == q, axis=1)
-            step = max(1, _CHUNK_AMPLITUDES // max(dim, shots * cols.size))
+            table = clbits_of_qubits(template.measured, template.num_qubits)
+            if self._readout is not None:
+                p01, p10 = self._readout.for_qubits(
+                    np.array([template.measured[c] for c in cols], dtype=np.int64))
+            step = max(1, _CHUNK_AMPLITUDES // max(dim, shots * nbytes))
             for start in range(0, rows, step):
                 probs = comp.probabilities(values[start:start + step])
                 probs = np.clip(probs, 0.0, None)
@@ -303,18 +309,24 @@ class HammingWeightSampler(BaseSamplerV2):
                 counts = rng.multinomial(shots, probs)  # one multinomial per row
                 draws = np.repeat(np.tile(np.arange(dim), counts.shape[0]), counts.ravel())
                 draws = rng.permuted(draws.reshape(counts.shape[0], shots), axis=1)
-                chunk = holds[draws]  # (b, shots, c)
+                chunk = pack_outcomes(outcome_qubits, draws.ravel(), table, nclbits)
                 if self._readout is not None:
-                    flat = chunk.reshape(-1, cols.size)
-                    self._readout.apply(flat, mqubits, rng)
-                bits[start:start + step][:, :, cols] = chunk
+                    flip_readout(chunk, cols, p01, p10, rng)
+                packed[start * shots:start * shots + chunk.shape[0]] = chunk
         data = {}
-        for creg in circuit.cregs:
-            idx = [circuit.find_bit(b).index for b in creg]
-            arr = bits[:, :, idx].reshape(shape + (shots, len(idx)))
-            # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
-            packed = np.packbits(arr, axis=-1, bitorder="little")[..., ::-1]
-            data[creg.name] = BitArray(np.ascontiguousarray(packed), len(idx))
+        whole = [circuit.find_bit(b).index for b in circuit.cregs[0]] if len(
+            circuit.cregs) == 1 else None
+        if whole == list(range(nclbits)):  # one register of every clbit, in order
+            arr = packed[:, ::-1].reshape(shape + (shots, nbytes))
+            data[circuit.cregs[0].name] = BitArray(np.ascontiguousarray(arr), nclbits)
+        else:
+            bits = np.unpackbits(packed, axis=-1, bitorder="little")[:, :nclbits].astype(bool)
+            for creg in circuit.cregs:
+                idx = [circuit.find_bit(b).index for b in creg]
+                arr = bits[:, idx].reshape(shape + (shots, len(idx)))
+                # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
+                out = np.packbits(arr, axis=-1, bitorder="little")[..., ::-1]
+                data[creg.name] = BitArray(np.ascontiguousarray(out), len(idx))
         meta = {"shots": shots, "circuit_metadata": circuit.metadata,
                 "simulator_metadata": {"sampler": "hamming_weight",
                                        "hamming_weight": template.weight,
