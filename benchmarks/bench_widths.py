@@ -133,7 +133,6 @@ def _run_child(args: list[str], timeout: float) -> dict:
     res = json.loads(out.stdout.strip().splitlines()[-1])
     res["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     res["wall_s"] = wall
-    res["peak_mb"] = after.ru_maxrss / 1024  # Linux: kilobytes; max over children so far
     return res
 
 
@@ -161,7 +160,9 @@ def main() -> None:
     if a.child:
         n, readout = int(a.child[0]), float(a.child[1])
         case = _sampler_case if a.sampler_only else _case
-        print(json.dumps(case(n, readout, a.sub, a.rows, a.shots, a.hamming)))
+        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming)
+        res["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
+        print(json.dumps(res))
         return
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; hamming_weight="
           f"{a.hamming!r}, {a.rows} rows x {a.shots} shots"
