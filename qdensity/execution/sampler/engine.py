@@ -28,7 +28,7 @@ from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilitie
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._hamming_readout import readout_channel
 from qdensity.execution.sampler._independent import run_independent
-from qdensity.execution.sampler._packed_result import PackedJobResult
+from qdensity.execution.sampler._packed_result import PackedJobResult, bitarray_to_bits
 from qdensity.execution.sampler.hamming import HammingWeightSampler
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_sampling import (
@@ -117,30 +117,6 @@ class ShotLedger:
             lines.append(f"{key:<28}{c:>10}{s:>12}")
         lines.append(f"{'total':<28}{self.total_circuits:>10}{self.total_shots:>12}")
         return "\n".join(lines)
-
-
-def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
-    """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
-
-    Parameters
-    ----------
-    bitarray : qiskit.primitives.BitArray
-        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
-        (consecutive blocks of ``shots`` form the rows).
-    rows : int
-    shots : int, optional
-        Shots per row (default ``bitarray.num_shots``).
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (rows, shots, num_bits)
-        Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
-    """
-    shots = bitarray.num_shots if shots is None else int(shots)
-    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
-    # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
-    bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
-    return bits[..., : bitarray.num_bits].astype(bool)
 
 
 def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
