@@ -1,15 +1,26 @@
-"""Device widths: the sampled density gradient with the paper's classifier readout
-(``readout="unary_probabilities"``, round-robin by layers, 16 rows, 1000 shots) at widths a
-statevector cannot hold, through ``SamplerEngine`` with no sampler given (the engine's Aer
-sampler picks matrix-product states for Hamming-weight-1 circuits).
+"""Device widths: the sampled density gradient of the paper's classifier (round-robin by
+layers, every sub-unitary, ``readout="unary_probabilities"``, 16 rows, 1000 shots) through
+``SamplerEngine`` with no sampler given, at widths a statevector cannot hold.
 
-Each case runs in its own process; the table gives its CPU time (user + system, children
-included) and peak resident memory; max |z| compares the sampled outputs with the exact
-unary probabilities (binomial errors of the exact values). Goals (issue "Hardware as
-objects", item 3): noiseless n = 32 under 60 s CPU and 1 GB; n = 64 reported; noisy on a
-127-qubit snapshot at n = 32 reported.
+The engine samples these Hamming-weight-1 templates exactly in their ``n``-dimensional
+subspace (``HammingWeightSampler``) unless ``--hamming never`` sends them to Aer (matrix-product
+states from 14 qubits). Each case runs in its own process; the table gives its CPU time (user +
+system, children included, plan build included), the split into plan build, sampling
+(``engine.run``) and post-processing (CPU of this process), and peak resident memory; max |z|
+compares the sampled outputs with the exact unary probabilities (binomial errors of the exact
+values, floor ``1 / shots``). A readout-noisy case runs on the ``ideal`` target with a
+symmetric readout error (``--readout``), which the sampler applies to the drawn bits.
 
-    python benchmarks/bench_widths.py [--widths 32 64] [--noisy fake_kyiv] [--sub 2]
+Goals (issue "Fast by default"): n = 32 under 2 s CPU, n = 128 under 15 s, n = 256 under 60 s,
+each under 1 GB; n = 1024 reported; also with a readout-noisy target.
+
+``--sampler-only`` skips the gradient plan and its post-processing: it builds the plan's kind
+of templates directly (loader + sub-unitary, and the same with an RBS(pi/4) layer on the
+sub-unitary's pairs: two per sub-unitary, random parameter rows) and times their sampling
+alone, to measure the sampler at widths where the plan takes long to build.
+
+    python benchmarks/bench_widths.py [--widths 32 128 256 1024] [--noisy-widths 32 256]
+                                      [--readout 0.02] [--hamming auto] [--sampler-only]
                                       [--timeout 1800]
 """
 
@@ -24,73 +35,153 @@ import sys
 import time
 
 
-def _case(n: int, target: str | None, sub: int, rows: int, shots: int) -> dict:
+def _readout_target(n: int, p: float):
+    from qiskit.transpiler import Target
+    from qiskit_aer.noise import NoiseModel, ReadoutError
+
+    from qdensity import get_target
+
+    noise = NoiseModel()
+    noise.add_all_qubit_readout_error(ReadoutError([[1 - p, p], [p, 1 - p]]))
+    device = Target.from_configuration(["cz", "rz", "sx", "x", "measure"], num_qubits=n)
+    return get_target(device, seed=0, noise_model=noise)
+
+
+def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str) -> dict:
     import numpy as np
 
     from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
     from qdensity.ansatze import round_robin
     from qdensity.gradients import density_gradient_plan
 
-    subs = by_moments(round_robin(n)).sub_unitaries[:sub]
+    t0 = time.process_time()
+    subs = by_moments(round_robin(n)).sub_unitaries
+    subs = subs[:sub] if sub else subs
     model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
     X = np.random.default_rng(1).normal(size=(rows, n))
     plan = density_gradient_plan(model, X, method="commuting", shots=shots)
-    engine = SamplerEngine(target=target, seed=0, progress=False)
-    t = time.perf_counter()
-    grad = plan.run(engine)
-    wall = time.perf_counter() - t
+    t1 = time.process_time()
+    target = _readout_target(n, readout) if readout else None
+    engine = SamplerEngine(target=target, seed=0, progress=False, hamming_weight=hamming)
+    results = engine.run(plan.jobs)
+    t2 = time.process_time()
+    grad = plan.postprocess(results)
+    t3 = time.process_time()
     exact = model.expert_outputs(X, method="unary")  # (rows, K, n) exact unary probabilities
-    # z-scores against the binomial error of the exact probabilities (floor 1 / shots)
+    if readout:  # outcome e_j read as itself, or e_i (i != j) with both bits flipped
+        q = readout
+        exact = (1 - q) ** n * exact + q**2 * (1 - q) ** (n - 2) * (1 - exact)
     se = np.sqrt(np.maximum(exact * (1 - exact), 1.0 / shots) / shots)
     err = float(np.max(np.abs(grad.outputs - exact) / se))
-    return {"wall_s": wall, "circuits": engine.ledger.total_circuits,
-            "shots": engine.ledger.total_shots, "max_z": err}
+    samplers = sorted({e.sampler for e in engine.ledger.entries})
+    return {"build_s": t1 - t0, "sample_s": t2 - t1, "post_s": t3 - t2,
+            "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
+            "max_z": err, "samplers": samplers, "sub": len(subs)}
+
+
+def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
+                  hamming: str) -> dict:
+    """Only the sampling: the plan's kind of templates built directly (no gradient plan)."""
+    import numpy as np
+    from qiskit import QuantumCircuit
+
+    from qdensity import Encoding, SamplerEngine, by_moments
+    from qdensity.ansatze import round_robin
+    from qdensity.circuits.gates import RBSGate
+    from qdensity.execution.plans import CircuitJob
+
+    t0 = time.process_time()
+    subs = by_moments(round_robin(n)).sub_unitaries
+    subs = subs[:sub] if sub else subs
+    loader = Encoding.unary(n).circuit
+    rng = np.random.default_rng(1)
+    jobs = []
+    for k, body in enumerate(subs):
+        for diag in (False, True):
+            qc = QuantumCircuit(n, name=f"k{k}{'d' if diag else ''}")
+            qc.compose(loader, inplace=True)
+            qc.compose(body, inplace=True)
+            if diag:  # an RBS(pi/4) on each pair of the sub-unitary, as a diagonalising layer
+                for inst in body.data:
+                    qc.append(RBSGate(np.pi / 4), inst.qubits)
+            qc.measure_all()
+            jobs.append(CircuitJob(qc, rng.uniform(-np.pi, np.pi, (rows, qc.num_parameters)),
+                                   shots, qc.name))
+    t1 = time.process_time()
+    target = _readout_target(n, readout) if readout else None
+    engine = SamplerEngine(target=target, seed=0, progress=False, hamming_weight=hamming)
+    engine.run(jobs)
+    t2 = time.process_time()
+    samplers = sorted({e.sampler for e in engine.ledger.entries})
+    return {"build_s": t1 - t0, "sample_s": t2 - t1, "post_s": float("nan"),
+            "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
+            "max_z": float("nan"), "samplers": samplers, "sub": len(subs)}
 
 
 def _run_child(args: list[str], timeout: float) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
     try:
         out = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True,
                              text=True, check=False, timeout=timeout)
     except subprocess.TimeoutExpired:
         return {"error": f"ran past {timeout:.0f} s (killed)"}
+    wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode:
         return {"error": out.stderr.strip().splitlines()[-1] if out.stderr else "failed"}
     res = json.loads(out.stdout.strip().splitlines()[-1])
     res["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    res["peak_mb"] = after.ru_maxrss / 1024  # Linux: kilobytes; max over children so far
+    res["wall_s"] = wall
     return res
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--widths", type=int, nargs="*", default=[32, 64],
-                    help="noiseless widths (none: only the noisy case)")
-    ap.add_argument("--noisy", default="fake_kyiv", help="127-qubit snapshot for n = 32, or ''")
-    ap.add_argument("--sub", type=int, default=2, help="sub-unitaries (layers) kept")
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--widths", type=int, nargs="*", default=[32, 128, 256, 1024],
+                    help="noiseless widths")
+    ap.add_argument("--noisy-widths", type=int, nargs="*", default=[32, 256],
+                    help="widths run with the readout-noisy target")
+    ap.add_argument("--readout", type=float, default=0.02,
+                    help="symmetric readout error of the noisy target")
+    ap.add_argument("--hamming", default="auto", choices=["auto", "never", "always"],
+                    help="SamplerEngine(hamming_weight=...)")
+    ap.add_argument("--sub", type=int, default=0, help="sub-unitaries kept (0: all)")
     ap.add_argument("--rows", type=int, default=16)
     ap.add_argument("--shots", type=int, default=1000)
     ap.add_argument("--timeout", type=float, default=1800, help="seconds per case")
-    ap.add_argument("--child", nargs=2, metavar=("N", "TARGET"))
+    ap.add_argument("--sampler-only", action="store_true",
+                    help="no gradient plan: time sampling the plan's kind of templates (loader "
+                         "+ sub-unitary, and + an RBS(pi/4) layer on its pairs; 2 per "
+                         "sub-unitary), built directly; 'build' is then building those")
+    ap.add_argument("--child", nargs=2, metavar=("N", "READOUT"))
     a = ap.parse_args()
     if a.child:
-        n, target = int(a.child[0]), (a.child[1] if a.child[1] != "-" else None)
-        print(json.dumps(_case(n, target, a.sub, a.rows, a.shots)))
+        n, readout = int(a.child[0]), float(a.child[1])
+        case = _sampler_case if a.sampler_only else _case
+        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming)
+        res["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
+        print(json.dumps(res))
         return
-    print(f"load average {os.getloadavg()}, {os.cpu_count()} cores")
-    print(f"{'case':<26}{'cpu s':>8}{'wall s':>8}{'peak MB':>9}{'circuits':>10}{'shots':>10}"
-          f"{'max |z|':>9}")
-    cases = [(n, "-") for n in a.widths] + ([(32, a.noisy)] if a.noisy else [])
-    for n, target in cases:
-        res = _run_child([str(n), target, "--sub", str(a.sub), "--rows", str(a.rows),
-                          "--shots", str(a.shots)], a.timeout)
-        name = f"n={n} {'noiseless' if target == '-' else target}"
+    print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; hamming_weight="
+          f"{a.hamming!r}, {a.rows} rows x {a.shots} shots"
+          + ("; sampler only (no gradient plan)" if a.sampler_only else ""))
+    print(f"{'case':<22}{'K':>5}{'cpu s':>8}{'build':>8}{'sample':>8}{'post':>8}{'wall s':>8}"
+          f"{'peak MB':>9}{'circuits':>9}{'shots':>10}{'max |z|':>8}  sampler")
+    cases = [(n, 0.0) for n in a.widths] + [(n, a.readout) for n in a.noisy_widths]
+    for n, readout in cases:
+        res = _run_child([str(n), str(readout), "--sub", str(a.sub), "--rows", str(a.rows),
+                          "--shots", str(a.shots), "--hamming", a.hamming]
+                         + (["--sampler-only"] if a.sampler_only else []), a.timeout)
+        name = f"n={n} " + (f"readout {readout:g}" if readout else "noiseless")
         if "error" in res:
-            print(f"{name:<26}  {res['error']}")
+            print(f"{name:<22}  {res['error']}")
             continue
-        print(f"{name:<26}{res['cpu_s']:>8.1f}{res['wall_s']:>8.1f}{res['peak_mb']:>9.0f}"
-              f"{res['circuits']:>10}{res['shots']:>10}{res['max_z']:>9.2f}")
+        print(f"{name:<22}{res['sub']:>5}{res['cpu_s']:>8.1f}{res['build_s']:>8.1f}"
+              f"{res['sample_s']:>8.1f}{res['post_s']:>8.1f}{res['wall_s']:>8.1f}"
+              f"{res['peak_mb']:>9.0f}{res['circuits']:>9}{res['shots']:>10}"
+              f"{res['max_z']:>8.2f}  {','.join(res['samplers'])}")
 
 
 if __name__ == "__main__":

@@ -49,6 +49,7 @@ _EXPORTS: dict[str, str] = {
     "ExactEngine": "qdensity.execution.exact",
     "SamplerEngine": "qdensity.execution.sampler.engine",
     "ShotLedger": "qdensity.execution.sampler.engine",
+    "HammingWeightSampler": "qdensity.execution.sampler.hamming",
     "get_target": "qdensity.hardware.targets",
     "known_targets": "qdensity.hardware.targets",
     "resource_report": "qdensity.hardware.resources",
@@ -83,6 +84,7 @@ __all__ = [
     "ExactEngine",
     "SamplerEngine",
     "ShotLedger",
+    "HammingWeightSampler",
     "get_target",
     "known_targets",
     "resource_report",
@@ -108,6 +110,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.execution.exact import ExactEngine
     from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
+    from qdensity.execution.sampler.hamming import HammingWeightSampler
     from qdensity.hardware.resources import compare_reports, resource_report
     from qdensity.hardware.targets import get_target, known_targets
     from qdensity.learning.estimators import QNNClassifier, QNNRegressor

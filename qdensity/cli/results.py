@@ -144,7 +144,8 @@ def _print_report(paths: list[Path], rows: list[dict]) -> None:
         mode = mine[0]["mode"] if mine else ExperimentResult.load(path).mode
         print(f"{path.name} ({mode})")
         if not mine:
-            print("  no claim of the paper to judge in this file")
+            print(f"  {QUICK}" if mode == "quick" else
+                  "  no claim of the paper to judge in this file")
         for row in mine:
             ci = (f"{row['mean']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}], {row['n']} "
                   "seeds" if "mean" in row else "")
@@ -218,8 +219,8 @@ def add_parser(sub) -> None:
                          **texts("results show"))
     show.add_argument("file", help="a results JSON (NAME-MODE.json)")
     show.add_argument("--metric", action="append", default=[], metavar="PATTERN",
-                      help="only metrics whose name matches PATTERN: a shell pattern "
-                           "('*/test_accuracy') or a part of the name ('accuracy'); repeatable")
+                      help="only metrics whose name matches PATTERN: a shell pattern (with * and ? "
+                           "as wildcards) or a part of the name ('accuracy'); repeatable")
     show.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                       help="print the summary as JSON")
     show.set_defaults(func=_cmd_show)

@@ -14,6 +14,7 @@ from qdensity.execution.plans import (
     probabilities_plan,
 )
 from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
+from qdensity.execution.sampler.hamming import HammingWeightSampler
 from qdensity.execution.statevector.adjoint import AdjointEngine
 
 __all__ = [
@@ -27,4 +28,5 @@ __all__ = [
     "AdjointEngine",
     "SamplerEngine",
     "ShotLedger",
+    "HammingWeightSampler",
 ]

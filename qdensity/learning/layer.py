@@ -42,7 +42,13 @@ from qdensity.gradients.density import (
 from qdensity.gradients.inputs import input_gradient_plan, input_vjp
 from qdensity.gradients.inputs import input_jacobians as _input_jacobians
 from qdensity.models.density import DensityQNN
-from qdensity.models.exact import ExactGradients, exact_gradients, unary_circuits
+from qdensity.models.exact import (
+    ExactGradients,
+    exact_gradients,
+    unary_circuits,
+    uses_unary_engine,
+    z_readout_diagonal,
+)
 from qdensity.validation import check_positive_int
 
 __all__ = ["QuantumLayer", "History", "BudgetExhausted"]
@@ -107,7 +113,7 @@ class QuantumLayer:
     @property
     def analytic(self) -> bool:
         """True when exact unary reverse mode is used."""
-        return self._is_exact_string() and self.model._use_unary()
+        return self._is_exact_string() and uses_unary_engine(self.model)
 
     def _is_exact_string(self) -> bool:
         return isinstance(self.engine, str) and self.engine == "exact"
@@ -116,7 +122,7 @@ class QuantumLayer:
     def adjoint(self) -> bool:
         """True when the adjoint statevector engine gives values and gradients."""
         return isinstance(self.engine, AdjointEngine) or (
-            self._is_exact_string() and not self.model._use_unary())
+            self._is_exact_string() and not uses_unary_engine(self.model))
 
     def forward(self, Z: np.ndarray, *, need_grad: bool = True) -> np.ndarray:
         """Model output for inputs ``Z`` (B, d) -> (B, m)."""
@@ -204,7 +210,7 @@ class QuantumLayer:
         elif m.readout == "unary_probabilities":
             outs = np.stack([y**2 for y in Ys], axis=1)
         else:
-            d = m._z_readout_matrix()
+            d = z_readout_diagonal(m.observable)
             outs = np.stack([(y**2 @ d)[:, None] for y in Ys], axis=1)
         self._cache = ("unary", Z, Xn, norms, Ys, outs, alpha)
         return np.einsum("bk,bkm->bm", alpha, outs)
@@ -223,7 +229,7 @@ class QuantumLayer:
             elif m.readout == "unary_probabilities":
                 dY = 2.0 * a * grad_F * y
             else:
-                dY = 2.0 * a * grad_F[:, :1] * m._z_readout_matrix()[None, :] * y
+                dY = 2.0 * a * grad_F[:, :1] * z_readout_diagonal(m.observable)[None, :] * y
             # the reverse pass starts from the forward's outputs y (not run again)
             gv, gx = vjp(c, Xn, m._sub_theta(k, None), dY, reduce="sum", outputs=y)
             np.add.at(g_theta, m.subunitary_parameter_indices(k), gv)

@@ -53,7 +53,7 @@ from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import METHODS, density_gradient_plan
 from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
-from qdensity.models.exact import exact_gradients
+from qdensity.models.exact import exact_gradients, uses_unary_engine, z_readout_diagonal
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
 from qdensity.validation import check_positive_int
 
@@ -223,12 +223,12 @@ class DensityQNNLayer(nn.Module):
         self._indices = [self.model.subunitary_parameter_indices(k) for k in range(K)]
         self._single = K == 1 and self.gate is None and (
             hasattr(self, "logits") or float(self.alpha[0]) == 1.0)
-        self._unary = (engine in ("exact", "torch") and self.model._use_unary())
+        self._unary = (engine in ("exact", "torch") and uses_unary_engine(self.model))
         if self._unary:  # the Givens rotations of each sub-unitary, extracted once
             from qdensity.execution.unary import compile_unary
 
             self._compiled = [compile_unary(c) for c in self.model.sub_unitaries]
-            self._zdiag = (self.model._z_readout_matrix()
+            self._zdiag = (z_readout_diagonal(self.model.observable)
                            if self.model.readout == "observable" else None)
 
     @property

@@ -306,49 +306,9 @@ class DensityQNN:
         return out
 
     # ------------------------------------------------------------------ exact evaluation
-    def _use_unary(self) -> bool:
-        known = self.derived("unary")
-        if "ok" not in known:
-            from qdensity.models.exact import unary_circuits
-
-            ok = self.encoding is not None and self.encoding.kind == "unary"
-            if ok:
-                try:
-                    unary_circuits(self)  # compiled once, kept on the model
-                except ValueError:
-                    ok = False
-            if ok and self.readout == "observable":
-                ok = not np.any(self.observable.paulis.x)
-            known["ok"] = ok
-        return known["ok"]
-
-    def _unary_amplitudes(self, X, theta) -> np.ndarray:
-        from qdensity.execution.unary import forward
-        from qdensity.models.exact import unary_circuits
-
-        X = self._check_X(X)
-        norms = np.linalg.norm(X, axis=1, keepdims=True)
-        if np.any(norms == 0):
-            raise ValueError("X has an all-zero row; a unary encoding cannot load it")
-        Xn = X / norms
-        return np.stack([forward(c, Xn, self._sub_theta(k, theta))
-                         for k, c in enumerate(unary_circuits(self))], axis=1)
-
     def _sub_theta(self, k: int, theta) -> np.ndarray:
         theta = self.theta if theta is None else self._check_theta(theta)
         return theta[..., self.subunitary_parameter_indices(k)]
-
-    def _z_readout_matrix(self) -> np.ndarray:
-        """``<e_j| O |e_j>`` for a diagonal observable: f_k = sum_j y_j^2 * this[j], shape (n,).
-
-        ``sum_t c_t s_t (1 - 2 z_t[j])`` for Z-type terms ``s_t Z^{z_t}`` (``s_t`` the Pauli's
-        phase): ``e_j`` has its one 1 on qubit j. O(terms x n), no 2^n table.
-        """
-        paulis = self.observable.paulis
-        if np.any(paulis.x):
-            raise ValueError("the unary readout needs a diagonal (I/Z) observable")
-        coeff = np.real(np.asarray(self.observable.coeffs) * (-1j) ** paulis.phase)
-        return coeff @ (1.0 - 2.0 * paulis.z)
 
     def expert_outputs(self, X=None, theta=None, *, method: str = "auto") -> np.ndarray:
         """Exact per-sub-unitary outputs ``f_k(x)``.
@@ -372,17 +332,19 @@ class DensityQNN:
                              f"{method!r}")
         theta = None if theta is None else self._check_theta(theta)
         X = None if X is None else self._check_X(X)
-        use_unary = self._use_unary() if method == "auto" else method == "unary"
+        from qdensity.models.exact import unary_amplitudes, uses_unary_engine, z_readout_diagonal
+
+        use_unary = uses_unary_engine(self) if method == "auto" else method == "unary"
         if use_unary:
-            if not self._use_unary():
+            if not uses_unary_engine(self):
                 raise ValueError("the unary engine needs RBS/FBS sub-unitaries on a unary "
                                  "encoding (and a diagonal observable)")
-            Y = self._unary_amplitudes(X, theta)
+            Y = unary_amplitudes(self, X, theta)
             if self.readout == "unary_amplitudes":
                 return Y
             if self.readout == "unary_probabilities":
                 return Y**2
-            return (Y**2) @ self._z_readout_matrix()
+            return (Y**2) @ z_readout_diagonal(self.observable)
         check_width(self.num_qubits, engine=f"DensityQNN method={method!r} prediction",
                     alternative="method='unary' (RBS/FBS sub-unitaries on a unary encoding) or "
                     "sample() with shots")

@@ -26,7 +26,8 @@ from qiskit.circuit import QuantumCircuit
 from qdensity.analysis.parameters import DATA_PREFIX
 
 __all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "ExactGradients",
-           "InputColumns", "input_columns"]
+           "InputColumns", "input_columns", "uses_unary_engine", "unary_amplitudes",
+           "z_readout_diagonal"]
 
 
 @dataclass
@@ -237,3 +238,47 @@ def exact_gradients(model, X=None, engine=None, inputs: bool = True) -> ExactGra
         data_jacs.append(jac[:, :, trainable.size:])
         columns.append(data)
     return ExactGradients(np.stack(outs, axis=1), jacs, columns, data_jacs if inputs else None)
+
+
+def uses_unary_engine(model) -> bool:
+    """True when ``model`` runs on the unary engine: RBS/FBS sub-unitaries on a unary encoding
+    and, for an observable readout, a diagonal (I/Z) observable. Kept in the model's derived
+    store, so it is recomputed when the circuits, encoding, readout or observable change."""
+    known = model.derived("unary")
+    if "ok" not in known:
+        ok = model.encoding is not None and model.encoding.kind == "unary"
+        if ok:
+            try:
+                unary_circuits(model)  # compiled once, kept on the model
+            except ValueError:
+                ok = False
+        if ok and model.readout == "observable":
+            ok = not np.any(model.observable.paulis.x)
+        known["ok"] = ok
+    return known["ok"]
+
+
+def unary_amplitudes(model, X, theta) -> np.ndarray:
+    """Unary amplitudes ``y_k(x)`` of every sub-unitary, shape (B, K, n) (inputs normalised)."""
+    from qdensity.execution.unary import forward
+
+    X = model._check_X(X)
+    norms = np.linalg.norm(X, axis=1, keepdims=True)
+    if np.any(norms == 0):
+        raise ValueError("X has an all-zero row; a unary encoding cannot load it")
+    Xn = X / norms
+    return np.stack([forward(c, Xn, model._sub_theta(k, theta))
+                     for k, c in enumerate(unary_circuits(model))], axis=1)
+
+
+def z_readout_diagonal(observable) -> np.ndarray:
+    """``<e_j| O |e_j>`` for a diagonal observable: f_k = sum_j y_j^2 * this[j], shape (n,).
+
+    ``sum_t c_t s_t (1 - 2 z_t[j])`` for Z-type terms ``s_t Z^{z_t}`` (``s_t`` the Pauli's
+    phase): ``e_j`` has its one 1 on qubit j. O(terms x n), no 2^n table.
+    """
+    paulis = observable.paulis
+    if np.any(paulis.x):
+        raise ValueError("the unary readout needs a diagonal (I/Z) observable")
+    coeff = np.real(np.asarray(observable.coeffs) * (-1j) ** paulis.phase)
+    return coeff @ (1.0 - 2.0 * paulis.z)

@@ -31,6 +31,7 @@ from qdensity.execution.sampler.postselection import PostselectedUnary, postsele
 from qdensity.execution.unary import vjp
 from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
+from qdensity.models.exact import uses_unary_engine
 from qdensity.validation import check_sequence_of
 
 __all__ = ["LCUQNN"]
@@ -78,7 +79,7 @@ class LCUQNN:
         n = subs[0].num_qubits if isinstance(subs[0], QuantumCircuit) else 0
         self.density = DensityQNN(subs, mixture, encoding=Encoding.unary(max(n, 1)),
                                   readout="unary_amplitudes", seed=seed)
-        if not self.density._use_unary():
+        if not uses_unary_engine(self.density):
             raise ValueError("sub_unitaries must be RBS/FBS (Hamming-weight-preserving) circuits: "
                              "the LCU model runs on the unary engine")
 

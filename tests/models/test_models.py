@@ -23,6 +23,7 @@ from qdensity.gradients import commuting_blocks
 from qdensity.gradients.density import chain_rule, density_gradient_plan
 from qdensity.models import DensityQNN, Encoding
 from qdensity.models.decompositions import by_moments, copies, odd_even, trainable_parameters
+from qdensity.models.exact import z_readout_diagonal
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
 
 RNG = np.random.default_rng(11)
@@ -322,7 +323,7 @@ def test_unary_readout_diagonal_against_the_dense_observable():
     obs = SparsePauliOp(PauliList(["ZIZII", "IIIIZ", "-IZZZI", "IIIII"]), [0.7, -1.3, 2.0, 0.4])
     model = DensityQNN([pyramid(n)], encoding=Encoding.unary(n), observable=obs, seed=0)
     dense = np.real(np.diag(obs.to_matrix()))
-    np.testing.assert_allclose(model._z_readout_matrix(), dense[1 << np.arange(n)],
+    np.testing.assert_allclose(z_readout_diagonal(model.observable), dense[1 << np.arange(n)],
                                atol=1e-12)
 
 

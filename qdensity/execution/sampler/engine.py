@@ -26,10 +26,18 @@ from qdensity.execution._compile import (
 )
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
 from qdensity.execution.sampler._correction import ReadoutCorrection
+from qdensity.execution.sampler._hamming_readout import readout_channel
 from qdensity.execution.sampler._independent import run_independent
+from qdensity.execution.sampler._packed_result import PackedJobResult, bitarray_to_bits
+from qdensity.execution.sampler.hamming import HammingWeightSampler
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
-from qdensity.hardware.aer_sampling import active_qubits, aer_seed, check_memory
+from qdensity.hardware.aer_sampling import (
+    HAMMING_WEIGHT_KEY,
+    active_qubits,
+    aer_seed,
+    check_memory,
+)
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
@@ -53,11 +61,14 @@ __all__ = [
 
 @dataclass
 class LedgerEntry:
-    """One sampled job: what it was for, how many circuits (rows) and shots it spent."""
+    """One sampled job: what it was for, how many circuits (rows) and shots it spent, and
+    which sampler drew them (``"hamming_weight"`` for :class:`HammingWeightSampler`, else the
+    sampler's class name; empty when not recorded)."""
 
     label: str
     circuits: int
     shots: int
+    sampler: str = ""
 
 
 @dataclass
@@ -71,11 +82,13 @@ class ShotLedger:
 
     entries: list[LedgerEntry] = field(default_factory=list)
 
-    def record(self, label: str, circuits: int, shots: int) -> None:
-        """Add an entry: ``circuits`` rows, ``shots`` in total over them (ints >= 0)."""
+    def record(self, label: str, circuits: int, shots: int, sampler: str = "") -> None:
+        """Add an entry: ``circuits`` rows, ``shots`` in total over them (ints >= 0), drawn
+        by ``sampler`` (a name)."""
         self.entries.append(LedgerEntry(check_type(label, "label", str, "a str"),
                                         check_positive_int(circuits, "circuits", minimum=0),
-                                        check_positive_int(shots, "shots", minimum=0)))
+                                        check_positive_int(shots, "shots", minimum=0),
+                                        check_type(sampler, "sampler", str, "a str")))
 
     @property
     def total_shots(self) -> int:
@@ -103,30 +116,6 @@ class ShotLedger:
             lines.append(f"{key:<28}{c:>10}{s:>12}")
         lines.append(f"{'total':<28}{self.total_circuits:>10}{self.total_shots:>12}")
         return "\n".join(lines)
-
-
-def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
-    """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
-
-    Parameters
-    ----------
-    bitarray : qiskit.primitives.BitArray
-        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
-        (consecutive blocks of ``shots`` form the rows).
-    rows : int
-    shots : int, optional
-        Shots per row (default ``bitarray.num_shots``).
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (rows, shots, num_bits)
-        Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
-    """
-    shots = bitarray.num_shots if shots is None else int(shots)
-    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
-    # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
-    bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
-    return bits[..., : bitarray.num_bits].astype(bool)
 
 
 def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
@@ -163,7 +152,9 @@ class SamplerEngine:
         ``seed``, choosing Aer's method per PUB
         (:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`: matrix-product states for
         wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
-        before Aer allocates it), noiseless unless a ``target`` is given.
+        before Aer allocates it), noiseless unless a ``target`` is given. Templates that keep
+        a fixed Hamming weight are sampled exactly in their subspace instead (see
+        ``hamming_weight``).
     target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
         Where circuits are transpiled and, when ``sampler`` is None, whose (noisy) simulator
         samples: anything :func:`~qdensity.hardware.targets.get_target` accepts (a fake or real
@@ -196,6 +187,19 @@ class SamplerEngine:
         loader and RBS/FBS sub-unitaries); other readouts are refused with a ``ValueError``.
     calibration_shots : int
         Shots per M3 calibration circuit.
+    hamming_weight : {"auto", "never", "always"}
+        Whether templates that keep a fixed Hamming weight (X gates on ``|0...0>``, then
+        weight-preserving gates such as a unary loader and RBS / FBS sub-unitaries, measured in
+        the Z basis) are sampled by :class:`~.hamming.HammingWeightSampler`,
+        exactly in their ``C(n, k)``-dimensional subspace, instead of transpiled and run on Aer.
+        ``"auto"`` (default): wherever that is exact, i.e. with the engine's own sampler (no
+        ``sampler`` given), a target that is noiseless or whose noise is readout errors only
+        (applied to the drawn bits, of the qubits with the circuit's own indices), and no
+        ``mitigation``; other templates go to Aer. ``"always"``: every template, refusing one
+        outside its scope with a ``ValueError``. ``"never"``: Aer (or ``sampler``) only. The
+        choice is recorded per job in the ledger (``LedgerEntry.sampler``). Its shots come from
+        one stream seeded by ``seed``: an engine built with the same seed repeats the same
+        sequence of runs exactly, and successive runs draw independent shots.
 
     Notes
     -----
@@ -243,11 +247,20 @@ class SamplerEngine:
         mitigation: str | None = None,
         postselect: str | None = None,
         calibration_shots: int = 4000,
+        hamming_weight: str = "auto",
     ):
         if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
                 or optimization_level not in (0, 1, 2, 3)):
             raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
                              f"levels), got {optimization_level!r}")
+        if hamming_weight not in ("auto", "never", "always"):
+            raise ValueError(f"hamming_weight must be 'auto', 'never' or 'always', got "
+                             f"{hamming_weight!r}")
+        if hamming_weight == "always" and mitigation is not None:
+            raise ValueError(f"hamming_weight='always' cannot be combined with mitigation="
+                             f"{mitigation!r} (M3 calibrates the transpiled circuit's physical "
+                             f"qubits on Aer); use hamming_weight='auto' or 'never'")
+        own_sampler = sampler is None
         seed = seed_int(seed)
         check_target(target)
         if transpiler is not None:
@@ -272,6 +285,11 @@ class SamplerEngine:
         self.ledger = ledger if ledger is not None else ShotLedger()
         self.default_shots = check_positive_int(default_shots, "default_shots")
         self.progress = bool(progress)
+        self.hamming_weight = hamming_weight
+        self._seed = seed
+        self._own_sampler = own_sampler
+        self._hamming_sampler = None  # built on first use (reads the target's noise)
+        self._hamming_why = None
         self._correction = None
         if mitigation is not None or postselect is not None:
             self._correction = ReadoutCorrection(
@@ -310,6 +328,44 @@ class SamplerEngine:
         if method is not None:
             check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
 
+    def _hamming(self) -> HammingWeightSampler | None:
+        """The engine's Hamming-weight sampler, or None where it would not be exact."""
+        if self.hamming_weight == "never":
+            return None
+        if self._hamming_sampler is None and self._hamming_why is None:
+            why = None
+            if self.hamming_weight == "auto" and not self._own_sampler:
+                why = "a sampler was given"
+            elif self.hamming_weight == "auto" and self.mitigation is not None:
+                why = "mitigation"
+            if why is None:
+                try:
+                    readout = readout_channel(self.target)
+                except ValueError:
+                    if self.hamming_weight == "always":
+                        raise
+                    readout, why = None, "gate noise"
+            if why is None:
+                # a stream, not an int: successive runs draw independent shots, and an engine
+                # built with the same seed repeats the whole sequence
+                seed = (None if self._seed is None else np.random.default_rng(
+                    np.random.SeedSequence([self._seed % 2**63, 0x4A5])))
+                self._hamming_sampler = HammingWeightSampler(seed=seed, readout_error=readout)
+            self._hamming_why = why
+        return self._hamming_sampler
+
+    def _hamming_template(self, circuit: QuantumCircuit, label: str):
+        """The template compiled for the Hamming-weight sampler, or None (go to Aer)."""
+        sampler = self._hamming()
+        if sampler is None:
+            return None
+        try:
+            return sampler.compile(circuit, label)
+        except ValueError:
+            if self.hamming_weight == "always":
+                raise
+            return None
+
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).
 
@@ -325,7 +381,7 @@ class SamplerEngine:
         failed job leaves it unchanged (readout calibrations excepted: they are spent).
         """
         jobs = check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob")
-        pubs, metas = [], []
+        pubs, metas, hw_pubs = [], [], []
         bar = self._bar(len(jobs), "transpile", "template")
         for job in jobs:
             label = job.label or job.circuit.name
@@ -335,6 +391,20 @@ class SamplerEngine:
                 raise ValueError(f"job {label!r} needs {job.circuit.num_qubits} qubits but "
                                  f"target {self.target.name!r} has {self.target.num_qubits}; "
                                  f"use a wider device or a smaller model")
+            shots = job.shots if job.shots is not None else self.default_shots
+            template = self._hamming_template(job.circuit, label)
+            if template is not None:
+                # exact in the weight-k subspace: no transpilation, no Aer
+                marker = None  # what the correction reads of a compiled circuit: its weight
+                if self._correction is not None:
+                    marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
+                    self._correction.check(job.circuit, marker, label)
+                hw_pubs.append(len(metas))
+                pubs.append((job.circuit, job.values, shots) if job.circuit.num_parameters
+                            else (job.circuit, None, shots * job.rows))
+                metas.append((job, shots, marker))
+                bar.update()
+                continue
             compiled = self._cache(job.circuit)
             if self._device is not None:
                 check_for_device(compiled, self._device, label)
@@ -342,7 +412,6 @@ class SamplerEngine:
             if self._correction is not None:
                 self._correction.check(job.circuit, compiled, label)
             cols = _columns_for(job.circuit, compiled)
-            shots = job.shots if job.shots is not None else self.default_shots
             if compiled.num_parameters:
                 pubs.append((compiled, job.values[:, cols], shots))
             else:
@@ -357,15 +426,36 @@ class SamplerEngine:
         rows = sum(job.rows for job, _, _ in metas)
         with self._bar(rows, "sample", "circuit") as bar:
             bar.set_postfix(shots=sum(job.rows * shots for job, shots, _ in metas), refresh=False)
-            raw = run_independent(self.sampler, pubs, lambda job: wait_for(job, bar))
+            hw = set(hw_pubs)
+            aer_idx = [i for i in range(len(pubs)) if i not in hw]
+            raw: list = [None] * len(pubs)
+            if hw_pubs:
+                hw_res = self._hamming_sampler.run([pubs[i] for i in hw_pubs]).result()
+                for i, res in zip(hw_pubs, hw_res, strict=True):
+                    raw[i] = res
+            if aer_idx:
+                aer_res = run_independent(self.sampler, [pubs[i] for i in aer_idx],
+                                          lambda job: wait_for(job, bar))
+                for i, res in zip(aer_idx, aer_res, strict=True):
+                    raw[i] = res
             bar.update(rows)
         results = []
-        for (job, shots, compiled), pub_result in zip(metas, raw, strict=True):
-            bits = bitarray_to_bits(pub_result.join_data(), job.rows, shots)
+        aer_name = type(self.sampler).__name__
+        for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
+            data = pub_result.data
+            packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()
+            bits = bitarray_to_bits(packed, job.rows, shots) if i not in hw else None
             weights = n_eff = lins = None
             if self._correction is not None:
-                weights, n_eff, lins = self._correction.weights(bits, compiled, self.ledger)
-            self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots)
-            results.append(JobResult(None, shots, job, bits=bits, weights=weights,
-                                     effective_shots=n_eff, readout=lins))
+                weights, n_eff, lins = self._correction.weights(
+                    bitarray_to_bits(packed, job.rows, shots) if bits is None else bits,
+                    compiled, self.ledger)
+            self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots,
+                               "hamming_weight" if i in hw else aer_name)
+            if i in hw:  # kept packed until read: device widths hold every job's shots
+                results.append(PackedJobResult(packed, job.rows, shots, job, weights=weights,
+                                               effective_shots=n_eff, readout=lins))
+            else:
+                results.append(JobResult(None, shots, job, bits=bits, weights=weights,
+                                         effective_shots=n_eff, readout=lins))
         return results

@@ -1,0 +1,295 @@
+"""Read a Hamming-weight-preserving template once: its input, its gates, its measurements.
+
+:func:`compile_template` walks a circuit's instructions (composite gates through their
+definitions) and returns a :class:`HammingTemplate`: the qubits that X gates set on
+``|0...0>`` (the weight-``k`` input), the list of weight-preserving gates with their angles as
+columns of the parameter array (:class:`Angle`), and the qubit each clbit measures. Anything
+else is refused with a ``ValueError`` naming the first offending instruction and the
+alternative (qiskit-aer's sampler).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
+from qiskit.quantum_info import Operator
+
+#: Gates with a vectorised block (angles evaluated for all rows at once).
+KNOWN_GATES = frozenset({"rbs", "fbs", "xx_plus_yy", "rz", "p", "u1", "rzz", "cp", "cu1",
+                         "crz", "z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap", "id"})
+_SKIPPED = frozenset({"barrier", "delay", "id"})
+_FLIPS = frozenset({"x", "y"})
+#: Widest gate judged by its matrix (``4 ** m`` entries).
+MATRIX_MAX_QUBITS = 8
+_TOL = 1e-10
+
+_ALTERNATIVE = ("sample it with qiskit-aer instead (SamplerEngine(hamming_weight='never') "
+                "or qiskit_aer.primitives.SamplerV2)")
+
+
+@dataclass(frozen=True)
+class Angle:
+    """One gate angle as a function of a parameter row.
+
+    ``kind`` is ``"const"`` (``offset``), ``"linear"`` (``coefficient * values[:, index] +
+    offset``) or ``"expr"`` (any other expression, bound row by row).
+    """
+
+    kind: str
+    offset: float = 0.0
+    index: int = -1
+    coefficient: float = 0.0
+    expr: object = None
+    indices: tuple = ()
+
+    def evaluate(self, values: np.ndarray) -> np.ndarray:
+        """Angles for parameter rows ``values`` of shape (B, P): shape (B,) (or (1,) if fixed)."""
+        if self.kind == "const":
+            return np.full(1, self.offset)
+        if self.kind == "linear":
+            return self.coefficient * values[:, self.index] + self.offset
+        params = list(self.expr.parameters)
+        out = np.empty(values.shape[0])
+        for r in range(values.shape[0]):  # only angles not linear in one parameter
+            bound = self.expr.bind({p: float(values[r, i]) for p, i in
+                                    zip(params, self.indices, strict=True)})
+            out[r] = float(bound)
+        return out
+
+
+@dataclass
+class GateOp:
+    """One weight-preserving gate: ``name``, circuit ``qubits`` (gate order), its angles, or a
+    fixed local matrix (``matrix``, little-endian on ``qubits``), or a parameterised gate
+    bound row by row (``operation``)."""
+
+    name: str
+    qubits: tuple
+    angles: tuple = ()
+    matrix: np.ndarray | None = None
+    operation: object = None
+    position: int = 0
+
+    @property
+    def real(self) -> bool:
+        """Whether the gate's block is real for every angle."""
+        if self.name in ("rbs", "fbs", "cz", "swap", "z", "id"):
+            return True
+        if self.matrix is not None:
+            return bool(np.all(np.abs(self.matrix.imag) < _TOL))
+        return False
+
+
+@dataclass
+class HammingTemplate:
+    """A compiled weight-preserving template.
+
+    Attributes
+    ----------
+    num_qubits : int
+        ``n``.
+    occupied : tuple of int
+        Qubits set to 1 by X gates on ``|0...0>``; ``weight = len(occupied)`` is ``k``.
+    gates : list of GateOp
+        In circuit order.
+    measured : list of int or None
+        Per clbit, the qubit it measures last (None: never measured, reads 0).
+    parameters : tuple
+        ``circuit.parameters`` (the columns of a parameter row).
+    """
+
+    num_qubits: int
+    occupied: tuple
+    gates: list
+    measured: list
+    parameters: tuple
+    name: str = ""
+    dimension: int = field(init=False)
+
+    def __post_init__(self):
+        self.dimension = math.comb(self.num_qubits, len(self.occupied))
+
+    @property
+    def weight(self) -> int:
+        """The Hamming weight ``k`` every outcome keeps."""
+        return len(self.occupied)
+
+    @property
+    def unary(self) -> bool:
+        """Weight 1 and only RBS / FBS gates with angles linear in one parameter: the unary
+        engine's circuits."""
+        return self.weight == 1 and all(
+            g.name in ("rbs", "fbs") and g.angles[0].kind != "expr" for g in self.gates)
+
+    @property
+    def real(self) -> bool:
+        """Whether every gate keeps real amplitudes real."""
+        return all(g.real for g in self.gates)
+
+
+def _angle(value, position: dict, inst_name: str) -> Angle:
+    if isinstance(value, Parameter):  # the common case: the angle is a parameter itself
+        return Angle("linear", offset=0.0, index=position[value], coefficient=1.0)
+    if not isinstance(value, ParameterExpression) or not value.parameters:
+        return Angle("const", offset=float(value))
+    if len(value.parameters) == 1:
+        (param,) = value.parameters
+        grad = value.gradient(param)
+        if not (isinstance(grad, ParameterExpression) and grad.parameters):
+            a = float(grad)
+            return Angle("linear", offset=float(value.bind({param: 0.0})),
+                         index=position[param], coefficient=a)
+    return Angle("expr", expr=value, indices=tuple(position[p] for p in value.parameters))
+
+
+def _matrix_preserves(mat: np.ndarray) -> bool:
+    w = np.array([bin(i).count("1") for i in range(mat.shape[0])])
+    return not np.any(np.abs(mat[w[:, None] != w[None, :]]) > _TOL)
+
+
+def _refuse(label: str, index: int, name: str, qubits, why: str):
+    raise ValueError(
+        f"HammingWeightSampler cannot sample {label!r}: instruction {index} {name!r} on qubits "
+        f"{list(qubits)} {why}; it samples X gates on |0...0> followed by Hamming-weight-"
+        f"preserving gates (RBS, FBS, XXPlusYY, phases, RZ, CZ, SWAP, any gate whose matrix "
+        f"commutes with the number operator) and final Z-basis measurements; {_ALTERNATIVE}")
+
+
+class _Walker:
+    def __init__(self, circuit: QuantumCircuit, label: str):
+        self.n = circuit.num_qubits
+        self.label = label
+        self.position = {p: i for i, p in enumerate(circuit.parameters)}
+        self.bits: list = [0] * self.n  # 0/1 while a basis state, None once acted on
+        self.gates: list[GateOp] = []
+        self.measured: list = [None] * circuit.num_clbits
+        self.done: set[int] = set()  # measured qubits: no gate may follow
+        self.top_index = 0
+        self.initial: set[int] = set()  # qubits at 1 when a gate first acted on them
+
+    def walk(self, circuit: QuantumCircuit, qmap: list[int], cmap: list[int] | None,
+             top: str | None = None) -> None:
+        for index, inst in enumerate(circuit.data):
+            if top is None:
+                self.top_index = index
+            op = inst.operation
+            name = op.name
+            qs = [qmap[circuit.find_bit(q).index] for q in inst.qubits]
+            shown = top or name
+            if name in _SKIPPED:
+                continue
+            if getattr(op, "condition", None) is not None or op.name in (
+                    "if_else", "while_loop", "for_loop", "switch_case", "box"):
+                _refuse(self.label, self.top_index, shown, qs, "is classically controlled")
+            if name == "measure":
+                if cmap is None:
+                    _refuse(self.label, self.top_index, shown, qs, "measures inside a gate")
+                self.measured[cmap[circuit.find_bit(inst.clbits[0]).index]] = qs[0]
+                self.done.add(qs[0])
+                continue
+            if self.done.intersection(qs):
+                _refuse(self.label, self.top_index, shown, qs,
+                        "acts after a measurement (mid-circuit measurements are not sampled)")
+            if name == "reset" and self.bits[qs[0]] == 0:
+                continue
+            if name in _FLIPS and self.bits[qs[0]] is not None:
+                self.bits[qs[0]] ^= 1
+                continue
+            if name in KNOWN_GATES:
+                self._known(inst, qs)
+                continue
+            if self._by_matrix(op, qs):
+                continue
+            if op.definition is not None and name not in ("x", "y", "reset"):
+                self.walk(op.definition, qs, None, shown)
+                continue
+            _refuse(self.label, self.top_index, shown, qs, "does not preserve Hamming weight"
+                    if name not in ("x", "y") else "flips a qubit that is no longer in |0> or "
+                    "|1> (X and Y only prepare the input on |0...0>)")
+
+    def _touch(self, qs) -> None:
+        for q in qs:
+            if self.bits[q] == 1:
+                self.initial.add(q)
+            self.bits[q] = None
+
+    def _known(self, inst, qs) -> None:
+        op = inst.operation
+        angles = tuple(_angle(v, self.position, op.name) for v in op.params)
+        if op.name in ("z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap"):
+            self._fixed(op, qs)
+            return
+        if op.name == "fbs":
+            self._touch(qs)
+            self.gates.append(GateOp("fbs", tuple(qs), angles, position=self.top_index))
+            return
+        self._touch(qs)
+        self.gates.append(GateOp(op.name, tuple(qs), angles, position=self.top_index))
+
+    def _fixed(self, op, qs) -> None:
+        mat = Operator(op).data
+        self._touch(qs)
+        self.gates.append(GateOp(op.name, tuple(qs), matrix=mat, position=self.top_index))
+
+    def _by_matrix(self, op, qs) -> bool:
+        """A gate outside the known list judged by its matrix (fixed or bound at random)."""
+        m = len(qs)
+        if m > MATRIX_MAX_QUBITS or m == 0:
+            return False
+        free = [p for p in op.params if isinstance(p, ParameterExpression) and p.parameters]
+        try:
+            if not free:
+                mat = Operator(op).data
+            else:
+                qc = QuantumCircuit(m)
+                qc.append(op, range(m))
+                rng = np.random.default_rng(12345)
+                mats = [Operator(qc.assign_parameters(dict(zip(
+                    qc.parameters, rng.uniform(-3, 3, qc.num_parameters).tolist(),
+                    strict=True)))).data for _ in range(2)]
+                if not all(_matrix_preserves(x) for x in mats):
+                    return False
+                self._touch(qs)
+                self.gates.append(GateOp(op.name, tuple(qs), operation=(qc, [
+                    self.position[p] for p in qc.parameters]), position=self.top_index))
+                return True
+        except Exception:  # no matrix (opaque gate): judged through its definition, if any
+            return False
+        if not _matrix_preserves(mat):
+            return False
+        self._touch(qs)
+        self.gates.append(GateOp(op.name, tuple(qs), matrix=mat, position=self.top_index))
+        return True
+
+
+def compile_template(circuit: QuantumCircuit, label: str | None = None) -> HammingTemplate:
+    """Compile ``circuit`` for the Hamming-weight sampler (gate list, angles, measurements).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        X (or Y) gates on qubits still in ``|0>`` or ``|1>`` prepare the input; every other gate
+        must commute with the number operator on its qubits; measurements are final.
+    label : str, optional
+        Names the circuit in error messages (default ``circuit.name``).
+
+    Returns
+    -------
+    HammingTemplate
+
+    Raises
+    ------
+    ValueError
+        Naming the first instruction outside that scope and the alternative (Aer).
+    """
+    if not isinstance(circuit, QuantumCircuit):
+        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
+    w = _Walker(circuit, label or circuit.name)
+    w.walk(circuit, list(range(circuit.num_qubits)), list(range(circuit.num_clbits)))
+    occupied = tuple(q for q in range(circuit.num_qubits)
+                     if w.bits[q] == 1 or (w.bits[q] is None and q in w.initial))
+    return HammingTemplate(circuit.num_qubits, occupied, w.gates, w.measured,
+                           tuple(circuit.parameters), label or circuit.name)

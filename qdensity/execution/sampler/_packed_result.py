@@ -1,0 +1,78 @@
+"""A sampled job's result that keeps its shots packed (8 clbits a byte, as qiskit's
+``BitArray``) and unpacks ``bits`` when read.
+
+A density gradient at device widths holds every job's shots until its post-processing reads
+them, one sub-unitary at a time: at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
+unpacked booleans would take 2.1 GB, the packed bytes 0.26 GB. The unpacked array is kept
+only while a caller holds it (a weak reference), so reading ``bits`` twice in a row costs one
+unpacking and nothing stays allocated after the caller lets go. :func:`bitarray_to_bits`
+(exported by :mod:`qdensity.execution.sampler.engine`) unpacks any ``BitArray``.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from qdensity.execution.job_results import JobResult
+
+
+def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
+
+    Parameters
+    ----------
+    bitarray : qiskit.primitives.BitArray
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
+    rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (rows, shots, num_bits)
+        Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
+    """
+    shots = bitarray.num_shots if shots is None else int(shots)
+    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
+    # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
+    bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
+    return bits[..., : bitarray.num_bits].astype(bool)
+
+
+class PackedJobResult(JobResult):
+    """:class:`~qdensity.execution.job_results.JobResult` whose ``bits`` are unpacked on read.
+
+    Parameters
+    ----------
+    packed : qiskit.primitives.BitArray
+        ``rows * shots`` samples (shape ``(rows,)`` or ``()``, see :func:`bitarray_to_bits`).
+    rows, shots : int
+    job : CircuitJob
+    """
+
+    def __init__(self, packed, rows: int, shots: int, job=None, **kwargs):
+        self._packed = (packed, int(rows), int(shots))
+        self._unpacked = None
+        super().__init__(None, shots, job, bits=packed, **kwargs)
+
+    @property
+    def bits(self) -> np.ndarray:
+        """numpy.ndarray of bool, shape (rows, shots, num_clbits), unpacked on read."""
+        held = self._unpacked() if self._unpacked is not None else None
+        if held is None:
+            held = bitarray_to_bits(*self._packed)
+            self._unpacked = weakref.ref(held)
+        return held
+
+    @bits.setter
+    def bits(self, value) -> None:  # JobResult.__init__ stores the packed form
+        if value is not self._packed[0]:
+            raise AttributeError("a PackedJobResult's bits are read from its packed shots")
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_unpacked"] = None
+        return state

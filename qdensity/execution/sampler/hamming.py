@@ -1,0 +1,338 @@
+"""An exact sampler for Hamming-weight-preserving circuits, in the subspace's own dimension.
+
+A circuit that starts from ``|0...0>``, sets ``k`` qubits with X gates and then applies only
+gates that commute with the number operator (RBS, FBS, ``XXPlusYY``, phases, RZ, CZ, SWAP, ...)
+keeps its state in the Hamming-weight-``k`` subspace, of dimension ``C(n, k)``: ``n`` for the
+paper's unary circuits (Methods, "Hamming weight preserving QNNs"; Supp. D eq. 8), ``C(n, 2)``
+for the matrix loader's two registers. :class:`HammingWeightSampler` computes that state
+exactly for every parameter row, draws each row's shots from its probabilities (one
+multinomial per row) and applies readout errors to the drawn bits as the classical channel
+they are; it never allocates ``2**n`` amplitudes. Weight-1 circuits of RBS / FBS gates run on
+the unary engine (:mod:`qdensity.execution.unary`, compiled Givens layers); any other
+weight-preserving template is compiled once into index tables of its subspace
+(:mod:`._hamming_subspace`) and its gates are applied to all rows at once.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+from qiskit.circuit import QuantumCircuit
+from qiskit.primitives import (
+    BasePrimitiveJob,
+    BaseSamplerV2,
+    BitArray,
+    DataBin,
+    PrimitiveResult,
+    SamplerPubResult,
+)
+from qiskit.primitives.containers.sampler_pub import SamplerPub
+from qiskit.providers import JobStatus
+
+from qdensity.execution.sampler._hamming_bits import (
+    clbits_of_qubits,
+    flip_readout,
+    pack_outcomes,
+)
+from qdensity.execution.sampler._hamming_compile import HammingTemplate, compile_template
+from qdensity.execution.sampler._hamming_readout import ReadoutChannel, readout_channel
+from qdensity.execution.sampler._hamming_subspace import SubspaceProgram
+from qdensity.validation import SeedLike, check_positive_int
+
+__all__ = ["HammingWeightSampler", "MAX_DIMENSION"]
+
+#: Largest subspace (amplitudes per row) the sampler computes: ``2**26`` (1 GiB complex).
+MAX_DIMENSION = 2**26
+#: Compiled templates kept (oldest dropped first).
+_CACHE_TEMPLATES = 4096
+#: Amplitudes (rows x dimension) computed at once; rows go in chunks of this size.
+_CHUNK_AMPLITUDES = 2**23
+
+
+class _DoneJob(BasePrimitiveJob):
+    """A job whose result was computed when it was submitted."""
+
+    def __init__(self, result: PrimitiveResult):
+        super().__init__(job_id=f"hamming-{id(result):x}")
+        self._result = result
+
+    def result(self) -> PrimitiveResult:
+        return self._result
+
+    def status(self) -> JobStatus:
+        return JobStatus.DONE
+
+    def done(self) -> bool:
+        return True
+
+    def running(self) -> bool:
+        return False
+
+    def cancelled(self) -> bool:
+        return False
+
+    def in_final_state(self) -> bool:
+        return True
+
+    def cancel(self) -> None:
+        return None
+
+
+class _Compiled:
+    """A template's program: the unary engine's circuit (weight 1, RBS / FBS) or the subspace's
+    index tables."""
+
+    def __init__(self, template: HammingTemplate):
+        self.template = template
+        self.unary = None
+        self.program = None
+        if template.unary:
+            from qdensity.execution.unary import UnaryCircuit
+
+            gates = template.gates
+            self.unary = UnaryCircuit.from_gates(
+                template.num_qubits,
+                [(g.qubits[0], g.qubits[-1]) for g in gates] or np.zeros((0, 2), dtype=int),
+                [g.angles[0].index if g.angles[0].kind == "linear" else -1 for g in gates],
+                [g.angles[0].coefficient for g in gates],
+                [g.angles[0].offset for g in gates],
+                num_parameters=len(template.parameters),
+            )
+        else:
+            self.program = SubspaceProgram(template)
+
+    def probabilities(self, values: np.ndarray) -> np.ndarray:
+        """(B, D) outcome probabilities for rows (B, P)."""
+        if self.unary is not None:
+            from qdensity.execution.unary import forward
+
+            x = np.zeros(self.template.num_qubits)
+            x[self.template.occupied[0]] = 1.0
+            if self.unary.num_gates == 0:
+                return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
+            amp = forward(self.unary, np.broadcast_to(x, (values.shape[0], x.size)), values)
+            return amp**2
+        return self.program.probabilities(values)
+
+    def outcome_qubits(self) -> np.ndarray:
+        """(D, k) the qubits set in each outcome."""
+        if self.unary is not None:
+            return np.arange(self.template.num_qubits)[:, None]
+        return self.program.space.states
+
+
+def _rng_for(seed, index: int) -> np.random.Generator:
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(np.random.SeedSequence([int(seed) % 2**63, 0x4A3, index]))
+
+
+class HammingWeightSampler(BaseSamplerV2):
+    """A qiskit ``BaseSamplerV2`` for Hamming-weight-preserving circuits, exact in ``C(n, k)``.
+
+    Each PUB's circuit must start from ``|0...0>``, set ``k`` qubits with X gates, apply only
+    gates that commute with the number operator on their qubits (RBS, FBS, ``XXPlusYY``, P,
+    RZ, RZZ, CZ, CP, CRZ, SWAP, iSWAP, S, T, Z, and any other gate judged by its matrix;
+    composite gates such as loaders are followed through their definitions) and measure in the
+    Z basis at the end. The state after the gates lies in the weight-``k`` subspace
+    (dimension ``D = C(n, k)``); the sampler computes it exactly for every parameter row, draws
+    each row's shots from its ``D`` probabilities with one multinomial draw (then shuffles them
+    into shot order), and flips the drawn bits with the readout channel. Results have
+    qiskit-aer ``SamplerV2``'s shapes: one ``BitArray`` per classical register, of the PUB's
+    parameter-array shape, ``num_shots`` shots each.
+
+    Parameters
+    ----------
+    default_shots : int
+        Shots of a PUB that does not say.
+    seed : int, numpy.random.Generator or None
+        An integer gives every ``run`` the same numbers (PUB ``i`` draws from a stream derived
+        from ``(seed, i)``); a Generator is drawn from in turn; None: fresh entropy per run.
+    readout_error : None, float, array_like, NoiseModel, HardwareTarget, BackendV2 or Target
+        Readout errors applied to the drawn bits: a probability ``p(1|0) = p(0|1)`` for every
+        qubit; a pair ``(p(1|0), p(0|1))`` for every qubit; an array of shape
+        ``(num_qubits, 2)`` with one pair per qubit; a qiskit-aer ``NoiseModel`` holding only
+        readout errors; a ``HardwareTarget`` (its noise model), a ``BackendV2`` or a
+        ``Target`` (the ``measure`` instruction's calibrated error, symmetric, as qiskit-aer
+        reads it). Gate noise is refused with a ``ValueError`` naming the instruction.
+    max_dimension : int
+        Largest subspace (amplitudes per row) accepted; a PUB beyond it is refused before
+        anything is allocated (default :data:`MAX_DIMENSION`).
+
+    Notes
+    -----
+    Circuits act on their own qubit indices: readout errors are those of the circuit's qubits
+    (for a device, of the physical qubits with the same index).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.gates import RBSGate
+    >>> qc = QuantumCircuit(3)
+    >>> _ = qc.x(0)
+    >>> _ = qc.append(RBSGate(0.4), [0, 1])
+    >>> _ = qc.measure_all()
+    >>> result = HammingWeightSampler(seed=1).run([qc], shots=100).result()
+    >>> result[0].data.meas.num_shots, result[0].data.meas.shape
+    (100, ())
+    """
+
+    def __init__(self, *, default_shots: int = 1024, seed: SeedLike = None,
+                 readout_error=None, max_dimension: int = MAX_DIMENSION):
+        self._default_shots = check_positive_int(default_shots, "default_shots")
+        if seed is not None and not isinstance(seed, np.random.Generator):
+            if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+                raise TypeError(f"seed must be an int, a numpy Generator or None, got {seed!r}")
+            if seed < 0:
+                raise ValueError(f"seed must be >= 0, got {seed}")
+            seed = int(seed)
+        self._seed = seed
+        self._readout: ReadoutChannel | None = readout_channel(readout_error)
+        self.max_dimension = check_positive_int(max_dimension, "max_dimension")
+        self._compiled: dict[int, tuple[QuantumCircuit, _Compiled]] = {}
+
+    @property
+    def default_shots(self) -> int:
+        """Shots of a PUB that does not say."""
+        return self._default_shots
+
+    @property
+    def seed(self):
+        """The seed given (int, Generator or None)."""
+        return self._seed
+
+    @property
+    def readout(self) -> ReadoutChannel | None:
+        """The readout channel applied to the drawn bits (None: none)."""
+        return self._readout
+
+    def compile(self, circuit: QuantumCircuit, label: str | None = None) -> HammingTemplate:
+        """Check and compile ``circuit`` (kept for later runs of the same object).
+
+        Raises
+        ------
+        ValueError
+            A gate outside the sampler's scope (named, with the alternative), or a subspace
+            larger than ``max_dimension``.
+        """
+        return self._compile(circuit, label).template
+
+    def _compile(self, circuit: QuantumCircuit, label: str | None = None) -> _Compiled:
+        hit = self._compiled.get(id(circuit))
+        if hit is not None and hit[0] is circuit:
+            return hit[1]
+        template = compile_template(circuit, label)
+        n, k = template.num_qubits, template.weight
+        dim = math.comb(n, k)
+        if dim > self.max_dimension:
+            raise ValueError(
+                f"HammingWeightSampler cannot sample {template.name!r}: its weight-{k} subspace "
+                f"of {n} qubits has C({n}, {k}) = {dim} states, more than max_dimension = "
+                f"{self.max_dimension}; use fewer qubits or a smaller Hamming weight")
+        compiled = _Compiled(template)
+        if len(self._compiled) >= _CACHE_TEMPLATES:  # bounded: plans rebuilt per step
+            self._compiled.pop(next(iter(self._compiled)))
+        self._compiled[id(circuit)] = (circuit, compiled)
+        return compiled
+
+    def run(self, pubs: Iterable, *, shots: int | None = None) -> BasePrimitiveJob:
+        """Sample PUBs ``(circuit, parameter_values, shots)``; see the class.
+
+        Raises
+        ------
+        ValueError
+            Shots not a positive int, a parameter array of the wrong shape (naming the PUB), a
+            circuit outside the sampler's scope or a subspace beyond ``max_dimension``:
+            all before anything is computed.
+        TypeError
+            Shots not an int.
+        """
+        if shots is None:
+            shots = self._default_shots
+        else:
+            shots = check_positive_int(shots, "shots")
+        if isinstance(pubs, (QuantumCircuit, SamplerPub)):
+            pubs = [pubs]
+        coerced = []
+        for i, pub in enumerate(pubs):
+            if isinstance(pub, tuple) and len(pub) == 3 and pub[2] is not None:
+                check_positive_int(pub[2], f"shots of pub {i}")
+            try:
+                coerced.append(SamplerPub.coerce(pub, shots))
+            except (ValueError, TypeError) as exc:
+                raise type(exc)(f"pub {i}: {exc}") from exc
+        compiled = []
+        for i, pub in enumerate(coerced):
+            try:
+                compiled.append(self._compile(pub.circuit))
+            except ValueError as exc:
+                raise ValueError(f"pub {i}: {exc}") from exc
+            p = len(pub.circuit.parameters)
+            held = pub.parameter_values.num_parameters
+            if held != p:
+                raise ValueError(f"pub {i}: parameter values hold {held} parameters per row, "
+                                 f"the circuit has {p}")
+        seed = self._seed
+        if seed is None:
+            seed = np.random.default_rng()
+        results = [self._run_pub(pub, comp, _rng_for(seed, i))
+                   for i, (pub, comp) in enumerate(zip(coerced, compiled, strict=True))]
+        return _DoneJob(PrimitiveResult(results, metadata={"version": 2}))
+
+    def _run_pub(self, pub: SamplerPub, comp: _Compiled, rng: np.random.Generator
+                 ) -> SamplerPubResult:
+        circuit, shots, shape = pub.circuit, pub.shots, pub.parameter_values.shape
+        rows = int(np.prod(shape, dtype=int))
+        p = len(circuit.parameters)
+        values = (pub.parameter_values.as_array(circuit.parameters).reshape(rows, p)
+                  if p else np.zeros((rows, 0)))
+        template = comp.template
+        nclbits = circuit.num_clbits
+        nbytes = (nclbits + 7) // 8
+        packed = np.zeros((rows * shots, nbytes), dtype=np.uint8)
+        cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
+                        dtype=np.int64)
+        if cols.size:
+            outcome_qubits = comp.outcome_qubits()  # (D, k)
+            dim = outcome_qubits.shape[0]
+            table = clbits_of_qubits(template.measured, template.num_qubits)
+            if self._readout is not None:
+                p01, p10 = self._readout.for_qubits(
+                    np.array([template.measured[c] for c in cols], dtype=np.int64))
+            step = max(1, _CHUNK_AMPLITUDES // max(dim, shots * nbytes))
+            for start in range(0, rows, step):
+                probs = comp.probabilities(values[start:start + step])
+                probs = np.clip(probs, 0.0, None)
+                probs /= probs.sum(axis=1, keepdims=True)
+                counts = rng.multinomial(shots, probs)  # one multinomial per row
+                draws = np.repeat(np.tile(np.arange(dim), counts.shape[0]), counts.ravel())
+                draws = rng.permuted(draws.reshape(counts.shape[0], shots), axis=1)
+                chunk = pack_outcomes(outcome_qubits, draws.ravel(), table, nclbits)
+                if self._readout is not None:
+                    flip_readout(chunk, cols, p01, p10, rng)
+                packed[start * shots:start * shots + chunk.shape[0]] = chunk
+        data = {}
+        whole = [circuit.find_bit(b).index for b in circuit.cregs[0]] if len(
+            circuit.cregs) == 1 else None
+        if whole == list(range(nclbits)):  # one register of every clbit, in order
+            arr = packed[:, ::-1].reshape(shape + (shots, nbytes))
+            data[circuit.cregs[0].name] = BitArray(np.ascontiguousarray(arr), nclbits)
+        else:
+            bits = np.unpackbits(packed, axis=-1, bitorder="little")[:, :nclbits].astype(bool)
+            for creg in circuit.cregs:
+                idx = [circuit.find_bit(b).index for b in creg]
+                arr = bits[:, idx].reshape(shape + (shots, len(idx)))
+                # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
+                out = np.packbits(arr, axis=-1, bitorder="little")[..., ::-1]
+                data[creg.name] = BitArray(np.ascontiguousarray(out), len(idx))
+        meta = {"shots": shots, "circuit_metadata": circuit.metadata,
+                "simulator_metadata": {"sampler": "hamming_weight",
+                                       "hamming_weight": template.weight,
+                                       "dimension": math.comb(template.num_qubits,
+                                                              template.weight),
+                                       "engine": "unary" if comp.unary is not None
+                                       else "subspace",
+                                       "readout_error": self._readout is not None}}
+        return SamplerPubResult(DataBin(**data, shape=shape), metadata=meta)
