@@ -123,16 +123,15 @@ def _cmd_merge(args) -> int:
 QUICK = "quick run: not judged"
 
 
-def _judged(rows: list[dict]) -> list[dict]:
-    """Verdict rows with every quick run's verdict replaced by :data:`QUICK` (a quick run's
-    few seeds and small settings are not the paper's protocol)."""
-    out = []
-    for row in rows:
-        if row.get("mode") == "quick":
-            row = {**row, "verdict": QUICK}
-            row.pop("seeds_needed", None)
-        out.append(row)
-    return out
+def _judged(paths: list[Path], rows: list[dict]) -> list[dict]:
+    """The rule's verdict rows, plus one row saying :data:`QUICK` for each quick run (the rule
+    judges none: a quick run's few seeds and small settings are not the paper's protocol)."""
+    from qdensity.experiments.results import ExperimentResult
+
+    judged = {r["file"] for r in rows}
+    quick = [{"file": p.name, "mode": "quick", "verdict": QUICK} for p in paths
+             if p.name not in judged and ExperimentResult.load(p).mode == "quick"]
+    return [r for r in rows if r.get("mode") != "quick"] + quick
 
 
 def _print_report(paths: list[Path], rows: list[dict]) -> None:
@@ -144,9 +143,11 @@ def _print_report(paths: list[Path], rows: list[dict]) -> None:
         mode = mine[0]["mode"] if mine else ExperimentResult.load(path).mode
         print(f"{path.name} ({mode})")
         if not mine:
-            print(f"  {QUICK}" if mode == "quick" else
-                  "  no claim of the paper to judge in this file")
+            print("  no claim of the paper to judge in this file")
         for row in mine:
+            if row["verdict"] == QUICK:
+                print(f"  {QUICK}")
+                continue
             ci = (f"{row['mean']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}], {row['n']} "
                   "seeds" if "mean" in row else "")
             print(textwrap.fill(f"{row['verdict']}: {row['claim']}", WIDTH, initial_indent="  ",
@@ -168,7 +169,7 @@ def _cmd_report(args) -> int:
                          "NAME-MODE.json, that qdensity experiment --out writes)")
     paths = sorted(directory.glob("*.json"))
     if not (args.write or args.check):
-        rows = _judged(evaluate(paths))
+        rows = _judged(paths, evaluate(paths))
         if _json(args):
             print(json.dumps(rows, indent=2))
         elif not paths:
