@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from qiskit.quantum_info import SparsePauliOp
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.execution.intervals import binomial_standard_error, shot_mean
 from qdensity.execution.plans import (
@@ -35,8 +35,13 @@ from qdensity.execution.plans import (
     probabilities_plan,
     unary_frequencies,
 )
+from qdensity.gradients import _analysis
+from qdensity.gradients._circuits import _GradientCircuits
+from qdensity.gradients._direct import _direct_gradient
+from qdensity.gradients._outputs import rbs_output_tables
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
+    _one_block,
     commuting_block_gradient,
     commuting_gradient,
     commuting_gradient_count,
@@ -142,56 +147,74 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     return plan
 
 
+def _readout_key(model) -> tuple:
+    """The readout, hashable: what an analysis depends on besides the circuit."""
+    if model.readout == "observable":
+        obs = model.observable
+        return ("observable", tuple(obs.paulis.to_labels()), obs.coeffs.tobytes())
+    return (model.readout, model.num_qubits)
+
+
 def _commuting_analysis(model, circ, params, k):
     """Gradient observables and diagonalising circuits of sub-unitary ``k``.
 
-    They depend only on the circuits and the readout, not on data or angles, so they are
-    derived once per model and kept (failures too, so ``method="auto"`` decides once).
+    They depend only on the circuit, the parameters and the readout, not on data or angles,
+    so they are derived once per structure and kept (failures too, so ``method="auto"``
+    decides once): see :mod:`qdensity.gradients._analysis`.
     """
-    cache = model.__dict__.setdefault("_commuting_cache", {})
-    if k not in cache:
+    key = _analysis.structure_key("commuting", circ, params, _readout_key(model))
+    return _analysis.cached(key, partial(_analyse, model, circ, params))
+
+
+def _unary_terms(n: int) -> tuple[PauliList, np.ndarray]:
+    """``Z_0 .. Z_{n-1}`` and the weights ``-1/2`` of ``p_j = 1/2 - Z_j / 2`` on them (the
+    terms of :func:`_readout_observables` for unary probabilities)."""
+    return (PauliList.from_symplectic(np.eye(n, dtype=bool), np.zeros((n, n), dtype=bool)),
+            -0.5 * np.eye(n))
+
+
+def _analyse(model, circ, params):
+    if model.readout == "observable":
         try:
-            observables = _readout_observables(model)
-            if len(observables) == 1:
-                try:
-                    grads = [commuting_gradient(circ, observables[0], params)]
-                except ValueError as one_block:
-                    try:  # several commuting blocks: observable shifts (Cor. 2)
-                        grads = [commuting_block_gradient(circ, observables[0], None, params)]
-                    except ValueError:
-                        raise one_block from None
-                shared = grads[0]
-            else:
-                total = SparsePauliOp.from_sparse_list(
-                    [("Z", [j], 1.0) for j in range(model.num_qubits)], model.num_qubits)
-                shared = commuting_gradient(circ, total, params)
-                grads = [commuting_gradient(circ, obs, params) for obs in observables]
-                same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
-                              and all(g.diagonaliser == "rbs" and len(g.circuits) == 1
-                                      for g in grads))
-                if not same_layer:
-                    raise ValueError("unary readout outputs need different diagonalising "
-                                     "circuits")
-            cache[k] = (shared, grads)
-        except ValueError as exc:
-            cache[k] = exc
-    if isinstance(cache[k], ValueError):
-        raise cache[k]
-    return cache[k]
+            grads = [commuting_gradient(circ, model.observable, params)]
+        except ValueError as one_block:
+            try:  # several commuting blocks: observable shifts (Cor. 2)
+                grads = [commuting_block_gradient(circ, model.observable, None, params)]
+            except ValueError:
+                raise one_block from None
+        return grads[0], grads
+    n = model.num_qubits
+    total = SparsePauliOp.from_sparse_list([("Z", [j], 1.0) for j in range(n)], n)
+    checked, obs, trainables = _one_block(circ, total, params, "auto")
+    shared = _direct_gradient(circ, trainables, obs, checked, "auto")
+    if shared.diagonaliser == "rbs" and len(shared.circuits) == 1:
+        # one RBS(pi/4) layer: every output's table from one pass over the block's strings
+        terms, weights = _analysis.cached(("unary terms", n), partial(_unary_terms, n))
+        tables = rbs_output_tables(trainables, terms, weights, checked)
+        if tables is not None:
+            return shared, [_GradientCircuits(shared.circuits, list(checked), [t])
+                            for t in tables]
+    grads = [commuting_gradient(circ, o, params) for o in _readout_observables(model)]
+    same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
+                  and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
+    if not same_layer:
+        raise ValueError("unary readout outputs need different diagonalising circuits")
+    return shared, grads
 
 
 def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
     """``method="auto"``: one-block circuits always; block circuits when they are no more than
-    the parameter-shift circuits per data point (decided once per model and sub-unitary)."""
+    the parameter-shift circuits per data point (decided once per structure)."""
     if not isinstance(gradient, CommutingBlockGradient):
         return True
-    cache = model.__dict__.setdefault("_commuting_cache", {})
-    key = ("auto", k)
-    if key not in cache:
+    key = _analysis.structure_key("auto", circ, params, _readout_key(model))
+
+    def decide() -> bool:
         row = np.zeros((1, circ.num_parameters))
         shift = parameter_shift_plan(circ, model.observable, row, parameters=params)
-        cache[key] = gradient.num_gradient_circuits <= shift.num_circuits
-    return cache[key]
+        return gradient.num_gradient_circuits <= shift.num_circuits
+
+    return _analysis.cached(key, decide)
 
 
 def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
@@ -283,7 +306,8 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
 
 def _commuting_count(model, circ, params, k, method) -> int | None:
     """Commuting circuits of sub-unitary ``k``, or None where the plan would take shifts."""
-    if model.readout == "observable" and k not in model.__dict__.get("_commuting_cache", {}):
+    if model.readout == "observable" and not _analysis.known(
+            _analysis.structure_key("commuting", circ, params, _readout_key(model))):
         try:
             return commuting_gradient_count(circ, model.observable, params)
         except ValueError:

@@ -83,11 +83,8 @@ def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCi
     return measured(out, inplace=True)
 
 
-def _rbs_layer_for(
-    trainables: Sequence[_Trainable], observables: dict[Parameter, SparsePauliOp], n: int
-) -> tuple[QuantumCircuit, dict[Parameter, SparsePauliOp]] | None:
-    """The RBS(pi/4) layer of Supp. F.3 when every trainable gate is an RBS, the pairs are
-    disjoint and the layer diagonalises every gradient observable; else None."""
+def _rbs_pairs(trainables: Sequence[_Trainable]) -> list[tuple[int, int]] | None:
+    """The qubit pairs of a block of RBS gates on disjoint pairs (in gate order), else None."""
     if not trainables or any(t.name != "rbs" for t in trainables):
         return None
     stack = _terms_of(trainables)  # each gate's support: OR of its terms' bits, at once
@@ -97,6 +94,17 @@ def _rbs_layer_for(
     pairs = list(dict.fromkeys(map(tuple, np.nonzero(support)[1].reshape(-1, 2).tolist())))
     used = [q for p in pairs for q in p]
     if len(used) != len(set(used)):
+        return None
+    return pairs
+
+
+def _rbs_layer_for(
+    trainables: Sequence[_Trainable], observables: dict[Parameter, SparsePauliOp], n: int
+) -> tuple[QuantumCircuit, dict[Parameter, SparsePauliOp]] | None:
+    """The RBS(pi/4) layer of Supp. F.3 when every trainable gate is an RBS, the pairs are
+    disjoint and the layer diagonalises every gradient observable; else None."""
+    pairs = _rbs_pairs(trainables)
+    if pairs is None:
         return None
     layer = rbs_diagonalising_layer(n, pairs)
     umat = rbs_matrix(np.pi / 4)
