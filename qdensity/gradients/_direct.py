@@ -101,16 +101,19 @@ def _gradient_terms(
     products from one element-wise ``PauliList.dot``; only non-zero shares are built.
     """
     n = observable.num_qubits
-    zero = SparsePauliOp(["I" * n], [0.0])
-    terms = [(label, h.real) for label, h in observable.to_list()
-             if set(label) != {"I"} and abs(h) > _ATOL]
+    zero = SparsePauliOp(PauliList.from_symplectic(np.zeros((1, n), bool),
+                                                   np.zeros((1, n), bool)), [0.0])
+    pl = observable.paulis
+    h_all = observable.coeffs * (-1j) ** pl.phase  # to_list()'s coefficients
+    sel = np.flatnonzero((pl.x.any(axis=1) | pl.z.any(axis=1)) & (np.abs(h_all) > _ATOL))
+    labels = PauliList.from_symplectic(pl.z[sel], pl.x[sel]).to_labels()
+    terms = list(zip(labels, h_all[sel].real, strict=True))
     if not terms or not trainables:
-        return {p: zero for p in params}, [label for label, _ in terms], lambda: (
-            PauliList(["I" * n]), [(label, {p: zero for p in params}, []) for label, _ in terms])
-    ux, uz, csum, u_term, u_par, origin = _gradient_strings(
-        trainables, PauliList([label for label, _ in terms]), np.array([h for _, h in terms]),
-        params)
-    owner_of = origin  # per unique string: the generator term it first came from (its gate)
+        return {p: zero for p in params}, labels, lambda: (
+            PauliList.from_symplectic(np.zeros((1, n), bool), np.zeros((1, n), bool)),
+            [(label, {p: zero for p in params}, []) for label in labels])
+    ux, uz, csum, u_term, u_par, owner_of = _gradient_strings(
+        trainables, PauliList.from_symplectic(pl.z[sel], pl.x[sel]), h_all[sel].real, params)
 
     def op(sel) -> SparsePauliOp:
         return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])

@@ -120,7 +120,11 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     """
     _check_method(model, method)
     circ, params = _circuit_of(model, k)
-    rows = model.rows(k, X)
+    return _jacobian_plan(model, k, circ, params, model.rows(k, X), method, shots)
+
+
+def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots) -> Plan:
+    """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made."""
     if method in ("auto", "commuting"):
         try:
             plan = _commuting_plan(model, circ, params, rows, shots, k)
@@ -184,12 +188,12 @@ def _analyse(model, circ, params):
                 raise one_block from None
         return grads[0], grads
     n = model.num_qubits
-    total = SparsePauliOp.from_sparse_list([("Z", [j], 1.0) for j in range(n)], n)
+    terms, weights = _unary_terms(n)
+    total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
     checked, obs, trainables = _one_block(circ, total, params, "auto")
     shared = _direct_gradient(circ, trainables, obs, checked, "auto")
     if shared.diagonaliser == "rbs" and len(shared.circuits) == 1:
         # one RBS(pi/4) layer: every output's table from one pass over the block's strings
-        terms, weights = _analysis.cached(("unary terms", n), partial(_unary_terms, n))
         tables = rbs_output_tables(trainables, terms, weights, checked)
         if tables is not None:
             return shared, [_GradientCircuits(shared.circuits, list(checked), [t])
@@ -226,11 +230,14 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
                 f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
-def _forward_plan(model, k: int, X, shots) -> Plan:
+def _forward_plan(model, k: int, X, shots, circuit=None, rows=None) -> Plan:
+    """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
+    when already made)."""
     if model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
         return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
-    inner = probabilities_plan(model.circuit(k), model.rows(k, X), shots=shots,
+    inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
+                               model.rows(k, X) if rows is None else rows, shots=shots,
                                label=f"forward_k{k}")
     post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
@@ -257,12 +264,19 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         ``plan.meta["gradient_circuits"]`` is the number of gradient circuits per data point
         (forward excluded), summed over sub-unitaries.
     """
+    _check_method(model, method)
     K = model.num_subunitaries
-    jac_plans = [subunitary_jacobian_plan(model, k, X, method=method, shots=shots)
-                 for k in range(K)]
-    fwd_plans = [_forward_plan(model, k, X, shots) for k in range(K)] if forward else []
+    jac_plans, fwd_plans = [], []
+    for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
+        circ, params = _circuit_of(model, k)
+        rows = model.rows(k, X)
+        if k == 0:
+            B = rows.shape[0]
+        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))
+        if forward:
+            same = model.encoding is not None  # then circ is model.circuit(k)
+            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
-    B = model.rows(0, X).shape[0]
 
     post = partial(_density_post, combined, K, B)
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
