@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 from qdensity.execution._compile import circuit_fingerprint
 
-__all__ = ["cached", "structure_key", "known", "MAX_ENTRIES"]
+__all__ = ["cached", "structure_key", "MAX_ENTRIES"]
 
 #: Analyses kept (least recently used dropped first): a model of 255 sub-unitaries fits.
 MAX_ENTRIES = 1024
@@ -26,11 +26,6 @@ _CACHE: OrderedDict = OrderedDict()
 def structure_key(kind: str, circuit, params, readout: tuple) -> tuple:
     """What an analysis of ``circuit`` w.r.t. ``params`` under ``readout`` depends on."""
     return (kind, circuit_fingerprint(circuit), tuple(params), readout)
-
-
-def known(key: tuple) -> bool:
-    """True when ``key`` was analysed (successfully or not)."""
-    return key in _CACHE
 
 
 def cached(key: tuple, build: Callable[[], object]):
