@@ -16,8 +16,8 @@ def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None
                     zb: np.ndarray | None = None) -> np.ndarray:
     """Anticommutation of every pair of Pauli operators as one GF(2) product.
 
-    ``A[s, t] = x_s . z'_t + z_s . x'_t (mod 2)``, computed as one floating-point matrix
-    product of the symplectic bit matrices (exact: the sums are integers below ``2^53``).
+    ``A[s, t] = x_s . z'_t + z_s . x'_t (mod 2)``, computed on the symplectic bits packed 64
+    to a word: an AND, an XOR over the words and one popcount per pair (exact).
 
     Parameters
     ----------
@@ -40,13 +40,28 @@ def anticommutation(xa: np.ndarray, za: np.ndarray, xb: np.ndarray | None = None
     """
     if xb is None:
         xb, zb = xa, za
-    if xa.shape[0] * xb.shape[0] * xa.shape[1] <= 1 << 22:  # small: no BLAS call (its threads
-        a = np.concatenate([xa, za], axis=1).astype(np.int32)  # cost more than they save)
-        b = np.concatenate([zb, xb], axis=1).astype(np.int32)
-        return ((a @ b.T) & 1).astype(bool)
-    a = np.concatenate([xa, za], axis=1).astype(np.float64)
-    b = np.concatenate([zb, xb], axis=1).astype(np.float64)
-    return (np.rint(a @ b.T).astype(np.int64) & 1).astype(bool)
+    a = _packed_words(np.concatenate([xa, za], axis=1))
+    b = _packed_words(np.concatenate([zb, xb], axis=1))
+    out = np.empty((a.shape[0], b.shape[0]), dtype=bool)
+    if not out.size:
+        return out
+    # the parity of popcount(a & b) over the words: XOR the words, then one popcount; rows of
+    # ``a`` in chunks of about 2**22 word products (no BLAS: 64 bits per operation, and no
+    # threads, which on a busy machine cost more than they save)
+    step = max(1, (1 << 22) // max(1, b.shape[0] * a.shape[1]))
+    for lo in range(0, a.shape[0], step):
+        words = a[lo:lo + step, None, :] & b[None, :, :]
+        out[lo:lo + step] = np.bitwise_count(np.bitwise_xor.reduce(words, axis=2)) & 1
+    return out
+
+
+def _packed_words(bits: np.ndarray) -> np.ndarray:
+    """Rows of bits (m, w) as rows of 64-bit words (m, ceil(w / 64))."""
+    packed = np.packbits(np.asarray(bits, dtype=bool), axis=1)
+    pad = (-packed.shape[1]) % 8
+    if pad or not packed.shape[1]:
+        packed = np.pad(packed, ((0, 0), (0, pad if packed.shape[1] else 8)))
+    return np.ascontiguousarray(packed).view(np.uint64)
 
 
 def all_commute(x: np.ndarray, z: np.ndarray) -> bool:

@@ -101,35 +101,19 @@ def _gradient_terms(
     products from one element-wise ``PauliList.dot``; only non-zero shares are built.
     """
     n = observable.num_qubits
-    zero = SparsePauliOp(["I" * n], [0.0])
-    terms = [(label, h.real) for label, h in observable.to_list()
-             if set(label) != {"I"} and abs(h) > _ATOL]
+    zero = SparsePauliOp(PauliList.from_symplectic(np.zeros((1, n), bool),
+                                                   np.zeros((1, n), bool)), [0.0])
+    pl = observable.paulis
+    h_all = observable.coeffs * (-1j) ** pl.phase  # to_list()'s coefficients
+    sel = np.flatnonzero((pl.x.any(axis=1) | pl.z.any(axis=1)) & (np.abs(h_all) > _ATOL))
+    labels = PauliList.from_symplectic(pl.z[sel], pl.x[sel]).to_labels()
+    terms = list(zip(labels, h_all[sel].real, strict=True))
     if not terms or not trainables:
-        return {p: zero for p in params}, [label for label, _ in terms], lambda: (
-            PauliList(["I" * n]), [(label, {p: zero for p in params}, []) for label, _ in terms])
-    hl = PauliList([label for label, _ in terms])
-    hc = np.array([h for _, h in terms])
-    stack = _terms_of(trainables)  # every generator's terms, read once per block
-    gx, gz, gph, gc, owner = stack.x, stack.z, stack.phase, stack.coeffs, stack.owner
-    ia, it = np.nonzero(anticommutation(gx, gz, hl.x, hl.z))
-    prod = PauliList.from_symplectic(gz[ia], gx[ia], gph[ia]).dot(hl[it])
-    pcol = {p: k for k, p in enumerate(params)}
-    gate_param = np.array([pcol[t.parameter] for t in trainables], dtype=np.int64)
-    gate_coef = np.array([t.coeff for t in trainables])
-    # i [c P_a, h P_t] = 2 i c h P_a P_t, the phase of the product absorbed, times the gate's a
-    coef = (2j * gc[ia] * hc[it] * (-1j) ** prod.phase) * gate_coef[owner[ia]]
-    packed = np.packbits(np.concatenate([prod.x, prod.z], axis=1), axis=1).astype(np.int64)
-    par = gate_param[owner[ia]]
-    # one entry per (term, parameter, Pauli string): coefficients of equal strings add
-    keys = np.concatenate([it[:, None], par[:, None], packed], axis=1)
-    uniq, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    csum = (np.bincount(inv, weights=coef.real, minlength=len(uniq))
-            + 1j * np.bincount(inv, weights=coef.imag, minlength=len(uniq)))
-    keep = np.abs(csum) > _ATOL
-    uniq, first, csum = uniq[keep], first[keep], csum[keep]
-    ux, uz = prod.x[first], prod.z[first]
-    u_term, u_par = uniq[:, 0], uniq[:, 1]
+        return {p: zero for p in params}, labels, lambda: (
+            PauliList.from_symplectic(np.zeros((1, n), bool), np.zeros((1, n), bool)),
+            [(label, {p: zero for p in params}, []) for label in labels])
+    ux, uz, csum, u_term, u_par, owner_of = _gradient_strings(
+        trainables, PauliList.from_symplectic(pl.z[sel], pl.x[sel]), h_all[sel].real, params)
 
     def op(sel) -> SparsePauliOp:
         return SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]), csum[sel])
@@ -143,13 +127,13 @@ def _gradient_terms(
             pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
             for k in np.flatnonzero(np.diff(pb)):
                 shares[params[k]] = op(slice(pb[k], pb[k + 1]))
-            origin = [(r, trainables[owner[ia[first[r]]]]) for r in range(lo, hi)]
+            origin = [(r, trainables[owner_of[r]]) for r in range(lo, hi)]
             out.append((label, shares, origin))
         return PauliList.from_symplectic(uz, ux), out
 
     # totals: equal strings of one parameter from different terms of H add (what simplify()
     # of each parameter's terms gives, in its order: first occurrence, zeros dropped)
-    pkey = np.concatenate([u_par[:, None], uniq[:, 2:]], axis=1)
+    pkey = np.concatenate([u_par[:, None], _packed(ux, uz)], axis=1)
     _, tfirst, tinv = np.unique(pkey, axis=0, return_index=True, return_inverse=True)
     tinv = tinv.ravel()
     tsum = (np.bincount(tinv, weights=csum.real, minlength=len(tfirst))
@@ -164,6 +148,43 @@ def _gradient_terms(
         total[params[k]] = SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]),
                                          tcoef[pb[k]:pb[k + 1]])
     return total, [label for label, _ in terms], per_term
+
+
+def _packed(x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Rows of symplectic bits as int64 keys (8 bits a column), for ``np.unique(axis=0)``."""
+    return np.packbits(np.concatenate([x, z], axis=1), axis=1).astype(np.int64)
+
+
+def _gradient_strings(trainables: Sequence[_Trainable], hl: PauliList, hc: np.ndarray,
+                      params: Sequence[Parameter]):
+    """Every gradient string ``i [c P_a, h P_t]`` of the block, one row per distinct (term
+    ``t``, parameter, string), sorted by term, then parameter, then string.
+
+    Returns
+    -------
+    (x, z, coeffs, term, parameter, gate)
+        Bits (S, n) (phase 0), complex coefficients (S,), the term's index in ``hl``, the
+        parameter's column in ``params`` and the trainable gate the string first came from.
+    """
+    stack = _terms_of(trainables)  # every generator's terms, read once per block
+    gx, gz, gph, gc, owner = stack.x, stack.z, stack.phase, stack.coeffs, stack.owner
+    ia, it = np.nonzero(anticommutation(gx, gz, hl.x, hl.z))
+    prod = PauliList.from_symplectic(gz[ia], gx[ia], gph[ia]).dot(hl[it])
+    pcol = {p: k for k, p in enumerate(params)}
+    gate_param = np.array([pcol[t.parameter] for t in trainables], dtype=np.int64)
+    gate_coef = np.array([t.coeff for t in trainables])
+    # i [c P_a, h P_t] = 2 i c h P_a P_t, the phase of the product absorbed, times the gate's a
+    coef = (2j * gc[ia] * hc[it] * (-1j) ** prod.phase) * gate_coef[owner[ia]]
+    par = gate_param[owner[ia]]
+    # one entry per (term, parameter, Pauli string): coefficients of equal strings add
+    keys = np.concatenate([it[:, None], par[:, None], _packed(prod.x, prod.z)], axis=1)
+    uniq, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    csum = (np.bincount(inv, weights=coef.real, minlength=len(uniq))
+            + 1j * np.bincount(inv, weights=coef.imag, minlength=len(uniq)))
+    keep = np.abs(csum) > _ATOL
+    uniq, first, csum = uniq[keep], first[keep], csum[keep]
+    return (prod.x[first], prod.z[first], csum, uniq[:, 0], uniq[:, 1], owner[ia[first]])
 
 
 def _group_terms(per_term, params, merge: bool = True):

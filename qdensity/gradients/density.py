@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from qiskit.quantum_info import SparsePauliOp
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.execution.plans import (
     CircuitJob,
@@ -34,8 +34,13 @@ from qdensity.execution.plans import (
     probabilities_plan,
     unary_frequencies,
 )
+from qdensity.gradients import _analysis
+from qdensity.gradients._circuits import _GradientCircuits
+from qdensity.gradients._direct import _direct_gradient
+from qdensity.gradients._outputs import rbs_output_tables
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
+    _one_block,
     commuting_block_gradient,
     commuting_gradient,
     commuting_gradient_count,
@@ -114,7 +119,11 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     """
     _check_method(model, method)
     circ, params = _circuit_of(model, k)
-    rows = model.rows(k, X)
+    return _jacobian_plan(model, k, circ, params, model.rows(k, X), method, shots)
+
+
+def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots) -> Plan:
+    """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made."""
     if method in ("auto", "commuting"):
         try:
             plan = _commuting_plan(model, circ, params, rows, shots, k)
@@ -141,56 +150,74 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     return plan
 
 
+def _readout_key(model) -> tuple:
+    """The readout, hashable: what an analysis depends on besides the circuit."""
+    if model.readout == "observable":
+        obs = model.observable
+        return ("observable", tuple(obs.paulis.to_labels()), obs.coeffs.tobytes())
+    return (model.readout, model.num_qubits)
+
+
 def _commuting_analysis(model, circ, params, k):
     """Gradient observables and diagonalising circuits of sub-unitary ``k``.
 
-    They depend only on the circuits and the readout, not on data or angles, so they are
-    derived once per model and kept (failures too, so ``method="auto"`` decides once).
+    They depend only on the circuit, the parameters and the readout, not on data or angles,
+    so they are derived once per structure and kept (failures too, so ``method="auto"``
+    decides once): see :mod:`qdensity.gradients._analysis`.
     """
-    cache = model.derived("commuting")
-    if k not in cache:
+    key = _analysis.structure_key("commuting", circ, params, _readout_key(model))
+    return _analysis.cached(key, partial(_analyse, model, circ, params))
+
+
+def _unary_terms(n: int) -> tuple[PauliList, np.ndarray]:
+    """``Z_0 .. Z_{n-1}`` and the weights ``-1/2`` of ``p_j = 1/2 - Z_j / 2`` on them (the
+    terms of :func:`_readout_observables` for unary probabilities)."""
+    return (PauliList.from_symplectic(np.eye(n, dtype=bool), np.zeros((n, n), dtype=bool)),
+            -0.5 * np.eye(n))
+
+
+def _analyse(model, circ, params):
+    if model.readout == "observable":
         try:
-            observables = _readout_observables(model)
-            if len(observables) == 1:
-                try:
-                    grads = [commuting_gradient(circ, observables[0], params)]
-                except ValueError as one_block:
-                    try:  # several commuting blocks: observable shifts (Cor. 2)
-                        grads = [commuting_block_gradient(circ, observables[0], None, params)]
-                    except ValueError:
-                        raise one_block from None
-                shared = grads[0]
-            else:
-                total = SparsePauliOp.from_sparse_list(
-                    [("Z", [j], 1.0) for j in range(model.num_qubits)], model.num_qubits)
-                shared = commuting_gradient(circ, total, params)
-                grads = [commuting_gradient(circ, obs, params) for obs in observables]
-                same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
-                              and all(g.diagonaliser == "rbs" and len(g.circuits) == 1
-                                      for g in grads))
-                if not same_layer:
-                    raise ValueError("unary readout outputs need different diagonalising "
-                                     "circuits")
-            cache[k] = (shared, grads)
-        except ValueError as exc:
-            cache[k] = exc
-    if isinstance(cache[k], ValueError):
-        raise cache[k]
-    return cache[k]
+            grads = [commuting_gradient(circ, model.observable, params)]
+        except ValueError as one_block:
+            try:  # several commuting blocks: observable shifts (Cor. 2)
+                grads = [commuting_block_gradient(circ, model.observable, None, params)]
+            except ValueError:
+                raise one_block from None
+        return grads[0], grads
+    n = model.num_qubits
+    terms, weights = _unary_terms(n)
+    total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
+    checked, obs, trainables = _one_block(circ, total, params, "auto")
+    shared = _direct_gradient(circ, trainables, obs, checked, "auto")
+    if shared.diagonaliser == "rbs" and len(shared.circuits) == 1:
+        # one RBS(pi/4) layer: every output's table from one pass over the block's strings
+        tables = rbs_output_tables(trainables, terms, weights, checked)
+        if tables is not None:
+            return shared, [_GradientCircuits(shared.circuits, list(checked), [t])
+                            for t in tables]
+    grads = [commuting_gradient(circ, o, params) for o in _readout_observables(model)]
+    same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
+                  and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
+    if not same_layer:
+        raise ValueError("unary readout outputs need different diagonalising circuits")
+    return shared, grads
 
 
 def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
     """``method="auto"``: one-block circuits always; block circuits when they are no more than
-    the parameter-shift circuits per data point (decided once per model and sub-unitary)."""
+    the parameter-shift circuits per data point (decided once per structure)."""
     if not isinstance(gradient, CommutingBlockGradient):
         return True
-    cache = model.derived("commuting")
-    key = ("auto", k)
-    if key not in cache:
+    key = _analysis.structure_key("auto", circ, params, _readout_key(model))
+
+    def decide() -> bool:
         row = np.zeros((1, circ.num_parameters))
         shift = parameter_shift_plan(circ, model.observable, row, parameters=params)
-        cache[key] = gradient.num_gradient_circuits <= shift.num_circuits
-    return cache[key]
+        return gradient.num_gradient_circuits <= shift.num_circuits
+
+    return _analysis.cached(key, decide)
 
 
 def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
@@ -202,11 +229,14 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
                 f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
-def _forward_plan(model, k: int, X, shots) -> Plan:
+def _forward_plan(model, k: int, X, shots, circuit=None, rows=None) -> Plan:
+    """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
+    when already made)."""
     if model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
         return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
-    inner = probabilities_plan(model.circuit(k), model.rows(k, X), shots=shots,
+    inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
+                               model.rows(k, X) if rows is None else rows, shots=shots,
                                label=f"forward_k{k}")
     post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
@@ -233,12 +263,19 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         ``plan.meta["gradient_circuits"]`` is the number of gradient circuits per data point
         (forward excluded), summed over sub-unitaries.
     """
+    _check_method(model, method)
     K = model.num_subunitaries
-    jac_plans = [subunitary_jacobian_plan(model, k, X, method=method, shots=shots)
-                 for k in range(K)]
-    fwd_plans = [_forward_plan(model, k, X, shots) for k in range(K)] if forward else []
+    jac_plans, fwd_plans = [], []
+    for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
+        circ, params = _circuit_of(model, k)
+        rows = model.rows(k, X)
+        if k == 0:
+            B = rows.shape[0]
+        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))
+        if forward:
+            same = model.encoding is not None  # then circ is model.circuit(k)
+            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
-    B = model.rows(0, X).shape[0]
 
     post = partial(_density_post, combined, K, B)
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
@@ -282,7 +319,7 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
 
 def _commuting_count(model, circ, params, k, method) -> int | None:
     """Commuting circuits of sub-unitary ``k``, or None where the plan would take shifts."""
-    if model.readout == "observable" and k not in model.derived("commuting"):
+    if model.readout == "observable":  # the count alone, without the plan's analysis
         try:
             return commuting_gradient_count(circ, model.observable, params)
         except ValueError:

@@ -14,10 +14,11 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
-from qiskit.quantum_info import SparsePauliOp
+from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.analysis.blocks import _ATOL, _is_zero, _terms_of, _Trainable
-from qdensity.analysis.pauli import ZStringTable, conjugate_two_qubit
+from qdensity.analysis._conjugate import conjugate_by_layer
+from qdensity.analysis.blocks import _ATOL, _terms_of, _Trainable
+from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits._copying import copy_circuit
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.circuits.measure import measured
@@ -83,11 +84,8 @@ def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCi
     return measured(out, inplace=True)
 
 
-def _rbs_layer_for(
-    trainables: Sequence[_Trainable], observables: dict[Parameter, SparsePauliOp], n: int
-) -> tuple[QuantumCircuit, dict[Parameter, SparsePauliOp]] | None:
-    """The RBS(pi/4) layer of Supp. F.3 when every trainable gate is an RBS, the pairs are
-    disjoint and the layer diagonalises every gradient observable; else None."""
+def _rbs_pairs(trainables: Sequence[_Trainable]) -> list[tuple[int, int]] | None:
+    """The qubit pairs of a block of RBS gates on disjoint pairs (in gate order), else None."""
     if not trainables or any(t.name != "rbs" for t in trainables):
         return None
     stack = _terms_of(trainables)  # each gate's support: OR of its terms' bits, at once
@@ -98,16 +96,45 @@ def _rbs_layer_for(
     used = [q for p in pairs for q in p]
     if len(used) != len(set(used)):
         return None
+    return pairs
+
+
+def _rbs_layer_for(
+    trainables: Sequence[_Trainable], observables: dict[Parameter, SparsePauliOp], n: int
+) -> tuple[QuantumCircuit, dict[Parameter, SparsePauliOp]] | None:
+    """The RBS(pi/4) layer of Supp. F.3 when every trainable gate is an RBS, the pairs are
+    disjoint and the layer diagonalises every gradient observable; else None."""
+    pairs = _rbs_pairs(trainables)
+    if pairs is None:
+        return None
     layer = rbs_diagonalising_layer(n, pairs)
-    umat = rbs_matrix(np.pi / 4)
+    items = list(observables.items())
+    if not items:
+        return layer, {}
+    # every operator's strings through the layer at once, then summed per operator
+    x = np.concatenate([op.paulis.x for _, op in items])
+    z = np.concatenate([op.paulis.z for _, op in items])
+    coeffs = np.concatenate([op.coeffs * (-1j) ** op.paulis.phase for _, op in items])
+    owner = np.repeat(np.arange(len(items)), [op.size for _, op in items])
+    x, z, coeffs, src = conjugate_by_layer(x, z, coeffs, rbs_matrix(np.pi / 4), np.array(pairs))
+    keys = np.concatenate([owner[src][:, None],
+                           np.packbits(np.concatenate([x, z], axis=1), axis=1)], axis=1)
+    uniq, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    total = (np.bincount(inv, weights=coeffs.real, minlength=len(uniq))
+             + 1j * np.bincount(inv, weights=coeffs.imag, minlength=len(uniq)))
+    keep = np.flatnonzero(np.abs(total) > _ATOL)
+    rows = first[keep]
+    if x[rows].any():
+        return None
+    bounds = np.searchsorted(uniq[keep, 0], np.arange(len(items) + 1))
+    zero_bits = np.zeros((1, n), dtype=bool)
     diag = {}
-    for p, op in observables.items():
-        support = set(np.flatnonzero(np.any(op.paulis.x | op.paulis.z, axis=0)).tolist())
-        for pair in pairs:
-            if support.isdisjoint(pair):  # the layer's other gates leave the operator alone
-                continue
-            op = conjugate_two_qubit(op, umat, pair)
-        if op.paulis.x.any() and not _is_zero(op):
-            return None
-        diag[p] = op
+    for i, (p, _) in enumerate(items):
+        sel = rows[bounds[i]:bounds[i + 1]]
+        if sel.size:
+            diag[p] = SparsePauliOp(PauliList.from_symplectic(z[sel], x[sel]),
+                                    total[keep[bounds[i]:bounds[i + 1]]])
+        else:
+            diag[p] = SparsePauliOp(PauliList.from_symplectic(zero_bits, zero_bits), [0.0])
     return layer, diag

@@ -17,8 +17,9 @@ Fixed Pauli gates (``x, y, z, cx, cy, cz, ccx``) are applied as (controlled) Pau
 other fixed gates by their matrix, and other parameterised gates through their definition.
 
 States are flat arrays of shape ``(..., R, 2**n)``: leading batch axes, ``R`` parameter rows,
-amplitude ``k = sum_q b_q 2^q`` (Qiskit's convention). A gate is a gather (``k -> k ^ x``) with
-a sign, on the positions where its controls are 1.
+amplitude ``k = sum_q b_q 2^q`` (Qiskit's convention). A gate is ``k -> k ^ x`` with a sign, on
+the positions where its controls are 1, done on the state viewed as a tensor ``(..., R, 2, ...,
+2)``: reversed axes, slices and small broadcast sign tables, never a ``2**n`` index table.
 """
 
 from __future__ import annotations
@@ -54,15 +55,22 @@ def cdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...k,...k->...", a.conj(), b)
 
 
-#: Index arrays of a gate are kept when the state has at most this many amplitudes.
-_CACHE_DIM = 2**16
+#: Most ``Z`` qubits whose signs one broadcast table holds (``2**_SIGN_AXES`` entries);
+#: a string with more multiplies the state by several such tables.
+_SIGN_AXES = 10
 
 
 class _Gather:
     """``(P psi)[k] = factor[k] psi[k ^ x]`` on the positions ``k`` where every control is 1.
 
     ``Y|b> = i (-1)^b |1-b>``, so ``(P psi)[k] = (-i)^{#Y} (-1)^{|k & z|} psi[k ^ x]`` with
-    ``x`` the X/Y qubits and ``z`` the Y/Z qubits. States are flat, shape ``(..., R, 2**n)``.
+    ``x`` the X/Y qubits and ``z`` the Y/Z qubits. States are flat, shape ``(..., R, 2**n)``,
+    and are worked on as tensors ``(..., R, 2, ..., 2)`` (qubit ``q`` on axis ``-1 - q``):
+    the controlled positions are a view (index 1 on the control axes), ``k -> k ^ x`` is a
+    reversal of the ``x`` axes (a view) and the parity signs are broadcast tables on the ``z``
+    axes (``2**|z|`` entries at most, in pieces of ``2**_SIGN_AXES``). So a gate costs a few
+    passes over the state and allocates nothing of size ``2**n`` but its result: no index or
+    parity table of ``2**n`` entries is ever built.
     """
 
     def __init__(self, letters: dict[int, str], n: int, phase: complex = 1.0,
@@ -73,51 +81,66 @@ class _Gather:
         ny = sum(1 for p in letters.values() if p == "Y")
         self.scalar = complex(phase) * (-1j) ** ny
         self.cmask = sum(1 << q for q in controls)
-        self._arrays = None
+        self._xaxes = tuple(-1 - q for q in range(n) if self.xmask >> q & 1)
+        zq = [q for q in range(n) if self.zmask >> q & 1]
+        self._signs = [_sign_table(zq[i:i + _SIGN_AXES], n)
+                       for i in range(0, len(zq), _SIGN_AXES)]
+        self._index = (Ellipsis,) + tuple(
+            slice(1, 2) if self.cmask >> q & 1 else slice(None) for q in range(n - 1, -1, -1))
 
-    def arrays(self):
-        """``(idx, src, factor)``: positions (None: all), sources (None: the same) and factors
-        (None: 1)."""
-        if self._arrays is not None:
-            return self._arrays
-        k = np.arange(2**self.n, dtype=np.intp)
-        idx = k[(k & self.cmask) == self.cmask] if self.cmask else None
-        kk = k if idx is None else idx
-        src = kk ^ self.xmask if self.xmask else None
-        fac = None
-        if self.zmask or self.scalar != 1:
-            parity = np.bitwise_count(kk & self.zmask) & 1
-            # complex even when real: numpy multiplies complex by float far more slowly
-            fac = (self.scalar * (1.0 - 2.0 * parity)).astype(complex)
-        out = (idx, src, fac)
-        if 2**self.n <= _CACHE_DIM:
-            self._arrays = out
-        return out
+    def tensor(self, state: np.ndarray) -> np.ndarray:
+        """``state`` (..., 2**n) as a view (..., 2, ..., 2), qubit ``q`` on axis ``-1 - q``."""
+        return state.reshape(state.shape[:-1] + (2,) * self.n)
+
+    def factor(self, scale=None):
+        """``scale * scalar * (-1)^{|k & z|}`` as one array broadcasting against a tensor
+        (``scale``, shape (..., 1), broadcasts over leading axes; the sign tables are folded in
+        when there is one)."""
+        f = self.scalar if scale is None else scale * self.scalar
+        if scale is not None:
+            f = np.reshape(f, np.shape(f)[:-1] + (1,) * self.n)
+        if len(self._signs) == 1:
+            return f * self._signs[0]
+        return f
 
     def select(self, state: np.ndarray) -> np.ndarray:
-        """``state`` on the controlled positions (a view when there are no controls)."""
-        idx = self.arrays()[0]
-        return state if idx is None else np.take(state, idx, axis=-1)
+        """The tensor of ``state`` on the controlled positions (a view)."""
+        return self.tensor(state)[self._index] if self.cmask else self.tensor(state)
 
-    def apply(self, state: np.ndarray) -> np.ndarray:
-        """A new array: ``P state`` on the controlled positions."""
-        idx, src, fac = self.arrays()
-        if src is not None:
-            out = np.take(state, src, axis=-1)  # several times faster than state[..., src]
-        elif idx is not None:
-            out = np.take(state, idx, axis=-1)
+    def apply(self, state: np.ndarray, scale=None) -> np.ndarray:
+        """A new tensor: ``scale * P state`` on the controlled positions (``scale``, shape
+        (..., 1), broadcast over the leading axes; default 1)."""
+        sel = self.select(state)
+        src = np.flip(sel, self._xaxes) if self._xaxes else sel
+        fac = self.factor(scale)
+        if isinstance(fac, complex) and fac == 1 and not self._signs:
+            out = src.copy()
         else:
-            out = state.copy()
-        if fac is not None:
-            out *= fac
+            out = np.multiply(src, fac)
+        if len(self._signs) > 1:
+            for sign in self._signs:
+                out *= sign
         return out
 
-    def assign(self, state: np.ndarray, values: np.ndarray) -> None:
-        idx = self.arrays()[0]
-        if idx is None:
-            state[...] = values
-        else:
-            state[..., idx] = values
+    def diagonal(self) -> np.ndarray:
+        """``scalar (-1)^{|k & z|}`` over all ``2**n`` positions (a diagonal string without
+        controls, once per observable), real part."""
+        out = np.full((2,) * self.n, np.real(self.scalar))
+        for sign in self._signs:
+            out = out * sign
+        return out.reshape(-1)
+
+
+def _sign_table(qubits: list[int], n: int) -> np.ndarray:
+    """``prod_q (-1)^{b_q}`` over ``qubits``, shape ``(2, ..., 2)`` broadcast against a tensor
+    (2 on the axes of ``qubits``, 1 elsewhere), complex (numpy multiplies complex by float
+    more slowly than by complex)."""
+    table = np.ones((1,) * n, dtype=complex)
+    for q in qubits:
+        shape = [1] * n
+        shape[n - 1 - q] = 2
+        table = table * np.array([1.0, -1.0]).reshape(shape)
+    return table
 
 
 @dataclass
@@ -137,36 +160,41 @@ class Rotation:
         """In place; ``cos`` (R, 1) and ``msin = -i sin`` (R, 1) of ``c * angle`` (``+i sin``
         undoes the gate)."""
         g = self.gather
+        sel = g.select(state)  # a view: the state is changed through it
+        c = _column(cos, g.n)
         if self.identity:
-            g.assign(state, g.select(state) * (cos + msin))
+            sel *= c + _column(msin, g.n)
             return
-        p = g.apply(state)
-        p *= msin
-        if g.cmask:
-            g.assign(state, cos * g.select(state) + p)
-        else:
-            state *= cos
-            state += p
+        p = g.apply(state, msin)
+        sel *= c
+        sel += p
 
     def step_back(self, both: np.ndarray, cos: np.ndarray, isin: np.ndarray,
                   need: bool) -> np.ndarray | None:
         """On ``both = [phi, lam_1 .. lam_M]`` (M + 1, R, 2**n): the derivative
         ``2 c Im <lam_m| Pi P |phi>`` per observable and row, shape (M, R) (if ``need``); then
-        undo the gate on every state in place (one gather for all of them)."""
+        undo the gate on every state in place (one reversal for all of them)."""
         g = self.gather
         sel = g.select(both)
         p = sel.copy() if self.identity else g.apply(both)
-        grad = 2.0 * self.coefficient * cdot(sel[1:], p[0]).imag if need else None
+        grad = None
+        if need:
+            lead = sel.shape[:2]
+            grad = 2.0 * self.coefficient * cdot(sel[1:].reshape(lead[0] - 1, lead[1], -1),
+                                                 p[0].reshape(lead[1], -1)).imag
+        c, s = _column(cos, g.n), _column(isin, g.n)
         if self.identity:
-            g.assign(both, sel * (cos + isin))
+            sel *= c + s
             return grad
-        p *= isin
-        if g.cmask:
-            g.assign(both, cos * sel + p)
-        else:
-            both *= cos
-            both += p
+        p *= s
+        sel *= c
+        sel += p
         return grad
+
+
+def _column(x: np.ndarray, n: int) -> np.ndarray:
+    """Per-row factors ``(..., R, 1)`` as ``(..., R, 1, ..., 1)`` against a tensor."""
+    return x.reshape(x.shape[:-1] + (1,) * n)
 
 
 @dataclass
@@ -180,7 +208,8 @@ class Fixed:
     def apply(self, state: np.ndarray, inverse: bool = False) -> None:
         """In place, on a flat state ``(..., R, 2**n)``."""
         if self.gather is not None:
-            self.gather.assign(state, self.gather.apply(state))  # a Pauli is its own inverse
+            g = self.gather
+            g.select(state)[...] = g.apply(state)  # a Pauli is its own inverse
             return
         n = int(state.shape[-1]).bit_length() - 1
         tensor = state.reshape(state.shape[:-1] + (2,) * n)

@@ -88,15 +88,14 @@ class _Observable:
             if g.xmask:
                 self.terms.append(g)
             else:
-                fac = g.arrays()[2]
-                diag = diag + (np.real(fac) if fac is not None else np.real(g.scalar))
+                diag = diag + g.diagonal()
         if np.any(diag):
             self.diagonal = diag
 
     def apply(self, state: np.ndarray) -> np.ndarray:
         out = state * self.diagonal if self.diagonal is not None else np.zeros_like(state)
         for g in self.terms:
-            out += g.apply(state)
+            out += g.apply(state).reshape(out.shape)
         return out
 
 

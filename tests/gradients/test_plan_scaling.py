@@ -1,0 +1,105 @@
+"""The pieces that make density-gradient plans scale (issue 32, item 4), against independent
+oracles: the layer conjugation against dense operators, the packed GF(2) product against an
+integer matrix product, and the unary-readout commuting Jacobians of the round-robin model
+(one estimator table per output, read off one circuit) against central finite differences of
+Qiskit ``Statevector`` probabilities."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from qiskit import QuantumCircuit
+from qiskit.quantum_info import Operator, PauliList, SparsePauliOp, Statevector
+
+from qdensity import DensityQNN, Encoding, by_moments
+from qdensity.analysis._conjugate import conjugate_by_layer
+from qdensity.analysis._gf2 import anticommutation
+from qdensity.ansatze import round_robin
+from qdensity.circuits.gates import RBSGate, rbs_matrix
+from qdensity.execution.statevector.adjoint import AdjointEngine
+from qdensity.gradients import density_gradient_plan
+
+RNG = np.random.default_rng(32)
+
+
+def _random_paulis(m: int, n: int, density: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
+    return RNG.random((m, n)) < density, RNG.random((m, n)) < density
+
+
+@pytest.mark.parametrize("m, k, n", [(1, 1, 1), (7, 5, 3), (40, 33, 70), (0, 3, 4), (130, 2, 129)])
+def test_packed_anticommutation_equals_the_integer_product(m, k, n):
+    xa, za = _random_paulis(m, n)
+    xb, zb = _random_paulis(k, n)
+    want = ((xa.astype(int) @ zb.T.astype(int) + za.astype(int) @ xb.T.astype(int)) % 2) == 1
+    got = anticommutation(xa, za, xb, zb)
+    assert got.shape == (m, k) and got.dtype == bool
+    np.testing.assert_array_equal(got, want)
+    self_want = ((xa.astype(int) @ za.T.astype(int) + za.astype(int) @ xa.T.astype(int))
+                 % 2) == 1
+    np.testing.assert_array_equal(anticommutation(xa, za), self_want)
+
+
+@pytest.mark.parametrize("pairs", [[(0, 1), (2, 4)], [(3, 0)], [(1, 2), (4, 3), (0, 5)]])
+def test_layer_conjugation_equals_the_dense_operator(pairs):
+    n = 6
+    x, z = _random_paulis(12, n, 0.5)
+    coeffs = RNG.normal(size=12) + 1j * RNG.normal(size=12)
+    before = SparsePauliOp(PauliList.from_symplectic(z, x), coeffs)
+    layer = QuantumCircuit(n)
+    for i, j in pairs:
+        layer.append(RBSGate(np.pi / 4), [i, j])
+    u = Operator(layer).data
+    want = u @ before.to_matrix() @ u.conj().T
+    ox, oz, oc, src = conjugate_by_layer(x, z, coeffs, rbs_matrix(np.pi / 4), np.array(pairs))
+    assert src.shape == oc.shape and src.max() < 12
+    after = SparsePauliOp(PauliList.from_symplectic(oz, ox), oc)
+    np.testing.assert_allclose(after.to_matrix(), want, atol=1e-12)
+
+
+def _unary_probabilities(circuit, row) -> np.ndarray:
+    probs = Statevector(circuit.assign_parameters(row)).probabilities()
+    return probs[1 << np.arange(circuit.num_qubits)]
+
+
+@pytest.mark.parametrize("n", [4, 7])
+def test_round_robin_unary_jacobians_match_finite_differences(n):
+    """Every sub-unitary (one round-robin moment) read out as n unary probabilities: the
+    plan's commuting Jacobians (one circuit per sub-unitary, one table per output) against
+    central differences (step 1e-5: error ~1e-10 + rounding 1e-11) of exact probabilities."""
+    subs = by_moments(round_robin(n)).sub_unitaries
+    model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=3)
+    X = RNG.normal(size=(2, n))
+    plan = density_gradient_plan(model, X, method="commuting")
+    assert plan.meta["gradient_circuits"] == len(subs)  # one per moment
+    grad = plan.run(AdjointEngine())
+    eps = 1e-5
+    for k in range(model.num_subunitaries):
+        circ = model.circuit(k)
+        rows = model.rows(k, X)
+        own = set(model.sub_unitaries[k].parameters)
+        cols = [i for i, p in enumerate(circ.parameters) if p in own]
+        assert grad.jacobians[k].shape[-1] == len(cols) > 0
+        for b in range(rows.shape[0]):
+            np.testing.assert_allclose(grad.outputs[b, k], _unary_probabilities(circ, rows[b]),
+                                       atol=1e-10)
+            for c, col in enumerate(cols):
+                up, down = rows[b].copy(), rows[b].copy()
+                up[col] += eps
+                down[col] -= eps
+                fd = (_unary_probabilities(circ, up) - _unary_probabilities(circ, down)) / (
+                    2 * eps)
+                np.testing.assert_allclose(grad.jacobians[k][b, :, c], fd, atol=1e-8)
+
+
+def test_analyses_are_kept_outside_the_model_and_shared_by_equal_structures():
+    n = 4
+    subs = by_moments(round_robin(n)).sub_unitaries
+    one = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
+    two = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=1)
+    X = RNG.normal(size=(1, n))
+    a = density_gradient_plan(one, X, method="commuting")
+    b = density_gradient_plan(two, X, method="commuting")
+    assert not any("cache" in key for key in vars(one))
+    # the second model's gradient circuits are the first's (derived once per structure)
+    assert all(ja.circuit is jb.circuit for ja, jb in zip(a.jobs, b.jobs, strict=True)
+               if ja.label.startswith("commuting"))
