@@ -316,7 +316,7 @@ class SamplerEngine:
         if isinstance(self.sampler, SamplerV2) and not isinstance(self.sampler, AdaptiveSampler):
             method = getattr(getattr(self.sampler, "_backend", None), "options", None)
             method = getattr(method, "method", "automatic")
-            check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
+            check_memory(active_qubits(compiled), str(method), "SamplerEngine (Aer SamplerV2)")
 
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).

@@ -73,7 +73,7 @@ class _Gather:
         ny = sum(1 for p in letters.values() if p == "Y")
         self.scalar = complex(phase) * (-1j) ** ny
         self.cmask = sum(1 << q for q in controls)
-        self._arrays = None
+        self._arrays: tuple | None = None
 
     def arrays(self):
         """``(idx, src, factor)``: positions (None: all), sources (None: the same) and factors
@@ -185,6 +185,7 @@ class Fixed:
         n = int(state.shape[-1]).bit_length() - 1
         tensor = state.reshape(state.shape[:-1] + (2,) * n)
         k = len(self.qubits)
+        assert self.matrix is not None  # a Fixed without a gather has its matrix
         mat = self.matrix.conj().T if inverse else self.matrix
         src = [-1 - q for q in reversed(self.qubits)]
         dst = list(range(-k, 0))

@@ -459,5 +459,5 @@ def _same_terms(obs, terms: tuple | None) -> bool:
     if terms is None:
         return not isinstance(obs, SparsePauliOp)
     now = _terms(obs)
-    return all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(now, terms,
-                                                                         strict=True))
+    return now is not None and all(a.shape == b.shape and np.array_equal(a, b)
+                                   for a, b in zip(now, terms, strict=True))
