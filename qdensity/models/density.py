@@ -132,8 +132,8 @@ class DensityQNN:
         self.theta = (as_rng(seed).uniform(-np.pi, np.pi, len(params)) if seed is not None
                       else np.zeros(len(params)))
         self.training = True
-        self._unary_ok = None
-        self._num_uploaded = None
+        self._unary_ok: bool | None = None
+        self._num_uploaded: int | None = None
 
     # ------------------------------------------------------------------ basic facts
     @property
