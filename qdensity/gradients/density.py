@@ -21,8 +21,10 @@ parameter shift otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
@@ -36,6 +38,7 @@ from qdensity.execution.plans import (
 )
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
+    CommutingGradient,
     commuting_block_gradient,
     commuting_gradient,
     commuting_gradient_count,
@@ -130,7 +133,7 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
         inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
                                      label=f"shift_k{k}")
 
-        post = partial(_shift_observable_post, inner)
+        post: Callable[..., Any] = partial(_shift_observable_post, inner)
     else:
         # the n unary frequencies, read off the measured bits when sampled (no 2**n row)
         inner = parameter_shift_plan(circ, None, rows, parameters=params, shots=shots,
@@ -153,7 +156,8 @@ def _commuting_analysis(model, circ, params, k):
             observables = _readout_observables(model)
             if len(observables) == 1:
                 try:
-                    grads = [commuting_gradient(circ, observables[0], params)]
+                    grads: list[CommutingGradient | CommutingBlockGradient] = [
+                        commuting_gradient(circ, observables[0], params)]
                 except ValueError as one_block:
                     try:  # several commuting blocks: observable shifts (Cor. 2)
                         grads = [commuting_block_gradient(circ, observables[0], None, params)]
@@ -166,7 +170,8 @@ def _commuting_analysis(model, circ, params, k):
                 shared = commuting_gradient(circ, total, params)
                 grads = [commuting_gradient(circ, obs, params) for obs in observables]
                 same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
-                              and all(g.diagonaliser == "rbs" and len(g.circuits) == 1
+                              and all(isinstance(g, CommutingGradient)
+                                      and g.diagonaliser == "rbs" and len(g.circuits) == 1
                                       for g in grads))
                 if not same_layer:
                     raise ValueError("unary readout outputs need different diagonalising "

@@ -11,6 +11,7 @@ outcome (``_diagonal_matrix``), the post-processing of every gradient circuit.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from typing import cast
 
 import numpy as np
 from qiskit.circuit import Parameter, QuantumCircuit
@@ -94,7 +95,8 @@ def _rbs_layer_for(
     support = np.logical_or.reduceat(stack.x | stack.z, stack.starts[:-1], axis=0)
     if np.any(support.sum(axis=1) != 2):
         return None
-    pairs = list(dict.fromkeys(map(tuple, np.nonzero(support)[1].reshape(-1, 2).tolist())))
+    pairs = cast(list[tuple[int, int]],  # rows of two qubit indices
+                 list(dict.fromkeys(map(tuple, np.nonzero(support)[1].reshape(-1, 2).tolist()))))
     used = [q for p in pairs for q in p]
     if len(used) != len(set(used)):
         return None
@@ -102,9 +104,9 @@ def _rbs_layer_for(
     umat = rbs_matrix(np.pi / 4)
     diag = {}
     for p, op in observables.items():
-        support = set(np.flatnonzero(np.any(op.paulis.x | op.paulis.z, axis=0)).tolist())
+        touched = set(np.flatnonzero(np.any(op.paulis.x | op.paulis.z, axis=0)).tolist())
         for pair in pairs:
-            if support.isdisjoint(pair):  # the layer's other gates leave the operator alone
+            if touched.isdisjoint(pair):  # the layer's other gates leave the operator alone
                 continue
             op = conjugate_two_qubit(op, umat, pair)
         if op.paulis.x.any() and not _is_zero(op):
