@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -137,8 +138,8 @@ def verdict(result: ExperimentResult, claim: Claim) -> dict:
         ``seeds_needed`` (None when no count would do); ``reason`` for ``not comparable`` and
         for a claim whose metrics the file lacks.
     """
-    out = {"experiment": claim.experiment, "mode": result.mode, "claim": claim.text,
-           "quantity": claim.quantity}
+    out: dict[str, Any] = {"experiment": claim.experiment, "mode": result.mode,
+                           "claim": claim.text, "quantity": claim.quantity}
     missing = [m for m in (claim.a, claim.b) if m is not None
                and any(m not in row for row in result.per_seed)]
     if missing:
