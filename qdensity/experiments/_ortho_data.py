@@ -27,8 +27,12 @@ DATASETS = ("digits", "mnist")
 @overload
 def check_int(config: Mapping, key: str, minimum: int = 1, *,
               optional: Literal[False] = False) -> int: ...
+
+
 @overload
 def check_int(config: Mapping, key: str, minimum: int = 1, *, optional: bool) -> int | None: ...
+
+
 def check_int(config: Mapping, key: str, minimum: int = 1, *, optional: bool = False) -> int | None:
     """``config[key]`` as an int ``>= minimum`` (or None when ``optional``); ValueError naming
     the setting otherwise."""
