@@ -1,5 +1,5 @@
 """Batched plan execution against one job per parameter row, and transpiling once against
-transpiling per row (DESIGN.md: one PUB per template carrying a parameter array).
+transpiling per row (docs/design.md, "The spine": one PUB per template carrying a parameter array).
 
     python benchmarks/bench_execution.py [--rows 500] [--n 6] [--shots 256]
 """

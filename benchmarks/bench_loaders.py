@@ -1,4 +1,5 @@
-"""Unary loaders vs. Qiskit's generic ``StatePreparation`` after transpiling (DESIGN.md).
+"""Unary loaders vs. Qiskit's generic ``StatePreparation`` after transpiling (docs/design.md,
+"Measured facts").
 
 For seeded random vectors of length d = 4, 8, 16, each unary loader (parallel, diagonal,
 semi-diagonal) and ``StatePreparation`` of the same 2**d-dimensional unary state (on d qubits)

@@ -1,4 +1,5 @@
-"""The examples in the package's docstrings and the README run and print what they say."""
+"""The examples in the package's docstrings, the README and the user guide run and print what
+they say."""
 
 import doctest
 import importlib
@@ -48,12 +49,13 @@ def test_readme_example_runs_and_its_comments_hold():
 
 
 def test_readme_classification_example_runs_and_scores_what_it_says():
-    """The README's observable-model classifiers (a read-out head; one output per class) fit."""
-    readme = Path(__file__).resolve().parents[1] / "README.md"
-    code = [c for c in re.findall(r"```python\n(.*?)```", readme.read_text(), re.S)
+    """The user guide's observable-model classifiers (a read-out head; one output per class)
+    fit (docs/guide/models.md, which moved there from the README)."""
+    page = Path(__file__).resolve().parents[1] / "docs" / "guide" / "models.md"
+    code = [c for c in re.findall(r"```python\n(.*?)```", page.read_text(), re.S)
             if "QNNClassifier" in c][0]
     scope: dict = {}
-    exec(compile(code, str(readme), "exec"), scope)  # noqa: S102 - our own README
+    exec(compile(code, str(page), "exec"), scope)  # noqa: S102 - our own documentation
     X, y = scope["X"], scope["y"]
     assert scope["scalar"].predict(X[:2]).shape == (2,)          # one output per input
     assert scope["multi"].predict(X[:2]).shape == (2, 4)         # one per class

@@ -21,7 +21,7 @@ from qdensity import _aliases
 ROOT = Path(qdensity.__file__).resolve().parent
 
 #: Subpackages from the bottom of the spine to the top: a module may import only from its own
-#: layer or a layer below it (DESIGN.md, "The spine"; CONTRIBUTING.md).
+#: layer or a layer below it (docs/design.md, "The spine"; CONTRIBUTING.md).
 LAYERS = [
     "validation",
     "progress",

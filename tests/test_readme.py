@@ -1,4 +1,5 @@
-"""Every code block of README.md, as the README holds it when the tests run.
+"""Every code block of README.md and of the documentation's Markdown pages (docs/**/*.md), as
+they hold it when the tests run, so no example on the front page or the site goes untested.
 
 Python blocks (fenced ```` ```python ```` and indented blocks that parse as Python) run
 verbatim, each alone in a fresh interpreter, so a block that leans on names from an earlier
@@ -24,13 +25,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
+#: The pages whose code blocks run: the front page and the documentation's Markdown sources.
+PAGES = [README, *sorted((ROOT / "docs").rglob("*.md"))]
 
 #: Blocks known not to run alone, by the SHA-256 (first 16 hex digits) of their exact text: an
 #: xfail that lapses as soon as the block's text changes (then the block must run).
-KNOWN_BROKEN = {
-    "fbe62e8ec23e9c0b": "the 'Real devices' block uses get_target, model, X and "
-                        "density_gradient_plan from the tour (its rewrite is under way)",
-}
+KNOWN_BROKEN: dict[str, str] = {}
 
 #: Top-level module an example may import -> the extra that brings it.
 EXTRAS = {"torch": "torch", "optuna": "sweep", "qiskit_ibm_runtime": "ibm", "mthree": "ibm",
@@ -40,23 +40,26 @@ EXTRAS = {"torch": "torch", "optuna": "sweep", "qiskit_ibm_runtime": "ibm", "mth
 OTHER_PACKAGES = {"dask_jobqueue": "dask-jobqueue"}
 
 
-def _blocks() -> list[tuple[str, str, str]]:
-    """``(id, kind, code)`` for every code block: kind ``python`` or ``shell``."""
-    lines = README.read_text(encoding="utf-8").splitlines()
+def _blocks(page: Path = README) -> list[tuple[str, str, str]]:
+    """``(id, kind, code)`` for every code block of ``page``: kind ``python`` or ``shell``; ids
+    of a documentation page start with its path under ``docs/``."""
+    lines = page.read_text(encoding="utf-8").splitlines()
+    prefix = "" if page == README else \
+        page.relative_to(ROOT / "docs").with_suffix("").as_posix().replace("/", "-") + ":"
     out, heading, i = [], "top", 0
     counts: dict[str, int] = {}
 
     def add(kind, code):
         slug = re.sub(r"[^a-z0-9]+", "-", heading.lower()).strip("-") or "top"
         counts[slug] = counts.get(slug, 0) + 1
-        out.append((f"{slug}-{counts[slug]}", kind, code))
+        out.append((f"{prefix}{slug}-{counts[slug]}", kind, code))
 
     while i < len(lines):
         line = lines[i]
         if line.startswith("#"):
             heading = line.lstrip("#").strip()
         if line.startswith("```"):
-            lang = line[3:].strip()
+            lang = line[3:].strip()  # a MyST directive ("{toctree}") or "text" is not code
             j = i + 1
             while j < len(lines) and not lines[j].startswith("```"):
                 j += 1
@@ -84,13 +87,16 @@ def _blocks() -> list[tuple[str, str, str]]:
     return out
 
 
-BLOCKS = _blocks()
+BLOCKS = [block for page in PAGES for block in _blocks(page)]
 PYTHON = [(b, code) for b, kind, code in BLOCKS if kind == "python"]
 SHELL = [(b, code) for b, kind, code in BLOCKS if kind == "shell"]
 
 
 def test_the_readme_has_python_and_shell_blocks():
-    assert len(PYTHON) >= 4 and len(SHELL) >= 3
+    readme = _blocks(README)
+    assert any(kind == "python" for _, kind, _ in readme)
+    assert sum(kind == "shell" for _, kind, _ in readme) >= 2
+    assert len(PYTHON) >= 8 and len(SHELL) >= 10  # the site's pages carry the rest
 
 
 def _missing_extra(code: str) -> str | None:
@@ -119,7 +125,7 @@ def test_python_block_runs_verbatim_and_alone(block, code, tmp_path):
            "OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"}
     proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, f"README block {block} failed:\n{proc.stderr[-3000:]}"
+    assert proc.returncode == 0, f"block {block} failed:\n{proc.stderr[-3000:]}"
 
 
 def _commands(code: str) -> list[list[str]]:
@@ -141,7 +147,7 @@ def test_shell_block_commands_exist_and_parse(block, code):
             try:
                 _parser().parse_args(argv[1:])
             except SystemExit as exc:  # a usage error (status 2)
-                raise AssertionError(f"README block {block}: {' '.join(argv)!r} does not "
+                raise AssertionError(f"block {block}: {' '.join(argv)!r} does not "
                                      f"parse (status {exc.code})") from None
         elif argv[0] == "python" and len(argv) > 1 and argv[1].endswith(".py"):
-            assert (ROOT / argv[1]).is_file(), f"README block {block}: no {argv[1]}"
+            assert (ROOT / argv[1]).is_file(), f"block {block}: no {argv[1]}"

@@ -1,7 +1,7 @@
 """Structure read off circuits: moments, Pauli generators, Hamming-weight preservation.
 
 Builders never keep a parallel list of layers; everything structural is derived here from the
-gates themselves (DESIGN.md, "Structure is derived, not duplicated").
+gates themselves (docs/design.md, "The spine": structure is derived, not duplicated).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Both are real ``Gate`` subclasses with an exact matrix, a gate-level ``_define`` in standard
 gates, and an ``inverse``; any transpiler unrolls them.
 
-Conventions (see DESIGN.md):
+Conventions (docs/design.md, "Conventions"):
 
 * ``qc.append(RBSGate(theta), [i, j])`` has, in Qiskit's operator convention (basis index
   ``q_i + 2 q_j``), the paper's matrix ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]``. On unary

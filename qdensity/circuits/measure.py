@@ -1,5 +1,5 @@
 """Measuring a circuit the house way: qubit ``j`` into clbit ``j`` of one classical register,
-so an outcome is the integer ``sum_j b_j 2^j`` (DESIGN.md, unary encoding)."""
+so an outcome is the integer ``sum_j b_j 2^j`` (docs/design.md, "Unary encoding")."""
 
 from __future__ import annotations
 

@@ -72,7 +72,8 @@ def _cmd_experiment(args) -> int:
     print(f"{args.name} ({mode}, seeds {result.seeds}, {result.seconds:.0f} s)")
     print_summary(result.summary)
     if args.out is not None:
-        print(f"results: {args.out}/{args.name}-{mode}.json")
+        saved = result.saved_to  # this run's own file (another run's settings: a named one)
+        print(f"results: {saved if saved is not None else f'{args.out}/{args.name}-{mode}.json'}")
         for name in result.figures:
             print(f"figure: {args.out}/{name}")
     return 0

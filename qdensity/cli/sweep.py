@@ -71,7 +71,8 @@ def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
                          "a quarter of them, 1 to 10, at random)")
     sw.add_argument("--storage", default=None,
                     help="optuna storage URL (default sqlite:///qdensity-sweep.db; "
-                         "postgresql://USER@HOST/DB (the sweep extra's psycopg2) or mysql://... "
+                         "postgresql+psycopg2://USER@HOST/DB (the sweep extra's psycopg2) or "
+                         "mysql+pymysql://... "
                          "for many machines)")
     sw.add_argument("--study", default=None,
                     help="study name (default: DATASET-<hash of the settings>, so that other "

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import gzip
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,10 @@ IDX_FILES = {
     "train": ("train-images-idx3-ubyte", "train-labels-idx1-ubyte"),
     "test": ("t10k-images-idx3-ubyte", "t10k-labels-idx1-ubyte"),
 }
+
+#: Most bytes an MNIST file (an IDX file once decompressed, or an archive's arrays) may take:
+#: the float64 pixels of all 70,000 images take 440 MB.
+MAX_FILE_BYTES = 2**30
 
 _IDX_DTYPES = {0x08: ">u1", 0x09: ">i1", 0x0B: ">i2", 0x0C: ">i4", 0x0D: ">f4", 0x0E: ">f8"}
 
@@ -62,9 +67,12 @@ def read_idx(path: str | Path) -> np.ndarray:
     opener = gzip.open if path.suffix == ".gz" else open
     try:
         with opener(path, "rb") as fh:
-            data = fh.read()
-    except (OSError, EOFError) as exc:
+            data = fh.read(MAX_FILE_BYTES + 1)  # a gzip bomb stops here
+    except (OSError, EOFError, zlib.error) as exc:
         raise ValueError(f"cannot read IDX file {str(path)!r}: {exc}") from exc
+    if len(data) > MAX_FILE_BYTES:
+        raise ValueError(f"{str(path)!r} holds more than {MAX_FILE_BYTES} bytes; MNIST's "
+                         f"largest file has 47 MB")
     if len(data) < 4 or data[0] != 0 or data[1] != 0 or data[2] not in _IDX_DTYPES:
         raise ValueError(f"{str(path)!r} is not an IDX file (bad magic number)")
     ndim = data[3]
@@ -94,13 +102,22 @@ def _from_npz(path: Path) -> tuple[np.ndarray, ...]:
         raise ValueError(f"cannot read {str(path)!r}: not an .npz archive (nor a directory of "
                          "MNIST IDX files)")
     try:
+        with zipfile.ZipFile(path) as zf:  # sizes from the zip headers, before inflating
+            declared = sum(info.file_size for info in zf.infolist())
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from exc
+    if declared > MAX_FILE_BYTES:
+        raise ValueError(f"{str(path)!r}: its arrays inflate to {declared} bytes, more than "
+                         f"the {MAX_FILE_BYTES} an MNIST archive may take; refused before "
+                         f"inflating")
+    try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in ("x_train", "y_train", "x_test", "y_test") if k not in data]
             if missing:
                 raise ValueError(f"{str(path)!r} lacks the arrays {missing}; an MNIST .npz holds "
                                  "x_train, y_train, x_test, y_test")
             return tuple(np.asarray(data[k]) for k in ("x_train", "y_train", "x_test", "y_test"))
-    except (OSError, EOFError, zipfile.BadZipFile) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise ValueError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from exc
 
 
@@ -122,18 +139,50 @@ def _bundled(seed: int, test_size: int) -> tuple[np.ndarray, ...]:
 
 def _check_mnist(name: str, images: np.ndarray, labels: np.ndarray, where: str) -> None:
     pixels = int(np.prod(images.shape[1:], dtype=np.int64)) if images.ndim > 1 else 0
-    if images.ndim not in (2, 3) or pixels != 784:
+    if (images.ndim not in (2, 3) or pixels != 784
+            or (images.ndim == 3 and images.shape[1:] != (28, 28))):
         raise ValueError(f"{where} is not MNIST: its {name} images have shape "
                          f"{images.shape}, MNIST images are 28 x 28 (784 pixels)")
+    _check_pixels(name, images, where)
     if len(images) != len(labels):
         raise ValueError(f"{name} split has {len(images)} images but {len(labels)} labels")
     labels = np.asarray(labels)
-    if labels.ndim != 1 or not np.issubdtype(labels.dtype, np.number) or (
+    if labels.ndim != 1 or labels.dtype.kind not in "iuf" or (
             labels.size and (labels.min() < 0 or labels.max() > 9
                              or not np.all(labels == np.round(labels)))):
         raise ValueError(f"{where} is not MNIST: its {name} labels must be digits 0..9 in one "
                          f"dimension, got shape {labels.shape} with values "
                          f"{np.unique(labels)[:12].tolist()}")
+
+
+def _check_pixels(name: str, images: np.ndarray, where: str) -> None:
+    """Pixels are integers 0..255, or finite floats that are all in [0, 1] or all integral in
+    0..255 (what :func:`_pixel_scale` divides by 255)."""
+    kind = images.dtype.kind
+    if kind not in "iuf":
+        raise ValueError(f"{where} is not MNIST: its {name} images have dtype {images.dtype}; "
+                         f"pixels are integers 0..255 or real numbers in [0, 1]")
+    if images.size == 0:
+        return
+    if kind == "f" and not np.all(np.isfinite(images)):
+        raise ValueError(f"{where} is not MNIST: its {name} images hold NaN or inf pixels")
+    lo, hi = float(images.min()), float(images.max())
+    unit = kind == "f" and lo >= 0.0 and hi <= 1.0
+    if not unit and (lo < 0 or hi > 255 or (kind == "f" and not np.all(images == np.round(
+            images)))):
+        raise ValueError(f"{where} is not MNIST: its {name} pixels lie in [{lo:g}, {hi:g}]; "
+                         f"pixels are integers 0..255 or real numbers in [0, 1]")
+
+
+def _pixel_scale(train: np.ndarray, test: np.ndarray, where: str) -> float:
+    """255 for integer pixels or floats beyond 1 (integral 0..255), else 1 ([0, 1] floats);
+    both splits on one scale."""
+    scales = [255.0 if im.dtype.kind in "iu" or (im.size and float(im.max()) > 1.0) else 1.0
+              for im in (train, test)]
+    if scales[0] != scales[1]:
+        raise ValueError(f"{where}: the train and test pixels are on different scales "
+                         f"(one 0..255, the other [0, 1]); give both splits on one scale")
+    return scales[0]
 
 
 def mnist_source(path: str | Path | None = None) -> str:
@@ -225,7 +274,7 @@ def load_mnist(
     if limit_test is not None:
         n = check_positive_int(limit_test, "limit_test")
         X_te, y_te = X_te[:n], y_te[:n]
-    scale = 255.0 if np.issubdtype(X_tr.dtype, np.integer) else 1.0
+    scale = _pixel_scale(np.asarray(X_tr), np.asarray(X_te), where)
     X_tr = X_tr.reshape(len(X_tr), -1).astype(float) / scale
     X_te = X_te.reshape(len(X_te), -1).astype(float) / scale
     if num_features is not None:

@@ -3,8 +3,8 @@
 A :class:`Plan` is a list of :class:`CircuitJob` s (one measured template, its parameter rows,
 shots per row or ``None`` for exact) plus a post-processing function from the engines'
 :class:`JobResult` s to the answer. The number of circuits and shots a question costs is read
-off its plan (DESIGN.md, spine step 4): this is how Table 1 is checked and how shot ledgers
-stay honest.
+off its plan (docs/design.md, "The spine", step 4): this is how Table 1 is checked and how
+shot ledgers stay honest.
 
 Measured templates follow one convention: qubit ``j`` is measured into clbit ``j`` of one
 classical register, so an outcome is the integer ``sum_j b_j 2^j`` and outcome probabilities

@@ -28,7 +28,7 @@ from qdensity.circuits.ansatze import (
     qcnn,
     qcnn_readout_qubit,
 )
-from qdensity.learning.estimators import QNNClassifier
+from qdensity.learning.estimators import QNNClassifier, QNNRegressor
 from qdensity.models.density import DensityQNN, Encoding
 
 __all__ = ["FAMILIES", "LABELS", "sub_unitary", "observable", "single_model", "train_recorded"]
@@ -92,7 +92,8 @@ def single_model(family: str, num_qubits: int, second: bool, seed, *, max_weight
 
 def train_recorded(model: DensityQNN, data: tuple, steps: int, *, batch_size: int,
                    learning_rate: float, eval_every: int, seed: int, post="linear",
-                   snapshot_at: int | None = None, progress: bool = False) -> dict:
+                   snapshot_at: int | None = None, progress: bool = False,
+                   readout: str = "head") -> dict:
     """Train ``model`` for ``steps`` Adam steps on mini-batches, scoring the test set every
     ``eval_every`` steps (and at step 0).
 
@@ -113,6 +114,11 @@ def train_recorded(model: DensityQNN, data: tuple, steps: int, *, batch_size: in
         Read-out head ``1 -> 2`` logits; a trained head is deep-copied (warm start).
     snapshot_at : int, optional
         Also return deep copies of the model and head after this many steps.
+    readout : {"head", "sum_z"}
+        ``"head"``: a read-out head on the model's output, cross entropy (QNNClassifier);
+        ``"sum_z"``: the paper's ``f = sum_i <Z_i>`` itself, square loss against the +-1
+        labels and the sign as the prediction (Bowles et al.'s code); ``post`` is unused and
+        the snapshot's head is None.
 
     Returns
     -------
@@ -120,21 +126,31 @@ def train_recorded(model: DensityQNN, data: tuple, steps: int, *, batch_size: in
         ``steps`` and ``accuracy`` (lists, one entry per evaluation), ``estimator`` (the fitted
         QNNClassifier), and ``snapshot`` ``(model, head)`` when asked.
     """
+    if readout not in ("head", "sum_z"):
+        raise ValueError(f"readout must be 'head' or 'sum_z', got {readout!r}")
     X, y, Xt, yt = data
     record: dict = {"steps": [], "accuracy": [], "snapshot": None}
+    plain = readout == "sum_z"
+
+    def score(est) -> float:
+        if not plain:
+            return float(est.score(Xt, yt))
+        return float(np.mean(np.where(est.predict(Xt) >= 0, 1, -1) == np.asarray(yt)))
 
     def callback(est, step):
         if step % eval_every == 0 or step == steps:
             record["steps"].append(step)
-            record["accuracy"].append(float(est.score(Xt, yt)))
+            record["accuracy"].append(score(est))
         if snapshot_at is not None and step == snapshot_at:
-            record["snapshot"] = (copy.deepcopy(est.model_), copy.deepcopy(est.post_))
+            record["snapshot"] = (copy.deepcopy(est.model_),
+                                  None if plain else copy.deepcopy(est.post_))
 
     epochs = -(-steps * batch_size // X.shape[0])
-    est = QNNClassifier(model, post=post, optimizer="adam", learning_rate=learning_rate,
-                        epochs=max(epochs, 1), batch_size=batch_size, max_steps=steps,
-                        seed=int(seed), verbose=bool(progress), callback=callback)
-    est.fit(X, y)
+    kind = QNNRegressor if plain else QNNClassifier
+    est = kind(model, post=None if plain else post, optimizer="adam",
+               learning_rate=learning_rate, epochs=max(epochs, 1), batch_size=batch_size,
+               max_steps=steps, seed=int(seed), verbose=bool(progress), callback=callback)
+    est.fit(X, np.asarray(y, dtype=float) if plain else y)
     record["estimator"] = est
     record["alpha"] = np.asarray(est.model_.alpha()[0], dtype=float)
     return record

@@ -12,6 +12,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -54,31 +55,69 @@ def _unit_path(directory: Path, seed: int, unit: int) -> Path:
     return directory / f"seed{seed}-unit{unit}.json"
 
 
+def _checksum(record: Mapping) -> str:
+    """SHA-256 of a unit record's content (sorted JSON, the checksum field left out)."""
+    body = {k: v for k, v in record.items() if k != "checksum"}
+    text = json.dumps(body, sort_keys=True, default=_plain)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _why_unusable(record, seed: int) -> str | None:
+    """What is wrong with a unit file's record (None when it can be used)."""
+    if not isinstance(record, dict):
+        return f"it holds a {type(record).__name__}, not a unit record"
+    if record.get("checksum") != _checksum(record):
+        return "its checksum does not match its content (edited, cut short or corrupted)"
+    if not isinstance(record.get("metrics"), dict):
+        return f"its metrics are {type(record.get('metrics')).__name__}, not a dict"
+    if not isinstance(record.get("worker"), str):
+        return f"its worker is {type(record.get('worker')).__name__}, not a str"
+    if record.get("seed") != seed:
+        return f"it is of seed {record.get('seed')!r}, not {seed}"
+    return None
+
+
 def load_unit(directory: Path, seed: int, unit: int, sub_config: Mapping) -> dict | None:
-    """The record of a finished unit (``metrics``, ``worker``), or None if there is none (or
-    its sub-configuration differs)."""
+    """The record of a finished unit (``metrics``, ``worker``), or None: no file, another
+    sub-configuration, or a file that cannot be trusted.
+
+    A unit file is used only when it is UTF-8 JSON whose checksum (:func:`save_unit`) matches
+    its content, with a dict of ``metrics`` and a ``worker`` string; anything else (cut short
+    by a crash, binary, UTF-16, edited, a field missing, null or a list) is run again, with a
+    ``UserWarning`` naming the file. The rerun overwrites it.
+    """
     path = _unit_path(directory, seed, unit)
     if not path.is_file():
         return None
     try:
         record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return None  # a file cut short by a crash: the unit runs again
-    if record.get("sub_config") != normalise(sub_config) or record.get("seed") != seed:
+        why = _why_unusable(record, seed)
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        why = f"it cannot be read as UTF-8 JSON ({type(exc).__name__})"
+    if why is not None:
+        warnings.warn(f"unit file {str(path)!r} is run again: {why}", UserWarning, stacklevel=2)
+        return None
+    if record.get("sub_config") != normalise(sub_config):
         return None
     return record
 
 
 def save_unit(directory: Path, seed: int, unit: int, sub_config: Mapping, metrics: Mapping,
               worker: str) -> Path:
-    """Write a finished unit atomically (a temporary file renamed into place)."""
+    """Write a finished unit atomically (a temporary file renamed into place), with the
+    SHA-256 checksum of its content that :func:`load_unit` checks."""
     directory.mkdir(parents=True, exist_ok=True)
     path = _unit_path(directory, seed, unit)
-    record = {"seed": seed, "unit": unit, "sub_config": normalise(sub_config),
-              "worker": worker, "metrics": metrics}
+    record = normalise({"seed": seed, "unit": unit, "sub_config": normalise(sub_config),
+                        "worker": worker, "metrics": metrics})
+    record["checksum"] = _checksum(record)
     tmp = path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps(record, default=_plain), encoding="utf-8")
-    os.replace(tmp, path)
+    try:
+        tmp.write_text(json.dumps(record, default=_plain), encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 

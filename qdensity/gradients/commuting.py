@@ -2,7 +2,7 @@
 
 A *commuting block* is a run of trainable gates ``exp(-i angle G_j)`` whose generators mutually
 commute (Bowles et al. 2023, "Backpropagation scaling in parameterised quantum circuits").
-For a block that ends the circuit, ``f = <psi| H |psi>`` has
+For a block that ends the circuit, ``f = <psi| H |psi>`` has::
 
     d f / d theta_j = i <psi| [G_j, H] |psi>                                  (Methods, eq. 9)
 

@@ -150,7 +150,7 @@ def _commuting_analysis(model, circ, params, k):
     They depend only on the circuits and the readout, not on data or angles, so they are
     derived once per model and kept (failures too, so ``method="auto"`` decides once).
     """
-    cache = model.__dict__.setdefault("_commuting_cache", {})
+    cache = model.derived("commuting")
     if k not in cache:
         try:
             observables = _readout_observables(model)
@@ -189,7 +189,7 @@ def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
     the parameter-shift circuits per data point (decided once per model and sub-unitary)."""
     if not isinstance(gradient, CommutingBlockGradient):
         return True
-    cache = model.__dict__.setdefault("_commuting_cache", {})
+    cache = model.derived("commuting")
     key = ("auto", k)
     if key not in cache:
         row = np.zeros((1, circ.num_parameters))
@@ -287,7 +287,7 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
 
 def _commuting_count(model, circ, params, k, method) -> int | None:
     """Commuting circuits of sub-unitary ``k``, or None where the plan would take shifts."""
-    if model.readout == "observable" and k not in model.__dict__.get("_commuting_cache", {}):
+    if model.readout == "observable" and k not in model.derived("commuting"):
         try:
             return commuting_gradient_count(circ, model.observable, params)
         except ValueError:

@@ -1,12 +1,12 @@
 """Parameter-shift gradients as plans (paper Supp. E, eq. 23).
 
-* Pauli rotations ``exp(-i t r P)`` (rx/ry/rz: r = 1/2; Pauli evolutions: r = |c|): the
+* Pauli rotations ``exp(-i t r P)`` (rx/ry/rz: r = 1/2; Pauli evolutions: ``r = |c|``): the
   two-term rule ``df/dt = r [f(t + pi/(4r)) - f(t - pi/(4r))]``.
 * RBS and FBS (generator eigenvalues {-1, 0, 1}): the four-term rule of eq. 23,
   ``df/dt = [f(t + pi/4) - f(t - pi/4)] - (sqrt(2) - 1)/2 [f(t + pi/2) - f(t - pi/2)]``,
   exact for every input and observable. ``rbs_rule="two_term"`` gives the pi/4 two-term rule,
   exact only when no later gate touches the gate's qubits and the observable is diagonal
-  (DESIGN.md); it is offered to show that fact, not for use.
+  (docs/design.md, "Measured facts"); it is offered to show that fact, not for use.
 * Controlled rotations ``crx, cry, crz`` (generator ``|1><1| (x) P/2``, eigenvalues
   {-1/2, 0, 1/2}): the same four-term rule with angles doubled and coefficients halved,
   ``df/dt = [f(t + pi/2) - f(t - pi/2)]/2 - (sqrt(2) - 1)/4 [f(t + pi) - f(t - pi)]``.

@@ -1,9 +1,10 @@
 """Aer simulation method and options chosen per PUB, by the qubits it uses and its shots.
 
-:meth:`qdensity.hardware.targets.HardwareTarget.sampler` returns an :class:`AdaptiveSampler`
-by default: a qiskit-aer ``SamplerV2`` that looks at every PUB before it runs and picks the Aer
-method with :func:`aer_options`. Aer simulates only the qubits a circuit acts on (its
-truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
+:meth:`qdensity.hardware.targets.HardwareTarget.sampler` returns an
+:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler` by default: a ``BaseSamplerV2`` that
+looks at every PUB before it runs, picks the Aer method with :func:`aer_options` and runs each
+group of PUBs on qiskit-aer's public ``SamplerV2``. Aer simulates only the qubits a circuit
+acts on (its truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
 simulation), so the choice goes by :func:`active_qubits`, not the device's width.
 
 Measured on a 2-core machine (qiskit-aer 0.18, ``heavy_hex`` and ``fake_kolkata`` noise, a
@@ -11,10 +12,10 @@ density round-robin template, 16 parameter rows per call, CPU time on one thread
 served per active qubits by :class:`~qdensity.hardware._served_noise.ServedNoiseSimulator`; a
 call also pays ~10 ms whatever the method):
 
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 active      density matrix, per row  statevector trajectories,   crossover (shots)
 qubits                               per shot
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 4           ~0.6-1.3 ms              ~0.17 ms                    ~4-8
 5           ~3.6 ms                  ~0.29 ms                    ~12
 6           ~17 ms                   ~0.45 ms                    ~35-40
@@ -22,7 +23,7 @@ qubits                               per shot
 8           ~85-90 ms                ~1.8-2.0 ms                 ~45-60
 10          ~1.1 s                   ~5.8 ms                     ~190
 12          ~22-34 s                 ~24-42 ms                   ~800-920
-==========  ======================  ==========================  =================
+==========  =======================  ==========================  =================
 
 Both costs grow with the qubits (the density matrix as ``4 ** a``, a trajectory as
 ``2 ** a``), so the crossover roughly doubles per qubit; the density matrix pays from
@@ -75,21 +76,17 @@ than guessed at: a matrix-product state of a highly entangled circuit is exponen
 
 from __future__ import annotations
 
-import copy
 import os
-from collections.abc import Callable
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
-from qiskit_aer import AerSimulator
-from qiskit_aer.primitives import SamplerV2
 
 from qdensity.cluster import idle_core
 from qdensity.hardware._served_noise import _NOT_QUBIT_WORK, active_indices
 
-__all__ = ["AdaptiveSampler", "aer_options", "active_qubits", "density_matrix_from",
+__all__ = ["aer_options", "active_qubits", "density_matrix_from",
            "DENSITY_MATRIX_MAX_QUBITS", "FAST_SAMPLER_OPTIONS", "MPS_FROM_QUBITS",
-           "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory", "NoiselessSimulators",
+           "HAMMING_WEIGHT_KEY", "memory_budget", "check_memory",
            "MPS_MAX_BOND", "mps_bond_bound", "aer_seed", "PARALLEL_TRAJECTORIES"]
 
 #: ``metadata`` key of a compiled circuit whose ideal outcomes all have this Hamming weight.
@@ -345,106 +342,6 @@ def aer_options(num_active: int, shots: int, noisy: bool, hamming_weight: int | 
         return {**options, "method": "statevector", "max_parallel_threads": 1}
     return {**options, "method": "statevector", "max_parallel_threads": 0,
             "max_parallel_shots": 0}
-
-
-class AdaptiveSampler(SamplerV2):
-    """A qiskit-aer ``SamplerV2`` whose Aer method and options follow each PUB.
-
-    PUBs of one ``run`` call are grouped by the options :func:`aer_options` gives them (their
-    active qubits and shots); each group runs as one Aer job on a simulator built by
-    ``make_simulator(method)`` with those options, then ``options`` (the caller's overrides)
-    on top. The first group runs with the sampler's seed, every other group with a seed derived
-    from it, so runs are reproducible and groups draw independent shots.
-
-    Parameters
-    ----------
-    make_simulator : callable
-        ``make_simulator(method: str) -> AerSimulator`` carrying the target's noise.
-    noisy : bool
-        Whether those simulators carry noise.
-    seed : int or None
-    default_shots : int
-    options : dict or None
-        Aer options applied to every group after the chosen ones (e.g.
-        ``{"max_parallel_threads": 1}``); a ``method`` key fixes the method.
-    """
-
-    def __init__(self, make_simulator: Callable[[str], AerSimulator], noisy: bool,
-                 seed: int | None = None, default_shots: int = 1024,
-                 options: dict | None = None):
-        super().__init__(default_shots=default_shots, seed=seed)
-        self._make_simulator = make_simulator
-        self._noisy = bool(noisy)
-        self._overrides = dict(options or {})
-        self._simulators: dict = {}
-        self._backend = self._simulator(aer_options(0, default_shots, self._noisy))
-
-    def choose(self, circuit: QuantumCircuit, shots: int, rows: int = 1) -> dict:
-        """The Aer options a PUB of ``circuit`` at ``shots`` shots runs with (overrides applied).
-
-        Parameters
-        ----------
-        circuit : QuantumCircuit
-        shots : int
-        rows : int
-            Parameter rows of the PUB.
-
-        Returns
-        -------
-        dict
-        """
-        weight = (circuit.metadata or {}).get(HAMMING_WEIGHT_KEY)
-        a = active_qubits(circuit)
-        options = {**aer_options(a, shots, self._noisy, weight, rows), **self._overrides}
-        if "method" not in self._overrides and not _fits(a, options["method"]):
-            bond = mps_bond_bound(circuit)  # too wide for a dense state: bounded entanglement?
-            if bond is not None and bond <= MPS_MAX_BOND:
-                options = {**options, "method": "matrix_product_state",
-                           "max_parallel_threads": 1}
-                options.pop("max_parallel_shots", None)
-        check_memory(a, options["method"], "SamplerEngine (Aer SamplerV2)")
-        return options
-
-    def _simulator(self, options: dict) -> AerSimulator:
-        key = tuple(sorted(options.items()))
-        if key not in self._simulators:
-            sim = self._make_simulator(options["method"])
-            sim.set_options(**{k: v for k, v in options.items() if k != "method"})
-            self._simulators[key] = sim
-        return self._simulators[key]
-
-    def _run_pubs(self, pubs, shots):
-        groups: dict = {}
-        for i, pub in enumerate(pubs):
-            opts = self.choose(pub.circuit, shots, max(pub.parameter_values.size, 1))
-            groups.setdefault(tuple(sorted(opts.items())), (opts, []))[1].append(i)
-        out: list = [None] * len(pubs)
-        for g, (opts, idx) in enumerate(groups.values()):
-            child = copy.copy(self)
-            child._backend = self._simulator(opts)
-            if g and self._seed is not None:
-                seq = np.random.SeedSequence([int(self._seed) % 2**63, 7919, g])
-                child._seed = int(seq.generate_state(1, dtype=np.uint32)[0])
-            results = SamplerV2._run_pubs(child, [pubs[i] for i in idx], shots)
-            for i, res in zip(idx, results, strict=True):
-                out[i] = res
-        return out
-
-
-class NoiselessSimulators:
-    """``make_simulator`` of a noiseless :class:`AdaptiveSampler`: ``AerSimulator(method=m)``
-    seeded (a module-level class, so samplers pickle).
-
-    Parameters
-    ----------
-    seed : int or None
-    """
-
-    def __init__(self, seed: int | None = None):
-        self.seed = seed
-
-    def __call__(self, method: str) -> AerSimulator:
-        return AerSimulator(method=method, seed_simulator=aer_seed(self.seed))
 
 
 def aer_seed(seed: int | None) -> int | None:

@@ -245,8 +245,7 @@ def _count(circuit: QuantumCircuit, *, name: str, target: str) -> ResourceReport
     plain = True
     for inst in circuit.data:
         op = inst.operation
-        if plain and (isinstance(op, (ControlFlowOp, Store))
-                      or getattr(op, "_condition", None) is not None):
+        if plain and isinstance(op, (ControlFlowOp, Store)):  # (qiskit 2 has no c_if)
             plain = False  # wires beyond qubits and clbits: let Qiskit count the depths
         wires = [wire[q] for q in inst.qubits]
         op_name = op.name
@@ -261,7 +260,7 @@ def _count(circuit: QuantumCircuit, *, name: str, target: str) -> ResourceReport
         wires += [wire[c] for c in inst.clbits]
         if not wires:
             continue
-        new = max(level[w] for w in wires) + (0 if getattr(op, "_directive", False) else 1)
+        new = max(level[w] for w in wires) + (0 if inst.is_directive() else 1)
         new_2q = max(level_2q[w] for w in wires) + is_2q
         for w in wires:
             level[w] = new

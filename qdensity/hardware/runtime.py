@@ -1,8 +1,8 @@
 """A hardware provider's runtime client behind :class:`qdensity.engines.SamplerEngine`.
 
-qdensity talks to hardware through the ``BaseSamplerV2`` interface only (DESIGN.md, spine
-step 5), so a provider's primitive plugs into :class:`~qdensity.execution.engines.SamplerEngine`
-unchanged::
+qdensity talks to hardware through the ``BaseSamplerV2`` interface only (docs/design.md,
+"The spine", step 5), so a provider's primitive plugs into
+:class:`~qdensity.execution.engines.SamplerEngine` unchanged::
 
     from qiskit.transpiler import generate_preset_pass_manager
     from qiskit_ibm_runtime import SamplerV2

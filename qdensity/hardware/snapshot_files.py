@@ -26,6 +26,8 @@ from qiskit.circuit.library import get_standard_gate_name_mapping
 from qiskit.providers import BackendV2, Options, QubitProperties
 from qiskit.transpiler import InstructionProperties, Target
 
+from qdensity.hardware._snapshot_checks import MAX_SNAPSHOT_BYTES, check_snapshot_data, t2_bound
+
 __all__ = ["SNAPSHOT_FORMAT", "SNAPSHOT_VERSION", "SnapshotFileBackend", "save_snapshot",
            "load_snapshot", "is_snapshot_path"]
 
@@ -37,6 +39,12 @@ SNAPSHOT_VERSION = 1
 _CONTROL_FLOW = {"if_else": IfElseOp, "while_loop": WhileLoopOp, "for_loop": ForLoopOp,
                  "switch_case": SwitchCaseOp, "break_loop": BreakLoopOp,
                  "continue_loop": ContinueLoopOp, "box": BoxOp}
+_CONTROL_NAMES = frozenset(_CONTROL_FLOW)
+
+
+def _arities() -> dict[str, int]:
+    """Standard instruction name -> the number of qubits it acts on."""
+    return {k: g.num_qubits for k, g in get_standard_gate_name_mapping().items()}
 
 
 class SnapshotFileBackend(BackendV2):
@@ -109,7 +117,10 @@ def save_snapshot(device, path: str | os.PathLike) -> Path:
     ------
     ValueError
         An instruction that is neither a standard gate, ``measure`` / ``reset`` / ``delay``
-        nor control flow (it could not be read back).
+        nor control flow, or a calibration value :func:`load_snapshot` would refuse (an
+        error outside ``[0, 1]``, T1 <= 0, a negative duration: it could not be read back).
+        A T2 above ``2 * T1`` is written as ``2 * T1``, the value qiskit-aer's noise model
+        uses; a device without qubit properties is written without them.
     """
     name, target = _as_target(device)
     standard = get_standard_gate_name_mapping()
@@ -128,7 +139,7 @@ def save_snapshot(device, path: str | os.PathLike) -> Path:
              "duration": _num(getattr(p, "duration", None)) if p is not None else None}
             for qargs, p in props.items()
         ]
-    qubits = [None if q is None else {"t1": _num(q.t1), "t2": _num(q.t2),
+    qubits = [None if q is None else {"t1": _num(q.t1), "t2": t2_bound(_num(q.t1), _num(q.t2)),
                                       "frequency": _num(q.frequency)}
               for q in (target.qubit_properties or [None] * target.num_qubits)]
     import qiskit
@@ -139,6 +150,8 @@ def save_snapshot(device, path: str | os.PathLike) -> Path:
         "saved_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "qiskit": qiskit.__version__, "qubits": qubits, "instructions": instructions,
     }
+    # what load_snapshot would refuse is not written (an error of 1.5, T1 <= 0, ...)
+    check_snapshot_data(data, f"device {name!r} (not saved)", _arities(), _CONTROL_NAMES)
     out = Path(path)
     out.write_text(json.dumps(data, indent=1))
     return out
@@ -178,38 +191,51 @@ def load_snapshot(path: str | os.PathLike) -> SnapshotFileBackend:
     Raises
     ------
     ValueError
-        A missing file, a file that is not a snapshot, or one of a newer format version.
+        A missing file, a file that is not a snapshot (not UTF-8 JSON, over
+        ``MAX_SNAPSHOT_BYTES``, nested too deep), one of a newer format version, or a field
+        out of its range (:mod:`qdensity.hardware._snapshot_checks`: errors in ``[0, 1]``,
+        T1 > 0, 0 < T2 <= 2 T1, durations >= 0, qubit indices in range, each gate on as many
+        qubits as it acts on), named with the file, the field and the qubit; all before
+        anything is built.
     """
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"snapshot file {os.fspath(path)!r} does not exist")
+    size = p.stat().st_size
+    if size > MAX_SNAPSHOT_BYTES:
+        _refuse(path, f"{size} bytes, more than the {MAX_SNAPSHOT_BYTES} a snapshot may take")
     try:
-        data = json.loads(p.read_text())
+        data = json.loads(p.read_bytes().decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         _refuse(path, f"not JSON: {exc}")
+    except RecursionError:
+        _refuse(path, "not JSON a snapshot can hold: nested deeper than Python's JSON reader "
+                      "allows (a snapshot nests 5 deep)")
     if not isinstance(data, dict) or data.get("format") != SNAPSHOT_FORMAT:
         _refuse(path, f"no 'format': {SNAPSHOT_FORMAT!r} field")
     version = data.get("version")
-    if not isinstance(version, int) or version < 1:
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
         _refuse(path, f"bad version {version!r}")
     if version > SNAPSHOT_VERSION:
         raise ValueError(f"snapshot file {os.fspath(path)!r} has format version {version}, "
                          f"newer than this qdensity reads ({SNAPSHOT_VERSION}); upgrade qdensity")
+    check_snapshot_data(data, f"snapshot file {os.fspath(path)!r}", _arities(), _CONTROL_NAMES)
     try:
-        qubits = [None if q is None else QubitProperties(**q) for q in data["qubits"]]
-        target = Target(description=data["name"], num_qubits=int(data["num_qubits"]),
-                        dt=data["dt"], qubit_properties=qubits)
+        # qubits without properties get empty ones (unknown T1/T2), as qiskit-aer's
+        # NoiseModel.from_backend reads a property object for every qubit
+        saved = data.get("qubits") or [None] * data["num_qubits"]
+        qubits = [QubitProperties(**(q or {})) for q in saved]
+        target = Target(description=data["name"], num_qubits=data["num_qubits"],
+                        dt=data.get("dt"), qubit_properties=qubits)
         standard = get_standard_gate_name_mapping()
         for op_name, entries in data["instructions"].items():
             if op_name in _CONTROL_FLOW:
                 target.add_instruction(_CONTROL_FLOW[op_name], name=op_name)
                 continue
-            if op_name not in standard:
-                _refuse(path, f"unknown instruction {op_name!r}")
             target.add_instruction(standard[op_name], {
-                tuple(e["qubits"]): InstructionProperties(error=e["error"],
-                                                          duration=e["duration"])
+                tuple(e["qubits"]): InstructionProperties(error=e.get("error"),
+                                                          duration=e.get("duration"))
                 for e in entries})
-    except (KeyError, TypeError, AttributeError) as exc:
+    except (KeyError, TypeError, AttributeError, ValueError) as exc:
         _refuse(path, f"malformed: {exc!r}")
     return SnapshotFileBackend(data["name"], target)

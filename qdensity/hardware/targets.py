@@ -18,10 +18,11 @@ map and native gates to transpile against, a noise model, and factories for a se
     A trapped-ion-like all-to-all device whose native two-qubit gate is the beam splitter
     ``xx_plus_yy`` (``XXPlusYYGate``), next to the Molmer-Sorensen gate ``rxx`` and the
     one-qubit gates ``rz`` (virtual), ``sx``, ``x``. Because ``RBSGate(theta)`` *equals*
-    ``XXPlusYYGate(2 theta, pi/2)`` (DESIGN.md, measured facts), :meth:`HardwareTarget.transpile`
-    first writes every RBS (also inside gates such as FBS whose definitions hold RBS gates) as
-    that native gate, so a circuit of ``m`` RBS gates (paper eq. 8) transpiles to exactly ``m``
-    native two-qubit gates and nothing else; other two-qubit gates translate through ``rxx``.
+    ``XXPlusYYGate(2 theta, pi/2)`` (docs/design.md, "Measured facts"),
+    :meth:`HardwareTarget.transpile` first writes every RBS (also inside gates such as FBS whose
+    definitions hold RBS gates) as that native gate, so a circuit of ``m`` RBS gates (paper
+    eq. 8) transpiles to exactly ``m`` native two-qubit gates and nothing else; other two-qubit
+    gates translate through ``rxx``.
     The noise is uniform across the chain (:data:`RBS_NATIVE_NOISE`); the seed only drives
     transpilation and sampling.
 ``fake_manila``, ``fake_torino``, ... (one per backend of ``qiskit_ibm_runtime.fake_provider``)
@@ -48,7 +49,6 @@ from qiskit.transpiler import CouplingMap, Target
 from qiskit.transpiler.exceptions import TranspilerError
 from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel
-from qiskit_aer.primitives import SamplerV2
 
 from qdensity.hardware._basis import _check_level, _ideal_basis
 from qdensity.hardware._lazy_noise import NoiseModelField
@@ -62,7 +62,8 @@ from qdensity.hardware._native import (
 from qdensity.hardware._objects import backend_fields, target_fields
 from qdensity.hardware._passmanagers import check_batch, transpile_with
 from qdensity.hardware._served_noise import ServedNoiseSimulator
-from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, AdaptiveSampler, aer_seed
+from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler
+from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, aer_seed
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import (
     is_snapshot_name,
@@ -297,8 +298,8 @@ class HardwareTarget:
         device: str = "CPU",
         fast: bool = True,
         options: dict | None = None,
-    ) -> SamplerV2:
-        """A qiskit-aer ``SamplerV2`` running on :meth:`simulator` (noise, coupling, seed).
+    ) -> AdaptiveSampler | AerSampler:
+        """A seeded Aer sampler running on :meth:`simulator` (noise, coupling, seed).
 
         Parameters
         ----------
@@ -308,7 +309,7 @@ class HardwareTarget:
         shots : int or None
             Default shots per PUB; None means 1024.
         method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
-            ``"auto"``: an :class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`, choosing
+            ``"auto"``: an :class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`, choosing
             per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
             active qubits from the measured crossover, 8 to 96 shots up to 8 qubits; otherwise one
             trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).
@@ -324,8 +325,11 @@ class HardwareTarget:
 
         Returns
         -------
-        qiskit_aer.primitives.SamplerV2
-            Aer primitives do not transpile: submit circuits from :meth:`transpile`.
+        AdaptiveSampler or AerSampler
+            ``BaseSamplerV2`` implementations on qiskit-aer's public ``SamplerV2``
+            (:mod:`qdensity.hardware.aer_samplers`): an :class:`AdaptiveSampler` for
+            ``method="auto"``, an :class:`AerSampler` on :meth:`simulator` otherwise. Aer
+            primitives do not transpile: submit circuits from :meth:`transpile`.
 
         Examples
         --------
@@ -351,7 +355,7 @@ class HardwareTarget:
             sim.set_options(**FAST_SAMPLER_OPTIONS)
         if options:
             sim.set_options(**options)
-        return SamplerV2.from_backend(sim, default_shots=default_shots, seed=aer_seed(sim_seed))
+        return AerSampler(sim, seed=aer_seed(sim_seed), default_shots=default_shots)
 
 
 HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read

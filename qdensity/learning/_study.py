@@ -30,9 +30,26 @@ MAX_RETRY = 3
 #: Tries to open a storage whose schema another worker is creating at the same moment.
 _OPEN_TRIES = 10
 
-_DRIVERS = {"postgresql": "psycopg2-binary (pip install \"qdensity[sweep]\")",
-            "mysql": "a MySQL driver such as PyMySQL (pip install pymysql; URL "
-                     "mysql+pymysql://...)"}
+#: The package that brings a SQLAlchemy driver, by the driver's name as SQLAlchemy resolves the
+#: URL (SQLAlchemy 2.1 maps a plain ``postgresql://`` to psycopg 3, not to the sweep extra's
+#: psycopg2, so the message names what is really missing and how to reach the one installed).
+_DRIVERS = {"psycopg2": "psycopg2-binary (the sweep extra: pip install -e \".[sweep]\")",
+            "psycopg": "psycopg 3, which SQLAlchemy uses for postgresql:// URLs (pip install "
+                       "\"psycopg[binary]\"); or write postgresql+psycopg2://... to use the sweep "
+                       "extra's psycopg2-binary",
+            "mysqldb": "a MySQL driver such as PyMySQL (pip install pymysql; URL "
+                       "mysql+pymysql://...)"}
+
+
+def _driver_hint(url: str) -> str:
+    """The package to install for the driver SQLAlchemy picks for ``url``."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        driver = make_url(url).get_driver_name()
+    except Exception:  # noqa: BLE001 - an unparsable URL: name no package
+        driver = ""
+    return _DRIVERS.get(driver, f"its SQLAlchemy driver ({driver or 'unknown'})")
 
 
 def _optuna():
@@ -187,8 +204,7 @@ def open_study(study_name: str, storage: str, *, direction: str = "maximize",
         except ValueError:
             raise
         except ImportError as exc:
-            scheme = storage.split("://")[0].split("+")[0]
-            hint = _DRIVERS.get(scheme, "its SQLAlchemy driver")
+            hint = _driver_hint(storage)
             raise ImportError(f"storage {storage!r} needs a database driver that is not "
                               f"installed ({str(exc).splitlines()[0]}): install {hint}") from exc
         except DBAPIError as exc:  # the schema race (IntegrityError, OperationalError, ...)

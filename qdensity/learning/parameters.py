@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["get_flat", "set_flat", "save_parameters", "load_parameters"]
+__all__ = ["get_flat", "set_flat", "save_parameters", "load_parameters", "MAX_PARAMETER_BYTES",
+           "MAX_PARAMETER_ARRAYS"]
+
+#: Default bound on the bytes a parameter file's arrays may take once read.
+MAX_PARAMETER_BYTES = 2**31
+#: Most arrays a parameter archive may hold.
+MAX_PARAMETER_ARRAYS = 4096
 
 
 # --------------------------------------------------------------------------------------------
@@ -188,7 +194,8 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
                 np.lib.format.write_array(member, arr, allow_pickle=False)
 
 
-def load_parameters(path: str | os.PathLike) -> dict[str, np.ndarray]:
+def load_parameters(path: str | os.PathLike, *,
+                    max_bytes: int | None = None) -> dict[str, np.ndarray]:
     """Read arrays written by :func:`save_parameters` (``.npz`` without pickle, or JSON).
 
     Parameters
@@ -196,6 +203,11 @@ def load_parameters(path: str | os.PathLike) -> dict[str, np.ndarray]:
     path : str or path-like
         A ``*.json`` name is read as JSON, anything else with ``numpy.load(...,
         allow_pickle=False)``.
+    max_bytes : int, optional
+        Most bytes the arrays may take once read (default :data:`MAX_PARAMETER_BYTES`): an
+        archive's members are measured by the sizes in its zip headers
+        (``zipfile.ZipInfo.file_size``) before anything is inflated, a JSON file by its size
+        on disk.
 
     Returns
     -------
@@ -210,9 +222,46 @@ def load_parameters(path: str | os.PathLike) -> dict[str, np.ndarray]:
         archive, or is not a qdensity parameter JSON file.
     """
     path = os.fspath(path)
+    limit = MAX_PARAMETER_BYTES if max_bytes is None else int(max_bytes)
     if str(path).lower().endswith(".json"):
+        size = os.path.getsize(path)
+        if size > 4 * limit:  # a float takes at most ~25 characters of JSON, 8 bytes in memory
+            raise ValueError(f"{path!r} has {size} bytes, more than the {4 * limit} a parameter "
+                             f"JSON file may have")
         return _load_json(path)
-    return _load_npz(path)
+    return _load_npz(path, limit)
+
+
+def _check_members(path: str, limit: int) -> None:
+    """Refuse an archive whose members would inflate past ``limit`` bytes (zip headers)."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            if len(infos) > MAX_PARAMETER_ARRAYS:
+                raise ValueError(f"{path!r} holds {len(infos)} arrays, more than the "
+                                 f"{MAX_PARAMETER_ARRAYS} a parameter archive may hold")
+            total = 0
+            for info in infos:
+                total += info.file_size
+                if total > limit:
+                    raise ValueError(f"{path!r}: its arrays inflate to more than {limit} bytes "
+                                     f"(member {info.filename!r} declares {info.file_size}); "
+                                     f"refused before inflating")
+            for info in infos:  # each .npy header (a few bytes) against its member's size
+                try:
+                    with zf.open(info) as member:
+                        version = np.lib.format.read_magic(member)
+                        shape, _, dtype = (np.lib.format.read_array_header_1_0(member)
+                                           if version == (1, 0)
+                                           else np.lib.format.read_array_header_2_0(member))
+                except ValueError as exc:
+                    raise ValueError(f"{path!r}: member {info.filename!r} is not a .npy array "
+                                     f"readable without pickle: {exc}") from exc
+                if int(np.prod(shape, dtype=object)) * dtype.itemsize > info.file_size:
+                    raise ValueError(f"{path!r}: array {info.filename!r} claims shape {shape} "
+                                     f"of {dtype}, more than its {info.file_size} bytes")
+    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
+        raise ValueError(f"{path!r} is not a readable .npz parameter archive: {exc}") from exc
 
 
 def _finite(path: str, name: str, arr: np.ndarray) -> np.ndarray:
@@ -227,6 +276,9 @@ def _load_json(path: str) -> dict[str, np.ndarray]:
             doc = json.load(fh)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{path!r} is not valid JSON: {exc}") from exc
+        except RecursionError as exc:
+            raise ValueError(f"{path!r} nests deeper than a parameter file does (a few levels)"
+                             ) from exc
         except UnicodeDecodeError as exc:
             raise ValueError(f"{path!r} is not a UTF-8 text (JSON) file: {exc}") from exc
     if not isinstance(doc, dict) or doc.get("format") != _JSON_FORMAT:
@@ -261,7 +313,7 @@ def _load_json(path: str) -> dict[str, np.ndarray]:
     return out
 
 
-def _load_npz(path: str) -> dict[str, np.ndarray]:
+def _load_npz(path: str, limit: int) -> dict[str, np.ndarray]:
     with open(path, "rb") as fh:  # FileNotFoundError / IsADirectoryError pass through
         head = fh.read(4)
     if head[:1] == b"\x80" or head[:1] == b"(":
@@ -274,6 +326,7 @@ def _load_npz(path: str) -> dict[str, np.ndarray]:
         what = "an empty file" if not head else "not a zip archive"
         raise ValueError(f"{path!r} is not an .npz parameter archive ({what}); parameter "
                          "files are written by save_parameters")
+    _check_members(path, limit)
     try:
         loaded = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:

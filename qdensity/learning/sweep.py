@@ -1,4 +1,4 @@
-"""Hyperparameter sweeps with optuna (optional extra: ``pip install "qdensity[sweep]"``).
+"""Hyperparameter sweeps with optuna (optional extra: ``pip install -e ".[sweep]"``).
 
 The paper tunes every OrthoQNN model with optuna, 32 trials per model (Supp.
 "Hyperparameters"): ``batch_size in {32, 48, ..., 256}``, ``learning_rate`` log-uniform in
@@ -9,9 +9,10 @@ a dataset, scored on a held-out split; :func:`run_trials` is the loop itself, fo
 objective (the ``moe`` experiment's sweeps use it).
 
 Trials live in an optuna storage: an SQLite file by default, or any optuna storage URL
-(``postgresql://...``, ``mysql://...``) so that many worker processes on many machines share
-one study -- start the same command on each machine, or give ``cluster`` (Dask) and the trials
-run on its workers. The study ends with exactly ``n_trials`` COMPLETE trials:
+(``postgresql+psycopg2://...`` with the extra's driver, ``mysql+pymysql://...``) so that many
+worker processes on many machines share one study -- start the same command on each machine, or
+give ``cluster`` (Dask) and the trials run on its workers. The study ends with exactly
+``n_trials`` COMPLETE trials:
 
 * the schema is created once, however many workers start together on a fresh storage (a file
   lock for SQLite, retries for a database server);

@@ -23,6 +23,14 @@ Gradients reach the angles, the logits, the gate's weights and the input:
   the four-term RBS rule on the loader's angles chained with the loader's Jacobian
   ``d phi / d x``. Unary amplitudes (signs no measurement gives) have no sampled gradient.
 
+Devices: the module computes on the device of its inputs (``layer.to("cuda")`` moves its
+parameters). With ``engine="torch"``, or ``engine="exact"`` and inputs on a non-CPU device,
+the quantum part runs on the torch engines there: the unary engine's torch path
+(:mod:`qdensity.execution.unary`, tensors in and out, its reverse mode as the backward) for
+RBS/FBS models, ``AdjointEngine(backend="torch", device=...)`` for every other model (the
+parameter rows and results cross to the host; the states stay on the device). Same values as
+``"exact"`` to rounding.
+
 A gate's ``d alpha / d x`` is ordinary torch autograd, so a mixture-of-experts model gets the
 whole input gradient of eq. 3 on every path.
 
@@ -82,11 +90,11 @@ class _Experts(torch.autograd.Function):
     """``(x, theta) -> f_k(x)`` of every sub-unitary, shape (B, K, m), with its VJP."""
 
     @staticmethod
-    def forward(ctx, x, theta, layer, need_grad):
+    def forward(ctx, x, theta, layer, need_grad, engine=None):
         X = np.asarray(x.detach().cpu().numpy(), dtype=np.float64)
         th = np.array(theta.detach().cpu().numpy(), dtype=np.float64)  # a copy: steps change it
         outs, state = layer._run(X, th, need_grad=need_grad,
-                                 need_input=need_grad and x.requires_grad)
+                                 need_input=need_grad and x.requires_grad, engine=engine)
         ctx.layer, ctx.state, ctx.theta = layer, state, th
         return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
 
@@ -98,7 +106,31 @@ class _Experts(torch.autograd.Function):
             raise RuntimeError("the input gradient was not computed: the forward ran with an "
                                "input that did not require a gradient")
         gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
-        return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
+        return gx, torch.from_numpy(g_theta).to(grad_outs), None, None, None
+
+
+class _UnaryTorch(torch.autograd.Function):
+    """``(x, theta) -> y = O(theta) x`` on the unary engine's torch path, with its reverse mode
+    (:func:`qdensity.execution.unary.vjp`, from the saved outputs) as the backward."""
+
+    @staticmethod
+    def forward(ctx, x, theta, compiled):
+        from qdensity.execution.unary import forward
+
+        y = forward(compiled, x.detach(), theta.detach())
+        ctx.save_for_backward(x, theta, y)
+        ctx.compiled = compiled
+        return y
+
+    @staticmethod
+    def backward(ctx, grad_y):
+        from qdensity.execution.unary import vjp
+
+        x, theta, y = ctx.saved_tensors
+        g_theta, g_x = vjp(ctx.compiled, x.detach(), theta.detach(), grad_y.detach(),
+                           reduce="sum", outputs=y)
+        return (g_x if ctx.needs_input_grad[0] else None,
+                g_theta if ctx.needs_input_grad[1] else None, None)
 
 
 class DensityQNNLayer(nn.Module):
@@ -108,7 +140,9 @@ class DensityQNNLayer(nn.Module):
     ----------
     model : DensityQNN
         Copied; the module trains its own copy (:meth:`to_model` gives the trained model).
-    engine : "exact" or SamplerEngine
+    engine : "exact", "torch" or SamplerEngine
+        ``"exact"``: numpy engines for CPU inputs, the torch engines for inputs on another
+        device; ``"torch"``: the torch engines always (module docstring).
     shots : int, optional
         Shots per circuit with a sampler engine.
     gradient : {"auto", "shift", "commuting"}
@@ -156,10 +190,11 @@ class DensityQNNLayer(nn.Module):
                 raise ValueError("shots must be given (shots per circuit) with a SamplerEngine")
             check_positive_int(shots, "shots", minimum=2)  # sampled gradients need a variance
         elif not isinstance(engine, str):
-            raise TypeError(f"engine must be 'exact' or a SamplerEngine, got "
+            raise TypeError(f"engine must be 'exact', 'torch' or a SamplerEngine, got "
                             f"{type(engine).__name__} {engine!r}")
-        elif engine != "exact":
-            raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {engine!r}")
+        elif engine not in ("exact", "torch"):
+            raise ValueError(f"engine must be 'exact', 'torch' or a SamplerEngine, got "
+                             f"{engine!r}")
         if gradient not in METHODS:
             raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
         if gate is not None and not isinstance(gate, nn.Module):
@@ -190,7 +225,7 @@ class DensityQNNLayer(nn.Module):
         self._indices = [self.model.subunitary_parameter_indices(k) for k in range(K)]
         self._single = K == 1 and self.gate is None and (
             hasattr(self, "logits") or float(self.alpha[0]) == 1.0)
-        self._unary = (engine == "exact" and self.model._use_unary())
+        self._unary = (engine in ("exact", "torch") and self.model._use_unary())
         if self._unary:  # the Givens rotations of each sub-unitary, extracted once
             from qdensity.execution.unary import compile_unary
 
@@ -235,7 +270,12 @@ class DensityQNNLayer(nn.Module):
         lead = x.shape[:-1]
         flat = x.reshape(-1, self.num_features)
         need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
-        outs = _Experts.apply(flat, self.theta, self, need_grad)
+        on_torch = self.engine == "torch" or (self.engine == "exact" and flat.device.type != "cpu")
+        if on_torch and self._unary:
+            outs = self._unary_torch(flat)
+        else:
+            engine = self._torch_engine(flat.device) if on_torch else None
+            outs = _Experts.apply(flat, self.theta, self, need_grad, engine)
         if self._single:  # alpha = 1: f = f_1, without mixing ops in the graph
             out = outs[:, 0]
         else:
@@ -243,9 +283,46 @@ class DensityQNNLayer(nn.Module):
             out = torch.einsum("bk,bkm->bm", alpha, outs)
         return out.reshape(lead + out.shape[-1:])
 
+    # ------------------------------------------------------------ torch engines
+    def _unary_torch(self, flat: torch.Tensor) -> torch.Tensor:
+        """``f_k(x)`` of every sub-unitary, (B, K, m), by the unary engine on ``flat``'s device."""
+        norms = flat.norm(dim=1, keepdim=True)
+        if flat.device.type != "meta" and bool((norms == 0).any()):
+            rows = torch.nonzero(norms[:, 0] == 0).flatten().tolist()
+            raise ValueError(f"input rows {rows} are all-zero; a unary encoding cannot load them")
+        Xn = flat / norms
+        readout = self.model.readout
+        if readout == "observable":
+            zdiag = torch.as_tensor(self._zdiag, dtype=flat.dtype, device=flat.device)
+        outs = []
+        for c, idx in zip(self._compiled, self._indices, strict=True):
+            index = torch.as_tensor(np.asarray(idx, dtype=np.int64), device=flat.device)
+            y = _UnaryTorch.apply(Xn, self.theta.index_select(0, index).to(flat.dtype), c)
+            if readout == "unary_amplitudes":
+                outs.append(y)
+            elif readout == "unary_probabilities":
+                outs.append(y**2)
+            else:
+                outs.append((y**2 @ zdiag)[:, None])
+        return torch.stack(outs, dim=1)
+
+    def _torch_engine(self, device: torch.device):
+        """The adjoint engine on ``device`` (one per device, kept with the module)."""
+        from qdensity.execution.statevector.adjoint import AdjointEngine
+
+        engines = self.__dict__.setdefault("_torch_engines", {})
+        key = str(device)
+        if key not in engines:
+            engines[key] = AdjointEngine(backend="torch", device=device)
+        return engines[key]
+
     # ------------------------------------------------------------ numpy side
-    def _run(self, X, theta, *, need_grad: bool, need_input: bool = False):
+    def _run(self, X, theta, *, need_grad: bool, need_input: bool = False, engine=None):
         m = self.model
+        if engine is not None:  # the torch adjoint engine: every model but unary ones
+            m.set_params(theta=theta)
+            res = exact_gradients(m, X, engine, inputs=need_input)
+            return res.outputs, ("adjoint", X, res)
         if self._unary:
             from qdensity.execution.unary import forward
 

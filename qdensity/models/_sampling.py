@@ -86,7 +86,8 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     from qdensity.execution.plans import CircuitJob, diagonal_values, measured
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
-    from qdensity.validation import check_positive_int
+    from qdensity.hardware.aer_sampling import aer_seed
+    from qdensity.validation import check_positive_int, seed_int
 
     budget = check_positive_int(budget, "budget", maximum=MAX_DENSE_ENTRIES,
                                 why="every shot's measured bits are held in memory")
@@ -134,21 +135,20 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         ledger = engine.ledger
     elif ledger is None:
         ledger = ShotLedger()
-    correction = None
+    fresh = None
 
     def engine_for_call():
-        # a fresh sampler per phase (independent shots), one readout calibration per call:
-        # every fresh engine shares the first one's correction, so the qubits it calibrated
-        # (its calibration shots on the shared ledger) are not calibrated again
-        nonlocal correction
+        # one engine per call (one readout calibration, its shots on the ledger once), its
+        # sampler reseeded from rng for every later phase (independent shots), through the
+        # public sampler attribute and the sampler's public with_seed
+        nonlocal fresh
         if engine is not None:
             return engine
-        fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
-                              postselect=postselect)
-        if correction is None:
-            correction = fresh._correction
+        if fresh is None:
+            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
+                                  postselect=postselect)
         else:
-            fresh._correction = correction
+            fresh.sampler = fresh.sampler.with_seed(aer_seed(seed_int(rng)))
         return fresh
 
     if not model.training:
@@ -176,7 +176,8 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                               allocation=np.array([budget]), per_subunitary=np.array([mean]),
                               shots_used=budget, pilot_allocation=None, info={})
     corrected = (mitigation is not None or postselect is not None
-                 or (engine is not None and getattr(engine, "_correction", None) is not None))
+                 or (engine is not None
+                     and (engine.mitigation is not None or engine.postselect is not None)))
     if unary:
         return _randomised_unary(model, x, budget, scheduler, engine_for_call, rng, corrected)
     assert values is not None  # set whenever the readout is not unary

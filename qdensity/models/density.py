@@ -13,10 +13,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution.plans import Plan, check_observable, expectation_plan
+from qdensity.models._derived import DerivedStore, structure_key
 from qdensity.models._rows import _parameter_holder, bind_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
@@ -113,27 +114,62 @@ class DensityQNN:
             if bad:
                 raise ValueError(f"readout={readout!r} needs Hamming-weight-preserving "
                                  f"sub-unitaries; sub_unitaries{bad} are not")
-        self.sub_unitaries = subs
+        self._derived = DerivedStore()
+        self._subs = subs
+        self._reindex()
         self.encoding = encoding
         self.readout = readout
         if observable is None:
             observable = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], self.num_qubits)
-        self.observable = check_observable(observable, self.num_qubits)
+        self.observable = observable
         self.mixture = as_mixture(mixture, len(subs))
-        params: list[Parameter] = []
-        seen = set()
-        for c in subs:
-            for p in trainable_parameters(c):
-                if p not in seen:
-                    seen.add(p)
-                    params.append(p)
-        self.parameters = params
-        self._index = {p: i for i, p in enumerate(params)}
-        self.theta = (as_rng(seed).uniform(-np.pi, np.pi, len(params)) if seed is not None
-                      else np.zeros(len(params)))
+        self.theta = (as_rng(seed).uniform(-np.pi, np.pi, len(self.parameters))
+                      if seed is not None else np.zeros(len(self.parameters)))
         self.training = True
-        self._unary_ok: bool | None = None
-        self._num_uploaded: int | None = None
+
+    def _reindex(self) -> None:
+        self.parameters = list(dict.fromkeys(p for c in self._subs
+                                             for p in trainable_parameters(c)))
+        self._index = {p: i for i, p in enumerate(self.parameters)}
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def sub_unitaries(self) -> list[QuantumCircuit]:
+        """``U_1 .. U_K``. Setting a new list re-reads :attr:`parameters`; :attr:`theta` is
+        kept when the parameter count stays, else reset to zeros (as a model without seed)."""
+        return self._subs
+
+    @sub_unitaries.setter
+    def sub_unitaries(self, value) -> None:
+        subs = [value] if isinstance(value, QuantumCircuit) else list(
+            check_sequence_of(value, "sub_unitaries", QuantumCircuit, "QuantumCircuit"))
+        if not subs or any(c.num_qubits != self.num_qubits for c in subs):
+            raise ValueError(f"sub_unitaries must be at least one circuit on {self.num_qubits} "
+                             f"qubits (the model's width), got widths "
+                             f"{[c.num_qubits for c in subs]}")
+        self._subs = [check_circuit(c, f"sub_unitaries[{i}]") for i, c in enumerate(subs)]
+        old = len(getattr(self, "parameters", ()))
+        self._reindex()
+        if "_theta" in self.__dict__ and len(self.parameters) != old:
+            self.theta = np.zeros(len(self.parameters))
+
+    @property
+    def observable(self) -> SparsePauliOp:
+        """``O`` of the observable readout (checked on set, on :attr:`num_qubits` qubits)."""
+        return self._observable
+
+    @observable.setter
+    def observable(self, value) -> None:
+        self._observable = check_observable(value, self.num_qubits)
+
+    def derived(self, name: str) -> dict:
+        """The dict ``name`` (``"exact"``, ``"commuting"``, ...) for values derived from the
+        sub-unitaries, encoding, readout and observable; emptied when any of them changes
+        (:mod:`qdensity.models._derived`), so what is kept there stays right."""
+        store = self.__dict__.get("_derived")
+        if store is None:  # a model pickled before the store existed
+            store = self._derived = DerivedStore()
+        return store.store(structure_key(self), name)
 
     # ------------------------------------------------------------------ basic facts
     @property
@@ -173,11 +209,12 @@ class DensityQNN:
         (re-uploading, Methods eq. 10-11; 0 for a model that takes no data)."""
         if self.encoding is not None:
             return self.encoding.num_features
-        if self._num_uploaded is None:
+        known = self.derived("features")
+        if "uploaded" not in known:
             idx = [p.index for c in self.sub_unitaries for p in c.parameters
                    if getattr(getattr(p, "vector", None), "name", None) == DATA_PREFIX]
-            self._num_uploaded = max(idx) + 1 if idx else 0
-        return self._num_uploaded
+            known["uploaded"] = max(idx) + 1 if idx else 0
+        return known["uploaded"]
 
     @property
     def num_subunitaries(self) -> int:
@@ -270,7 +307,8 @@ class DensityQNN:
 
     # ------------------------------------------------------------------ exact evaluation
     def _use_unary(self) -> bool:
-        if self._unary_ok is None:
+        known = self.derived("unary")
+        if "ok" not in known:
             from qdensity.models.exact import unary_circuits
 
             ok = self.encoding is not None and self.encoding.kind == "unary"
@@ -281,8 +319,8 @@ class DensityQNN:
                     ok = False
             if ok and self.readout == "observable":
                 ok = not np.any(self.observable.paulis.x)
-            self._unary_ok = ok
-        return self._unary_ok
+            known["ok"] = ok
+        return known["ok"]
 
     def _unary_amplitudes(self, X, theta) -> np.ndarray:
         from qdensity.execution.unary import forward
@@ -470,6 +508,14 @@ class DensityQNN:
         if mixture is not None:
             self.mixture.params = check_finite_array(mixture, "mixture")
         return self
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickle, also a model pickled before its structure became properties."""
+        for old, new in (("sub_unitaries", "_subs"), ("observable", "_observable")):
+            if old in state:
+                state[new] = state.pop(old)
+        stale = ("_unary_ok", "_num_uploaded", "_engines", "_commuting_cache")
+        self.__dict__.update({k: v for k, v in state.items() if k not in stale})
 
     def __sklearn_clone__(self) -> DensityQNN:
         """``sklearn.base.clone`` of an estimator holding this model as a template: a copy."""

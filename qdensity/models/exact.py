@@ -41,14 +41,16 @@ class ModelEngines:
 
 
 def engines_of(model) -> ModelEngines:
-    """The model's :class:`ModelEngines`, made on first use and kept on the model."""
-    state = model.__dict__.get("_engines")
+    """The model's :class:`ModelEngines`, made on first use and kept in the model's
+    :meth:`~qdensity.models.density.DensityQNN.derived` store (made again when its circuits,
+    encoding, readout or observable change)."""
+    known = model.derived("exact")
+    state = known.get("engines")
     if state is None:
         from qdensity.execution.statevector.adjoint import AdjointEngine
 
         circuits = [model.circuit(k) for k in range(model.num_subunitaries)]
-        state = ModelEngines(circuits, AdjointEngine())
-        model.__dict__["_engines"] = state
+        state = known["engines"] = ModelEngines(circuits, AdjointEngine())
     return state
 
 

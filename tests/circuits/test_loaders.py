@@ -1,4 +1,4 @@
-"""Unary, matrix and distribution loaders against exact statevectors (DESIGN.md, "Oracles")."""
+"""Unary, matrix and distribution loaders against exact statevectors (docs/design.md, "Oracles")."""
 
 from __future__ import annotations
 

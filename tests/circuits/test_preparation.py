@@ -1,8 +1,8 @@
 """Density-QNN preparation circuits (Fig. 1a/b/c, Fig. 13, Supp. I.2-I.3) against exact oracles.
 
-Oracles (DESIGN.md): controlled gates against ``|0><0| (x) I + |1><1| (x) U`` built from
-``Operator(U)``; the deterministic circuit's data marginal (``partial_trace`` over ``mix``)
-against ``sum_k alpha_k U_k rho U_k^dagger``; the LCU post-selected state against
+Oracles (docs/design.md, "Oracles"): controlled gates against ``|0><0| (x) I + |1><1| (x) U``
+built from ``Operator(U)``; the deterministic circuit's data marginal (``partial_trace`` over
+``mix``) against ``sum_k alpha_k U_k rho U_k^dagger``; the LCU post-selected state against
 ``sum_k alpha_k U_k |x>`` normalised; Fig. 13b against ``sum_k alpha_k U_k |e_s><e_s| U_k^dagger``.
 All oracle matrices are computed here with numpy from ``Operator``/``Statevector``.
 """

@@ -92,7 +92,7 @@ def test_unknown_builder_lists_known(capsys):
 def test_transpile_json(capsys):
     assert main(["transpile", "round_robin", "--size", "4", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert report["two_qubit_count"] == 2 * 6  # two CZ per RBS (DESIGN.md)
+    assert report["two_qubit_count"] == 2 * 6  # two CZ per RBS (docs/design.md, "Measured facts")
     assert main(["transpile", "round_robin", "--target", "nowhere"]) == 2
     assert "heavy_hex" in capsys.readouterr().err
 

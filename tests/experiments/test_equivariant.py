@@ -141,3 +141,25 @@ def test_angle_scale_sets_the_encoding_angle():
     assert np.allclose(X, X0) and np.array_equal(y, y0)   # pi/2: the data go in unchanged
     X2, *_ = _data({**cfg, "angle_scale": 0.5}, np.random.default_rng(5))
     assert np.allclose(np.pi / 2 * X2, 0.5 * X0)          # R_y(pi x'/2) = R_y(0.5 x)
+
+
+def test_papers_way_sum_z_readout_and_one_initialisation():
+    """--paper's way (Fig. 5): every run starts from the same data and initial angles (equal
+    step-0 accuracy) and differs in batch order; the read-out is sign(sum_i <Z_i>), whose
+    accuracies are multiples of 1 / test_size."""
+    from qdensity.experiments import run
+    from qdensity.experiments.registry import get_experiment
+
+    paper = get_experiment("equivariant").protocol.settings
+    assert paper["readout"] == "sum_z" and paper["same_initialisation"] is True
+    cfg = {"readout": "sum_z", "same_initialisation": True, "families": ["xx"]}
+    rows = run("equivariant", seeds=[0, 1], config=cfg, progress=False).per_seed
+    first = [row["curves"]["XX/test_vs_epoch"]["y"][0] for row in rows]
+    assert first[0] == first[1]
+    assert rows[0]["curves"] != rows[1]["curves"]
+    n = run("equivariant", seeds=[0], config=cfg, progress=False).config["test_size"]
+    for row in rows:
+        acc = row["xx/second_test_accuracy"]
+        assert abs(acc * n - round(acc * n)) < 1e-9
+    with pytest.raises(ValueError, match="readout"):
+        run("equivariant", seeds=[0], config={"readout": "softmax"}, progress=False)

@@ -49,3 +49,42 @@ def test_bands_clipped_and_colours_fixed(tmp_path, monkeypatch):
     assert all(len(c) == 1 for c in by_label.values()), by_label
     assert by_label["T_2"] == {"black"}
     assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_sweep_label_names_the_runs_each_seed_averages():
+    """Fig. 11b's curves average each seed's runs above 80%, a count that varies: the y label
+    says so, with the range and the number of seeds (not one seed's count)."""
+    from qdensity.experiments.pyramid_shots import averaged_label
+
+    rows = [{"pure/runs_above": a, "odd_even/runs_above": b, "pure/runs_of": 32}
+            for a, b in ((13, 9), (11, 16), (19, 14))]
+    result = ExperimentResult("pyramid-shots", "paper", {"trials": 32}, [0, 1, 2], rows)
+    label = averaged_label(result, ["pure", "odd_even"])
+    assert "9-19 of 32" in label and "3 seeds" in label and "test accuracy" in label
+    plain = ExperimentResult("pyramid-shots", "full", {}, [0, 1], [{}, {}])
+    assert averaged_label(plain, ["pure"]) == "test accuracy, mean of 2 seeds"
+
+
+def test_noise_figures_keep_one_colour_per_method(tmp_path, monkeypatch):
+    """The four noise figures of the committed run, redrawn: every label has one colour in
+    all of them (a method's colour used to change between figures)."""
+    pytest.importorskip("matplotlib")
+    from pathlib import Path
+
+    from matplotlib.axes import Axes
+
+    from qdensity.experiments.registry import get_experiment
+
+    lines = []
+    real_plot = Axes.plot
+    monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
+        lines.append((kw.get("label"), kw.get("color"))), real_plot(self, *a, **kw))[1])
+    path = Path(__file__).resolve().parents[2] / "results" / "noise-full.json"
+    result = ExperimentResult.load(path)
+    assert len(get_experiment("noise").plot(result, tmp_path)) == 4
+    by_label: dict = {}
+    for label, colour in lines:
+        if label is not None:  # one method: "device, raw" in one figure, "raw" in another
+            by_label.setdefault(label.removeprefix("device, "), set()).add(colour)
+    assert len(by_label) >= 5
+    assert all(len(c) == 1 for c in by_label.values()), by_label

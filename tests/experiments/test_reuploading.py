@@ -133,3 +133,20 @@ def test_both_settings_and_reproducibility():
 def test_bad_settings_are_refused(override, match):
     with pytest.raises(ValueError, match=match):
         run("reuploading", seeds=[0], config=dict(TINY, **override), progress=False)
+
+
+def test_t3_runs_on_its_own_on_supp_j_data():
+    """setting='t3' (Supp. J, Fig. 18) fits T_3 = 4x^3 - 3x with Supp. J's noise; 'both' stays
+    the two readings of Fig. 6b."""
+    from qdensity.datasets.chebyshev import chebyshev_split
+    from qdensity.experiments.reuploading import BOTH, SETTINGS
+
+    degree, noise, encoding = SETTINGS["t3"]
+    _, X_te, _, y_te = chebyshev_split(degree, noise, num_train=10, num_test=12, seed=0)
+    x = np.ravel(X_te)
+    assert np.allclose(np.ravel(y_te), 4 * x**3 - 3 * x)
+    assert (noise, encoding) == SETTINGS["supp_j"][1:] and "t3" not in BOTH
+    cfg = dict(TINY, setting="t3", layers=[2], experts_at_max=[], epochs=1)
+    row = run("reuploading", seeds=[1], config=cfg, progress=False).per_seed[0]
+    assert "t3/vanilla/L2/test_mse" in row and "t3/density/L2/gap" in row
+    assert not any(k.startswith(("methods/", "supp_j/")) for k in row)

@@ -1,4 +1,4 @@
-"""Verdicts by rule against hand-computed Student-t intervals and textbook power tables; the
+"""Verdicts by rule against scipy.stats' own tests, Monte Carlo power and textbook power tables; the
 generated README / EXPERIMENTS.md sections against the committed files; merging results."""
 
 from __future__ import annotations
@@ -9,7 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy import stats
 
+from qdensity.experiments import _rule
+from qdensity.experiments.claims import CLAIMS
 from qdensity.experiments.merge import first_difference, merge_results
 from qdensity.experiments.results import ExperimentResult
 from qdensity.experiments.verdicts import (
@@ -23,7 +26,6 @@ from qdensity.experiments.verdicts import (
 )
 
 ROOT = Path(__file__).resolve().parents[2]
-T4 = 2.7764451051977987  # t_{0.975, 4}
 
 
 def _result(diffs, mode="full", config=None, seeds=None):
@@ -32,9 +34,8 @@ def _result(diffs, mode="full", config=None, seeds=None):
                             seeds=list(range(len(rows))) if seeds is None else seeds)
 
 
-def _half(diffs):
-    d = np.asarray(diffs)
-    return T4 * d.std(ddof=1) / math.sqrt(d.size)
+def _claim(kind="superiority", sign=1, **kw):
+    return Claim("x/c", "claim", "line", kind, "a", "b", sign=sign, **kw)
 
 
 @pytest.mark.parametrize("diffs, sign, expected", [
@@ -43,59 +44,143 @@ def _half(diffs):
     ([-0.10, -0.12, -0.09, -0.11, -0.13], -1, "reproduced"),
     ([0.05, -0.04, 0.10, -0.06, 0.02], 1, "inconclusive"),
 ])
-def test_rule(diffs, sign, expected):
-    mean, half = np.mean(diffs), _half(diffs)
-    v = verdict(_result(diffs), Claim("x", "claim", "a", "b", sign=sign))
+def test_superiority(diffs, sign, expected):
+    low, high = stats.t.interval(0.95, len(diffs) - 1, loc=np.mean(diffs),
+                                 scale=stats.sem(diffs))
+    v = verdict(_result(diffs), _claim(sign=sign))
     assert v["verdict"] == expected
-    assert v["low"] == pytest.approx(mean - half) and v["high"] == pytest.approx(mean + half)
+    assert v["low"] == pytest.approx(low) and v["high"] == pytest.approx(high)
     if expected == "inconclusive":
         assert v["seeds_needed"] >= 6
 
 
-def test_not_comparable_and_missing_metrics():
-    claim = Claim("x", "c", "a", "b", comparable=lambda r: "steps" if r.mode == "full" else None)
-    assert verdict(_result([0.1, 0.2, 0.3]), claim)["reason"] == "steps"
-    assert verdict(_result([0.1, 0.11, 0.12], mode="paper"), claim)["verdict"] == "reproduced"
-    missing = verdict(_result([0.1, 0.2]), Claim("x", "c", "a", "zzz"))
+@pytest.mark.parametrize("diffs, sign, expected", [
+    ([-0.01, 0.00, 0.01, -0.02, 0.005], 1, "non-inferior"),  # level, well inside 0.05
+    ([-0.20, -0.22, -0.19, -0.21, -0.18], 1, "not reproduced"),  # far below -0.05
+    ([0.20, 0.22, 0.19, 0.21, 0.18], -1, "not reproduced"),  # "a lower is better", a higher
+    ([-0.06, 0.04, -0.10, 0.03, -0.05], 1, "inconclusive"),
+])
+def test_non_inferiority_is_scipys_one_sided_test(diffs, sign, expected):
+    v = verdict(_result(diffs), _claim("non-inferiority", sign, margins=(0.05, 0.02)))
+    effect = sign * np.asarray(diffs)
+    p = stats.ttest_1samp(effect + 0.05, 0.0, alternative="greater").pvalue
+    assert v["verdict"] == expected and v["p"] == pytest.approx(p)
+    low, high = stats.t.interval(0.90, len(diffs) - 1, loc=np.mean(diffs),
+                                 scale=stats.sem(diffs))
+    assert v["low"] == pytest.approx(low) and v["high"] == pytest.approx(high)
+    assert v["second"].endswith("at margin 0.02")
+
+
+@pytest.mark.parametrize("diffs, expected", [
+    ([-0.01, 0.00, 0.01, -0.02, 0.005], "equivalent"),
+    ([0.20, 0.22, 0.19, 0.21, 0.18], "not reproduced"),
+    ([0.02, 0.09, -0.01, 0.07, 0.05], "inconclusive"),
+])
+def test_equivalence_is_two_one_sided_scipy_tests(diffs, expected):
+    v = verdict(_result(diffs), _claim("equivalence", margins=(0.05, 0.02)))
+    d = np.asarray(diffs)
+    p = max(stats.ttest_1samp(d + 0.05, 0.0, alternative="greater").pvalue,
+            stats.ttest_1samp(d - 0.05, 0.0, alternative="less").pvalue)
+    assert v["verdict"] == expected and v["p"] == pytest.approx(p)
+
+
+def test_equivalence_to_a_reported_number():
+    rows = [{"a": v} for v in (12.0, 19.0, 8.0)]
+    claim = Claim("x/c", "30/32", "line", "equivalence", "a", reference=30.0, margins=(3, 1.5))
+    v = verdict(ExperimentResult("x", "paper", {}, [0, 1, 2], rows), claim)
+    assert v["verdict"] == "not reproduced" and v["mean"] == pytest.approx(13.0 - 30.0)
+
+
+def test_trend_is_a_slope_test_with_pages_test_beside_it():
+    rng = np.random.default_rng(1)
+    grid = (1, 2, 3, 4, 9)
+    values = 0.5 + 0.02 * np.array(grid) + rng.normal(0, 0.01, (6, 5))
+    rows = [{f"D{d}": float(v) for d, v in zip(grid, row, strict=True)} for row in values]
+    claim = Claim("x/t", "rises", "line", "trend", series=tuple((d, f"D{d}") for d in grid))
+    v = verdict(ExperimentResult("x", "paper", {}, list(range(6)), rows), claim)
+    slopes = [np.polyfit(grid, row, 1)[0] for row in values]
+    low, high = stats.t.interval(0.95, 5, loc=np.mean(slopes), scale=stats.sem(slopes))
+    assert v["verdict"] == "reproduced" and v["mean"] == pytest.approx(np.mean(slopes))
+    assert v["low"] == pytest.approx(low) and v["high"] == pytest.approx(high)
+    assert v["page_p"] < 0.01
+    down = Claim("x/t", "falls", "line", "trend", sign=-1, series=claim.series)
+    assert verdict(ExperimentResult("x", "paper", {}, list(range(6)), rows),
+                   down)["verdict"] == "not reproduced"
+
+
+def test_bound_holds_in_every_seed_or_not_at_all():
+    rows = [{"a": 0.3, "b": 0.1}, {"a": 0.2, "b": 0.19}, {"a": 0.9, "b": 0.1}]
+    claim = Claim("x/b", "bound", "line", "bound", "a", "b")
+    v = verdict(ExperimentResult("x", "paper", {}, [0, 1, 2], rows), claim)
+    assert v["verdict"] == "reproduced" and v["smallest"] == pytest.approx(0.01)
+    rows[1]["b"] = 0.25
+    v = verdict(ExperimentResult("x", "paper", {}, [0, 1, 2], rows), claim)
+    assert v["verdict"] == "not reproduced" and v["smallest"] == pytest.approx(-0.05)
+    exact = Claim("x/e", "180", "line", "exact", "a", reference=0.3)
+    assert verdict(ExperimentResult("x", "paper", {}, [0], rows[:1]), exact)["verdict"] == (
+        "reproduced")
+
+
+def test_missing_metrics_and_one_seed():
+    missing = verdict(_result([0.1, 0.2]), Claim("x/c", "c", "l", "superiority", "a", "zzz"))
     assert missing["verdict"] == "not comparable" and "zzz" in missing["reason"]
-    one = verdict(_result([0.1]), Claim("x", "c", "a", "b"))
+    one = verdict(_result([0.1]), _claim())
     assert one["verdict"] == "inconclusive" and one["seeds_needed"] is None
 
 
-def test_moe_runs_before_the_shared_sweep_are_not_comparable():
-    """A moe file without the loader's input-gradient count predates the shared sweep loop
-    (random search, old shot count): both claims not comparable, saying why; a newer one is
-    judged."""
-    rows = [{f"odd_even/{v}/{k}": 0.5 + 0.01 * i * (v == "moe")
-             for v in ("moe", "density") for k in ("mean_accuracy", "std_accuracy")}
-            for i in range(3)]
-    old = ExperimentResult("moe", "full", {"decompositions": ["odd_even"], "trials": 8},
-                           [0, 1, 2], rows)
-    for row in evaluate_result(old):
-        assert row["verdict"] == "not comparable"
-        assert "random search" in row["reason"] and "input gradients" in row["reason"]
-    new = ExperimentResult("moe", "full", {"decompositions": ["odd_even"], "trials": 8},
-                           [0, 1, 2], [{**r, "odd_even/moe/circuits/input_gradients": 28}
-                                       for r in rows])
-    assert all(r["verdict"] != "not comparable" for r in evaluate_result(new))
+def test_not_comparable_follows_from_the_departures_that_touch_the_claim():
+    """pyramid-shots at the paper's settings: the data departure touches the x/32 counts, not
+    the comparisons; a --full run is a reduced protocol; a --quick run is not judged."""
+    from qdensity.experiments.registry import get_experiment
+
+    settings = dict(get_experiment("pyramid-shots").protocol.settings)
+    row = {f"{m}/{k}": 0.8 for m in ("pure", "odd_even", "compressed")
+           for k in ("test_accuracy", "runs_above", "runs_above_mean")}
+    rows = [{**row, "pure/test_accuracy_at_density_budget": 0.7 + 0.01 * i} for i in range(3)]
+    paper = ExperimentResult("pyramid-shots", "paper", settings, [0, 1, 2], rows)
+    by_key = {v["key"]: v for v in map(lambda c: verdict(paper, c), claims_for(paper))}
+    assert by_key["pyramid-shots/count-pure"]["verdict"] == "not comparable"
+    assert "80%" in by_key["pyramid-shots/count-pure"]["reason"]
+    assert by_key["pyramid-shots/budget"]["verdict"] == "reproduced"
+    assert by_key["pyramid-shots/odd-even"]["verdict"] == "non-inferior"
+    full = ExperimentResult("pyramid-shots", "full", {**settings, "epochs": 30}, [0, 1, 2], rows)
+    assert {verdict(full, c)["verdict"] for c in claims_for(full)} == {"not comparable"}
+    assert "epochs=30" in verdict(full, claims_for(full)[0])["reason"]
+    assert claims_for(ExperimentResult("pyramid-shots", "quick", settings, [0], rows[:1])) == []
 
 
-def test_lcu_baseline_caveat_only_without_the_sweep():
-    """lcu-vs-single with fixed learning rates carries the weak-baseline caveat; with each model
-    tuned by its own study (trials > 0) it does not."""
+def test_lcu_without_its_sweep_is_not_the_papers_model():
+    from qdensity.experiments.registry import get_experiment
+
+    settings = dict(get_experiment("lcu-vs-single").protocol.settings)
     rows = [{"lcu/minus_single": 0.1 + 0.01 * i} for i in range(3)]
-    fixed = ExperimentResult("lcu-vs-single", "full", {"trials": 0}, [0, 1, 2], rows)
-    swept = ExperimentResult("lcu-vs-single", "paper", {"trials": 32}, [0, 1, 2], rows)
-    old = ExperimentResult("lcu-vs-single", "full", {}, [0, 1, 2], rows)  # before the setting
-    assert [c.caveat.split(":")[0] for c in claims_for(fixed)] == ["a weak baseline"]
-    assert [c.caveat.split(":")[0] for c in claims_for(old)] == ["a weak baseline"]
+    swept = ExperimentResult("lcu-vs-single", "paper", settings, [0, 1, 2], rows)
+    fixed = ExperimentResult("lcu-vs-single", "paper", {**settings, "trials": 0}, [0, 1, 2], rows)
     [claim] = claims_for(swept)
-    assert claim.caveat == "" and claim.quantity == "lcu/minus_single"
     assert verdict(swept, claim)["verdict"] == "reproduced"
+    assert "no optuna sweep" in verdict(fixed, claim)["reason"]
 
 
-def evaluate_result(result):
-    return [verdict(result, c) for c in claims_for(result)]
+def test_the_claims_table():
+    """Keys unique, every departure names claims that exist, every experiment with a paper
+    protocol has claims, and every non-inferiority / equivalence claim states why its margins."""
+    from qdensity.experiments.registry import EXPERIMENTS, get_experiment
+
+    keys = [c.key for c in CLAIMS]
+    assert len(keys) == len(set(keys))
+    for name in EXPERIMENTS:
+        protocol = get_experiment(name).protocol
+        if protocol is None:
+            continue
+        assert any(c.experiment == name for c in CLAIMS), name
+        for d in protocol.departures:
+            assert all(k == "*" or k in keys for k in d.touches), (name, d.touches)
+    for c in CLAIMS:
+        assert c.line and (c.margin_reason or c.kind not in ("non-inferiority", "equivalence"))
+    with pytest.raises(ValueError, match="two positive margins"):
+        Claim("x/c", "c", "l", "non-inferiority", "a", "b", margins=(0.05,))
+    with pytest.raises(ValueError, match="kind"):
+        Claim("x/c", "c", "l", "better", "a", "b")
 
 
 def test_seeds_for_power_matches_power_tables():
@@ -107,6 +192,30 @@ def test_seeds_for_power_matches_power_tables():
     assert seeds_for_power(0.0, 1.0) is None
     with pytest.raises(ValueError, match="power"):
         seeds_for_power(0.5, 1.0, power=1.5)
+
+
+def _simulated_power(test, n, mean, std, margin, draws=20_000, seed=0):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(mean, std, (draws, n))
+    m, se = x.mean(axis=1), x.std(axis=1, ddof=1) / math.sqrt(n)
+    c = stats.t.ppf(0.95, n - 1)
+    lower = (m + margin) / se > c
+    return float(np.mean(lower if test == "ni" else lower & ((m - margin) / se < -c)))
+
+
+@pytest.mark.parametrize("test, mean", [("ni", -0.01), ("ni", 0.0), ("eq", 0.0), ("eq", 0.01)])
+def test_seed_counts_of_the_one_sided_tests_reach_their_power(test, mean):
+    """Monte Carlo of the test itself (20,000 draws, standard error <= 0.003): at the count the
+    power reaches 0.8 (less 4 standard errors: a false failure about 3e-5); for
+    non-inferiority, one seed fewer falls short (the count is the smallest)."""
+    std, margin = 0.03, 0.05
+    count = (_rule.seeds_for_non_inferiority if test == "ni" else _rule.seeds_for_equivalence)
+    n = count(mean, std, margin)
+    assert n is not None and n >= 2
+    assert _simulated_power(test, n, mean, std, margin) >= 0.8 - 0.012
+    if test == "ni" and n > 2:
+        assert _simulated_power(test, n - 1, mean, std, margin, seed=1) < 0.8 + 0.012
+    assert count(-margin - 0.01 if test == "ni" else margin, std, margin) is None
 
 
 def test_generated_sections_are_current():

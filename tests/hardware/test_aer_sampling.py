@@ -10,10 +10,10 @@ from qiskit_aer import AerSimulator
 from scipy import stats
 
 from qdensity.hardware import aer_sampling
+from qdensity.hardware.aer_samplers import AdaptiveSampler
 from qdensity.hardware.aer_sampling import (
     DENSITY_MATRIX_MAX_QUBITS,
     FAST_SAMPLER_OPTIONS,
-    AdaptiveSampler,
     active_qubits,
     aer_options,
 )

@@ -79,7 +79,7 @@ def _rbs_brick(n: int, layers: int) -> tuple[QuantumCircuit, int]:
 def test_rbs_costs_two_cz_on_ideal_and_one_native_gate_on_rbs_native():
     qc, num_rbs = _rbs_brick(4, 4)
     ideal = resource_report(qc)
-    assert ideal.two_qubit_count == 2 * num_rbs  # DESIGN.md: 2 CZ per RBS at level 1
+    assert ideal.two_qubit_count == 2 * num_rbs  # docs/design.md, "Measured facts": 2 CZ per RBS
     assert ideal.gate_counts["cz"] == 2 * num_rbs
     native = resource_report(qc, "rbs_native")
     assert native.two_qubit_count == num_rbs

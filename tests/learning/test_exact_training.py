@@ -30,6 +30,7 @@ from qdensity.models import (
     independent,
     warm_start,
 )
+from qdensity.models.exact import engines_of
 
 RNG = np.random.default_rng(16)
 
@@ -140,12 +141,12 @@ def test_compilations_do_not_grow_over_a_ten_step_fit():
     y = np.tanh(X.sum(axis=1))
     layer = QuantumLayer(model)
     _fit(layer, X, y, 1)
-    engine = model._engines.adjoint
+    engine = engines_of(model).adjoint
     assert engine.compile_count == model.num_subunitaries
     _fit(layer, X, y, 10)
     assert engine.compile_count == model.num_subunitaries
     assert QuantumLayer(model).forward(X[:2]).shape == (2, 1)  # a new layer, the same engine
-    assert model._engines.adjoint is engine and engine.compile_count == 2
+    assert engines_of(model).adjoint is engine and engine.compile_count == 2
 
 
 @pytest.mark.parametrize("kind", ["aer_exact", "sampler"])
@@ -174,10 +175,10 @@ def test_estimator_fit_keeps_the_models_engine():
     est = QNNRegressor(model, epochs=1, batch_size=3, max_steps=10, verbose=False, seed=0)
     est.fit(X, y)  # fit trains a copy of the template (scikit-learn's rule), never the template
     np.testing.assert_array_equal(model.theta, theta)
-    engine = est.model_._engines.adjoint
+    engine = engines_of(est.model_).adjoint
     assert engine.compile_count == 2  # compiled once for the 10 steps, not once per step
     est.predict(X)
-    assert est.model_._engines.adjoint is engine and engine.compile_count == 2
+    assert engines_of(est.model_).adjoint is engine and engine.compile_count == 2
 
 
 def test_unary_models_compile_their_circuits_once(monkeypatch):

@@ -110,14 +110,73 @@ def test_both_sizes_edited_is_caught_by_the_read_out(fitted, tmp_path):
         data.pop("pca_components"), data.pop("pca_mean")
         data.pop("scaler_mean"), data.pop("scaler_scale")
     path = _edit(fitted, tmp_path, change)
-    with pytest.raises(ValueError, match="too few for a model on 1000 qubits"):
+    with pytest.raises(ValueError, match="499500 circuit angles, more than the 16384"):
         QNNClassifier().load(path)
 
-    def grow(meta, data):  # enough angles, but the read-out still betrays the width
+    def grow(meta, data):  # every size consistent: still refused before building
         change(meta, data)
-        data["part0"] = np.zeros(5000)
+        data["part0"] = np.zeros(499500 + 3)
+        data["part1"] = np.zeros(1000 * 3 + 3)
     path = _edit(fitted, tmp_path, grow)
-    with pytest.raises(ValueError, match=r"part1 \(post\) has 12 entries, expected 3003"):
+    with pytest.raises(ValueError, match="499500 circuit angles.*refused before building"):
+        QNNClassifier().load(path)
+
+
+def test_too_few_angles_for_the_spec_are_refused(fitted, tmp_path):
+    # round-robin on 3 qubits has 3 angles: 2 (n - 1, the old lower bound) is refused now
+    path = _edit(fitted, tmp_path, lambda meta, data: data.update(part0=np.zeros(2)))
+    with pytest.raises(ValueError, match="part0 has 2 entries, too few.*3 angles"):
+        QNNClassifier().load(path)
+
+
+@pytest.mark.parametrize("n", list(range(2, 18)))
+def test_spec_angles_are_the_built_circuits(n):
+    from qdensity.learning._saved import spec_angles
+    from qdensity.learning._spec import ANSATZE
+
+    for ansatz, build in ANSATZE.items():
+        if ansatz == "butterfly" and n & (n - 1):
+            continue  # a butterfly needs a power of two
+        spec = {"ansatz": ansatz, "decomposition": "layers", "depth": 2}
+        assert spec_angles(spec, n) == build(n).num_parameters, (ansatz, n)
+
+
+def _npz_with_member(path, name: str, header_shape, payload: bytes, deflate=False):
+    import io
+    import zipfile
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buf, {"descr": "<f8", "fortran_order": False, "shape": header_shape})
+    comp = zipfile.ZIP_DEFLATED if deflate else zipfile.ZIP_STORED
+    with zipfile.ZipFile(path, "w", compression=comp) as zf:
+        zf.writestr(name, buf.getvalue() + payload)
+
+
+def test_members_are_measured_from_the_zip_headers_before_inflating(tmp_path):
+    path = tmp_path / "big.npz"
+    # 64 MB of zeros deflate to ~64 KB; the header says 64 MB: refused without inflating
+    _npz_with_member(path, "part0.npy", (8 * 2**20,), bytes(64 * 2**20), deflate=True)
+    assert path.stat().st_size < 2**20
+    with pytest.raises(ValueError, match=r"big.npz.*inflate to more than 1000000 bytes.*part0"):
+        load_parameters(path, max_bytes=10**6)
+    with pytest.raises(ValueError, match="inflate to more than"):
+        QNNClassifier().load(path)  # estimator files: 64 MiB at most
+
+
+def test_an_array_claiming_more_than_its_member_is_refused(tmp_path):
+    path = tmp_path / "liar.npz"
+    _npz_with_member(path, "part0.npy", (10**10,), bytes(16))  # 80 GB claimed, 16 B held
+    with pytest.raises(ValueError, match=r"liar.npz.*part0.npy.*claims shape \(10000000000,\)"):
+        load_parameters(path)
+
+
+def test_deeply_nested_json_is_a_clear_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(ValueError, match="deep.json.*nests deeper"):
+        load_parameters(path)
+    with pytest.raises(ValueError, match="deep.json"):
         QNNClassifier().load(path)
 
 

@@ -4,6 +4,7 @@ sweep keeps its finished trials and resumes; a study is tied to its settings; TP
 a short random start; JSON and CSV export; the ``qdensity sweep`` command; bad input."""
 
 import csv
+import importlib.util
 import json
 import os
 import subprocess
@@ -230,6 +231,12 @@ def test_bad_sweep_input(tmp_path):
         open_study("s", storage, grace_period=1)
     with pytest.raises(ImportError, match="needs a database driver .*install a MySQL driver"):
         open_study("s", "mysql://u@127.0.0.1:1/db")
+    if importlib.util.find_spec("psycopg") is None:  # SQLAlchemy 2.1: postgresql:// is psycopg 3
+        with pytest.raises(ImportError, match=r"psycopg 3.*postgresql\+psycopg2://"):
+            open_study("s", "postgresql://u@127.0.0.1:1/db")
+    if importlib.util.find_spec("psycopg2") is None:
+        with pytest.raises(ImportError, match="psycopg2-binary"):
+            open_study("s", "postgresql+psycopg2://u@127.0.0.1:1/db")
     with pytest.raises(ValueError, match="storage 'nosuchdb://x' cannot be opened"):
         open_study("s", "nosuchdb://x")
     with pytest.raises(ValueError, match="'learnig_rate', which is not a hyperparameter"):

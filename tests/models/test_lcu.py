@@ -1,5 +1,5 @@
 """The LCU model against the gate-level LCU circuit (post-selected statevector and success
-probability, DESIGN.md oracles) and its gradients against central finite differences."""
+probability, docs/design.md, "Oracles") and its gradients against central finite differences."""
 
 from __future__ import annotations
 

@@ -4,14 +4,14 @@ Each builder returns a plain ``QuantumCircuit`` whose parameters are one ``Param
 ``circuit.parameters`` order is gate order. Structure (moments, depth) is read off the circuit
 by :func:`qdensity.moments`, never stored beside it.
 
-=============  ===========================  =========================  ====================
-builder        RBS gates                    RBS depth (moments)        qubits
-=============  ===========================  =========================  ====================
-pyramid        n (n - 1) / 2                2 n - 3                    n >= 2
-x_circuit      2 n - 3 (even), 2 n - 2 (odd)  n - 1 (even), n + 1 (odd)  n >= 2
-butterfly      (n / 2) log2 n               log2 n                     n a power of two
-round_robin    n (n - 1) / 2                n - 1 (even n), n (odd n)  n >= 2
-=============  ===========================  =========================  ====================
+=============  =============================  ==========================  ====================
+builder        RBS gates                      RBS depth (moments)         qubits
+=============  =============================  ==========================  ====================
+pyramid        n (n - 1) / 2                  2 n - 3                     n >= 2
+x_circuit      2 n - 3 (even), 2 n - 2 (odd)  n - 1 (even), n + 1 (odd)   n >= 2
+butterfly      (n / 2) log2 n                 log2 n                      n a power of two
+round_robin    n (n - 1) / 2                  n - 1 (even n), n (odd n)   n >= 2
+=============  =============================  ==========================  ====================
 
 The paper's Fig. 9 caption quotes depth ``2n - 1`` for the pyramid; that counts the two
 loader layers around it. The pyramid alone has ``2n - 3`` moments.

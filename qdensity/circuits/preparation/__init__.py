@@ -1,23 +1,23 @@
 """Circuits that prepare the density-QNN state (paper Fig. 1a/b/c, Fig. 13, Supp. I.2-I.3).
 
-A density QNN (paper eq. 1) prepares
+A density QNN (paper eq. 1) prepares::
 
     rho(theta, alpha, x) = sum_k alpha_k U_k(theta_k) |x><x| U_k(theta_k)^dagger
 
 from ``K`` sub-unitaries ``U_k`` on ``n`` data qubits and a distribution ``alpha``. This
 package builds every way the paper gives to prepare it, at gate level:
 
-=============================  ==========  ==========================================
-builder                        figure      what one shot does
-=============================  ==========  ==========================================
-:func:`randomised_circuits`    Fig. 1c     ``V(x)`` then ``U_k``; ``k ~ alpha`` per shot
+=============================  ===========  ==========================================
+builder                        figure       what one shot does
+=============================  ===========  ==========================================
+:func:`randomised_circuits`    Fig. 1c      ``V(x)`` then ``U_k``; ``k ~ alpha`` per shot
 :func:`deterministic_circuit`  Fig. 1b/13a  ``Load(sqrt(alpha))`` on ``mix``, controlled
-                                           ``U_k``; the ``data`` marginal is ``rho``
-:func:`lcu_circuit`            Fig. 1a     Fig. 1b then ``Load(sqrt(alpha))^dagger``;
-                                           post-select ``mix = 0...0``
-:func:`hw_generative_circuit`  Fig. 13b    ``V = 1``, HW-preserving ``U_k``:
-                                           ``U_k^dagger . CNOT . U_k`` per ``k``
-=============================  ==========  ==========================================
+                                            ``U_k``; the ``data`` marginal is ``rho``
+:func:`lcu_circuit`            Fig. 1a      Fig. 1b then ``Load(sqrt(alpha))^dagger``;
+                                            post-select ``mix = 0...0``
+:func:`hw_generative_circuit`  Fig. 13b     ``V = 1``, HW-preserving ``U_k``:
+                                            ``U_k^dagger . CNOT . U_k`` per ``k``
+=============================  ===========  ==========================================
 
 Register layout of the ancilla circuits: register ``"mix"`` (``K`` qubits, circuit qubits
 ``0 .. K-1``, the register A of the figures, drawn on top) then register ``"data"``

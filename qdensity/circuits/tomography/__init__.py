@@ -12,7 +12,7 @@ An orthogonal QNN leaves its output ``y`` (real, unit norm) in the unary subspac
 2. the circuit followed by ``RBS(pi/4)`` on the "odd" pairs ``(1, 2), (3, 4), ...``.
 
 After ``RBS(pi/4)`` on ``(a, b)`` the unary amplitudes are ``(y_a - y_b)/sqrt(2)`` and
-``(y_a + y_b)/sqrt(2)``, so ``p'_b - p'_a = 2 y_a y_b`` and
+``(y_a + y_b)/sqrt(2)``, so ``p'_b - p'_a = 2 y_a y_b`` and::
 
     D_ab := sqrt(2 p'_b) - sqrt(2 p'_a) = |y_a + y_b| - |y_a - y_b|
           = 2 sign(y_a y_b) min(|y_a|, |y_b|),

@@ -29,7 +29,7 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     *Square-root concentration.* For ``N`` shots and an outcome of probability ``p`` with
     frequency ``p_hat``, the Chernoff bound ``P(p_hat >= q) <= exp(-N KL(q||p))`` (``q > p``,
     similarly for ``q < p``) and ``KL(q||p) >= -2 ln(1 - H^2) >= 2 H^2 >= (sqrt q - sqrt p)^2``
-    (``H`` the Hellinger distance of the Bernoulli laws) give
+    (``H`` the Hellinger distance of the Bernoulli laws) give::
 
         P(|sqrt(p_hat) - sqrt(p)| >= t) <= 2 exp(-N t^2)        for every p.
 

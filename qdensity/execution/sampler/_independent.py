@@ -16,28 +16,36 @@ around the engine).
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable, Sequence
 
-import numpy as np
+from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler, derived_seed
 
 __all__ = ["run_independent"]
 
 
-def _seeded_aer(sampler) -> bool:
+def _reseeded(sampler, group: int):
+    """``sampler`` with a seed derived from its own and ``group``, or None when it has none.
+
+    qdensity's Aer samplers (:mod:`qdensity.hardware.aer_samplers`) say so through
+    ``with_seed``. qiskit-aer's own ``SamplerV2`` is rebuilt from its public ``seed``,
+    ``default_shots`` and ``options`` (the same counts as rewriting its seed would give); one
+    built with ``SamplerV2.from_backend`` carries a simulator its public API does not give
+    back, so qdensity builds none (``HardwareTarget.sampler`` returns an ``AerSampler``, whose
+    simulator is public): wrap such a simulator as ``AerSampler(simulator, seed)``.
+    """
+    seed = getattr(sampler, "seed", None)
+    if isinstance(sampler, (AdaptiveSampler, AerSampler)):
+        return None if seed is None else sampler.with_seed(derived_seed(seed, group))
     try:
         from qiskit_aer.primitives import SamplerV2
     except ImportError:  # pragma: no cover - qiskit-aer is a dependency
-        return False
-    return isinstance(sampler, SamplerV2) and getattr(sampler, "_seed", None) is not None
-
-
-def _reseeded(sampler, group: int):
-    """A shallow copy of an Aer ``SamplerV2`` with a seed derived from its own and ``group``."""
-    out = copy.copy(sampler)
-    seed = np.random.SeedSequence([int(sampler._seed) % 2**63, group])
-    out._seed = int(seed.generate_state(1, dtype=np.uint32)[0])
-    return out
+        return None
+    if not isinstance(sampler, SamplerV2) or seed is None:
+        return None
+    opts = sampler.options
+    return SamplerV2(default_shots=sampler.default_shots, seed=derived_seed(seed, group),
+                     options={"backend_options": dict(opts.backend_options),
+                              "run_options": dict(opts.run_options)})
 
 
 def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None) -> list:
@@ -63,8 +71,7 @@ def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None
         groups.setdefault(pub[2] if len(pub) > 2 else None, []).append(i)
     if len(groups) <= 1:
         return list(wait(sampler.run(pubs)))
-    aer = _seeded_aer(sampler)
-    jobs = [((_reseeded(sampler, g) if aer and g else sampler).run([pubs[i] for i in idx]), idx)
+    jobs = [(((g and _reseeded(sampler, g)) or sampler).run([pubs[i] for i in idx]), idx)
             for g, idx in enumerate(groups.values())]
     out: list = [None] * len(pubs)
     for job, idx in jobs:

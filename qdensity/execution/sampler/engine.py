@@ -28,13 +28,8 @@ from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilitie
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._independent import run_independent
 from qdensity.hardware._device import check_for_device, check_width, device_of
-from qdensity.hardware.aer_sampling import (
-    AdaptiveSampler,
-    NoiselessSimulators,
-    active_qubits,
-    aer_seed,
-    check_memory,
-)
+from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
+from qdensity.hardware.aer_sampling import active_qubits, aer_seed, check_memory
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
@@ -166,7 +161,7 @@ class SamplerEngine:
     sampler : BaseSamplerV2, optional
         Any V2 sampler (a hardware provider's included). Default: qiskit-aer's, seeded with
         ``seed``, choosing Aer's method per PUB
-        (:class:`~qdensity.hardware.aer_sampling.AdaptiveSampler`: matrix-product states for
+        (:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`: matrix-product states for
         wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
         before Aer allocates it), noiseless unless a ``target`` is given.
     target : HardwareTarget, str, os.PathLike, BackendV2 or qiskit.transpiler.Target, optional
@@ -310,13 +305,10 @@ class SamplerEngine:
         return self._cache(circuit)
 
     def _check_plain_aer(self, compiled: QuantumCircuit) -> None:
-        """A plain Aer ``SamplerV2`` (not adaptive): refuse a state that would not fit."""
-        from qiskit_aer.primitives import SamplerV2
-
-        if isinstance(self.sampler, SamplerV2) and not isinstance(self.sampler, AdaptiveSampler):
-            method = getattr(getattr(self.sampler, "_backend", None), "options", None)
-            method = getattr(method, "method", "automatic")
-            check_memory(active_qubits(compiled), str(method), "SamplerEngine (Aer SamplerV2)")
+        """A fixed-method Aer sampler (not adaptive): refuse a state that would not fit."""
+        method = sampler_method(self.sampler)
+        if method is not None:
+            check_memory(active_qubits(compiled), method, "SamplerEngine (Aer SamplerV2)")
 
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).

@@ -192,7 +192,7 @@ class Fixed:
         moved = np.moveaxis(tensor, src, dst)
         shape = moved.shape
         # einsum, not @: a (rows x 2**k) by (2**k x 2**k) product is no work for BLAS threads,
-        # which on a busy machine make it wait for a core (DESIGN.md, measured facts)
+        # which on a busy machine make it wait for a core (docs/design.md, "Measured facts")
         out = np.einsum("...j,ij->...i", moved.reshape(shape[:-k] + (2**k,)), mat).reshape(shape)
         tensor[...] = np.moveaxis(out, dst, src)
 

@@ -3,7 +3,7 @@
 For a circuit ``U = U_G ... U_1`` whose parameterised gates are rotations
 ``U_g = exp(-i theta_g c_g G_g)`` and an observable ``O``, adjoint differentiation (Jones and
 Gacon, arXiv:2009.02823) gives every derivative of ``f = <psi|O|psi>`` from one forward and one
-backward sweep:
+backward sweep::
 
     phi = U |0>,  lam = O phi;  for g = G .. 1:
         d f / d theta_g = 2 c_g Im <lam| G_g |phi>,   phi <- U_g^dag phi,   lam <- U_g^dag lam
@@ -20,6 +20,8 @@ Supported gates and the compiled form are described in :mod:`._program`.
 The widest circuit accepted is ``max_qubits`` (default :data:`MAX_QUBITS` = 20, 16 MiB per row
 and state); a wider one is refused before anything is allocated.
 
+``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
+
 :class:`AdjointEngine` also runs :class:`~qdensity.plans.Plan` s (exact probabilities of the
 measured templates), so it can stand in for :class:`~qdensity.engines.ExactEngine` without Aer.
 """
@@ -34,8 +36,10 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution import _numba
 from qdensity.execution._compile import _measurement_map, circuit_fingerprint
+from qdensity.execution._torch import is_tensor
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
 from qdensity.execution.statevector import _kernels
+from qdensity.execution.statevector import _torch as _on_torch
 from qdensity.execution.statevector._program import Program, compile_program, real_dot
 from qdensity.validation import (
     as_parameter_rows,
@@ -46,8 +50,9 @@ from qdensity.validation import (
 
 __all__ = ["AdjointEngine", "MAX_QUBITS", "BACKENDS"]
 
-#: ``backend`` choices: compiled kernels when numba is there ("auto"), or either forced.
-BACKENDS = ("auto", "numba", "numpy")
+#: ``backend`` choices: compiled kernels when numba is there ("auto"), either forced, or torch
+#: tensors on a device (:mod:`._torch`).
+BACKENDS = ("auto", "numba", "numpy", "torch")
 
 #: Default widest circuit (qubits) the adjoint engine simulates.
 MAX_QUBITS = 20
@@ -110,7 +115,15 @@ class AdjointEngine:
     backend : {"auto", "numba", "numpy"}
         ``"auto"``: the compiled kernels of :mod:`._kernels` when numba is
         installed (the ``fast`` extra) and ``QDENSITY_NUMBA`` is not ``0``, else numpy
-        gathers. Both give the same numbers to rounding.
+        gathers. Both give the same numbers to rounding. ``"torch"``: the same sweep on torch
+        tensors on ``device`` (the optional ``torch`` extra); values given as a tensor give
+        tensors on ``device``, numpy values give numpy results.
+    device : str, int or torch.device, optional
+        With ``backend="torch"``: ``"cpu"`` (default) or a visible ``"cuda"`` device; a state
+        that would not fit in its free memory is refused before allocation.
+    dtype : {"complex128", "complex64"}, optional
+        With ``backend="torch"``: the state's dtype (default complex128); results are float64
+        or float32.
 
     Attributes
     ----------
@@ -130,7 +143,7 @@ class AdjointEngine:
     """
 
     def __init__(self, max_qubits: int = MAX_QUBITS, memory_budget: int = 2**28,
-                 backend: str = "auto"):
+                 backend: str = "auto", device=None, dtype=None):
         self.max_qubits = check_positive_int(max_qubits, "max_qubits")
         if self.max_qubits > _CEILING:
             raise ValueError(f"max_qubits must be <= {_CEILING}, got {max_qubits}")
@@ -141,6 +154,12 @@ class AdjointEngine:
             raise ValueError("backend='numba' needs numba (pip install 'qdensity[fast]') and "
                              "QDENSITY_NUMBA unset or 1")
         self.backend = backend
+        self.device = self.dtype = None
+        if backend == "torch":
+            self.device, self.dtype = _on_torch.resolve(device, dtype)
+        elif device is not None or dtype is not None:
+            raise ValueError(f"device and dtype apply to backend='torch' only, got backend="
+                             f"{backend!r} with device={device!r}, dtype={dtype!r}")
         self._by_id: dict[int, tuple[QuantumCircuit, Program, tuple]] = {}
         self._by_print: dict[tuple, Program] = {}
         self.compile_count = 0
@@ -205,7 +224,7 @@ class AdjointEngine:
 
     def _tables(self, prog: Program):
         """The compiled kernels' tables, or None for the numpy path."""
-        return None if self.backend == "numpy" else _kernels.tables(prog)
+        return None if self.backend in ("numpy", "torch") else _kernels.tables(prog)
 
     def _forward(self, prog: Program, values: np.ndarray) -> np.ndarray:
         from qdensity.execution.statevector._program import Rotation
@@ -264,6 +283,8 @@ class AdjointEngine:
 
     def _rows(self, circuit: QuantumCircuit, values) -> tuple[Program, np.ndarray]:
         prog = self.compile(circuit)
+        if is_tensor(values):  # parameter rows are small: checked on the host
+            values = values.detach().cpu().numpy()
         vals = as_parameter_rows(values, circuit.num_parameters)
         if not np.all(np.isfinite(vals)):
             raise ValueError("values must be finite")
@@ -287,6 +308,8 @@ class AdjointEngine:
             which no expectation value or probability sees).
         """
         prog, vals = self._rows(circuit, np.zeros((1, 0)) if values is None else values)
+        if self.backend == "torch":
+            return _on_torch.statevector(self, prog, vals, values)
         n = prog.num_qubits
         out = np.empty((vals.shape[0], 2**n), dtype=complex)
         for sl in self._chunks(vals.shape[0], n, 1):
@@ -295,7 +318,8 @@ class AdjointEngine:
 
     def probabilities(self, circuit: QuantumCircuit, values=None) -> np.ndarray:
         """Outcome probabilities ``|<k|U(values)|0>|^2``, shape (R, 2**n)."""
-        return np.abs(self.statevector(circuit, values)) ** 2
+        psi = self.statevector(circuit, values)
+        return psi.abs() ** 2 if is_tensor(psi) else np.abs(psi) ** 2
 
     def expectation(self, circuit: QuantumCircuit, observables, values=None) -> np.ndarray:
         """``<psi|O_m|psi>`` per row and observable.
@@ -311,6 +335,8 @@ class AdjointEngine:
         numpy.ndarray, shape (R, M)
         """
         prog, vals = self._rows(circuit, np.zeros((1, 0)) if values is None else values)
+        if self.backend == "torch":
+            return _on_torch.expectation(self, prog, observables, vals, values)
         obs = self._observables(observables, prog.num_qubits)
         n = prog.num_qubits
         out = np.empty((vals.shape[0], len(obs)))
@@ -345,11 +371,13 @@ class AdjointEngine:
         from qdensity.execution.statevector._program import Rotation
 
         prog, vals = self._rows(circuit, values)
-        obs = self._observables(observables, prog.num_qubits)
         cols = np.arange(prog.num_parameters) if wrt is None else np.asarray(wrt, dtype=int)
         if cols.size and (cols.min() < 0 or cols.max() >= prog.num_parameters):
             raise ValueError(f"wrt must hold parameter indices in [0, {prog.num_parameters}), "
                              f"got {cols.tolist()}")
+        if self.backend == "torch":
+            return _on_torch.value_and_gradient(self, prog, observables, vals, cols, values)
+        obs = self._observables(observables, prog.num_qubits)
         n, M, R = prog.num_qubits, len(obs), vals.shape[0]
         chain = prog.chain(cols)  # d angle / d value[cols], as a gather
         used = chain.sources

@@ -25,6 +25,10 @@ several gates) or fixed numbers. Parameter values are given in ``circuit.paramet
 Functions accept either a ``QuantumCircuit`` or a :class:`UnaryCircuit` from
 :func:`compile_unary`; compile once when calling repeatedly.
 
+Torch tensors (the optional ``torch`` extra): when an array argument of :func:`forward`,
+:func:`vjp` or :func:`jacobian` is a ``torch.Tensor``, the same layers run on its device (CPU
+or CUDA) and dtype (float32 or float64) and the results are tensors there (:mod:`._torch`).
+
 Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
 per thread) runs the forward pass as contiguous column blocks in threads, with results
 bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
@@ -44,6 +48,7 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, ParameterVector, QuantumCircuit
 
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution.unary import _torch as _on_torch
 from qdensity.execution.unary._inputs import batch as _batch
 from qdensity.execution.unary._inputs import inputs as _inputs
 from qdensity.execution.unary._inputs import values as _values
@@ -340,6 +345,8 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     [1.0, 0.0, 0.0, 0.0]
     """
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(X, values):
+        return _on_torch.forward(compiled, X, values)
     Z, angles, single = _batch(compiled, X, values)
     if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
         Z = _rotate(np.eye(compiled.num_qubits), compiled, angles) @ Z
@@ -402,6 +409,8 @@ def vjp(
     if reduce not in ("none", "sum"):
         raise ValueError(f"reduce must be 'none' or 'sum', got {reduce!r}")
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(X, values, grad_Y, outputs):
+        return _on_torch.vjp(compiled, X, values, grad_Y, reduce, outputs)
     Z, angles, single = _batch(compiled, X, values)
     n, B = Z.shape
     try:
@@ -456,6 +465,8 @@ def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarr
     [[0.0], [1.0]]
     """
     compiled = compile_unary(circuit)
+    if _on_torch.any_tensor(x, values):
+        return _on_torch.jacobian(compiled, x, values)
     x = _inputs(compiled, x, "x")
     if x.ndim != 1:
         raise ValueError(f"x must have shape ({compiled.num_qubits},), got {x.shape}")

@@ -2,11 +2,11 @@
 
 The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` applied gate by
 gate, in circuit order, to the rows of ``Z`` (n, B) in place: ``Z[i], Z[j] <- c Z[i] - s Z[j],
-s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes, DESIGN.md). A row is a contiguous run of
-``B`` numbers, so each gate is one vectorised loop, with no per-layer gathers, scatters or
-sparse-matrix bookkeeping. Without numba (or with ``QDENSITY_NUMBA=0``) the engine keeps its
-numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which give the same numbers
-to rounding.
+s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes; docs/design.md, "RBS"). A row is a
+contiguous run of ``B`` numbers, so each gate is one vectorised loop, with no per-layer
+gathers, scatters or sparse-matrix bookkeeping. Without numba (or with ``QDENSITY_NUMBA=0``)
+the engine keeps its numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which
+give the same numbers to rounding.
 """
 
 from __future__ import annotations
