@@ -438,7 +438,8 @@ class ExperimentResult:
                 target, earlier = named, self._same_run(named)
             merged = self if earlier in (None, False) else self._merged_with(earlier)
             atomic_write_text(target, json.dumps(merged.to_dict(), indent=2) + "\n")
-        self.saved_to = target
+        # an instance note kept out of the dataclass fields (declared as a ClassVar default)
+        self.saved_to = target  # type: ignore[misc]
         return target
 
     def _same_run(self, path: Path):

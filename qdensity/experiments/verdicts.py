@@ -82,7 +82,7 @@ def departures_for(result: ExperimentResult) -> list[tuple[str, tuple[str, ...]]
     open_ = () if result.mode == "full" else tuple(protocol.readings)
     differ = sorted(k for k in set(paper) | set(result.config)
                     if k not in open_ and result.config.get(k) != paper.get(k))
-    out = []
+    out: list[tuple[str, tuple[str, ...]]] = []
     if differ:
         what = ", ".join(f"{k}={result.config.get(k)!r} (paper: {paper.get(k)!r})"
                          for k in differ)
