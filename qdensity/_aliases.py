@@ -92,7 +92,10 @@ class _AliasLoader(importlib.abc.Loader):
 
     def get_code(self, fullname: str):
         """The real module's code, so ``python -m qdensity.export`` runs the real module."""
-        return importlib.util.find_spec(self.real).loader.get_code(self.real)
+        spec = importlib.util.find_spec(self.real)
+        if spec is None or not isinstance(spec.loader, importlib.abc.InspectLoader):
+            raise ImportError(f"no code for {self.real!r}")
+        return spec.loader.get_code(self.real)
 
 
 class _AliasFinder(importlib.abc.MetaPathFinder):

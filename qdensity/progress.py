@@ -94,6 +94,6 @@ def wait_for(job, bar: tqdm | None = None, *, poll: float = 0.2) -> Any:
     if bar is not None and not bar.disable and callable(done):
         while not done():
             time.sleep(poll)
-            if time.time() - bar.start_t >= bar.delay:
+            if time.time() - bar.start_t >= (bar.delay or 0.0):
                 bar.refresh()
     return job.result()

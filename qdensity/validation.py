@@ -285,9 +285,9 @@ def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | Non
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an int, got {value!r}")
-    if value < minimum:
+    if int(value) < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
-    if maximum is not None and value > maximum:
+    if maximum is not None and int(value) > maximum:
         raise ValueError(f"{name} must be <= {maximum}{' (' + why + ')' if why else ''}, "
                          f"got {value}")
     return int(value)

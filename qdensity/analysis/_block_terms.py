@@ -89,7 +89,7 @@ def _template(op) -> SparsePauliOp:
     Raises ValueError (instruction_generator's message) for a gate without a known generator.
     """
     w = op.num_qubits
-    key = None
+    key: tuple | None = None
     if op.name in _FIXED_FORM:
         key = (op.name, w)
     elif (op.name == "PauliEvolution" and isinstance(getattr(op, "operator", None), SparsePauliOp)

@@ -57,12 +57,14 @@ class _Trainable:
     @property
     def label(self) -> str:
         if self._label is None:
+            assert self._circuit is not None  # given whenever the label is not
             self._label = _label(self._circuit.data[self.index], self._circuit, self.index)
         return self._label
 
     @property
     def generator(self) -> SparsePauliOp:
         if self._generator is None:
+            assert self._terms is not None  # given whenever the generator is not
             self._generator = self._terms.generator(self._row)
         return self._generator
 

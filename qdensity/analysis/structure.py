@@ -98,8 +98,8 @@ def moments(
     >>> len(moments(round_robin(6)))
     5
     """
-    data = circuit.data if isinstance(circuit, QuantumCircuit) else None
     layers = moment_indices(circuit, include_unparameterised=include_unparameterised)
+    data = circuit.data
     return [[data[i] for i in layer] for layer in layers]
 
 

@@ -8,6 +8,7 @@ description and worked examples, kept in one table so that they read alike.
 from __future__ import annotations
 
 import argparse
+from typing import TypedDict
 
 __all__ = ["Formatter", "texts", "HELP"]
 
@@ -100,7 +101,12 @@ HELP: dict[str, tuple[str, str]] = {
 }
 
 
-def texts(command: str) -> dict[str, str]:
+class _Texts(TypedDict):
+    description: str
+    epilog: str
+
+
+def texts(command: str) -> _Texts:
     """``description=`` and ``epilog=`` (``examples:`` and the example lines) for
     ``add_parser``."""
     description, examples = HELP[command]

@@ -44,9 +44,9 @@ def load_digits_features(
     from sklearn.decomposition import PCA
     from sklearn.model_selection import train_test_split
 
-    seed = seed_u32(seed)
+    random_state = seed_u32(seed)
     X, y = load_digits(return_X_y=True)
-    X_tr, X_te, y_tr, y_te = train_test_split(X, y, test_size=test_size, random_state=seed,
+    X_tr, X_te, y_tr, y_te = train_test_split(X, y, test_size=test_size, random_state=random_state,
                                               stratify=y)
-    pca = PCA(num_features, random_state=seed).fit(X_tr)
+    pca = PCA(num_features, random_state=random_state).fit(X_tr)
     return pca.transform(X_tr), pca.transform(X_te), y_tr, y_te

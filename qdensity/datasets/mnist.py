@@ -281,10 +281,10 @@ def load_mnist(
         from sklearn.decomposition import PCA
 
         k = check_positive_int(num_features, "num_features")
-        seed = seed_u32(seed)
+        random_state = seed_u32(seed)
         if k > min(X_tr.shape):
             raise ValueError(f"num_features={k} exceeds what the training split allows "
                              f"({min(X_tr.shape)})")
-        pca = PCA(k, random_state=seed).fit(X_tr)
+        pca = PCA(k, random_state=random_state).fit(X_tr)
         X_tr, X_te = pca.transform(X_tr), pca.transform(X_te)
     return X_tr, X_te, y_tr.astype(int), y_te.astype(int)

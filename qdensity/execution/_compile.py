@@ -65,7 +65,7 @@ def _operator_key(op) -> tuple:
     if operator is None:
         return ()
     ops = operator if isinstance(operator, list) else [operator]
-    out = []
+    out: list[object] = []
     for o in ops:
         if hasattr(o, "paulis"):
             out.append((tuple(o.paulis.to_labels()), tuple(complex(c) for c in o.coeffs)))

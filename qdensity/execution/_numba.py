@@ -16,7 +16,7 @@ try:
         raise ImportError("disabled by QDENSITY_NUMBA")
     import numba
 except ImportError:  # pragma: no cover - exercised with QDENSITY_NUMBA=0
-    numba = None
+    numba = None  # type: ignore[assignment]  # optional: callers check available() first
 
 
 def available() -> bool:

@@ -143,6 +143,9 @@ def cache_of(owner) -> dict:
     hit = _CACHES.get(key)
     if hit is not None and hit[0]() is owner:
         return hit[1]
-    ref = weakref.ref(owner, lambda _ref, key=key: _CACHES.pop(key, None))
+    def drop(_ref: object, key: int = key) -> None:
+        _CACHES.pop(key, None)
+
+    ref = weakref.ref(owner, drop)
     _CACHES[key] = (ref, {})
     return _CACHES[key][1]

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -144,7 +144,7 @@ class Plan:
         """Shots the plan spends, or None if any job is exact."""
         if any(job.shots is None for job in self.jobs):
             return None
-        return int(sum(job.rows * job.shots for job in self.jobs))
+        return int(sum(job.rows * cast(int, job.shots) for job in self.jobs))
 
     def with_shots(self, shots: int | None) -> Plan:
         """The same plan with every job's shots per row set to ``shots``."""
@@ -329,7 +329,8 @@ def expectation_plan(
     check_circuit(circuit)
     observable = check_observable(observable, circuit.num_qubits).simplify()
     vals = as_parameter_rows(values, circuit.num_parameters)
-    jobs, diagonals = [], []
+    jobs: list[CircuitJob] = []
+    diagonals: list[ZStringTable] = []
     constant = 0.0
     for group in observable.group_commuting(qubit_wise=True):
         ident = ~(group.paulis.x.any(axis=1) | group.paulis.z.any(axis=1))

@@ -11,6 +11,7 @@ every experiment records it in its results (``data/source``).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Literal, overload
 
 import numpy as np
 
@@ -21,6 +22,15 @@ __all__ = ["DATASETS", "load_data", "data_source", "check_int", "check_float"]
 
 #: Datasets the OrthoQNN experiments accept.
 DATASETS = ("digits", "mnist")
+
+
+@overload
+def check_int(config: Mapping, key: str, minimum: int = 1, *,
+              optional: Literal[False] = False) -> int: ...
+
+
+@overload
+def check_int(config: Mapping, key: str, minimum: int = 1, *, optional: bool) -> int | None: ...
 
 
 def check_int(config: Mapping, key: str, minimum: int = 1, *, optional: bool = False) -> int | None:

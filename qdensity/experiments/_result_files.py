@@ -65,7 +65,7 @@ def locked(path: Path) -> Iterator[None]:
 
 
 def _is_seed(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 0
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and bool(value >= 0)
 
 
 #: Field -> (allowed types, what the message calls them).

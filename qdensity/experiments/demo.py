@@ -20,6 +20,7 @@ import textwrap
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
@@ -98,7 +99,7 @@ class DemoConfig:
         >>> DemoConfig.quick().num_qubits
         4
         """
-        settings = {"num_qubits": 4, "num_classes": 3, "shots": 16, "budget": 2400,
+        settings: dict[str, Any] = {"num_qubits": 4, "num_classes": 3, "shots": 16, "budget": 2400,
                     "batch_size": 2, "exact_epochs": 1, "test_size": 100, "curve_points": 6}
         settings.update(changes)
         return cls(**settings)
@@ -196,9 +197,9 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     pure, dens = _models(cfg)
     models = {"pure": pure, "density": dens}
     # what one sampled training step costs each model: the budget must pay for one
-    step_shots = {name: density_gradient_plan(models[name], X_tr[:cfg.batch_size],
-                                              method=method, shots=cfg.shots).total_shots
-                  for name, method in _MODELS}
+    step_shots = {name: cast(int, density_gradient_plan(  # sampled: a number of shots
+                      models[name], X_tr[:cfg.batch_size], method=method, shots=cfg.shots
+                  ).total_shots) for name, method in _MODELS}
     name, need = max(step_shots.items(), key=lambda kv: kv[1])
     if cfg.budget < need:
         raise ValueError(f"budget={cfg.budget} shots cannot pay for one training step: a step "

@@ -23,6 +23,7 @@ its training drew.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -88,9 +89,10 @@ def _fit(name: str, model: SingleQubitReuploading, data, cfg: dict, seed: int) -
             hist["train"].append(model.mse(X_tr, y_tr))
             hist["test"].append(model.mse(X_te, y_te))
     train, test = model.mse(X_tr, y_tr), model.mse(X_te, y_te)
-    out = {f"{name}/train_mse": train, f"{name}/test_mse": test, f"{name}/gap": test - train,
-           f"{name}/parameters": model.num_circuit_parameters,
-           f"{name}/training_shots": float(ledger.total_shots)}
+    out: dict[str, Any] = {f"{name}/train_mse": train, f"{name}/test_mse": test,
+                           f"{name}/gap": test - train,
+                           f"{name}/parameters": model.num_circuit_parameters,
+                           f"{name}/training_shots": float(ledger.total_shots)}
     out["curves"] = {f"{name}/test_vs_epoch": curve(hist["epoch"], hist["test"], "epoch",
                                                     "test MSE (deterministic prediction)"),
                      f"{name}/train_vs_epoch": curve(hist["epoch"], hist["train"], "epoch",

@@ -62,7 +62,7 @@ from qdensity.experiments.protocol import Departure, PaperProtocol
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.models.warm_start import warm_start
-from qdensity.validation import as_rng
+from qdensity.validation import SeedLike, as_rng
 
 __all__ = ["EXPERIMENT", "run_seed", "plot", "check_config", "gradient_circuits"]
 
@@ -80,7 +80,7 @@ def check_config(config: dict) -> dict:
     for key in ("noise_std", "learning_rate", "angle_scale"):
         v = config[key]
         strict = key != "noise_std"
-        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not np.isfinite(v) or (
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not np.isfinite(float(v)) or (
                 v < 0 or (strict and v == 0)):
             raise ValueError(f"setting {key!r} must be a finite number "
                              f"{'> 0' if strict else '>= 0'}, got {v!r}")
@@ -129,7 +129,7 @@ def gradient_circuits(family: str, num_qubits: int, second: bool, *, max_weight:
     return circuits_per_row(model, np.zeros((1, num_qubits)), method)
 
 
-def _data(config: dict, seed: int):
+def _data(config: dict, seed: SeedLike):
     rng = as_rng(seed)
     n, sigma = config["num_qubits"], config["noise_std"]
     X, y = bars_and_dots(config["train_size"], n, sigma, seed=rng)

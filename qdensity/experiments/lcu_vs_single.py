@@ -163,10 +163,13 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
                    after_epoch=lambda e: single_acc.append(accuracy(single.predict(X_te),
                                                                     y_te)))
         bar.update()
+        sub_test: list | np.ndarray  # per sub-unitary, per epoch; an array once all are in
+        sub_train: list | np.ndarray
         subs, thetas, sub_test, sub_train = [], [], [], []
         for k in range(K):
             model = LCUQNN([round_robin(n, parameter_prefix=f"u{k}")], seed=rng)
-            te, tr = [], []
+            te: list[float] = []
+            tr: list[float] = []
 
             def record(_e, model=model, te=te, tr=tr):
                 te.append(accuracy(model.predict(X_te), y_te))
@@ -260,6 +263,7 @@ def _sampled_check(lcu: LCUQNN, X_te, y_te, config: dict, seed: int) -> dict:
         return {}
     est = lcu.sample(X_te[:m], int(config["sample_shots"]), seed=seed)
     exact_p = lcu.success_probability(X_te[:m])
+    assert est.successes is not None  # sampled with shots
     ok = est.successes > 0
     pred = np.where(ok, np.argmax(np.nan_to_num(est.probabilities, nan=-1.0), axis=1), -1)
     return {"sampled/test_accuracy": float(np.mean(pred == y_te[:m])),

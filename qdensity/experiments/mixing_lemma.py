@@ -28,6 +28,7 @@ RBS circuit, so the lemma holds there):
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -147,14 +148,14 @@ def run_seed(config: dict, seed: int, progress: bool = False) -> dict:
             history.append(lemma_quantities(mats, softmax(mixture.logits), V, X_te))
         bar.update()
 
-    final, start = history[-1], history[0]
-    metrics = {f"lemma/{key}": float(final[key]) for key in
+    final, first = history[-1], history[0]
+    metrics: dict[str, Any] = {f"lemma/{key}": float(final[key]) for key in
                ("eps_1", "eps_2", "bound", "distance_max", "distance_mean", "holder_slack",
                 "success_probability")}
     metrics.update({f"lemma1/{key}": float(final[key]) for key in
                     ("delta_1", "delta_2", "delta_2_postselected", "lemma1_bound",
                      "density_error")})
-    metrics["lemma/eps_2_uniform"] = float(start["eps_2"])
+    metrics["lemma/eps_2_uniform"] = float(first["eps_2"])
     metrics["lemma/bound_holds"] = float(all(h["distance_max"] <= h["bound"] + 1e-9
                                              for h in history))
     metrics["lemma/bound_nonvacuous"] = float(final["bound"] < 2.0)

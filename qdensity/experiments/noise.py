@@ -47,7 +47,7 @@ from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.experiments._common import curve, curve_colours, plot_curves
-from qdensity.experiments._noise_device import VARIANTS, device_outputs
+from qdensity.experiments._noise_device import VARIANTS, DeviceOutputs, device_outputs
 from qdensity.experiments.registry import Experiment
 from qdensity.experiments.results import ExperimentResult
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
@@ -182,7 +182,7 @@ def _models(n: int, seed: int):
     return {"pure": pure, "density": dens}
 
 
-def _scores(est, X, y, engine, shots) -> tuple[dict, object, np.ndarray]:
+def _scores(est, X, y, engine, shots) -> tuple[dict, DeviceOutputs, np.ndarray]:
     """Test accuracy exact and four device ways, the device outputs and the exact outputs."""
     dev = device_outputs(est.model_, X, engine=engine, shots=shots)
     exact = est.model_.predict(X)

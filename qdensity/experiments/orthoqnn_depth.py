@@ -27,6 +27,7 @@ the sum of its sub-models' circuits. Test-set evaluation is not counted.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -90,7 +91,7 @@ def _fit(model: DensityQNN, data, epochs: int, config: dict, seed: int, progress
 def _mean_post(clfs: list[QNNClassifier], n: int) -> Linear:
     post = Linear(n, clfs[0].classes_.size, seed=0)
     for key in post.params:
-        post.params[key][...] = np.mean([c.post_.params[key] for c in clfs], axis=0)
+        post.params[key][...] = np.mean([cast(Linear, c.post_).params[key] for c in clfs], axis=0)
     return post
 
 

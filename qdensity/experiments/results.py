@@ -123,7 +123,7 @@ def _check_confidence(confidence) -> float:
     return c
 
 
-def mean_ci(values: Sequence[float], confidence: float = 0.95,
+def mean_ci(values: Sequence[float] | np.ndarray, confidence: float = 0.95,
             bounds: tuple[float, float] | None = None) -> dict[str, float]:
     """Mean over seeds with a Student-t confidence interval, kept inside the metric's range.
 
@@ -187,7 +187,7 @@ def _check_bounds(bounds) -> tuple[float, float]:
 
 
 def bootstrap_ci(
-    values: Sequence[float],
+    values: Sequence[float] | np.ndarray,
     statistic: Callable[[np.ndarray], float] = np.mean,
     confidence: float = 0.95,
     n_resamples: int = 2000,
@@ -240,7 +240,7 @@ def bootstrap_ci(
     return {"estimate": est, "low": min(low, est), "high": max(high, est), "n": int(arr.size)}
 
 
-def runs_above(values: Sequence[float], threshold: float = 0.8) -> dict:
+def runs_above(values: Sequence[float] | np.ndarray, threshold: float = 0.8) -> dict:
     """The paper's sweep aggregation (hyperparameters appendix, Fig. 11b): of the runs of a
     sweep, those that reach ``threshold`` ("the best x/32 hyperparameter runs, those which
     achieve at least 80% accuracy"), their count and their mean.
@@ -323,7 +323,7 @@ def summarise(per_seed: Sequence[Mapping[str, Any]], confidence: float = 0.95) -
             lo, hi = metric_bounds(key)
             arr = np.asarray(vals, dtype=float)
             inside = np.all(np.isfinite(arr)) and arr.min() >= lo and arr.max() <= hi
-            out[key] = mean_ci(vals, confidence, (lo, hi) if inside else None)
+            out[key] = mean_ci(arr, confidence, (lo, hi) if inside else None)
     return out
 
 
@@ -438,7 +438,8 @@ class ExperimentResult:
                 target, earlier = named, self._same_run(named)
             merged = self if earlier in (None, False) else self._merged_with(earlier)
             atomic_write_text(target, json.dumps(merged.to_dict(), indent=2) + "\n")
-        self.saved_to = target
+        # an instance note kept out of the dataclass fields (declared as a ClassVar default)
+        self.saved_to = target  # type: ignore[misc]
         return target
 
     def _same_run(self, path: Path):

@@ -144,7 +144,7 @@ def _run_setting(setting: str, cfg: dict, seed: int, bar) -> dict:
     L_max, K = cfg["layers"][-1], int(cfg["experts"])
     out: dict = {}
     curves: dict = {}
-    rows = {"vanilla": [], "density": []}
+    rows: dict[str, list] = {"vanilla": [], "density": []}
     models = {}
 
     def fit(tag, num_layers, num_subs, index, record):

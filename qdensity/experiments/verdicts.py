@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,7 @@ def departures_for(result: ExperimentResult) -> list[tuple[str, tuple[str, ...]]
     open_ = () if result.mode == "full" else tuple(protocol.readings)
     differ = sorted(k for k in set(paper) | set(result.config)
                     if k not in open_ and result.config.get(k) != paper.get(k))
-    out = []
+    out: list[tuple[str, tuple[str, ...]]] = []
     if differ:
         what = ", ".join(f"{k}={result.config.get(k)!r} (paper: {paper.get(k)!r})"
                          for k in differ)
@@ -127,9 +128,10 @@ def verdict(result: ExperimentResult, claim: Claim) -> dict:
         test), ``seeds_needed`` (inconclusive: for 80% power by the claim's test; None when
         no count would do); ``reason`` for ``not comparable``.
     """
-    out = {"key": claim.key, "experiment": claim.experiment, "mode": result.mode,
-           "claim": claim.text, "line": claim.line, "kind": claim.kind,
-           "quantity": claim.quantity, "n": len(result.per_seed)}
+    out: dict[str, Any] = {"key": claim.key, "experiment": claim.experiment,
+                           "mode": result.mode, "claim": claim.text, "line": claim.line,
+                           "kind": claim.kind, "quantity": claim.quantity,
+                           "n": len(result.per_seed)}
     if claim.caveat:
         out["caveat"] = claim.caveat
     missing = sorted({m for m in claim.metrics for row in result.per_seed if m not in row})

@@ -115,8 +115,8 @@ class _GradientCircuits:
         if not isinstance(bits, (list, tuple)) or len(bits) != len(self.circuits):
             raise ValueError(f"bits must be a list of {len(self.circuits)} arrays, one per "
                              "circuit in `circuits` order")
-        value = 0.0
-        var = 0.0
+        value: float | np.ndarray = 0.0
+        var: float | np.ndarray = 0.0
         for c, (b, table) in enumerate(zip(bits, self._values, strict=True)):
             b = np.asarray(b)
             if b.ndim != 3 or b.shape[-1] != table.num_qubits:
@@ -194,7 +194,7 @@ class _GradientCircuits:
             raise ValueError(
                 f"shots must be an int or one int per circuit ({len(arrs)}), got {shots!r}"
             )
-        total = 0.0
+        total: float | np.ndarray = 0.0
         for a, v, s in zip(arrs, self.value_matrices(), per_circuit, strict=True):
             two_d = np.atleast_2d(a)
             n_shots = _check_shots(s, two_d.shape[0])

@@ -90,8 +90,8 @@ class CommutingGradient(_GradientCircuits):
 
 def _gradient_terms(
     trainables: Sequence[_Trainable], observable: SparsePauliOp, params: Sequence[Parameter]
-) -> tuple[dict[Parameter, SparsePauliOp], list[str], Callable[[], list[
-        tuple[str, dict[Parameter, SparsePauliOp], list[tuple[str, _Trainable]]]]]]:
+) -> tuple[dict[Parameter, SparsePauliOp], list[str], Callable[[], tuple[PauliList, list[
+        tuple[str, dict[Parameter, SparsePauliOp], list[tuple[int, _Trainable]]]]]]]:
     """Total ``O_p``, the labels of the non-constant Pauli terms ``P_t`` of ``H`` and a function
     giving, per term, its share ``O_{p,t}`` with the (term, gate) origin of each Pauli string
     (built on call: only the Clifford diagonaliser needs them).
@@ -125,7 +125,7 @@ def _gradient_terms(
             lo, hi = bounds[t_idx], bounds[t_idx + 1]
             shares = {p: zero for p in params}
             pb = lo + np.searchsorted(u_par[lo:hi], np.arange(len(params) + 1))
-            for k in np.flatnonzero(np.diff(pb)):
+            for k in np.flatnonzero(np.diff(pb)).tolist():
                 shares[params[k]] = op(slice(pb[k], pb[k + 1]))
             origin = [(r, trainables[owner_of[r]]) for r in range(lo, hi)]
             out.append((label, shares, origin))
@@ -143,7 +143,7 @@ def _gradient_terms(
     rows, tpar, tcoef = tfirst[tkeep], u_par[tfirst[tkeep]], tsum[tkeep]
     total = {p: zero for p in params}
     pb = np.searchsorted(tpar, np.arange(len(params) + 1))
-    for k in np.flatnonzero(np.diff(pb)):
+    for k in np.flatnonzero(np.diff(pb)).tolist():
         sel = rows[pb[k]:pb[k + 1]]
         total[params[k]] = SparsePauliOp(PauliList.from_symplectic(uz[sel], ux[sel]),
                                          tcoef[pb[k]:pb[k + 1]])

@@ -290,7 +290,7 @@ def commuting_block_gradient(
         blocks = _check_blocks(blocks, circuit, pset)
     circuits: list[QuantumCircuit] = []
     roles: list[str] = []
-    values: list[np.ndarray] = []
+    values: list[ZStringTable] = []
     terms = [
         (label, coeff.real)
         for label, coeff in obs.to_list()

@@ -163,6 +163,9 @@ def input_jacobians(model, X, gradients: ExactGradients) -> list[np.ndarray]:
     -------
     list of numpy.ndarray, K arrays of shape (B, m, d)
     """
+    if gradients.data_jacobians is None:
+        raise ValueError("gradients has no data Jacobians (exact_gradients(..., inputs=False)); "
+                         "compute them with inputs=True")
     return [input_jacobian(model, X, cols, jac) for cols, jac in
             zip(gradients.data_columns, gradients.data_jacobians, strict=True)]
 

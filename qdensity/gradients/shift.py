@@ -127,7 +127,7 @@ def expand_occurrences(
         coefficient a, instruction)`` where the gate angle is ``a * p + b``.
     """
     wanted = set(circuit.parameters if parameters is None else parameters)
-    occurrences = []
+    occurrences: list[tuple] = []
     out = circuit.copy_empty_like()
     found = [parameter_of(inst) for inst in circuit.data]
     fresh = ParameterVector("_occ", sum(1 for po in found if po is not None and po[0] in wanted))

@@ -44,6 +44,7 @@ def _check_basis(basis_gates) -> tuple[str, ...] | None:
 
 
 def _check_level(level) -> int:
-    if isinstance(level, bool) or not isinstance(level, numbers.Integral) or not 0 <= level <= 3:
+    if (isinstance(level, bool) or not isinstance(level, numbers.Integral)
+            or not 0 <= int(level) <= 3):
         raise ValueError(f"optimization_level must be an int in 0..3, got {level!r}")
     return int(level)

@@ -45,7 +45,7 @@ def line_order(circuits: list[QuantumCircuit], qubits: frozenset[int]) -> dict[i
             op = inst.operation
             if op.name in _SKIPPED:
                 continue
-            if (len(inst.qubits) > 2 or getattr(op, "blocks", ())
+            if (len(inst.qubits) > 2 or getattr(op, "blocks", None)
                     or getattr(op, "condition", None) is not None):
                 return None
             if len(inst.qubits) == 2:

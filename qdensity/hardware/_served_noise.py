@@ -100,7 +100,10 @@ def _served(source, qubits: frozenset[int], position: dict[int, int] | None = No
     key = id(source)
     entry = _SERIALISED.get(key)
     if entry is None or entry[0]() is not source:
-        entry = (weakref.ref(source, lambda _, k=key: _SERIALISED.pop(k, None)),
+        def drop(_: object, k: int = key) -> None:
+            _SERIALISED.pop(k, None)
+
+        entry = (weakref.ref(source, drop),
                  source.to_dict(serializable=True), {})
         _SERIALISED[key] = entry
     served = entry[2]

@@ -280,6 +280,7 @@ def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") ->
     if _fits(num_active, method):
         return
     per = _dense_bytes(num_active, method)
+    assert per is not None  # _fits is True for a method without a dense size
     raise ValueError(
         f"{engine}: Aer's {method} method on {num_active} active qubits needs {_gib(per)}, more "
         f"than the {_gib(memory_budget())} this machine allows (half its memory); "

@@ -9,7 +9,7 @@ hardware: active qubits, depth, the two-qubit gate count and the two-qubit depth
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from qiskit.circuit import ControlFlowOp, QuantumCircuit, Store
@@ -293,7 +293,9 @@ def _format_blocks(header: list[str], rows: list[tuple[str, ...]], width: int) -
     """:func:`_format_table` cut into blocks of columns (the first repeated in each) whose
     lines fit ``width``; blocks separated by a blank line."""
     widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header))]
-    blocks, current, used = [], [], widths[0]
+    blocks: list[list[int]] = []
+    current: list[int] = []
+    used = widths[0]
     for k in range(1, len(header)):
         if current and used + 2 + widths[k] > width:
             blocks.append(current)
@@ -306,7 +308,7 @@ def _format_blocks(header: list[str], rows: list[tuple[str, ...]], width: int) -
                          for cols in blocks)
 
 
-def _format_table(header: list[str], rows: list[tuple[str, ...]]) -> str:
+def _format_table(header: list[str], rows: Sequence[tuple[str, ...]]) -> str:
     """Left-aligned first column, right-aligned others, a dashed rule under the header."""
     widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header))]
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import contextlib
 import warnings
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -94,10 +96,22 @@ class EncodingMixin:
     features on, though its use is ``transform`` on its own, to see what the qubits load.
     """
 
+    if TYPE_CHECKING:  # what the estimator that mixes this in holds
+        model: Any
+        constant: float
+        scaler_: Any
+        pca_: Any
+        n_features_in_: int
+        num_qubits_: int
+        _data_columns_: int
+
+        fit: Callable[..., Any]
+
     def __sklearn_tags__(self):
         from sklearn.utils import TransformerTags
 
-        tags = super().__sklearn_tags__()
+        # cooperative: the estimator's scikit-learn base class, later in the MRO, defines it
+        tags = super().__sklearn_tags__()  # type: ignore[misc]
         tags.transformer_tags = TransformerTags(preserves_dtype=["float64"])
         return tags
 

@@ -18,6 +18,7 @@ sub-unitary shares adds once with weight ``(sum_k alpha_k dV_k/de)^2``.
 from __future__ import annotations
 
 import copy
+from typing import TYPE_CHECKING
 
 import numpy as np
 from sklearn.base import is_classifier
@@ -123,6 +124,8 @@ def sampled_estimate(est, Z: np.ndarray, engine, shots: int, classifier: bool) -
             for k in range(K)]
     results = engine.run(jobs)  # one submission, one PUB per sub-unitary
     alpha = np.broadcast_to(model.alpha(Z), (B, K))
+    shot_vectors: list[np.ndarray | None]
+    v: np.ndarray | None  # one sub-unitary's per-shot values (None: an exact run)
     shot_vectors, outs = [], []
     for res in results:
         if res.bits is None:  # an exact run
@@ -155,6 +158,9 @@ def sampled_estimate(est, Z: np.ndarray, engine, shots: int, classifier: bool) -
 
 class EstimateMixin:
     """The estimators' sampled answer: ``estimate``."""
+
+    if TYPE_CHECKING:  # what the estimator that mixes this in has
+        def transform(self, X) -> np.ndarray: ...
 
     def estimate(self, X, *, engine=None, shots: int = 1000, seed=None) -> Estimate:
         """The fitted answer sampled with shots, with standard errors from the samples.

@@ -31,7 +31,7 @@ SPEC_KEYS = ("ansatz", "decomposition", "depth", "mixture", "readout", "num_qubi
 _COMMON = {"format": str, "version": int, "estimator": str, "spec": dict, "template": bool,
            "n_features_in": int, "num_qubits": int, "data_columns": int, "post": bool,
            "pre": bool}
-_OWN = {"QNNClassifier": {"classes": list, "classes_kind": str},
+_OWN: dict[str, dict[str, type]] = {"QNNClassifier": {"classes": list, "classes_kind": str},
         "QNNRegressor": {"target_ndim": int, "num_targets": int}}
 
 #: Most circuit angles a loaded spec may build (building costs about 1 ms an angle: a

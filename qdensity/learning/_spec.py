@@ -150,6 +150,7 @@ def build_model(est, num_qubits: int, rng: np.random.Generator) -> DensityQNN:
     else:
         subs = odd_even(circuit).sub_unitaries
     K = len(subs)
+    mixture: SoftmaxMixture | GatedMixture | None
     if est.mixture == "fixed":
         mixture = None
     elif est.mixture == "softmax":

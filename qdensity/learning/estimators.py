@@ -170,7 +170,7 @@ class _QNNEstimator(EncodingMixin, EstimateMixin, BaseEstimator):
         width = self.model_.num_qubits if self.model_.readout != "observable" else 1
         self.pre_ = copy.deepcopy(self.pre) if self.pre is not None else None
         if isinstance(self.post, str):
-            self.post_ = Linear(width, self._num_targets, seed=rng)
+            self.post_: Linear | None = Linear(width, self._num_targets, seed=rng)
         elif self.post is None:
             if width != self._num_targets:
                 raise ValueError(f"post=None needs the model's {width} output(s) to equal the "

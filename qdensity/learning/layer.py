@@ -90,7 +90,7 @@ class QuantumLayer:
             raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
         self.gradient = gradient
         self.grads: dict[str, np.ndarray] = {}
-        self._cache = None
+        self._cache: tuple | None = None
         self.circuits = 0
         self.shots_spent = 0
         self.max_shots: int | None = None
@@ -218,6 +218,7 @@ class QuantumLayer:
     def _backward_unary(self, grad_F):
         from qdensity.execution.unary import vjp
 
+        assert self._cache is not None  # backward checked it
         _, Z, Xn, norms, Ys, outs, alpha = self._cache
         m = self.model
         g_theta = np.zeros(m.num_parameters)

@@ -196,6 +196,7 @@ class Linear(Layer):
     def backward(self, grad_Y) -> np.ndarray:
         """``grads["W"] = X^T G``, ``grads["b"] = sum_rows G``; returns ``G W^T`` (B, d_in)."""
         G = _check_grad(grad_Y, self._need_forward())
+        assert self._X is not None  # kept by forward
         self.grads["W"][...] = self._X.T @ G
         if self.bias:
             self.grads["b"][...] = G.sum(axis=0)

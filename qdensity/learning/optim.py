@@ -65,7 +65,7 @@ def _check_step_int(value, name: str) -> int:
     if isinstance(value, numbers.Integral):
         v = int(value)
     elif isinstance(value, numbers.Real) and float(value).is_integer():
-        v = int(value)  # JSON readers may hand back 3.0
+        v = int(float(value))  # JSON readers may hand back 3.0
     else:
         raise TypeError(f"{name} must be an int, got {value!r}")
     if v < 0:
@@ -228,6 +228,7 @@ class SGD(Optimizer):
 
     _hyper = ("lr", "momentum")
     _buffers = ("velocity",)
+    velocity: np.ndarray  # allocated by step()
 
     def __init__(self, lr: float, momentum: float = 0.0) -> None:
         self.momentum = momentum
@@ -263,6 +264,7 @@ class RMSprop(Optimizer):
 
     _hyper = ("lr", "rho", "eps")
     _buffers = ("square_avg",)
+    square_avg: np.ndarray  # allocated by step()
 
     def __init__(self, lr: float = 1e-2, rho: float = 0.99, eps: float = 1e-8) -> None:
         self.rho = rho
@@ -319,6 +321,8 @@ class Adam(Optimizer):
 
     _hyper = ("lr", "beta1", "beta2", "eps")
     _buffers = ("m", "v")
+    m: np.ndarray  # allocated by step()
+    v: np.ndarray
 
     def __init__(
         self, lr: float = 1e-3, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8

@@ -172,7 +172,7 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
             raise ValueError(f"array {name!r} has NaN or inf; parameter files hold finite values")
     path = os.fspath(path)
     if str(path).lower().endswith(".json"):
-        doc = {"format": _JSON_FORMAT, "version": 1, "arrays": {}}
+        doc: dict[str, Any] = {"format": _JSON_FORMAT, "version": 1, "arrays": {}}
         for name, arr in checked.items():
             if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
                 raise ValueError(f"array {name!r} has NaN or inf, which JSON cannot store")

@@ -178,6 +178,8 @@ class DensityQNNLayer(nn.Module):
     torch.Size([6])
     """
 
+    alpha: torch.Tensor  # a registered buffer (fixed mixture)
+
     def __init__(self, model: DensityQNN, *, engine="exact", shots: int | None = None,
                  gradient: str = "auto", gate: nn.Module | None = None):
         super().__init__()
@@ -385,6 +387,7 @@ class DensityQNNLayer(nn.Module):
             elif m.readout == "unary_probabilities":
                 dY = 2.0 * g[:, k, :] * y
             else:
+                assert self._zdiag is not None  # set for an observable readout
                 dY = 2.0 * g[:, k, :1] * self._zdiag[None, :] * y
             # start the reverse pass from the forward's outputs y (not run again)
             gv, gx = vjp(c, Xn, theta[idx], dY, reduce="sum", outputs=y)

@@ -161,10 +161,12 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
         loader = (model.encoding.circuit.assign_parameters(model.encoding.values(x)[0])
                   if model.encoding is not None else None)
         circ = measured(deterministic_circuit(subs, alpha, loader=loader))
-        res = engine_for_call().run([CircuitJob(circ, None, budget, "deterministic")])[0]
+        res = engine_for_call().run([CircuitJob(circ, np.zeros((1, 0)), budget,
+                                                "deterministic")])[0]
         K = model.num_subunitaries
         if unary:
             return _deterministic_unary(res, K, n, budget)
+        assert values is not None  # set whenever the readout is not unary
         probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
         mean = float(probs @ values)
         var = float(probs @ values**2) - mean**2
@@ -178,6 +180,7 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                      and (engine.mitigation is not None or engine.postselect is not None)))
     if unary:
         return _randomised_unary(model, x, budget, scheduler, engine_for_call, rng, corrected)
+    assert values is not None  # set whenever the readout is not unary
     circuits = [measured(model.circuit(k)) for k in range(model.num_subunitaries)]
     rows = [model.rows(k, x) for k in range(model.num_subunitaries)]
 

@@ -12,6 +12,8 @@ expresses exactly the same set of maps as the uncompressed model.
 
 from __future__ import annotations
 
+from typing import cast
+
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.circuits.gates import RBSGate
@@ -58,7 +60,7 @@ def merge_rbs_runs(circuit: QuantumCircuit, parameter_prefix: str = "θ"
         if isinstance(inst.operation, RBSGate):
             before = {last.get(q) for q in qubits}
             if len(before) == 1 and None not in before:
-                prev = ops[before.pop()]
+                prev = ops[cast(int, before.pop())]  # None is not in before
                 if prev[2] is not None and prev[1] == qubits:
                     prev[2].append(pos)
                     continue

@@ -81,7 +81,7 @@ class DensityQNN:
     def __init__(
         self,
         sub_unitaries: Sequence[QuantumCircuit],
-        mixture: Mixture | Sequence[float] | None = None,
+        mixture: Mixture | Sequence[float] | np.ndarray | None = None,
         *,
         encoding: Encoding | None = None,
         observable: SparsePauliOp | str | None = None,

@@ -195,6 +195,7 @@ class LCUQNN:
             if self.num_subunitaries < 2:
                 raise ValueError("the sampled LCU circuit needs K >= 2 sub-unitaries (with "
                                  "K = 1 the model is its single circuit)")
+            assert self.density.encoding is not None  # an LCU model has its unary encoding
             self._template = lcu_template(self.density.sub_unitaries,
                                           self.density.encoding.circuit)
         return self._template
@@ -216,6 +217,7 @@ class LCUQNN:
         tpl = self.template()
         X = self.density._check_X(X)
         enc = self.density.encoding
+        assert enc is not None  # an LCU model has its unary encoding
         cols = dict(zip(enc.circuit.parameters, enc.values(X).T, strict=True))
         by_name = {p.name: p for p in tpl.parameters}
         alpha = np.broadcast_to(self.mixture.alpha(X), (X.shape[0], self.num_subunitaries))

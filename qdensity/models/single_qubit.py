@@ -120,7 +120,7 @@ class SingleQubitReuploading:
         half-angle arrays of shape (N, 1) for data gates and (1, K) for trainable ones."""
         cx, sx = np.cos(x / 2)[:, None], np.sin(x / 2)[:, None]
         ct, st = np.cos(self.theta / 2), np.sin(self.theta / 2)
-        out = []
+        out: list[tuple[str, np.ndarray, np.ndarray, tuple | None]] = []
         for layer in range(self.num_layers):
             for axis in REUPLOADING_ENCODINGS[self.encoding]:
                 out.append((axis, cx, sx, None))

@@ -214,7 +214,7 @@ def equivariant_commuting(
     return qc
 
 
-def _distance_classes(n: int) -> list[list[tuple[int, int]]]:
+def _distance_classes(n: int) -> list[list[tuple[int, ...]]]:
     """Distinct ``X_i X_{i+d}`` supports for ``d = 1 .. floor(n / 2)``."""
     out = []
     for d in range(1, n // 2 + 1):

@@ -67,12 +67,12 @@ def pairs_circuit(
     """
     if gate not in ("rbs", "fbs"):
         raise ValueError(f"gate must be 'rbs' or 'fbs', got {gate!r}")
-    layers = [[(min(p), max(p)) for p in layer] for layer in layers]
-    count = sum(len(layer) for layer in layers)
+    ordered = [[(min(p), max(p)) for p in layer] for layer in layers]
+    count = sum(len(layer) for layer in ordered)
     theta = ParameterVector(parameter_prefix, count)
     qc = QuantumCircuit(num_qubits, name=name)
     k = 0
-    for li, layer in enumerate(layers):
+    for li, layer in enumerate(ordered):
         for i, j in layer:
             if i == j or not (0 <= i < num_qubits and 0 <= j < num_qubits):
                 raise ValueError(f"invalid pair {(i, j)} for {num_qubits} qubits")
@@ -81,7 +81,7 @@ def pairs_circuit(
             else:
                 qc.append(FBSGate(theta[k], j - i + 1), list(range(i, j + 1)))
             k += 1
-        if insert_barriers and li < len(layers) - 1:
+        if insert_barriers and li < len(ordered) - 1:
             qc.barrier()
     return qc
 

@@ -48,7 +48,7 @@ class PreparationCircuits:
     ['deterministic', 'lcu', 'randomised']
     """
 
-    sub_unitaries: tuple[QuantumCircuit, ...]
+    sub_unitaries: Sequence[QuantumCircuit]  # a tuple once validated
     alpha: np.ndarray
     loader: QuantumCircuit | None = None
     _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)

@@ -21,7 +21,8 @@ def _layer_pairs(num_qubits: int, start: int) -> list[tuple[int, int]]:
 def _check_pairs(pairs, num_qubits: int, name: str = "pairs") -> list[tuple[int, int]]:
     if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Iterable):
         raise TypeError(f"{name} must be a sequence of (int, int) qubit pairs, got {pairs!r}")
-    out, used = [], set()
+    out: list[tuple[int, int]] = []
+    used: set[int] = set()
     for pair in pairs:
         try:
             a, b = pair
@@ -30,7 +31,7 @@ def _check_pairs(pairs, num_qubits: int, name: str = "pairs") -> list[tuple[int,
         for q in (a, b):
             if isinstance(q, bool) or not isinstance(q, numbers.Integral):
                 raise TypeError(f"{name} entries must be int qubit indices, got {pair!r}")
-            if not 0 <= q < num_qubits:
+            if not 0 <= int(q) < num_qubits:
                 raise ValueError(
                     f"{name} entry {pair!r} is out of range for {num_qubits} qubits "
                     f"(allowed 0 .. {num_qubits - 1})"

@@ -29,9 +29,10 @@ class ScheduleResult:
     ----------
     name : str
         Scheduler name: ``"per_shot"``, ``"proportional"`` or ``"neyman"``.
-    estimate : float
-        Estimate of ``f = sum_k alpha_k f_k`` (eq. 3).
-    standard_error : float
+    estimate : float, or numpy.ndarray of shape (n,)
+        Estimate of ``f = sum_k alpha_k f_k`` (eq. 3); one per qubit for a model that reads
+        out unary probabilities.
+    standard_error : float, or numpy.ndarray of shape (n,)
         Estimated standard deviation of ``estimate``.
     allocation : numpy.ndarray, shape (K,), int64
         Shots run on each sub-unitary in the main phase (the only phase, except for Neyman).
@@ -48,8 +49,8 @@ class ScheduleResult:
     """
 
     name: str
-    estimate: float
-    standard_error: float
+    estimate: float | np.ndarray
+    standard_error: float | np.ndarray
     allocation: np.ndarray
     per_subunitary: np.ndarray
     shots_used: int

@@ -96,6 +96,9 @@ def _outcome_ints(pub_result, circuit: QuantumCircuit) -> np.ndarray:
         weights = np.array([1 << circuit.find_bit(b).index for b in creg], dtype=np.int64)
         part = bits.astype(np.int64) @ weights
         ints = part if ints is None else ints | part
+    if ints is None:
+        raise ValueError(f"circuit {circuit.name!r} has no classical register to read outcomes "
+                         "from; measure into a register (e.g. measure_all)")
     return ints
 
 
@@ -192,7 +195,7 @@ def sampler_source(
         raise ValueError(
             f"parameter_values must have one entry per circuit ({num}), got {len(parameter_values)}"
         )
-    bound = []
+    bound: list[np.ndarray | None] = []
     for k, (qc, pv) in enumerate(zip(circuits, parameter_values, strict=True)):
         if pv is None:
             if qc.num_parameters:

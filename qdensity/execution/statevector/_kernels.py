@@ -71,7 +71,7 @@ class Tables:
         ops = _fuse(prog.ops)
         n = prog.num_qubits
         masks = [_touched(op) for op in ops]
-        steps = (_layout.plan(masks, n) if n >= _layout.MIN_QUBITS
+        steps: list[tuple] = (_layout.plan(masks, n) if n >= _layout.MIN_QUBITS
                  else [("op", i, tuple(range(n))) for i in range(len(ops))])
         O = len(steps)
         D = 2**MAX_DENSE
@@ -134,6 +134,7 @@ class Tables:
             self.npos[i] = k
             for a in range(2**k):
                 self.offs[i, a] = sum(((a >> b) & 1) << q for b, q in enumerate(qubits))
+            assert op.matrix is not None  # a Fixed without a gather has its matrix
             self.mat[i, :2**k, :2**k] = op.matrix
             self.inv[i, :2**k, :2**k] = op.matrix.conj().T
         self.num_rotations = g

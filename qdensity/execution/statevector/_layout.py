@@ -75,7 +75,7 @@ def plan(masks: list[int], n: int, low: int | None = None):
             new: list[int] = []
             for b in range(low):  # park the qubit used last; on a tie, the one already there
                 cands = [g for g in [b, *range(low, n)] if not m >> g & 1 and g not in new]
-                new.append(min(cands, key=lambda g, b=b: (-int(nxt[i, g]), g != guest[b], g)))
+                new.append(min(cands, key=lambda g: (-int(nxt[i, g]), g != guest[b], g)))
             guest = new
             layout = list(ident)
             for b, g in enumerate(guest):

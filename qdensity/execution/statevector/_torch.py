@@ -100,7 +100,7 @@ class _Ops:
         from qdensity.execution.statevector._program import Rotation
 
         t = torch()
-        self.ops = []
+        self.ops: list[tuple] = []
         for op in prog.ops:
             if isinstance(op, Rotation):
                 self.ops.append(("rot", _Pauli(op.gather), op.identity, op.coefficient))

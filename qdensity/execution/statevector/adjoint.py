@@ -29,6 +29,7 @@ measured templates), so it can stand in for :class:`~qdensity.engines.ExactEngin
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -317,7 +318,7 @@ class AdjointEngine:
 
     def probabilities(self, circuit: QuantumCircuit, values=None) -> np.ndarray:
         """Outcome probabilities ``|<k|U(values)|0>|^2``, shape (R, 2**n)."""
-        psi = self.statevector(circuit, values)
+        psi: Any = self.statevector(circuit, values)  # a tensor for tensor values on torch
         return psi.abs() ** 2 if is_tensor(psi) else np.abs(psi) ** 2
 
     def expectation(self, circuit: QuantumCircuit, observables, values=None) -> np.ndarray:
@@ -486,5 +487,5 @@ def _same_terms(obs, terms: tuple | None) -> bool:
     if terms is None:
         return not isinstance(obs, SparsePauliOp)
     now = _terms(obs)
-    return all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(now, terms,
-                                                                         strict=True))
+    return now is not None and all(a.shape == b.shape and np.array_equal(a, b)
+                                   for a, b in zip(now, terms, strict=True))

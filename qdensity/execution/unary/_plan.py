@@ -19,6 +19,7 @@ of all nonzeros with one ``take``. An odd ``n`` gets one zero padding row.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -30,7 +31,7 @@ from qdensity.execution.unary._threads import blocks, num_threads, run_blocks, s
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
 except ImportError:  # pragma: no cover - a scipy that moved it: same result, slower
-    _csr_matvecs = None
+    _csr_matvecs = None  # type: ignore[assignment]  # optional: checked before each use
 
 __all__: list[str] = []
 
@@ -108,6 +109,7 @@ def make_plan(n: int, layers, num_gates: int) -> Plan:
     one, zero = 3 * num_gates, 3 * num_gates + 1
     order, pos = np.arange(n_pad), np.arange(n_pad)  # qubit at each position and inverse
     steps, bc, bs, dots = [], [], [], 0
+    fwd: list[tuple]  # (rows, k, offset, scatter or None), then the Plan's entries
     fwd, fc, fs, offset, fwd_offset = [], [], [], 0, 0
     pending = None  # a dense layer's (col_a, col_b, alpha, beta) waiting for its partner
 
@@ -183,9 +185,9 @@ def make_plan(n: int, layers, num_gates: int) -> Plan:
 
     final_pos = pos[:n].copy()
     if fwd and fwd[-1][3] is None:  # the last product writes its rows in qubit order
-        rows, k = fwd[-1][:2]
-        fc[-1] = fc[-1].reshape(rows, k)[pos].ravel()
-        fs[-1] = fs[-1].reshape(2, rows, k)[:, pos].reshape(2, -1)
+        rows, width = fwd[-1][:2]
+        fc[-1] = fc[-1].reshape(rows, width)[pos].ravel()
+        fs[-1] = fs[-1].reshape(2, rows, width)[:, pos].reshape(2, -1)
         final_pos = None
     ptrs = {k: np.arange(0, k * n_pad + 1, k, dtype=itype) for k in (2, 4)}
     fwd_cols = cat(fc, itype)
@@ -319,7 +321,7 @@ def plan_backward(Y: np.ndarray, G: np.ndarray, plan: Plan, angles: np.ndarray,
     np.take(W, plan.final, axis=0, out=buf[0])
     tmp = np.empty_like(W)
     slot = 0  # buf[slot] holds the current activations
-    pending = []  # (slot, step) of dense layers whose dots wait for the chunk
+    pending: list[tuple] = []  # (slot, step) of dense layers whose dots wait for the chunk
     if per_example:
         grad = np.zeros((num_parameters, B))
     else:
@@ -339,7 +341,8 @@ def plan_backward(Y: np.ndarray, G: np.ndarray, plan: Plan, angles: np.ndarray,
         L = st.pidx.size
         cur = buf[slot]
         if per_example or not st.dense:
-            V = cur if st.dense else np.take(cur, st.scatter, axis=0, out=tmp[:st.rows])
+            V = cur if st.dense else np.take(cur, cast(np.ndarray, st.scatter), axis=0,
+                                             out=tmp[:st.rows])
             V = V.reshape(-1, 2, 2 * B)[:L]
             ui, uj, gi, gj = V[:, 0, :B], V[:, 1, :B], V[:, 0, B:], V[:, 1, B:]
             if per_example:

@@ -225,6 +225,7 @@ def backward(Y, G, compiled, angles, per_example: bool):
             grad.index_add_(0, tab.pidx[o:o + L], d * tab.coef[o:o + L, None])
         elif P:  # rows [u_i g_j; u_j g_i] summed over the batch, then first minus second
             sums = (W[:, :B] * Wr[:, B:]).sum(dim=1)
+            assert per_gate is not None  # allocated whenever P and not per_example
             t.sub(sums[:L], sums[L:], out=per_gate[o:o + L])
         C, S = _trig(tab, angles, shared, a, b)
         if C.shape[1] != 1:
