@@ -21,8 +21,10 @@ parameter shift otherwise.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
@@ -139,7 +141,7 @@ def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots) -> Pla
         inner = parameter_shift_plan(circ, model.observable, rows, parameters=params, shots=shots,
                                      label=f"shift_k{k}")
 
-        post = partial(_shift_observable_post, inner)
+        post: Callable[[list], Any] = partial(_shift_observable_post, inner)
     else:
         # the n unary frequencies, read off the measured bits when sampled (no 2**n row)
         inner = parameter_shift_plan(circ, None, rows, parameters=params, shots=shots,
@@ -179,7 +181,7 @@ def _unary_terms(n: int) -> tuple[PauliList, np.ndarray]:
 def _analyse(model, circ, params):
     if model.readout == "observable":
         try:
-            grads = [commuting_gradient(circ, model.observable, params)]
+            grads: list = [commuting_gradient(circ, model.observable, params)]
         except ValueError as one_block:
             try:  # several commuting blocks: observable shifts (Cor. 2)
                 grads = [commuting_block_gradient(circ, model.observable, None, params)]

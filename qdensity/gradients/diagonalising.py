@@ -92,7 +92,8 @@ def _rbs_pairs(trainables: Sequence[_Trainable]) -> list[tuple[int, int]] | None
     support = np.logical_or.reduceat(stack.x | stack.z, stack.starts[:-1], axis=0)
     if np.any(support.sum(axis=1) != 2):
         return None
-    pairs = list(dict.fromkeys(map(tuple, np.nonzero(support)[1].reshape(-1, 2).tolist())))
+    pairs = list(dict.fromkeys((int(a), int(b))
+                               for a, b in np.nonzero(support)[1].reshape(-1, 2).tolist()))
     used = [q for p in pairs for q in p]
     if len(used) != len(set(used)):
         return None

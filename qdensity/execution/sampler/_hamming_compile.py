@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
@@ -42,7 +43,7 @@ class Angle:
     offset: float = 0.0
     index: int = -1
     coefficient: float = 0.0
-    expr: object = None
+    expr: ParameterExpression | None = None
     indices: tuple = ()
 
     def evaluate(self, values: np.ndarray) -> np.ndarray:
@@ -51,6 +52,7 @@ class Angle:
             return np.full(1, self.offset)
         if self.kind == "linear":
             return self.coefficient * values[:, self.index] + self.offset
+        assert self.expr is not None  # kind "expr"
         params = list(self.expr.parameters)
         out = np.empty(values.shape[0])
         for r in range(values.shape[0]):  # only angles not linear in one parameter
@@ -70,7 +72,7 @@ class GateOp:
     qubits: tuple
     angles: tuple = ()
     matrix: np.ndarray | None = None
-    operation: object = None
+    operation: tuple[QuantumCircuit, list[int]] | None = None
     position: int = 0
 
     @property
@@ -150,7 +152,7 @@ def _matrix_preserves(mat: np.ndarray) -> bool:
     return not np.any(np.abs(mat[w[:, None] != w[None, :]]) > _TOL)
 
 
-def _refuse(label: str, index: int, name: str, qubits, why: str):
+def _refuse(label: str, index: int, name: str, qubits, why: str) -> NoReturn:
     raise ValueError(
         f"HammingWeightSampler cannot sample {label!r}: instruction {index} {name!r} on qubits "
         f"{list(qubits)} {why}; it samples X gates on |0...0> followed by Hamming-weight-"

@@ -177,6 +177,7 @@ class CompiledGate:
 
     def __init__(self, gate: GateOp, space: Subspace):
         self.gate = gate
+        self.fbs: tuple[np.ndarray, np.ndarray, np.ndarray] | None
         if gate.name == "fbs":
             self.fbs = space.fbs_table(gate.qubits)
             self.blocks = None
@@ -198,6 +199,7 @@ class CompiledGate:
         mat = mat / mat[:, :1, :1]  # the untouched states' phase divided out
         if psi.dtype.kind != "c":
             mat = mat.real
+        assert self.blocks is not None  # every gate but FBS has its blocks
         for configs, table in self.blocks:
             if table.shape[0] == 0:
                 continue

@@ -55,7 +55,7 @@ class PackedJobResult(JobResult):
 
     def __init__(self, packed, rows: int, shots: int, job=None, **kwargs):
         self._packed = (packed, int(rows), int(shots))
-        self._unpacked = None
+        self._unpacked: weakref.ReferenceType[np.ndarray] | None = None
         super().__init__(None, shots, job, bits=packed, **kwargs)
 
     @property

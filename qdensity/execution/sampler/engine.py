@@ -288,8 +288,9 @@ class SamplerEngine:
         self.hamming_weight = hamming_weight
         self._seed = seed
         self._own_sampler = own_sampler
-        self._hamming_sampler = None  # built on first use (reads the target's noise)
-        self._hamming_why = None
+        # built on first use (reads the target's noise)
+        self._hamming_sampler: HammingWeightSampler | None = None
+        self._hamming_why: str | None = None
         self._correction = None
         if mitigation is not None or postselect is not None:
             self._correction = ReadoutCorrection(
@@ -381,7 +382,9 @@ class SamplerEngine:
         failed job leaves it unchanged (readout calibrations excepted: they are spent).
         """
         jobs = check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob")
-        pubs, metas, hw_pubs = [], [], []
+        pubs: list = []
+        metas: list = []
+        hw_pubs: list[int] = []
         bar = self._bar(len(jobs), "transpile", "template")
         for job in jobs:
             label = job.label or job.circuit.name
@@ -430,6 +433,7 @@ class SamplerEngine:
             aer_idx = [i for i in range(len(pubs)) if i not in hw]
             raw: list = [None] * len(pubs)
             if hw_pubs:
+                assert self._hamming_sampler is not None  # hw_pubs were compiled by it
                 hw_res = self._hamming_sampler.run([pubs[i] for i in hw_pubs]).result()
                 for i, res in zip(hw_pubs, hw_res, strict=True):
                     raw[i] = res
@@ -439,7 +443,7 @@ class SamplerEngine:
                 for i, res in zip(aer_idx, aer_res, strict=True):
                     raw[i] = res
             bar.update(rows)
-        results = []
+        results: list[JobResult] = []
         aer_name = type(self.sampler).__name__
         for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
             data = pub_result.data

@@ -114,12 +114,14 @@ class _Compiled:
                 return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
             amp = forward(self.unary, np.broadcast_to(x, (values.shape[0], x.size)), values)
             return amp**2
+        assert self.program is not None  # the subspace path
         return self.program.probabilities(values)
 
     def outcome_qubits(self) -> np.ndarray:
         """(D, k) the qubits set in each outcome."""
         if self.unary is not None:
             return np.arange(self.template.num_qubits)[:, None]
+        assert self.program is not None  # the subspace path
         return self.program.space.states
 
 

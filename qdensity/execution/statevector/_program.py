@@ -214,6 +214,7 @@ class Fixed:
         n = int(state.shape[-1]).bit_length() - 1
         tensor = state.reshape(state.shape[:-1] + (2,) * n)
         k = len(self.qubits)
+        assert self.matrix is not None  # a fixed gate carries its matrix
         mat = self.matrix.conj().T if inverse else self.matrix
         src = [-1 - q for q in reversed(self.qubits)]
         dst = list(range(-k, 0))
