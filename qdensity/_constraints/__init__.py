@@ -20,6 +20,7 @@ from qdensity._constraints._core import (
     Shots,
     Unchecked,
     as_constraint,
+    check_declared,
     declared,
     refuse,
     validates,
@@ -38,5 +39,6 @@ from qdensity._constraints._kinds import (
 
 __all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "Path", "Circuit",
            "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
-           "Unchecked", "validates", "refuse", "as_constraint", "declared", "MAX_CIRCUIT_QUBITS",
+           "Unchecked", "validates", "refuse", "as_constraint", "declared",
+           "check_declared", "MAX_CIRCUIT_QUBITS",
            "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "Qubits", "Layers", "Shots"]

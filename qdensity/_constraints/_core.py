@@ -303,6 +303,15 @@ def _check(where: str, name: str, constraint: Constraint, value) -> None:
     raise refuse(where, name, value, constraint, constraint.reason(value), error)
 
 
+def check_declared(where: str, constraints: dict, arguments: dict) -> None:
+    """Check ``arguments`` (name -> value) against ``constraints`` (name -> declaration) as
+    :func:`validates` does; for hyperparameters checked when a scikit-learn estimator is fitted
+    (its ``_parameter_constraints``) rather than when it is constructed."""
+    for name, declaration in constraints.items():
+        if name in arguments:
+            _check(where, name, as_constraint(declaration), arguments[name])
+
+
 def declared(fn) -> dict[str, Constraint]:
     """The declarations of a callable or class (``{}`` when it declares none)."""
     return dict(getattr(fn, "__constraints__", None) or {})
