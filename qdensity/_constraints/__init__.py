@@ -11,6 +11,7 @@ from qdensity._constraints._core import (
     MAX_ROWS,
     MAX_SEEDS,
     MAX_SHOTS,
+    MAX_SUBUNITARIES,
     Constraint,
     Instance,
     Interval,
@@ -41,4 +42,5 @@ __all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "Path", "Ci
            "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
            "Unchecked", "validates", "refuse", "as_constraint", "declared",
            "check_declared", "MAX_CIRCUIT_QUBITS",
-           "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "Qubits", "Layers", "Shots"]
+           "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "MAX_SUBUNITARIES", "Qubits",
+           "Layers", "Shots"]

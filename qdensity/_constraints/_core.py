@@ -38,6 +38,9 @@ def _show(value, width: int = 80) -> str:
     """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big)."""
     if isinstance(value, np.ndarray) and value.size > 16:
         return f"array of shape {value.shape} and dtype {value.dtype}"
+    if type(value).__repr__ is object.__repr__:  # no repr of its own: say what it is
+        name = getattr(value, "name", None)
+        return f"{type(value).__name__}" + (f" {name!r}" if isinstance(name, str) else "")
     try:
         text = repr(value)
     except Exception:  # noqa: BLE001 - a broken __repr__ must not hide the real error
@@ -104,6 +107,9 @@ class Instance(Constraint):
             return False
         return isinstance(value, self.types)
 
+    def type_ok(self, value) -> bool:
+        return Instance.is_satisfied_by(self, value)
+
     def __str__(self) -> str:
         return f"a {self.what}" if not self.what.startswith(("a ", "an ")) else self.what
 
@@ -115,7 +121,7 @@ class Instance(Constraint):
                 return t()
             except Exception:  # noqa: BLE001, S112 - try the next type
                 continue
-        raise ValueError(f"no example for {self}")
+        raise LookupError(f"no example for {self}")
 
     def violations(self) -> list:
         return [v for v in [object(), "bogus", 1.5, -1, math.nan, 1j, [], b"x"]
@@ -162,18 +168,11 @@ class Interval(Constraint):
 
     def __str__(self) -> str:
         noun = "an int" if self.kind is int else "a finite real number"
-        lo = "" if self.low is None else f"{self.low!r}"
-        hi = "" if self.high is None else f"{self.high!r}"
-        if self.low is None and self.high is None:
-            out = noun
-        elif self.high is None:
-            out = f"{noun} {'>=' if self.closed in ('both', 'left') else '>'} {lo}"
-        elif self.low is None:
-            out = f"{noun} {'<=' if self.closed in ('both', 'right') else '<'} {hi}"
-        else:
-            left = "[" if self.closed in ("both", "left") else "("
-            right = "]" if self.closed in ("both", "right") else ")"
-            out = f"{noun} in {left}{lo}, {hi}{right}"
+        ge = ">=" if self.closed in ("both", "left") else ">"
+        le = "<=" if self.closed in ("both", "right") else "<"
+        bounds = ([f"{ge} {self.low!r}"] if self.low is not None else []) + (
+            [f"{le} {self.high!r}"] if self.high is not None else [])
+        out = " ".join([noun, " and ".join(bounds)]).strip()
         return out + (f" ({self.why})" if self.why else "")
 
     def example(self):
@@ -251,7 +250,12 @@ class _AnyOf(Constraint):
         return " or ".join(str(m) for m in self.members)
 
     def example(self):
-        return self.members[0].example()
+        for m in self.members:
+            try:
+                return m.example()
+            except LookupError:
+                continue
+        raise LookupError(f"no example for {self}")
 
     def violations(self) -> list:
         out = [v for m in self.members for v in m.violations()]
@@ -292,6 +296,8 @@ def refuse(where: str, name: str, value, allowed, reason: str = "",
            error: type[Exception] = ValueError) -> Exception:
     """The error a declaration raises, for checks that stay in a body (cross-argument ones):
     ``"{where}: {name} must be {allowed}, got {value}"``; raise what it returns."""
+    if reason.startswith("["):  # an item of a sequence: name it as name[i]
+        return error(f"{where}: {name} must be {allowed}; {name}{reason}")
     text = f"{where}: {name} must be {allowed}, got {_show(value)}"
     return error(text + (f" ({reason})" if reason else ""))
 
@@ -374,6 +380,8 @@ MAX_LAYERS = 10_000
 MAX_SHOTS = 10**8
 #: Most data rows, parameter rows or units one call may ask for.
 MAX_ROWS = 10**7
+#: Most sub-unitaries (K) a density model or preparation circuit may hold.
+MAX_SUBUNITARIES = 10_000
 #: Most seeds (repetitions) one experiment run may ask for.
 MAX_SEEDS = 10_000
 

@@ -68,14 +68,12 @@ class Array(Constraint):
         if arr is None:
             return ""
         if self.ndim is not None and arr.ndim not in self.ndim:
-            return f"it has {arr.ndim} dimensions (shape {arr.shape})"
-        if self.shape is not None and any(s is not None and s != a
-                                          for s, a in zip(self.shape, arr.shape, strict=False)):
+            return f"it has {arr.ndim} dimensions, shape {arr.shape}"
+        if self.shape is not None and any(s is not None and s != a for s, a in
+                                          zip(self.shape, arr.shape, strict=False)):
             return f"it has shape {arr.shape}"
-        if arr.size < self.min_size:
-            return f"it has {arr.size} elements"
-        if self.max_size is not None and arr.size > self.max_size:
-            return f"it has {arr.size} elements"
+        if arr.size < self.min_size or (self.max_size is not None and arr.size > self.max_size):
+            return f"it has length {arr.size}" if arr.ndim == 1 else f"it has shape {arr.shape}"
         if arr.dtype.kind not in (_DTYPES[self.dtype] or arr.dtype.kind):
             return f"its dtype is {arr.dtype}"
         return "it holds NaN or inf"
@@ -97,19 +95,20 @@ class Array(Constraint):
         return True
 
     def __str__(self) -> str:
-        parts = {"real": "real", "int": "integer", "bool": "boolean", "complex": "numeric",
-                 "any": ""}[self.dtype]
-        out = f"a {'finite ' if self.finite else ''}{parts} array".replace("  ", " ")
+        kind = {"real": "real", "int": "integer", "bool": "boolean", "complex": "numeric",
+                "any": ""}[self.dtype]
+        dims = ""
+        if self.ndim is not None:
+            dims = " or ".join(f"{d}-dimensional" for d in self.ndim) + " "
+        out = f"a {dims}{'finite ' if self.finite else ''}{kind} array".replace("  ", " ")
         if self.shape is not None:
             out += " of shape (" + ", ".join("any" if s is None else str(s)
                                              for s in self.shape) + ")"
-        elif self.ndim is not None:
-            out += " with " + " or ".join(str(d) for d in self.ndim) + " dimensions"
-        if self.min_size > 1 or self.min_size == 1:
-            out += f" of at least {self.min_size} element{'s' if self.min_size != 1 else ''}"
-        if self.max_size is not None:
-            out += f" and at most {self.max_size}"
-        return out
+        size = "length" if self.ndim == (1,) else "size"
+        limits = ([f"{size} >= {self.min_size}"] if self.min_size > 0 else []) + (
+            [f"<= {self.max_size}" if self.min_size > 0 else f"{size} <= {self.max_size}"]
+            if self.max_size is not None else [])
+        return out + (" of " + " and ".join(limits) if limits else "")
 
     def example(self):
         ndim = self.ndim[0] if self.ndim else 1
@@ -188,12 +187,13 @@ class Circuit(Instance):
         return n >= self.min_qubits and (self.max_qubits is None or n <= self.max_qubits)
 
     def __str__(self) -> str:
-        out = "a qiskit QuantumCircuit"
-        if self.min_qubits:
-            out += f" of at least {self.min_qubits} qubits"
-        if self.max_qubits is not None:
-            out += f" of at most {self.max_qubits} qubits"
-        return out
+        limits = ([f">= {self.min_qubits}"] if self.min_qubits else []) + (
+            [f"<= {self.max_qubits}"] if self.max_qubits is not None else [])
+        return "a qiskit QuantumCircuit" + (f" of {' and '.join(limits)} qubits" if limits
+                                            else "")
+
+    def reason(self, value) -> str:
+        return f"it has {value.num_qubits} qubits" if self.type_ok(value) else ""
 
     def violations(self) -> list:
         from qiskit.circuit import QuantumCircuit
@@ -323,13 +323,18 @@ class CallableC(Constraint):
 
 
 class SequenceOf(Constraint):
-    """A list or tuple of ``min_len`` to ``max_len`` items, each satisfying ``item``."""
+    """A list, tuple (or ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
+    satisfying ``item``."""
 
     def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
         self.item, self.min_len, self.max_len = as_constraint(item), min_len, max_len
 
     def type_ok(self, value) -> bool:
-        return isinstance(value, (list, tuple))
+        from qiskit.circuit import ParameterVector
+
+        if not isinstance(value, (list, tuple, ParameterVector)):
+            return False
+        return all(self.item.type_ok(v) for v in value)
 
     def is_satisfied_by(self, value) -> bool:
         if not self.type_ok(value) or len(value) < self.min_len:
@@ -340,15 +345,23 @@ class SequenceOf(Constraint):
 
     def reason(self, value) -> str:
         if self.type_ok(value):
+            if len(value) < self.min_len or (self.max_len is not None
+                                             and len(value) > self.max_len):
+                return f"it has {len(value)} items"
             for i, v in enumerate(value):
                 if not self.item.is_satisfied_by(v):
-                    return f"item {i} is {_show(v)}"
+                    why = self.item.reason(v)
+                    return f"[{i}] is {_show(v)}" + (f": {why}" if why else "")
+        elif isinstance(value, (list, tuple)):
+            for i, v in enumerate(value):
+                if not self.item.type_ok(v):
+                    return f"[{i}] is {_show(v)}"
         return ""
 
     def __str__(self) -> str:
         bound = f"{self.min_len}" + (f" to {self.max_len}" if self.max_len is not None
                                      else " or more")
-        return f"a list of {bound} items, each {self.item}"
+        return f"a list or tuple of {bound} items, each {self.item}"
 
     def example(self):
         return [self.item.example()] * max(self.min_len, 1)

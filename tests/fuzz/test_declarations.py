@@ -72,7 +72,12 @@ def test_examples_satisfy_and_violations_violate(name):
     for arg, c in declarations(PUBLIC[name]).items():
         if isinstance(c, Unchecked):
             continue
-        assert c.is_satisfied_by(c.example()), f"{name}: example of {arg} is not {c}"
+        try:
+            example = c.example()
+        except LookupError:  # an object only the library makes (a result): none to give
+            example = None
+        else:
+            assert c.is_satisfied_by(example), f"{name}: example of {arg} is not {c}"
         bad = c.violations()
         assert bad, f"{name}: {arg} ({c}) has no violating values for the fuzzer"
         for v in bad:
@@ -121,7 +126,7 @@ def test_the_decorator_names_callable_argument_value_and_allowed():
         return n
 
     assert f(2) == 2 and f.__constraints__["n"].high == 5
-    with pytest.raises(ValueError, match=r"f: n must be an int in \[1, 5\], got 9"):
+    with pytest.raises(ValueError, match=r"f: n must be an int >= 1 and <= 5, got 9"):
         f(9)
     with pytest.raises(TypeError, match=r"f: name must be one of 'a', got 3"):
         f(1, name=3)
