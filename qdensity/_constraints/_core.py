@@ -98,9 +98,22 @@ class Instance(Constraint):
     """``isinstance(value, types)``; ``what`` names the types in words (bools refused as ints)."""
 
     def __init__(self, types, what: str | None = None, example=None):
-        self.types = types if isinstance(types, tuple) else (types,)
-        self.what = what or " or ".join(t.__name__ for t in self.types)
+        self._types = types if isinstance(types, tuple) else (types,)
+        self.what = what or " or ".join(t.rsplit(":", 1)[-1] if isinstance(t, str) else
+                                        t.__name__ for t in self._types)
         self._example = example
+
+    @property
+    def types(self) -> tuple:
+        """The classes; ``"module:Class"`` strings (a class of a higher layer) load on first
+        use."""
+        if any(isinstance(t, str) for t in self._types):
+            import importlib
+
+            self._types = tuple(getattr(importlib.import_module(t.split(":")[0]),
+                                        t.split(":")[1]) if isinstance(t, str) else t
+                                for t in self._types)
+        return self._types
 
     def is_satisfied_by(self, value) -> bool:
         if isinstance(value, (bool, np.bool_)) and bool not in self.types:
