@@ -31,14 +31,14 @@ from qdensity._constraints._kinds import (
     CallableC,
     Circuit,
     EngineLike,
+    FilePath,
     Observable,
-    Path,
     Seed,
     SequenceOf,
     TargetLike,
 )
 
-__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "Path", "Circuit",
+__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "Circuit",
            "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
            "Unchecked", "validates", "refuse", "as_constraint", "declared",
            "check_declared", "MAX_CIRCUIT_QUBITS",

@@ -136,7 +136,7 @@ class Array(Constraint):
         return [v for v in out if not self.is_satisfied_by(v)]
 
 
-class Path(Constraint):
+class FilePath(Constraint):
     """A path (``str`` or ``os.PathLike``); with ``exists="file"`` an existing file, with
     ``"dir"`` an existing folder, with None any path."""
 

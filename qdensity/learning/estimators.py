@@ -36,6 +36,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from qdensity.learning import losses as _losses
 from qdensity.learning._saved import FORMAT_VERSION, read_estimator, write_estimator
 from qdensity.learning._spec import (
+    PARAMETER_CONSTRAINTS,
     build_model,
     check_hyperparameters,
     encoded_width,
@@ -65,6 +66,9 @@ def _naming(names: str):
 
 class _QNNEstimator(BaseEstimator):
     """Shared machinery; see :class:`QNNClassifier` for the parameters."""
+
+    #: The hyperparameters, declared; ``fit`` checks them (scikit-learn's convention).
+    _parameter_constraints = PARAMETER_CONSTRAINTS
 
     def __init__(self, model=None, *, ansatz="round_robin", decomposition="layers", depth=1,
                  mixture="softmax", readout="unary_probabilities", num_qubits=None,

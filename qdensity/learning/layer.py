@@ -43,7 +43,14 @@ from qdensity.gradients.inputs import input_gradient_plan, input_vjp
 from qdensity.gradients.inputs import input_jacobians as _input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import ExactGradients, exact_gradients, unary_circuits
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    MAX_SHOTS,
+    Instance,
+    Interval,
+    Options,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["QuantumLayer", "History", "BudgetExhausted"]
 
@@ -52,6 +59,13 @@ class BudgetExhausted(RuntimeError):
     """Raised before a step whose circuits would exceed the shot budget."""
 
 
+@validates(
+    model=Instance(DensityQNN),
+    engine=[Options(('exact',)), Instance((AdjointEngine, ExactEngine, SamplerEngine),
+                                          'AdjointEngine, ExactEngine or SamplerEngine')],
+    shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
+    input_gradients=Instance((bool, np.bool_), 'bool'),
+)
 class QuantumLayer:
     """A :class:`DensityQNN` as a layer: ``forward(Z) -> F`` and ``backward(dL/dF) -> dL/dZ``.
 
@@ -238,6 +252,7 @@ class QuantumLayer:
         self.model.set_params(theta, mixture if np.size(mixture) else None)
 
 
+@validates(records=Instance(list), epochs=Instance(list))
 @dataclass
 class History:
     """Per-step record of training: loss, metric, circuits and shots (cumulative).

@@ -47,11 +47,24 @@ from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    MAX_ROWS,
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Instance,
+    Interval,
+    Options,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["DensityQNNLayer", "MoEGate"]
 
 
+@validates(
+    num_features=Interval(int, 1, MAX_ROWS), num_components=Interval(int, 1, MAX_SUBUNITARIES),
+    activation=[Options(('gelu',)), None],
+)
 class MoEGate(nn.Module):
     """``alpha(x) = softmax(act(x W^T + b))``: the mixture-of-experts gate of Supp. H in torch.
 
@@ -101,6 +114,12 @@ class _Experts(torch.autograd.Function):
         return gx, torch.from_numpy(g_theta).to(grad_outs), None, None
 
 
+@validates(
+    model=Instance(DensityQNN),
+    engine=[Options(('exact',)), Instance('qdensity.execution.sampler.engine:SamplerEngine')],
+    shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
+    gate=[Instance(nn.Module, 'torch.nn.Module'), None],
+)
 class DensityQNNLayer(nn.Module):
     """A :class:`DensityQNN` as a ``torch.nn.Module``: input ``(..., d)`` -> output ``(..., m)``.
 
@@ -230,6 +249,8 @@ class DensityQNNLayer(nn.Module):
         if x.ndim == 0 or x.shape[-1] != self.num_features or x.numel() == 0:
             raise ValueError(f"input must have shape (d,), (batch, d) or (..., d) with d = "
                              f"{self.num_features} and at least one row, got {tuple(x.shape)}")
+        if not bool(torch.isfinite(x).all()):
+            raise ValueError("input must be finite (no NaN or inf)")
         lead = x.shape[:-1]
         flat = x.reshape(-1, self.num_features)
         need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
@@ -248,6 +269,10 @@ class DensityQNNLayer(nn.Module):
             from qdensity.execution.unary import forward
 
             norms = np.linalg.norm(X, axis=1, keepdims=True)
+            if not np.all(np.isfinite(norms)):
+                rows = np.flatnonzero(~np.isfinite(norms[:, 0])).tolist()[:10]
+                raise ValueError(f"input rows {rows} are not finite or too large (their norms "
+                                 f"overflow float64); scale the input first")
             if np.any(norms == 0):
                 rows = np.flatnonzero(norms[:, 0] == 0).tolist()
                 raise ValueError(f"input rows {rows} are all-zero; a unary encoding cannot "

@@ -19,7 +19,13 @@ EXTRA_MODULES = ("qdensity.cluster", "qdensity.learning.torch")
 
 #: Callables that take no arguments, so there is nothing to declare: name -> why.
 NO_ARGUMENTS = {
-    "qdensity.hardware.targets.known_targets": "takes no arguments",
+    "qdensity.hardware.targets.known_targets": "takes no arguments (lists the target names)",
+    "qdensity.cluster.idle_core": "takes no arguments (reads this machine's load)",
+    "qdensity.cluster.worker_name": "takes no arguments (names this process)",
+    "qdensity.execution.schedulers.base.Scheduler": "a typing.Protocol: never constructed; "
+    "its implementations (NeymanScheduler, ...) declare theirs",
+    "qdensity.models.mixtures.Mixture": "an abstract base class: never constructed; its "
+    "subclasses (FixedMixture, ...) declare theirs",
 }
 
 #: Callables kept out of the declared surface on purpose: name -> why.

@@ -10,6 +10,7 @@ satisfies its own declaration. Callables without arguments are listed, with the 
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 
 import numpy as np
@@ -18,10 +19,10 @@ from _api import NO_ARGUMENTS, NOT_DECLARED, declarations, parameters, public_ca
 
 from qdensity.validation import (
     Array,
+    FilePath,
     Instance,
     Interval,
     Options,
-    Path,
     Seed,
     SequenceOf,
     Unchecked,
@@ -61,10 +62,15 @@ def test_every_argument_is_declared(name):
 def test_defaults_satisfy_their_declarations(name):
     obj = PUBLIC[name]
     decl = declarations(obj)
-    for arg, p in parameters(obj).items():
-        if arg in decl and p.default is not inspect.Parameter.empty:
-            assert decl[arg].is_satisfied_by(p.default), (
-                f"{name}: the default {arg}={p.default!r} is not {decl[arg]}")
+    defaults = {arg: p.default for arg, p in parameters(obj).items()
+                if p.default is not inspect.Parameter.empty}
+    if dataclasses.is_dataclass(obj):  # a default_factory's value, not its placeholder
+        defaults.update({f.name: f.default_factory() for f in dataclasses.fields(obj)
+                         if f.default_factory is not dataclasses.MISSING})
+    for arg, default in defaults.items():
+        if arg in decl:
+            assert decl[arg].is_satisfied_by(default), (
+                f"{name}: the default {arg}={default!r} is not {decl[arg]}")
 
 
 @pytest.mark.parametrize("name", sorted(PUBLIC))
@@ -111,8 +117,8 @@ def test_array_checks_shape_dtype_and_finiteness_without_copying():
 def test_paths_options_seeds_sequences(tmp_path):
     f = tmp_path / "f.txt"
     f.write_text("x")
-    assert Path().is_satisfied_by(f) and not Path().is_satisfied_by(tmp_path)
-    assert not Path().is_satisfied_by(tmp_path / "missing")
+    assert FilePath().is_satisfied_by(f) and not FilePath().is_satisfied_by(tmp_path)
+    assert not FilePath().is_satisfied_by(tmp_path / "missing")
     assert Options(["a", "b"]).is_satisfied_by("a") and not Options(["a"]).is_satisfied_by("c")
     assert Seed().is_satisfied_by(np.random.default_rng(0)) and not Seed().is_satisfied_by(-1)
     assert SequenceOf(Interval(int, 0)).is_satisfied_by([0, 1])

@@ -38,10 +38,13 @@ from qdensity.execution.plans import CircuitJob, JobResult, check_observable
 from qdensity.execution.statevector import _kernels
 from qdensity.execution.statevector._program import Program, compile_program, real_dot
 from qdensity.validation import (
+    Interval,
+    Options,
     as_parameter_rows,
     check_circuit,
     check_positive_int,
     check_sequence_of,
+    validates,
 )
 
 __all__ = ["AdjointEngine", "MAX_QUBITS", "BACKENDS"]
@@ -95,6 +98,10 @@ class _Observable:
         return out
 
 
+@validates(
+    max_qubits=Interval(int, 1, _CEILING), memory_budget=Interval(int, 1, 2**40),
+    backend=Options(BACKENDS),
+)
 class AdjointEngine:
     """Exact statevector values and adjoint gradients, batched over parameter rows.
 
