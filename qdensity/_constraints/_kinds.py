@@ -364,7 +364,9 @@ class SequenceOf(Constraint):
         return f"a list or tuple of {bound} items, each {self.item}"
 
     def example(self):
-        return [self.item.example()] * max(self.min_len, 1)
+        if self.min_len == 0:
+            return []
+        return [self.item.example()] * self.min_len
 
     def violations(self) -> list:
         out = ["bogus", 3, None, object()]
