@@ -158,3 +158,22 @@ def test_a_class_declares_its_constructor():
     assert C(1).k == 1 and "k" in C.__constraints__
     with pytest.raises(ValueError, match="C: k must be"):
         C(-1)
+
+
+def test_the_sweep_command_offers_exactly_the_estimators_options():
+    from qdensity.cli import sweep
+    from qdensity.learning import _spec
+
+    assert sweep.ANSATZ_CHOICES == tuple(_spec.ANSATZE)
+    assert sweep.DECOMPOSITION_CHOICES == tuple(_spec.DECOMPOSITIONS)
+    assert sweep.MIXTURE_CHOICES == tuple(_spec.MIXTURES)
+
+
+def test_sweep_with_an_unknown_ansatz_is_refused_by_argparse_before_optuna(tmp_path, capsys):
+    from qdensity.cli.main import main
+
+    db = tmp_path / "study.db"
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "--ansatz", "bogus", "--storage", f"sqlite:///{db}"])
+    assert info.value.code == 2
+    assert "--ansatz" in capsys.readouterr().err and not db.exists()
