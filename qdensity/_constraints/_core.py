@@ -102,17 +102,19 @@ class Instance(Constraint):
         self.what = what or " or ".join(t.rsplit(":", 1)[-1] if isinstance(t, str) else
                                         t.__name__ for t in self._types)
         self._example = example
+        self._lazy = any(isinstance(t, str) for t in self._types)
 
     @property
     def types(self) -> tuple:
         """The classes; ``"module:Class"`` strings (a class of a higher layer) load on first
         use."""
-        if any(isinstance(t, str) for t in self._types):
+        if self._lazy and any(isinstance(t, str) for t in self._types):
             import importlib
 
             self._types = tuple(getattr(importlib.import_module(t.split(":")[0]),
                                         t.split(":")[1]) if isinstance(t, str) else t
                                 for t in self._types)
+            self._lazy = False
         return self._types
 
     def is_satisfied_by(self, value) -> bool:

@@ -80,7 +80,8 @@ class Array(Constraint):
 
     def is_satisfied_by(self, value) -> bool:
         arr = self._as_array(value)
-        if arr is None or not self.type_ok(value):
+        kinds = _DTYPES[self.dtype]
+        if arr is None or (kinds is not None and arr.dtype.kind not in kinds):
             return False
         if self.ndim is not None and arr.ndim not in self.ndim:
             return False
@@ -294,7 +295,7 @@ class Seed(Constraint):
         return not isinstance(value, numbers.Integral) or 0 <= value <= self.high
 
     def __str__(self) -> str:
-        return f"an int in [0, {self.high}], a numpy.random.Generator or None"
+        return f"an int >= 0 and <= {self.high}, a numpy.random.Generator or None"
 
     def example(self):
         return 7

@@ -112,7 +112,7 @@ def _check_width(num_qubits: int) -> int:
 
 
 @validates(
-    theta=[Instance(ParameterExpression, 'Parameter or ParameterExpression'), Interval(float)],
+    theta=[Interval(float), Instance(ParameterExpression, 'Parameter or ParameterExpression')],
     label=[Instance(str), None],
 )
 class RBSGate(Gate):
@@ -160,7 +160,7 @@ class RBSGate(Gate):
 
 
 @validates(
-    theta=[Instance(ParameterExpression, 'Parameter or ParameterExpression'), Interval(float)],
+    theta=[Interval(float), Instance(ParameterExpression, 'Parameter or ParameterExpression')],
     num_qubits=Qubits(2), label=[Instance(str), None],
 )
 class FBSGate(Gate):
