@@ -324,7 +324,7 @@ class CallableC(Constraint):
 
 
 class SequenceOf(Constraint):
-    """A list, tuple (or ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
+    """A list, tuple (or ``range``, ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
     satisfying ``item``."""
 
     def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
@@ -333,7 +333,7 @@ class SequenceOf(Constraint):
     def type_ok(self, value) -> bool:
         from qiskit.circuit import ParameterVector
 
-        if not isinstance(value, (list, tuple, ParameterVector)):
+        if not isinstance(value, (list, tuple, range, ParameterVector)):
             return False
         return all(self.item.type_ok(v) for v in value)
 
