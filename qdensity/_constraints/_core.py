@@ -126,7 +126,9 @@ class Instance(Constraint):
         return Instance.is_satisfied_by(self, value)
 
     def __str__(self) -> str:
-        return f"a {self.what}" if not self.what.startswith(("a ", "an ")) else self.what
+        if self.what.startswith(("a ", "an ")):
+            return self.what
+        return f"{'an' if self.what[:1].lower() in 'aeiou' else 'a'} {self.what}"
 
     def example(self):
         if self._example is not None:
@@ -231,6 +233,8 @@ class Options(Constraint):
             return False
 
     def __str__(self) -> str:
+        if len(self.options) == 1:
+            return repr(self.options[0])
         return "one of " + ", ".join(repr(o) for o in self.options)
 
     def example(self):
