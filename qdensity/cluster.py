@@ -23,10 +23,14 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
+from qdensity.validation import CallableC, Instance, Interval, SequenceOf, validates
+
 __all__ = ["CLUSTER_FORMS", "parse_cluster", "open_client", "run_units", "worker_name",
            "CONNECT_TIMEOUT", "idle_core"]
 
 #: The forms a cluster address takes (error messages quote this).
+#: Most worker processes ``local:N`` starts on one machine.
+MAX_LOCAL_WORKERS = 256
 CLUSTER_FORMS = ("'local' (one worker process per core), 'local:N' (N worker processes on this "
                  "machine), 'tcp://HOST:PORT' (a running dask scheduler) or a "
                  "distributed.Client")
@@ -55,6 +59,7 @@ def idle_core() -> bool:
     return os.getloadavg()[0] + 1 <= (os.cpu_count() or 1)
 
 
+@validates(cluster=Instance(str))
 def parse_cluster(cluster: str) -> tuple[str, Any]:
     """Read a cluster address.
 
@@ -86,10 +91,11 @@ def parse_cluster(cluster: str) -> tuple[str, Any]:
         return "local", None
     if text.startswith("local:"):
         count = text[len("local:"):]
-        if count.isdigit() and int(count) >= 1:
+        if count.isdigit() and 1 <= int(count) <= MAX_LOCAL_WORKERS:
             return "local", int(count)
-        raise ValueError(f"cluster {cluster!r}: N in 'local:N' must be a positive int; "
-                         f"allowed: {CLUSTER_FORMS}")
+        raise ValueError(f"cluster {cluster!r}: N in 'local:N' must be an int >= 1 and <= "
+                         f"{MAX_LOCAL_WORKERS} (worker processes on this machine); allowed: "
+                         f"{CLUSTER_FORMS}")
     if text.startswith("tcp://"):
         host, sep, port = text[len("tcp://"):].rpartition(":")
         if host and sep and port.isdigit() and 0 < int(port) < 65536:
@@ -108,6 +114,10 @@ def _distributed():
     return distributed
 
 
+@validates(
+    cluster=[Instance(str), Instance('distributed:Client')],
+    timeout=Interval(float, 0, 3600, closed='right'),
+)
 @contextmanager
 def open_client(cluster, *, timeout: float = CONNECT_TIMEOUT) -> Iterator[Any]:
     """A ``distributed.Client`` for ``cluster`` (see the module docstring), closed on exit
@@ -161,6 +171,10 @@ def _call(fn: Callable, args: tuple) -> tuple[Any, str]:
     return fn(*args), worker_name()
 
 
+@validates(
+    client=Instance('distributed:Client'), fn=CallableC('a callable (picklable for the workers)'),
+    arguments=SequenceOf(Instance(tuple), min_len=0), retries=Interval(int, 0, 100),
+)
 def run_units(client, fn: Callable, arguments: Sequence[tuple], *, retries: int = 2
               ) -> Iterator[tuple[int, Any, str]]:
     """Run ``fn(*args)`` for every ``args`` of ``arguments`` on the cluster; yield

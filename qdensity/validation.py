@@ -12,46 +12,24 @@ import os
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity import _constraints
+from qdensity._constraints import *  # noqa: F403 - the declared vocabulary, re-exported
+
 __all__ = [
-    "as_rng",
-    "check_seed",
-    "seed_int",
-    "seed_u32",
-    "check_real_vector",
-    "check_nonzero_vector",
-    "check_distribution",
-    "check_rows_sum_to_one",
-    "check_parameter_values",
-    "as_parameter_rows",
-    "check_positive_int",
-    "check_circuit",
-    "check_entries",
-    "check_real_scalar",
-    "check_finite_array",
-    "check_callable",
-    "check_type",
-    "check_sequence_of",
-    "check_engine",
-    "check_target",
-    "check_magnitude",
-    "check_width",
-    "MAX_DENSE_QUBITS",
-    "MAX_DENSE_ENTRIES",
-    "MAX_CIRCUIT_QUBITS",
-    "MAX_LAYERS",
-    "check_num_qubits",
-    "check_layers",
+    "as_rng", "check_seed", "seed_int", "seed_u32", "check_real_vector", "check_nonzero_vector",
+    "check_distribution", "check_rows_sum_to_one", "check_parameter_values",
+    "as_parameter_rows", "check_positive_int", "check_circuit", "check_entries",
+    "check_real_scalar", "check_finite_array", "check_callable", "check_type",
+    "check_sequence_of", "check_engine", "check_target", "check_magnitude", "check_width",
+    "MAX_DENSE_QUBITS", "MAX_DENSE_ENTRIES", "check_num_qubits", "check_layers",
 ]
+__all__ += _constraints.__all__  # the declared vocabulary (qdensity._constraints)
 
 #: Widest register an exact/dense path accepts: a ``2**n`` statevector or probability row of
 #: float64/complex128 is 256 MiB at n = 24. Wider circuits go to the unary engine, sampling or MPS.
 MAX_DENSE_QUBITS = 24
 #: Most entries of a dense ``(rows, 2**n)`` array (2 GiB of float64).
 MAX_DENSE_ENTRIES = 2**28
-#: Widest circuit a builder makes (far beyond any device; refuses 10**9 before building).
-MAX_CIRCUIT_QUBITS = 4096
-#: Most repetitions (layers, reps) a builder makes.
-MAX_LAYERS = 10_000
 
 SeedLike = int | np.random.Generator | None
 
@@ -295,14 +273,14 @@ def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | Non
 
 def check_num_qubits(value, name: str = "num_qubits", *, minimum: int = 1) -> int:
     """A circuit width for a builder: an int in ``[minimum, MAX_CIRCUIT_QUBITS]``."""
-    return check_positive_int(value, name, minimum=minimum, maximum=MAX_CIRCUIT_QUBITS,
+    return check_positive_int(value, name, minimum=minimum, maximum=_constraints.MAX_CIRCUIT_QUBITS,
                               why="wider circuits are beyond any device and take minutes "
                               "to build")
 
 
 def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
     """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``."""
-    return check_positive_int(value, name, minimum=minimum, maximum=MAX_LAYERS,
+    return check_positive_int(value, name, minimum=minimum, maximum=_constraints.MAX_LAYERS,
                               why="deeper circuits take minutes to build")
 
 

@@ -28,7 +28,7 @@ from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
 from qdensity.analysis._gf2 import all_commute
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
-from qdensity.validation import check_circuit
+from qdensity.validation import Circuit, Instance, SequenceOf, check_circuit, validates
 
 __all__ = ["commuting_blocks"]
 
@@ -330,6 +330,10 @@ class _Stack:
         return True
 
 
+@validates(
+    circuit=Circuit(),
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+)
 def commuting_blocks(
     circuit: QuantumCircuit, parameters: Sequence[Parameter] | None = None
 ) -> list[tuple[int, int]]:

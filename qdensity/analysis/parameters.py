@@ -10,11 +10,14 @@ from __future__ import annotations
 
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.validation import Circuit, validates
+
 __all__ = ["DATA_PREFIX", "trainable_parameters"]
 
 DATA_PREFIX = "x"
 
 
+@validates(circuit=Circuit())
 def trainable_parameters(circuit: QuantumCircuit) -> list:
     """Parameters of ``circuit`` that are not data (not in a vector named ``"x"``), in order."""
     return [p for p in circuit.parameters if not _is_data(p)]

@@ -24,7 +24,17 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import Operator, Pauli, PauliList, SparsePauliOp
 
 from qdensity.analysis._gf2 import all_commute, anticommutation, independent_rows
-from qdensity.validation import MAX_DENSE_QUBITS, check_width
+from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_DENSE_QUBITS,
+    Array,
+    Instance,
+    Interval,
+    Qubits,
+    SequenceOf,
+    check_width,
+    validates,
+)
 
 __all__ = [
     "MAX_DENSE_QUBITS",
@@ -40,6 +50,15 @@ __all__ = [
 ]
 
 
+#: What the functions below accept as a set of Pauli strings (declared once).
+_PAULIS = Instance((PauliList, SparsePauliOp, Pauli, list, tuple),
+                   "PauliList, SparsePauliOp, Pauli or a list of Pauli labels")
+
+
+@validates(
+    paulis=_PAULIS,
+    name=Instance(str),
+)
 def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
     """A ``PauliList`` from a ``PauliList``, a sequence of ``Pauli``/labels, or a ``Pauli``.
 
@@ -188,6 +207,9 @@ class ZStringTable:
         return cls(z, coef)
 
 
+@validates(
+    paulis=_PAULIS,
+)
 def commutation_matrix(paulis) -> np.ndarray:
     """Symplectic inner products of every pair of Pauli operators.
 
@@ -204,6 +226,9 @@ def commutation_matrix(paulis) -> np.ndarray:
     return anticommutation(pl.x, pl.z)
 
 
+@validates(
+    paulis=_PAULIS,
+)
 def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     """Indices ``(s, t)``, ``s < t``, of the first anticommuting pair, or None if all commute.
 
@@ -226,6 +251,9 @@ def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     return int(s), int(t)
 
 
+@validates(
+    paulis=_PAULIS,
+)
 def paulis_commute_pairwise(paulis) -> bool:
     """Whether every pair of the given Pauli operators commutes.
 
@@ -255,6 +283,9 @@ def _apply(pl: PauliList, gate: str, qubits: Sequence[int], circ: QuantumCircuit
     return pl.evolve(step, frame="s")
 
 
+@validates(
+    paulis=_PAULIS,
+)
 def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
     """Clifford circuit ``C`` that maps each of a commuting set of Paulis to a ``Z``/``I`` string.
 
@@ -337,6 +368,10 @@ def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
     return circ, z_paulis
 
 
+@validates(
+    z_paulis=_PAULIS,
+    num_qubits=[Qubits(1), None],
+)
 def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:
     """Eigenvalue of each diagonal Pauli string on each computational basis state.
 
@@ -401,6 +436,11 @@ def _transfer_matrix(unitary: np.ndarray) -> np.ndarray:
     return out
 
 
+@validates(
+    op=Instance(SparsePauliOp), unitary=Array(shape=(4, 4), dtype='complex'),
+    qubits=SequenceOf(Interval(int, 0, MAX_CIRCUIT_QUBITS), min_len=2, max_len=2),
+    atol=Interval(float, 0),
+)
 def conjugate_two_qubit(
     op: SparsePauliOp, unitary, qubits: tuple[int, int], *, atol: float = 1e-12
 ) -> SparsePauliOp:

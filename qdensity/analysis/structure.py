@@ -12,6 +12,8 @@ import numpy as np
 from qiskit.circuit import CircuitInstruction, Parameter, ParameterExpression, QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.validation import Circuit, Instance, SequenceOf, validates
+
 __all__ = [
     "moments",
     "moment_indices",
@@ -36,6 +38,7 @@ HW_PRESERVING_GATES = frozenset(
 _SKIP = frozenset({"barrier", "measure", "delay"})
 
 
+@validates(circuit=Circuit(), include_unparameterised=Instance(bool))
 def moment_indices(
     circuit: QuantumCircuit, *, include_unparameterised: bool = True
 ) -> list[list[int]]:
@@ -69,6 +72,7 @@ def moment_indices(
     return layers
 
 
+@validates(circuit=Circuit(), include_unparameterised=Instance(bool))
 def moments(
     circuit: QuantumCircuit, *, include_unparameterised: bool = True
 ) -> list[list[CircuitInstruction]]:
@@ -103,6 +107,7 @@ def moments(
     return [[data[i] for i in layer] for layer in layers]
 
 
+@validates(circuit=Circuit(), names=SequenceOf(Instance(str), min_len=0))
 def depth_of_gates(circuit: QuantumCircuit, names: Sequence[str]) -> int:
     """Depth counting only gates whose name is in ``names`` (e.g. ``["rbs"]`` for RBS depth).
 
@@ -124,6 +129,7 @@ def _has_free_parameter(inst: CircuitInstruction) -> bool:
     return any(isinstance(p, ParameterExpression) and p.parameters for p in inst.operation.params)
 
 
+@validates(inst=Instance(CircuitInstruction))
 def parameter_of(inst: CircuitInstruction) -> tuple[Parameter, float] | None:
     """The single free parameter of a one-parameter gate and its linear coefficient.
 
@@ -163,6 +169,7 @@ def parameter_of(inst: CircuitInstruction) -> tuple[Parameter, float] | None:
     return param, float(coeff)
 
 
+@validates(inst=Instance(CircuitInstruction), circuit=Circuit())
 def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> SparsePauliOp:
     """Hermitian generator ``G`` with ``gate(angle) = exp(-i angle G)`` on the whole register.
 
@@ -243,6 +250,7 @@ def _placed(op: SparsePauliOp, qubits: list[int], n: int) -> SparsePauliOp:
     return SparsePauliOp(PauliList.from_symplectic(z, x, pl.phase), op.coeffs.copy())
 
 
+@validates(circuit=Circuit())
 def is_hamming_weight_preserving(circuit: QuantumCircuit) -> bool:
     """Whether every gate of ``circuit`` preserves Hamming weight, read off the gate names.
 

@@ -22,11 +22,19 @@ import numpy as np
 from qiskit.circuit import Gate, QuantumCircuit, QuantumRegister
 from qiskit.circuit.parameterexpression import ParameterExpression, ParameterValueType
 
-from qdensity.validation import check_num_qubits, check_real_scalar
+from qdensity.validation import (
+    Instance,
+    Interval,
+    Qubits,
+    check_num_qubits,
+    check_real_scalar,
+    validates,
+)
 
 __all__ = ["RBSGate", "FBSGate", "rbs_matrix", "fbs_matrix"]
 
 
+@validates(theta=Interval(float))
 def rbs_matrix(theta: float) -> np.ndarray:
     """The 4 x 4 RBS matrix (paper eq. 8) in Qiskit's little-endian convention.
 
@@ -48,6 +56,7 @@ def rbs_matrix(theta: float) -> np.ndarray:
     )
 
 
+@validates(theta=Interval(float), num_qubits=Interval(int, 2, 12, why='a dense 2**m x 2**m matrix'))
 def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
     """The ``2^m x 2^m`` FBS matrix on ``m`` contiguous qubits (Supp. E.2, eq. 24).
 
@@ -102,6 +111,10 @@ def _check_width(num_qubits: int) -> int:
     return check_num_qubits(int(num_qubits), minimum=2)
 
 
+@validates(
+    theta=[Interval(float), Instance(ParameterExpression, 'Parameter or ParameterExpression')],
+    label=[Instance(str), None],
+)
 class RBSGate(Gate):
     r"""Reconfigurable beam splitter ``RBS(theta) = exp(-i theta Q)`` (paper eq. 8).
 
@@ -146,6 +159,10 @@ class RBSGate(Gate):
         return mat.astype(dtype) if dtype is not None else mat
 
 
+@validates(
+    theta=[Interval(float), Instance(ParameterExpression, 'Parameter or ParameterExpression')],
+    num_qubits=Qubits(2), label=[Instance(str), None],
+)
 class FBSGate(Gate):
     r"""Fermionic beam splitter on a contiguous block of ``num_qubits`` qubits (Supp. E.2).
 

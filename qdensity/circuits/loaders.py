@@ -40,9 +40,16 @@ from qiskit.circuit import ParameterVector, QuantumCircuit, QuantumRegister
 
 from qdensity.circuits.gates import RBSGate
 from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_DENSE_ENTRIES,
+    Array,
+    Instance,
+    Options,
+    Qubits,
     check_distribution,
     check_nonzero_vector,
     check_num_qubits,
+    validates,
 )
 
 __all__ = [
@@ -246,6 +253,7 @@ def loader_start_qubit(d: int, layout: str = "parallel") -> int:
     return _plan(d, _check_layout(layout)).start
 
 
+@validates(d=Qubits(2), layout=Options(LAYOUTS), parameter_prefix=Instance(str))
 def unary_loader_template(
     d: int, layout: str = "parallel", parameter_prefix: str = "x"
 ) -> QuantumCircuit:
@@ -288,6 +296,7 @@ def unary_loader_template(
     return qc
 
 
+@validates(X=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), layout=Options(LAYOUTS))
 def loader_angles(X, layout: str = "parallel") -> np.ndarray:
     """RBS angles of the unary loader for one vector or a batch (vectorised over the batch).
 
@@ -328,6 +337,7 @@ def loader_angles(X, layout: str = "parallel") -> np.ndarray:
     return out[0] if arr.ndim == 1 else out
 
 
+@validates(x=Array(ndim=1, min_size=2, max_size=MAX_CIRCUIT_QUBITS), layout=Options(LAYOUTS))
 def unary_loader(x, layout: str = "parallel") -> QuantumCircuit:
     """Unary amplitude loader ``|0...0> -> sum_j x_j / ||x|| |e_j>`` (paper Fig. 1, Johri 2021).
 
@@ -363,6 +373,7 @@ def unary_loader(x, layout: str = "parallel") -> QuantumCircuit:
     return qc
 
 
+@validates(X=Array(ndim=2, max_size=MAX_DENSE_ENTRIES), layout=Options(LAYOUTS))
 def matrix_loader(X, layout: str = "parallel") -> QuantumCircuit:
     """Matrix loader ``|0> -> sum_ij X_ij |e_i>_row |e_j>_col / ||X||_F`` (Supp. I.2, I.3).
 
@@ -429,6 +440,7 @@ def matrix_loader(X, layout: str = "parallel") -> QuantumCircuit:
     return qc
 
 
+@validates(alpha=Array(ndim=1, max_size=MAX_CIRCUIT_QUBITS), layout=Options(LAYOUTS))
 def distribution_loader(alpha, layout: str = "parallel") -> QuantumCircuit:
     """``Load(sqrt(alpha))`` of Fig. 1 (register A): ``|0...0> -> sum_k sqrt(alpha_k) |e_k>``.
 

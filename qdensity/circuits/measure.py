@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from qiskit.circuit import ClassicalRegister, QuantumCircuit
 
+from qdensity.validation import Circuit, Instance, validates
+
 __all__ = ["measured"]
 
 
+@validates(circuit=Circuit(), name=Instance(str), inplace=Instance(bool))
 def measured(circuit: QuantumCircuit, name: str = "meas", *,
              inplace: bool = False) -> QuantumCircuit:
     """A copy of ``circuit`` measuring qubit ``j`` into clbit ``j`` of a new register.

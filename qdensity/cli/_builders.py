@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 from qiskit import QuantumCircuit
 
-from qdensity.validation import check_seed
+from qdensity.validation import Instance, Qubits, Seed, check_seed, validates
 
 __all__ = ["BUILDERS", "build_circuit"]
 
@@ -127,6 +127,7 @@ def check_size(name: str, size: int, largest: int) -> None:
         raise ValueError(f"--size must be {size_range(name, largest)}, got {size}")
 
 
+@validates(name=Instance(str), num_qubits=Qubits(1), bind_seed=Seed())
 def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> QuantumCircuit:
     """Build a named circuit (see :data:`BUILDERS`), its parameters bound with seeded values.
 

@@ -21,6 +21,7 @@ import numpy as np
 from qdensity.cli._builders import BUILDERS, _vector, build_circuit, check_size
 from qdensity.cli._devices import DEMO_OPTIONS, correction_options, corrections
 from qdensity.cli._help import Formatter, texts
+from qdensity.validation import Instance, SequenceOf, validates
 
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
 
@@ -379,6 +380,7 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+@validates(argv=[SequenceOf(Instance(str), min_len=0), None])
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``qdensity`` command; returns the exit status."""
     parser = _parser()

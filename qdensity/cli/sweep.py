@@ -50,6 +50,14 @@ def _cmd_sweep(args) -> int:
     return 0
 
 
+#: argparse choices of the model options, refused before optuna starts (the names
+#: QNNClassifier declares; written out here so the command line starts without scikit-learn,
+#: and kept equal to the estimator's by a test).
+ANSATZ_CHOICES = ("round_robin", "pyramid", "x", "butterfly")
+DECOMPOSITION_CHOICES = ("layers", "cyclic", "odd_even", "none")
+MIXTURE_CHOICES = ("softmax", "fixed", "moe", "moe_gelu")
+
+
 def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
     """Add the ``sweep`` sub-command to ``qdensity``'s sub-parsers (``int_in(low, high)`` and
     ``seed_type`` are the command's argparse types)."""
@@ -61,9 +69,12 @@ def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
                     help="use only the first SAMPLES rows (at least 2, at most the dataset's)")
     sw.add_argument("--num-qubits", type=int_in(2, max_qubits), default=8,
                     help="PCA to this many qubits")
-    sw.add_argument("--ansatz", default="round_robin", help="QNNClassifier's ansatz")
-    sw.add_argument("--decomposition", default="layers", help="how it is cut into sub-unitaries")
-    sw.add_argument("--mixture", default="softmax", help="distribution over the sub-unitaries")
+    sw.add_argument("--ansatz", default="round_robin", choices=ANSATZ_CHOICES,
+                    help="QNNClassifier's ansatz")
+    sw.add_argument("--decomposition", default="layers", choices=DECOMPOSITION_CHOICES,
+                    help="how it is cut into sub-unitaries")
+    sw.add_argument("--mixture", default="softmax", choices=MIXTURE_CHOICES,
+                    help="distribution over the sub-unitaries")
     sw.add_argument("--epochs", type=int_in(1, 10**6), default=10,
                     help="training epochs per trial")
     sw.add_argument("--n-trials", type=int_in(1, 10**6), default=32,

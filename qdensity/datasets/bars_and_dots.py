@@ -7,16 +7,25 @@ import numpy as np
 
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
+    MAX_ROWS,
+    Interval,
+    Qubits,
+    Seed,
     SeedLike,
     as_rng,
     check_nonnegative_float,
     check_num_qubits,
     check_positive_int,
+    validates,
 )
 
 __all__ = ["bars_and_dots"]
 
 
+@validates(
+    num_samples=Interval(int, 1, MAX_ROWS), num_qubits=Qubits(4), noise_std=Interval(float, 0),
+    seed=Seed(),
+)
 def bars_and_dots(
     num_samples: int,
     num_qubits: int,

@@ -7,15 +7,24 @@ import numpy as np
 
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
+    MAX_ROWS,
+    Array,
+    Interval,
+    Seed,
     SeedLike,
     as_rng,
     check_nonnegative_float,
     check_positive_int,
+    validates,
 )
 
 __all__ = ["chebyshev_dataset", "chebyshev_split", "chebyshev"]
 
 
+@validates(
+    num_samples=Interval(int, 1, MAX_ROWS), degree=Interval(int, 0, 10_000),
+    noise_std=Interval(float, 0), seed=Seed(),
+)
 def chebyshev_dataset(
     num_samples: int,
     degree: int = 4,
@@ -62,6 +71,7 @@ def chebyshev_dataset(
     return x[:, None], y
 
 
+@validates(x=Array(ndim=None, max_size=MAX_DENSE_ENTRIES), degree=Interval(int, 0, 10_000))
 def chebyshev(x: np.ndarray, degree: int) -> np.ndarray:
     """``T_degree(x)`` by the recurrence of eq. 12 (``T_0 = 1``, ``T_1 = x``,
     ``T_{k+1} = 2 x T_k - T_{k-1}``).
@@ -91,6 +101,10 @@ def chebyshev(x: np.ndarray, degree: int) -> np.ndarray:
     return cur
 
 
+@validates(
+    degree=Interval(int, 0, 10_000), noise_std=Interval(float, 0),
+    num_train=Interval(int, 1, MAX_ROWS), num_test=Interval(int, 2, MAX_ROWS), seed=Seed(),
+)
 def chebyshev_split(
     degree: int = 4,
     noise_std: float = 0.5,

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from qdensity.validation import seed_u32
+from qdensity.validation import Interval, Seed, seed_u32, validates
 
 __all__ = ["load_digits_features"]
 
 
+@validates(
+    num_features=Interval(int, 1, 64), test_size=Interval(int, 1, 1796), seed=Seed(2**32 - 1),
+)
 def load_digits_features(
     num_features: int = 8, test_size: int = 300, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -20,7 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
-from qdensity.validation import check_positive_int, seed_u32
+from qdensity.validation import (
+    MAX_ROWS,
+    FilePath,
+    Interval,
+    Seed,
+    check_positive_int,
+    seed_u32,
+    validates,
+)
 
 __all__ = ["load_mnist", "mnist_source", "read_idx", "IDX_FILES", "BUNDLED", "BUNDLED_TEST_SIZE"]
 
@@ -43,6 +51,7 @@ MAX_FILE_BYTES = 2**30
 _IDX_DTYPES = {0x08: ">u1", 0x09: ">i1", 0x0B: ">i2", 0x0C: ">i4", 0x0D: ">f4", 0x0E: ">f8"}
 
 
+@validates(path=FilePath(exists='file'))
 def read_idx(path: str | Path) -> np.ndarray:
     """Read one IDX file (LeCun's MNIST format), gzipped or not.
 
@@ -201,6 +210,11 @@ def mnist_source(path: str | Path | None = None) -> str:
     return BUNDLED if path is None else f"MNIST files at {str(path)!r}"
 
 
+@validates(
+    path=[FilePath(exists=None), None], num_features=[Interval(int, 1, 784), None],
+    limit_train=[Interval(int, 1, MAX_ROWS), None], limit_test=[Interval(int, 1, MAX_ROWS), None],
+    seed=Seed(2**32 - 1),
+)
 def load_mnist(
     path: str | Path | None = None,
     *,

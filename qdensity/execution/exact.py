@@ -22,12 +22,16 @@ from qdensity.execution._compile import (
     unroll_misbound,
 )
 from qdensity.execution.plans import CircuitJob, JobResult
-from qdensity.validation import MAX_DENSE_QUBITS, check_sequence_of
+from qdensity.validation import MAX_DENSE_QUBITS, Instance, Options, check_sequence_of, validates
 from qdensity.validation import check_width as check_dense_width
 
 __all__ = ["ExactEngine"]
 
 
+@validates(
+    method=Options(('statevector', 'density_matrix')),
+    noise_model=[Instance('qiskit_aer.noise:NoiseModel'), None], device=Options(('CPU', 'GPU')),
+)
 class ExactEngine:
     """Exact outcome probabilities from an Aer simulator (no shots).
 

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from qdensity.validation import Array, Interval, refuse, validates
+
 __all__ = ["wilson_standard_error", "binomial_standard_error", "shot_mean"]
 
 
@@ -57,6 +59,7 @@ def wilson_standard_error(variance, shots, value_range_width=1.0) -> np.ndarray:
     return np.sqrt(var / n + width**2 / (4.0 * n**2))
 
 
+@validates(p=Array(ndim=None), shots=[Interval(int, 1), Array(ndim=None, dtype="int")])
 def binomial_standard_error(p, shots) -> np.ndarray:
     """Standard error of an outcome frequency ``p_hat`` from ``shots`` shots, never zero.
 
@@ -77,6 +80,8 @@ def binomial_standard_error(p, shots) -> np.ndarray:
     0.005
     """
     p = np.asarray(p, dtype=float)
+    if np.any((p < 0) | (p > 1)):
+        raise refuse("binomial_standard_error", "p", p, "frequencies in [0, 1]")
     return wilson_standard_error(p * (1.0 - p), shots, 1.0)
 
 

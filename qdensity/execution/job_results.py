@@ -7,11 +7,19 @@ from __future__ import annotations
 import numpy as np
 
 from qdensity.execution.intervals import binomial_standard_error, shot_mean
-from qdensity.validation import MAX_DENSE_QUBITS
+from qdensity.validation import MAX_DENSE_QUBITS, MAX_SHOTS, Array, Instance, Interval, validates
 
 __all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
 
 
+@validates(
+    probabilities=[Array(ndim=(1, 2), min_size=0), None],
+    shots=[Interval(int, 1, MAX_SHOTS), None],
+    job=[Instance('qdensity.execution.plans:CircuitJob'), None],
+    bits=[Array(ndim=3, dtype='bool', min_size=0), None],
+    weights=[Array(ndim=2, min_size=0), None], effective_shots=[Array(ndim=1, min_size=0), None],
+    readout=[Instance(list), None],
+)
 class JobResult:
     """Outcomes of one job: exact probabilities, or the sampled bits.
 

@@ -28,11 +28,20 @@ from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.job_results import JobResult, bits_to_probabilities, unary_frequencies
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
+    MAX_SHOTS,
+    Array,
+    CallableC,
+    Circuit,
+    Instance,
+    Interval,
+    Observable,
+    SequenceOf,
     as_parameter_rows,
     check_circuit,
     check_engine,
     check_positive_int,
     check_width,
+    validates,
 )
 
 __all__ = [
@@ -53,6 +62,10 @@ __all__ = [
 ]
 
 
+@validates(
+    circuit=Circuit(), values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str),
+)
 @dataclass(frozen=True)
 class CircuitJob:
     """One measured circuit template and the parameter rows it runs with.
@@ -94,6 +107,10 @@ class CircuitJob:
         return int(self.values.shape[0])
 
 
+@validates(
+    value=Array(ndim=None, min_size=0, finite=False),
+    standard_error=Array(ndim=None, min_size=0, finite=False),
+)
 @dataclass
 class Estimate:
     """A value with its standard error (zero for exact evaluations).
@@ -112,6 +129,11 @@ class Estimate:
         return iter((self.value, self.standard_error))
 
 
+@validates(
+    jobs=SequenceOf(Instance(CircuitJob), min_len=0),
+    postprocess=CallableC('a callable results -> answer'), description=Instance(str),
+    meta=Instance(dict),
+)
 @dataclass
 class Plan:
     """Jobs plus the post-processing that turns their results into an answer.
@@ -296,6 +318,11 @@ def check_observable(observable, num_qubits: int, name: str = "observable") -> S
     return observable
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=Observable(),
+    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str),
+)
 def expectation_plan(
     circuit: QuantumCircuit,
     observable: SparsePauliOp,
@@ -348,6 +375,11 @@ def expectation_plan(
     return Plan(jobs, post, f"<H> of {circuit.name} ({len(jobs)} groups)")
 
 
+@validates(
+    circuit=Circuit(min_qubits=1),
+    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str),
+)
 def probabilities_plan(
     circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities"
 ) -> Plan:

@@ -36,6 +36,17 @@ from qdensity.experiments import _units
 from qdensity.experiments.protocol import check_overrides, resolve_paper
 from qdensity.experiments.results import ExperimentResult, curve_summary
 from qdensity.progress import progress_bar
+from qdensity.validation import (
+    MAX_SEEDS,
+    CallableC,
+    FilePath,
+    Instance,
+    Interval,
+    Options,
+    SequenceOf,
+    Unchecked,
+    validates,
+)
 
 __all__ = ["Experiment", "EXPERIMENTS", "MODES", "get_experiment", "run", "curve_summary",
            "resolve_seeds", "resolve_config", "work_directory"]
@@ -59,6 +70,14 @@ EXPERIMENTS: dict[str, str] = {
 MODES = ("quick", "full", "paper")
 
 
+@validates(
+    name=Instance(str), title=Instance(str), paper=Instance(str), quick=Instance(Mapping),
+    full=Instance(Mapping), run_seed=CallableC('a callable (config, seed, verbose) -> metrics'),
+    plot=CallableC('a callable (result, folder) -> paths'), seeds=Instance(Mapping),
+    reductions=Instance(str), units=[CallableC('a callable config -> unit configs'), None],
+    combine=[CallableC('a callable (config, unit metrics) -> metrics'), None],
+    protocol=Unchecked('the experiment protocol, any object'),
+)
 @dataclass(frozen=True)
 class Experiment:
     """One of the paper's experiments.
@@ -109,6 +128,7 @@ class Experiment:
     protocol: Any = None  # qdensity.experiments.protocol.PaperProtocol: the --paper settings
 
 
+@validates(name=Instance(str))
 def get_experiment(name: str) -> Experiment:
     """The :class:`Experiment` called ``name``.
 
@@ -212,6 +232,14 @@ def _split(experiment: Experiment, settings: dict) -> list[dict]:
     return parts
 
 
+@validates(
+    name=Instance(str), mode=Options(MODES),
+    seeds=[Interval(int, 1, MAX_SEEDS),
+           SequenceOf(Interval(int, 0, 2**32 - 1), max_len=MAX_SEEDS), None],
+    config=[Instance(Mapping), None], out=[FilePath(exists=None), None],
+    jobs=Interval(int, 1, 1024), cluster=[Instance(str), Instance('distributed:Client'), None],
+    retries=Interval(int, 0, 100), plot=Instance(bool), progress=[Instance(bool), None],
+)
 def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = None,
         out: str | os.PathLike | None = None, jobs: int = 1, cluster=None, retries: int = 2,
         plot: bool = True, progress: bool | None = None) -> ExperimentResult:

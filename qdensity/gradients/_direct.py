@@ -34,10 +34,16 @@ from qdensity.analysis.pauli import (
 )
 from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients.diagonalising import _diagonal_matrix, _measured, _rbs_layer_for
+from qdensity.validation import Instance, Options, validates
 
 __all__ = ["CommutingGradient"]
 
 
+@validates(
+    circuits=Instance(list), parameters=Instance(list), _values=Instance(list),
+    observables=Instance(dict), term_groups=Instance(list), diagonalising_circuits=Instance(list),
+    diagonal_observables=Instance(list), diagonaliser=Options(('clifford', 'rbs')),
+)
 @dataclass
 class CommutingGradient(_GradientCircuits):
     """Circuits that yield every partial derivative of a commuting block (Methods eq. 9).

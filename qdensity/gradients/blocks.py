@@ -60,12 +60,25 @@ from qdensity.analysis.pauli import (
 from qdensity.gradients._circuits import _check_inputs, _GradientCircuits
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients.diagonalising import _diagonal_matrix, _measured
+from qdensity.validation import (
+    Circuit,
+    Instance,
+    Interval,
+    Observable,
+    Options,
+    SequenceOf,
+    validates,
+)
 
 __all__ = ["BLOCK_METHODS", "CommutingBlockGradient", "commuting_block_gradient"]
 
 BLOCK_METHODS = ("shift", "hadamard")
 
 
+@validates(
+    circuits=Instance(list), parameters=Instance(list), _values=Instance(list),
+    roles=Instance(list), blocks=Instance(list), method=Options(BLOCK_METHODS),
+)
 @dataclass
 class CommutingBlockGradient(_GradientCircuits):
     """Gradient circuits of a multi-block commuting circuit and their post-processing.
@@ -215,6 +228,12 @@ def _try_direct(circuit, start, stop, obs, params, pset, diagonaliser):
         return None
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=Observable(),
+    blocks=[SequenceOf(SequenceOf(Interval(int, 0), min_len=2, max_len=2), min_len=0), None],
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    method=Options(BLOCK_METHODS), diagonaliser=Options(('auto', 'rbs', 'clifford')),
+)
 def commuting_block_gradient(
     circuit: QuantumCircuit,
     observable: SparsePauliOp,

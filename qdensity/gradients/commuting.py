@@ -42,6 +42,7 @@ from qdensity.gradients.blocks import (
     CommutingBlockGradient,
     commuting_block_gradient,
 )
+from qdensity.validation import Circuit, Instance, Observable, Options, SequenceOf, validates
 
 __all__ = [
     "BLOCK_METHODS",
@@ -55,6 +56,11 @@ __all__ = [
 ]
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=Observable(),
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    diagonaliser=Options(('auto', 'rbs', 'clifford')),
+)
 def commuting_gradient(
     circuit: QuantumCircuit,
     observable: SparsePauliOp,
@@ -134,6 +140,11 @@ def _one_block(circuit, observable, parameters, diagonaliser):
     return params, obs, _analyse_block(circuit, first, len(circuit.data), pset)
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=Observable(),
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    diagonaliser=Options(('auto', 'rbs', 'clifford')),
+)
 def commuting_gradient_count(
     circuit: QuantumCircuit,
     observable: SparsePauliOp,

@@ -49,6 +49,16 @@ from qdensity.gradients.commuting import (
 )
 from qdensity.gradients.shift import parameter_shift_plan, shift_circuit_count
 from qdensity.models.decompositions import trainable_parameters
+from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Array,
+    Instance,
+    Interval,
+    Options,
+    validates,
+)
 
 __all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan",
            "gradient_circuit_count", "METHODS"]
@@ -56,6 +66,11 @@ __all__ = ["DensityGradient", "subunitary_jacobian_plan", "density_gradient_plan
 METHODS = ("auto", "shift", "commuting")
 
 
+@validates(
+    outputs=Array(ndim=None, min_size=0, finite=False),
+    output_errors=Array(ndim=None, min_size=0, finite=False), jacobians=Instance(list),
+    jacobian_errors=Instance(list),
+)
 @dataclass
 class DensityGradient:
     """Everything the chain rule needs for one batch.
@@ -99,6 +114,11 @@ def _circuit_of(model, k: int):
     return circ, trainable_parameters(model.sub_unitaries[k])
 
 
+@validates(
+    model=Instance('qdensity.models.density:DensityQNN'), k=Interval(int, 0, MAX_SUBUNITARIES),
+    X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], method=Options(METHODS),
+    shots=[Interval(int, 1, MAX_SHOTS), None],
+)
 def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
                              shots: int | None = None) -> Plan:
     """Plan for ``d f_k / d theta_k`` over the rows of ``X``.
@@ -244,6 +264,11 @@ def _forward_plan(model, k: int, X, shots, circuit=None, rows=None) -> Plan:
     return Plan(inner.jobs, post_p, inner.description)
 
 
+@validates(
+    model=Instance('qdensity.models.density:DensityQNN'),
+    X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], method=Options(METHODS),
+    shots=[Interval(int, 1, MAX_SHOTS), None], forward=Instance(bool),
+)
 def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | None = None,
                           forward: bool = True) -> Plan:
     """Plan for the outputs and Jacobians of every sub-unitary (Cor. 1 / Prop. 1).
@@ -286,6 +311,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                  "methods": [p.meta.get("method") for p in jac_plans]})
 
 
+@validates(model=Instance('qdensity.models.density:DensityQNN'), method=Options(METHODS))
 def gradient_circuit_count(model, *, method: str = "auto") -> int:
     """``density_gradient_plan(model, method=method).meta["gradient_circuits"]``, counted.
 
@@ -337,6 +363,11 @@ def _commuting_count(model, circ, params, k, method) -> int | None:
     return None
 
 
+@validates(
+    model=Instance('qdensity.models.density:DensityQNN'),
+    X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], grad=Instance(DensityGradient),
+    upstream=Array(ndim=None),
+)
 def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
     """Parameter gradients of a loss from ``dL/df`` (Prop. 1 plus the mixture's vjp).
 

@@ -39,7 +39,20 @@ from qdensity.execution.plans import (
     probabilities_plan,
     unary_frequencies,
 )
-from qdensity.validation import as_parameter_rows, check_circuit
+from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    MAX_SHOTS,
+    Array,
+    Circuit,
+    Instance,
+    Interval,
+    Observable,
+    Options,
+    SequenceOf,
+    as_parameter_rows,
+    check_circuit,
+    validates,
+)
 
 __all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "expand_occurrences"]
 
@@ -109,6 +122,10 @@ def _spectral_rule(name: str, gen: SparsePauliOp, qubits: list[int]) -> ShiftRul
     )
 
 
+@validates(
+    circuit=Circuit(),
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+)
 def expand_occurrences(
     circuit: QuantumCircuit, parameters=None
 ) -> tuple[QuantumCircuit, list[tuple[Parameter, Parameter, float, object]]]:
@@ -147,12 +164,22 @@ def expand_occurrences(
     return out, occurrences
 
 
+@validates(
+    circuit=Circuit(),
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    rbs_rule=Options(('four_term', 'two_term')),
+)
 def shift_rules(circuit: QuantumCircuit, parameters=None, *, rbs_rule: str = "four_term"):
     """The shift rule of every occurrence of ``parameters`` in ``circuit``, in circuit order."""
     _, occ = expand_occurrences(circuit, parameters)
     return [(p, a, _rule_for(inst, circuit, rbs_rule)) for p, _, a, inst in occ]
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=[Observable(), None],
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    rbs_rule=Options(('four_term', 'two_term')),
+)
 def shift_circuit_count(circuit: QuantumCircuit, observable: SparsePauliOp | None,
                         parameters=None, *, rbs_rule: str = "four_term") -> int:
     """Circuits per parameter row of :func:`parameter_shift_plan`, without its shifted rows.
@@ -171,6 +198,13 @@ def shift_circuit_count(circuit: QuantumCircuit, observable: SparsePauliOp | Non
     return terms * sum(1 for g in groups if (g.paulis.x | g.paulis.z).any())
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), observable=[Observable(), None],
+    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
+    shots=[Interval(int, 1, MAX_SHOTS), None], rbs_rule=Options(('four_term', 'two_term')),
+    label=Instance(str), unary=Instance(bool),
+)
 def parameter_shift_plan(
     circuit: QuantumCircuit,
     observable: SparsePauliOp | None,

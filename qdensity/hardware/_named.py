@@ -15,7 +15,12 @@ from qdensity.hardware._native import RBS_NATIVE_BASIS, RBS_NATIVE_NOISE, _rbs_n
 from qdensity.hardware.noise import noise_model
 from qdensity.validation import check_positive_int
 
-__all__ = ["heavy_hex_distance"]
+__all__ = ["heavy_hex_distance", "MAX_FULLY_CONNECTED_QUBITS"]
+
+#: Widest all-to-all target (``all_to_all``, ``rbs_native``): a full coupling map holds
+#: ``n (n - 1)`` edges, each with gate properties; 256 qubits build in about a second, the time
+#: grows as ``n**2`` (4,096 qubits ran past a minute).
+MAX_FULLY_CONNECTED_QUBITS = 256
 
 
 def heavy_hex_distance(num_qubits: int) -> int:
@@ -55,6 +60,12 @@ def named_fields(name: str, n: int, *, noise: bool, basis_gates: Sequence[str] |
             noise_model=None, target=None,
         )
 
+    if name in ("all_to_all", "rbs_native") and n > MAX_FULLY_CONNECTED_QUBITS:
+        raise ValueError(
+            f"get_target: num_qubits must be <= {MAX_FULLY_CONNECTED_QUBITS} for target "
+            f"{name!r} (a full coupling map holds n (n - 1) edges and takes minutes to build "
+            f"above that), got {n}; use 'line', 'ring' or 'heavy_hex' for wider devices"
+        )
     minimum = 3 if name == "ring" else 2
     if n < minimum:
         raise ValueError(

@@ -16,7 +16,17 @@ from qiskit.circuit import ControlFlowOp, QuantumCircuit, Store
 
 from qdensity.hardware.snapshot_files import is_snapshot_path
 from qdensity.hardware.targets import as_target, get_target
-from qdensity.validation import SeedLike, check_circuit
+from qdensity.validation import (
+    Circuit,
+    Instance,
+    Interval,
+    Options,
+    Seed,
+    SeedLike,
+    TargetLike,
+    check_circuit,
+    validates,
+)
 
 __all__ = ["ResourceReport", "resource_report", "compare_reports", "METRICS", "DEFAULT_BASIS"]
 
@@ -29,6 +39,10 @@ DEFAULT_BASIS = ("cz", "rz", "sx", "x")
 _IGNORED = frozenset({"barrier", "delay"})
 
 
+@validates(
+    name=Instance(str), target=Instance(str), num_qubits=Interval(int, 0), depth=Interval(int, 0),
+    two_qubit_count=Interval(int, 0), two_qubit_depth=Interval(int, 0), gate_counts=Instance(dict),
+)
 @dataclass(frozen=True)
 class ResourceReport:
     """Costs of one compiled circuit.
@@ -100,6 +114,10 @@ def _size_for(target, width: int) -> int | None:
     return width if isinstance(target, str) and not is_snapshot_path(target) else None
 
 
+@validates(
+    circuit=Circuit(), target=[TargetLike(), None], optimization_level=Options((0, 1, 2, 3)),
+    seed=Seed(), transpiled=Instance(bool),
+)
 def resource_report(
     circuit: QuantumCircuit,
     target=None,
@@ -160,6 +178,8 @@ def resource_report(
     return _count(compiled, name=circuit.name, target=hw.label)
 
 
+@validates(reports=Instance(Mapping, 'mapping of names to ResourceReport'),
+           width=Interval(int, 40, 10_000))
 def compare_reports(reports: Mapping[str, ResourceReport], *, width: int = 100) -> str:
     """Side-by-side table of several reports, with ratios to the first.
 

@@ -27,6 +27,7 @@ from qiskit.providers import BackendV2, Options, QubitProperties
 from qiskit.transpiler import InstructionProperties, Target
 
 from qdensity.hardware._snapshot_checks import MAX_SNAPSHOT_BYTES, check_snapshot_data, t2_bound
+from qdensity.validation import FilePath, Instance, validates
 
 __all__ = ["SNAPSHOT_FORMAT", "SNAPSHOT_VERSION", "SnapshotFileBackend", "save_snapshot",
            "load_snapshot", "is_snapshot_path"]
@@ -99,6 +100,11 @@ def _as_target(device) -> tuple[str, Target]:
                     f"HardwareTarget with a Target, got {type(device).__name__}")
 
 
+@validates(
+    device=[Instance("qiskit.providers:BackendV2"), Instance("qiskit.transpiler:Target"),
+            Instance("qdensity.hardware.targets:HardwareTarget")],
+    path=FilePath(exists=None),
+)
 def save_snapshot(device, path: str | os.PathLike) -> Path:
     """Write a device's calibration (its ``Target``) to a JSON file.
 
@@ -176,6 +182,7 @@ def _refuse(path, why: str):
                      f"with qdensity.hardware.snapshot_files.save_snapshot(backend, path)")
 
 
+@validates(path=FilePath(exists="file"))
 def load_snapshot(path: str | os.PathLike) -> SnapshotFileBackend:
     """The backend of a snapshot file written by :func:`save_snapshot`.
 

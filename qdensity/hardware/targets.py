@@ -71,10 +71,18 @@ from qdensity.hardware.snapshots import (
     snapshot_names,
 )
 from qdensity.validation import (
+    Instance,
+    Interval,
+    Qubits,
+    Seed,
     SeedLike,
+    SequenceOf,
+    TargetLike,
+    Unchecked,
     check_num_qubits,
     check_positive_int,
     seed_int,
+    validates,
 )
 
 __all__ = [
@@ -133,6 +141,12 @@ def gpu_available() -> bool:
     return "GPU" in AerSimulator().available_devices()
 
 
+@validates(
+    name=Instance(str), num_qubits=Qubits(1), backend=[Instance(BackendV2), None],
+    coupling_map=[Instance(CouplingMap), None], basis_gates=SequenceOf(Instance(str), min_len=0),
+    noise_model=Unchecked('a NoiseModel, None or the lazy field builder (NoiseModelField)'),
+    target=[Instance(Target), None], seed=[Interval(int, 0), None],
+)
 @dataclass(frozen=True, eq=False)
 class HardwareTarget:
     """A device to transpile for and simulate on (see :func:`get_target`).
@@ -371,6 +385,12 @@ class _TargetSimulators:
         return self.target.simulator(method=method, device=self.device, seed=self.seed)
 
 
+@validates(
+    name=TargetLike(), num_qubits=[Qubits(1), None], seed=Seed(),
+    noise=Instance((bool, np.bool_), 'bool'),
+    basis_gates=[SequenceOf(Instance(str), max_len=64), None],
+    noise_model=[Instance(NoiseModel), None],
+)
 def get_target(
     name,
     num_qubits: int | None = None,

@@ -9,8 +9,6 @@ allowed, then :func:`build_model` turns the spec (``ansatz``, ``decomposition``,
 from __future__ import annotations
 
 import copy
-import math
-import numbers
 
 import numpy as np
 
@@ -21,7 +19,20 @@ from qdensity.models.decompositions import by_moments, cyclic_moments, odd_even
 from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
-from qdensity.validation import check_layers, check_num_qubits, check_seed
+from qdensity.validation import (
+    MAX_ROWS,
+    MAX_SHOTS,
+    CallableC,
+    Instance,
+    Interval,
+    Layers,
+    Options,
+    Qubits,
+    Seed,
+    SequenceOf,
+    Unchecked,
+    check_declared,
+)
 
 ANSATZE = {"round_robin": round_robin, "pyramid": pyramid, "x": x_circuit,
            "butterfly": butterfly}
@@ -32,78 +43,40 @@ OPTIMIZERS = {"adam": Adam, "sgd": SGD, "rmsprop": RMSprop}
 GRADIENTS = ("auto", "shift", "commuting")
 
 
-def _choice(value, name: str, allowed) -> None:
-    if not isinstance(value, str) or value not in allowed:
-        raise ValueError(f"{name} must be one of {sorted(allowed)}, got {value!r}")
+_LAYER = ("None or a layer with forward, backward, params and grads ('linear' for post); "
+          "checked by fit")
 
-
-def _real(value, name: str, *, positive: bool = False, allow_none: bool = False) -> None:
-    if value is None and allow_none:
-        return
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (v <= 0 if positive else v < 0):
-        need = "> 0" if positive else ">= 0"
-        raise ValueError(f"{name} must be finite and {need}, got {value!r}")
-
-
-def _int(value, name: str, *, minimum: int = 1, allow_none: bool = False, why: str = "") -> None:
-    if value is None and allow_none:
-        return
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an int, got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{name} must be an int >= {minimum}{' (' + why + ')' if why else ''}"
-                         f", got {value!r}")
+#: The estimators' hyperparameters, declared (scikit-learn's ``_parameter_constraints``):
+#: checked by ``fit`` through :func:`check_hyperparameters`, never by the constructor.
+PARAMETER_CONSTRAINTS = {
+    "model": [Instance(DensityQNN, "DensityQNN template"), None],
+    "ansatz": Options(tuple(ANSATZE)), "decomposition": Options(DECOMPOSITIONS),
+    "depth": Layers(), "mixture": Options(MIXTURES), "readout": Options(READOUTS),
+    "num_qubits": [Qubits(2), None],
+    "scale": Instance((bool, np.bool_), "bool (standardise the features before PCA and the "
+                      "encoding)"),
+    "constant": [Interval(float, 0, None, closed="neither"), None],
+    "pre": Unchecked(_LAYER), "post": Unchecked(_LAYER),
+    "optimizer": Options(tuple(OPTIMIZERS)),
+    "learning_rate": Interval(float, 0, None, closed="neither"), "l2": Interval(float, 0),
+    "epochs": Interval(int, 1, MAX_ROWS), "batch_size": Interval(int, 1, MAX_ROWS),
+    "engine": [Options(("exact",)), Instance(SamplerEngine)],
+    "shots": [Interval(int, 2, MAX_SHOTS, why="a sampled gradient estimates each circuit's "
+                       "variance from its shots"), None],
+    "gradient": Options(GRADIENTS),
+    "max_steps": [Interval(int, 1), None], "max_shots": [Interval(int, 1), None],
+    "seed": Seed(), "verbose": Instance((bool, np.bool_), "bool"),
+    "callback": [CallableC("a callable (estimator, step)"), None],
+    "callbacks": [SequenceOf(CallableC("a callable (estimator, record)"), min_len=0), None],
+}
 
 
 def check_hyperparameters(est) -> None:
-    """Validate every hyperparameter of a QNN estimator (called at the start of ``fit``)."""
-    if est.model is not None and not isinstance(est.model, DensityQNN):
-        raise TypeError(f"model must be a DensityQNN template or None, got "
-                        f"{type(est.model).__name__}")
-    if est.model is None:
-        _choice(est.ansatz, "ansatz", ANSATZE)
-        _choice(est.decomposition, "decomposition", DECOMPOSITIONS)
-        _choice(est.mixture, "mixture", MIXTURES)
-        _choice(est.readout, "readout", READOUTS)
-        check_layers(est.depth, "depth")
-        if est.num_qubits is not None:
-            check_num_qubits(est.num_qubits, minimum=2)
-        if est.constant is not None:
-            _real(est.constant, "constant", positive=True)
-        if not isinstance(est.scale, (bool, np.bool_)):
-            raise TypeError(f"scale must be a bool (standardise the features before PCA and "
-                            f"the encoding), got {est.scale!r}")
-    _choice(est.optimizer, "optimizer", OPTIMIZERS)
-    _real(est.learning_rate, "learning_rate", positive=True)
-    _real(est.l2, "l2")
-    _int(est.epochs, "epochs")
-    _int(est.batch_size, "batch_size")
-    _int(est.max_steps, "max_steps", allow_none=True)
-    _int(est.max_shots, "max_shots", allow_none=True)
-    _choice(est.gradient, "gradient", GRADIENTS)
-    if isinstance(est.engine, SamplerEngine):
-        if est.shots is None:
-            raise ValueError("shots must be given (shots per circuit) with a SamplerEngine engine")
-        _int(est.shots, "shots", minimum=2,
-             why="a sampled gradient estimates each circuit's variance from its shots")
-    elif isinstance(est.engine, str):
-        if est.engine != "exact":
-            raise ValueError(f"engine must be 'exact' or a SamplerEngine, got {est.engine!r}")
-    else:
-        raise TypeError(f"engine must be 'exact' or a SamplerEngine, got "
-                        f"{type(est.engine).__name__} {est.engine!r}")
-    if not isinstance(est.verbose, (bool, np.bool_)):
-        raise TypeError(f"verbose must be a bool, got {est.verbose!r}")
-    check_seed(est.seed)
-    if est.callback is not None and not callable(est.callback):
-        raise TypeError(f"callback must be callable (estimator, step), got {est.callback!r}")
-    cbs = est.callbacks if est.callbacks is not None else ()
-    if (isinstance(cbs, (str, bytes)) or not hasattr(cbs, "__iter__")
-            or not all(callable(c) for c in cbs)):
-        raise TypeError(f"callbacks must be a list of callables (estimator, record), got {cbs!r}")
+    """Validate every hyperparameter of a QNN estimator (called at the start of ``fit``):
+    each against :data:`PARAMETER_CONSTRAINTS`, then the ones that depend on each other."""
+    check_declared(type(est).__name__, PARAMETER_CONSTRAINTS, est.get_params(deep=False))
+    if isinstance(est.engine, SamplerEngine) and est.shots is None:
+        raise ValueError("shots must be given (shots per circuit) with a SamplerEngine engine")
     for name in ("pre", "post"):
         layer = getattr(est, name)
         if layer is None or (name == "post" and isinstance(layer, str) and layer == "linear"):

@@ -54,6 +54,7 @@ from qdensity.learning._encoding import (
 from qdensity.learning._estimate import EstimateMixin
 from qdensity.learning._saved import FORMAT_VERSION, read_estimator, write_estimator
 from qdensity.learning._spec import (
+    PARAMETER_CONSTRAINTS,
     build_model,
     check_hyperparameters,
     encoded_width,
@@ -73,6 +74,9 @@ _LOG = logging.getLogger(__name__)
 
 class _QNNEstimator(EncodingMixin, EstimateMixin, BaseEstimator):
     """Shared machinery; see :class:`QNNClassifier` for the parameters."""
+
+    #: The hyperparameters, declared; ``fit`` checks them (scikit-learn's convention).
+    _parameter_constraints = PARAMETER_CONSTRAINTS
 
     def __init__(self, model=None, *, ansatz="round_robin", decomposition="layers", depth=1,
                  mixture="softmax", readout="unary_probabilities", num_qubits=None,

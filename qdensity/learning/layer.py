@@ -49,7 +49,14 @@ from qdensity.models.exact import (
     uses_unary_engine,
     z_readout_diagonal,
 )
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    MAX_SHOTS,
+    Instance,
+    Interval,
+    Options,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["QuantumLayer", "History", "BudgetExhausted"]
 
@@ -58,6 +65,13 @@ class BudgetExhausted(RuntimeError):
     """Raised before a step whose circuits would exceed the shot budget."""
 
 
+@validates(
+    model=Instance(DensityQNN),
+    engine=[Options(('exact',)), Instance((AdjointEngine, ExactEngine, SamplerEngine),
+                                          'AdjointEngine, ExactEngine or SamplerEngine')],
+    shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
+    input_gradients=Instance((bool, np.bool_), 'bool'),
+)
 class QuantumLayer:
     """A :class:`DensityQNN` as a layer: ``forward(Z) -> F`` and ``backward(dL/dF) -> dL/dZ``.
 
@@ -245,6 +259,7 @@ class QuantumLayer:
         self.model.set_params(theta, mixture if np.size(mixture) else None)
 
 
+@validates(records=Instance(list), epochs=Instance(list))
 @dataclass
 class History:
     """Per-step record of training: loss, metric, circuits and shots (cumulative).

@@ -55,11 +55,24 @@ from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients, uses_unary_engine, z_readout_diagonal
 from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    MAX_ROWS,
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Instance,
+    Interval,
+    Options,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["DensityQNNLayer", "MoEGate"]
 
 
+@validates(
+    num_features=Interval(int, 1, MAX_ROWS), num_components=Interval(int, 1, MAX_SUBUNITARIES),
+    activation=[Options(('gelu',)), None],
+)
 class MoEGate(nn.Module):
     """``alpha(x) = softmax(act(x W^T + b))``: the mixture-of-experts gate of Supp. H in torch.
 
@@ -133,6 +146,12 @@ class _UnaryTorch(torch.autograd.Function):
                 g_theta if ctx.needs_input_grad[1] else None, None)
 
 
+@validates(
+    model=Instance(DensityQNN),
+    engine=[Options(('exact',)), Instance('qdensity.execution.sampler.engine:SamplerEngine')],
+    shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
+    gate=[Instance(nn.Module, 'torch.nn.Module'), None],
+)
 class DensityQNNLayer(nn.Module):
     """A :class:`DensityQNN` as a ``torch.nn.Module``: input ``(..., d)`` -> output ``(..., m)``.
 
@@ -267,6 +286,8 @@ class DensityQNNLayer(nn.Module):
         if x.ndim == 0 or x.shape[-1] != self.num_features or x.numel() == 0:
             raise ValueError(f"input must have shape (d,), (batch, d) or (..., d) with d = "
                              f"{self.num_features} and at least one row, got {tuple(x.shape)}")
+        if not bool(torch.isfinite(x).all()):
+            raise ValueError("input must be finite (no NaN or inf)")
         lead = x.shape[:-1]
         flat = x.reshape(-1, self.num_features)
         need_grad = torch.is_grad_enabled() and (x.requires_grad or self.theta.requires_grad)
@@ -327,6 +348,10 @@ class DensityQNNLayer(nn.Module):
             from qdensity.execution.unary import forward
 
             norms = np.linalg.norm(X, axis=1, keepdims=True)
+            if not np.all(np.isfinite(norms)):
+                rows = np.flatnonzero(~np.isfinite(norms[:, 0])).tolist()[:10]
+                raise ValueError(f"input rows {rows} are not finite or too large (their norms "
+                                 f"overflow float64); scale the input first")
             if np.any(norms == 0):
                 rows = np.flatnonzero(norms[:, 0] == 0).tolist()
                 raise ValueError(f"input rows {rows} are all-zero; a unary encoding cannot "

@@ -11,9 +11,12 @@ from __future__ import annotations
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.validation import Circuit, Instance, validates
+
 __all__ = ["bind_rows"]
 
 
+@validates(circuit=Circuit(), columns=Instance(dict))
 def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     """Parameter rows in ``circuit.parameters`` order from ``{Parameter: column}``.
 

@@ -26,7 +26,17 @@ from qdensity.analysis.parameters import (  # re-exported: the helper lives belo
 )
 from qdensity.analysis.structure import moment_indices, moments
 from qdensity.circuits._copying import assign_fresh
-from qdensity.validation import check_circuit, check_positive_int
+from qdensity.validation import (
+    MAX_LAYERS,
+    MAX_SUBUNITARIES,
+    Circuit,
+    Instance,
+    Interval,
+    SequenceOf,
+    check_circuit,
+    check_positive_int,
+    validates,
+)
 
 __all__ = [
     "Decomposition",
@@ -39,6 +49,10 @@ __all__ = [
 ]
 
 
+@validates(
+    name=Instance(str), sub_unitaries=SequenceOf(Circuit(), max_len=MAX_SUBUNITARIES),
+    source=[Circuit(), None], independent=Instance(bool), notes=Instance(dict),
+)
 @dataclass
 class Decomposition:
     """Sub-unitaries obtained from one circuit.
@@ -103,6 +117,7 @@ def _moment_index(circuit: QuantumCircuit) -> tuple[dict[int, int], int]:
     return {pos: m for m, layer in enumerate(layers) for pos in layer}, len(layers)
 
 
+@validates(circuit=Circuit(), depth=Interval(int, 1, MAX_LAYERS), name=[Instance(str), None])
 def by_moments(circuit: QuantumCircuit, depth: int = 1, *,
                name: str | None = None) -> Decomposition:
     """D consecutive parameterised moments per sub-unitary (paper Fig. 3 left, Fig. 6 shallow).
@@ -154,6 +169,7 @@ def _disjoint(parts: Sequence[QuantumCircuit]) -> bool:
     return True
 
 
+@validates(circuit=Circuit(), depth=Interval(int, 1, MAX_LAYERS))
 def cyclic_moments(circuit: QuantumCircuit, depth: int) -> Decomposition:
     """K = M sub-unitaries of ``depth`` cyclically consecutive moments, independently parameterised.
 
@@ -192,6 +208,7 @@ def cyclic_moments(circuit: QuantumCircuit, depth: int) -> Decomposition:
                          notes={"depth": depth})
 
 
+@validates(circuit=Circuit())
 def odd_even(circuit: QuantumCircuit) -> Decomposition:
     """Odd-even split (Supp. H.1, eq. 27): gates whose first qubit is even vs odd.
 
@@ -230,6 +247,7 @@ def _fresh_parameters(circuits: Sequence[QuantumCircuit],
     return out
 
 
+@validates(circuits=SequenceOf(Circuit(), max_len=MAX_SUBUNITARIES), name=Instance(str))
 def independent(circuits: Sequence[QuantumCircuit], name: str = "independent") -> Decomposition:
     """Give each circuit its own trainable parameters ``θ{k}`` (data parameters are kept).
 
@@ -247,6 +265,7 @@ def independent(circuits: Sequence[QuantumCircuit], name: str = "independent") -
     return Decomposition(name, _fresh_parameters(circuits), None, independent=True)
 
 
+@validates(circuit=Circuit(), num_copies=Interval(int, 1, MAX_SUBUNITARIES))
 def copies(circuit: QuantumCircuit, num_copies: int) -> Decomposition:
     """K independently parameterised copies of one circuit (Fig. 3 right, Fig. 6 deep).
 

@@ -23,12 +23,22 @@ from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
 from qdensity.validation import (
+    MAX_SUBUNITARIES,
+    Array,
+    Circuit,
+    Instance,
+    Interval,
+    Observable,
+    Options,
+    Seed,
+    SequenceOf,
     as_rng,
     check_circuit,
     check_finite_array,
     check_sequence_of,
-    check_type,
     check_width,
+    refuse,
+    validates,
 )
 
 __all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
@@ -36,6 +46,13 @@ __all__ = ["Encoding", "DensityQNN", "READOUTS", "bind_rows"]
 READOUTS = ("observable", "unary_probabilities", "unary_amplitudes")
 
 
+@validates(
+    sub_unitaries=[Circuit(min_qubits=1),
+                   SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES)],
+    mixture=[Instance(Mixture), Array(ndim=1, max_size=MAX_SUBUNITARIES), None],
+    encoding=[Instance(Encoding), None], observable=[Observable(), None],
+    readout=Options(READOUTS), seed=Seed(),
+)
 class DensityQNN:
     """A density quantum neural network (paper eq. 1 and 2).
 
@@ -89,22 +106,15 @@ class DensityQNN:
         seed=None,
     ):
         subs = [sub_unitaries] if isinstance(sub_unitaries, QuantumCircuit) else list(
-            check_sequence_of(sub_unitaries, "sub_unitaries", QuantumCircuit, "QuantumCircuit"))
-        if not subs:
-            raise ValueError("sub_unitaries must contain at least one circuit (K >= 1), got K = 0")
-        subs = [check_circuit(c, f"sub_unitaries[{i}]") for i, c in enumerate(subs)]
+            sub_unitaries)
         widths = {c.num_qubits for c in subs}
         if len(widths) > 1:
             raise ValueError(f"sub_unitaries must all have the same width, got widths "
                              f"{[c.num_qubits for c in subs]}")
         self.num_qubits = subs[0].num_qubits
-        check_type(encoding, "encoding", Encoding, "an Encoding (e.g. Encoding.unary(n))",
-                   allow_none=True)
         if encoding is not None and encoding.circuit.num_qubits != self.num_qubits:
             raise ValueError(f"encoding acts on {encoding.circuit.num_qubits} qubits but the "
                              f"sub-unitaries on {self.num_qubits}")
-        if not isinstance(readout, str) or readout not in READOUTS:
-            raise ValueError(f"readout must be one of {READOUTS}, got {readout!r}")
         if readout != "observable":
             from qdensity.analysis.structure import is_hamming_weight_preserving
 
@@ -123,6 +133,12 @@ class DensityQNN:
             observable = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], self.num_qubits)
         self.observable = observable
         self.mixture = as_mixture(mixture, len(subs))
+        gate_features = getattr(self.mixture, "num_features", None)
+        if gate_features is not None and encoding is not None and (
+                gate_features != encoding.num_features):
+            raise refuse("DensityQNN", "mixture", self.mixture,
+                         f"a gate on the encoding's {encoding.num_features} features",
+                         f"the gate reads {gate_features} features")
         self.theta = (as_rng(seed).uniform(-np.pi, np.pi, len(self.parameters))
                       if seed is not None else np.zeros(len(self.parameters)))
         self.training = True
@@ -255,8 +271,12 @@ class DensityQNN:
         return self.mixture.alpha(None if X is None else np.atleast_2d(X))
 
     # ------------------------------------------------------------------ circuits
+    @validates(k=Interval(int, 0, MAX_SUBUNITARIES), with_encoding=Instance(bool))
     def circuit(self, k: int, *, with_encoding: bool = True) -> QuantumCircuit:
-        """``V(x)`` followed by ``U_k`` (parameterised)."""
+        """``V(x)`` followed by ``U_k`` (parameterised); ``0 <= k < K``."""
+        if k >= len(self.sub_unitaries):
+            raise refuse("DensityQNN.circuit", "k", k,
+                         f"an int >= 0 and < K = {len(self.sub_unitaries)}")
         sub = self.sub_unitaries[k]
         if with_encoding and self.encoding is not None:
             return self.encoding.circuit.compose(sub)

@@ -14,7 +14,16 @@ from functools import partial
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
-from qdensity.validation import check_finite_array, check_num_qubits
+from qdensity.validation import (
+    MAX_ROWS,
+    CallableC,
+    Circuit,
+    Interval,
+    Options,
+    check_finite_array,
+    check_num_qubits,
+    validates,
+)
 
 __all__ = ["Encoding"]
 
@@ -24,6 +33,11 @@ def _as_float(X) -> np.ndarray:
     return np.asarray(X, dtype=float)
 
 
+@validates(
+    circuit=Circuit(min_qubits=1), transform=CallableC('a callable X (B, d) -> values (B, P_enc)'),
+    num_features=Interval(int, 1, MAX_ROWS), kind=Options(('other', 'unary', 'angle')),
+    jacobian=[CallableC('a callable X (B, d) -> (B, P_enc, d)'), None],
+)
 @dataclass
 class Encoding:
     """A data loader ``V(x)``: a circuit with data parameters and the map from data to them.

@@ -24,6 +24,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 
 from qdensity.analysis.parameters import DATA_PREFIX
+from qdensity.validation import MAX_DENSE_ENTRIES, Array, EngineLike, Instance, validates
 
 __all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "ExactGradients",
            "InputColumns", "input_columns", "uses_unary_engine", "unary_amplitudes",
@@ -138,6 +139,11 @@ def _columns(model, k: int):
     return state.columns[k]
 
 
+@validates(
+    model=Instance('qdensity.models.density:DensityQNN'),
+    X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], theta=[Array(ndim=(1, 2)), None],
+    engine=[EngineLike(), None],
+)
 def exact_outputs(model, X=None, theta=None, engine=None) -> np.ndarray:
     """Exact ``f_k(x)`` on the adjoint engine: (B, K) for an observable, (B, K, n) for unary
     probabilities.
@@ -183,6 +189,10 @@ def aer_outputs(model, X=None, theta=None) -> np.ndarray:
     return np.stack(outs, axis=1)
 
 
+@validates(
+    outputs=Array(ndim=None, min_size=0), jacobians=Instance(list), data_columns=Instance(list),
+    data_jacobians=[Instance(list), None],
+)
 @dataclass
 class ExactGradients:
     """Exact outputs and Jacobians of every sub-unitary for one batch.
@@ -205,6 +215,11 @@ class ExactGradients:
     data_jacobians: list[np.ndarray] | None = None
 
 
+@validates(
+    model=Instance('qdensity.models.density:DensityQNN'),
+    X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], engine=[EngineLike(), None],
+    inputs=Instance(bool),
+)
 def exact_gradients(model, X=None, engine=None, inputs: bool = True) -> ExactGradients:
     """Outputs and Jacobians of every sub-unitary by adjoint differentiation.
 

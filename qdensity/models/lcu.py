@@ -32,11 +32,26 @@ from qdensity.execution.unary import vjp
 from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
 from qdensity.models.exact import uses_unary_engine
-from qdensity.validation import check_sequence_of
+from qdensity.models.mixtures import Mixture
+from qdensity.validation import (
+    MAX_SUBUNITARIES,
+    Array,
+    Circuit,
+    Instance,
+    Seed,
+    SequenceOf,
+    check_sequence_of,
+    validates,
+)
 
 __all__ = ["LCUQNN"]
 
 
+@validates(
+    sub_unitaries=[Circuit(min_qubits=1),
+                   SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES)],
+    mixture=[Instance(Mixture), Array(ndim=1, max_size=MAX_SUBUNITARIES), None], seed=Seed(),
+)
 class LCUQNN:
     """LCU QNN on unary data: ``p(x) = |A x|^2 / ||A x||^2``, ``A = sum_k alpha_k(x) O_k``.
 

@@ -20,17 +20,27 @@ import numpy as np
 from scipy.special import erf
 
 from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    MAX_ROWS,
+    MAX_SUBUNITARIES,
+    Array,
+    Instance,
+    Interval,
+    Options,
+    Seed,
     as_rng,
     check_distribution,
     check_entries,
     check_finite_array,
     check_positive_int,
     check_real_vector,
+    validates,
 )
 
 __all__ = ["Mixture", "FixedMixture", "SoftmaxMixture", "GatedMixture", "as_mixture", "softmax"]
 
 
+@validates(z=Array(max_size=MAX_DENSE_ENTRIES))
 def softmax(z: np.ndarray) -> np.ndarray:
     """Row-wise softmax, numerically stable. ``z`` shape (..., K)."""
     z = z - z.max(axis=-1, keepdims=True)
@@ -91,6 +101,7 @@ class Mixture(ABC):
         return 1 if X is None else int(np.atleast_2d(X).shape[0])
 
 
+@validates(alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES))
 class FixedMixture(Mixture):
     """A fixed distribution alpha (not trained).
 
@@ -108,6 +119,11 @@ class FixedMixture(Mixture):
         return np.broadcast_to(self._alpha, (self._batch(X), self.num_components)).copy()
 
 
+@validates(
+    num_components=[Interval(int, 1, MAX_SUBUNITARIES), None],
+    logits=[Array(ndim=1, max_size=MAX_SUBUNITARIES), None],
+    alpha=[Array(ndim=1, max_size=MAX_SUBUNITARIES), None],
+)
 class SoftmaxMixture(Mixture):
     """Trainable alpha = softmax(logits).
 
@@ -164,6 +180,12 @@ def _gelu(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return z * cdf, cdf + z * pdf
 
 
+@validates(
+    num_features=Interval(int, 1, MAX_ROWS), num_components=Interval(int, 1, MAX_SUBUNITARIES),
+    activation=[Options(('gelu',)), None],
+    weights=[Array(ndim=2, max_size=MAX_DENSE_ENTRIES), None],
+    bias=[Array(ndim=1, max_size=MAX_SUBUNITARIES), None], seed=Seed(),
+)
 class GatedMixture(Mixture):
     """Data-dependent mixture of experts: ``alpha(x) = softmax(act(W x + b))`` (Supp. H, eq. 26).
 
@@ -254,6 +276,10 @@ class GatedMixture(Mixture):
         return (_softmax_vjp(softmax(z), grad_alpha) * dz) @ self.weights
 
 
+@validates(
+    mixture=[Instance(Mixture), Array(ndim=1, max_size=MAX_SUBUNITARIES), None],
+    num_components=Interval(int, 1, MAX_SUBUNITARIES),
+)
 def as_mixture(mixture, num_components: int) -> Mixture:
     """A :class:`Mixture` from a Mixture, an alpha vector, or None (uniform, fixed)."""
     if mixture is None:

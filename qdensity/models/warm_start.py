@@ -15,7 +15,15 @@ import numpy as np
 from qdensity.models.decompositions import independent, trainable_parameters
 from qdensity.models.density import DensityQNN
 from qdensity.models.mixtures import FixedMixture, SoftmaxMixture
-from qdensity.validation import check_distribution
+from qdensity.validation import (
+    MAX_SUBUNITARIES,
+    Array,
+    Instance,
+    Options,
+    SequenceOf,
+    check_distribution,
+    validates,
+)
 
 __all__ = ["warm_start", "MIXTURES"]
 
@@ -23,6 +31,10 @@ __all__ = ["warm_start", "MIXTURES"]
 MIXTURES = ("softmax", "fixed")
 
 
+@validates(
+    sub_models=SequenceOf(Instance(DensityQNN), max_len=MAX_SUBUNITARIES),
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), mixture=Options(MIXTURES),
+)
 def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softmax"
                ) -> DensityQNN:
     """A density QNN whose sub-unitaries start at the angles of K trained models.

@@ -339,12 +339,16 @@ def test_unary_loader_refuses_bad_vectors(x, match):
         lambda: unary_loader_template(4, "Parallel"),
         lambda: loader_angles([1.0, 2.0], "chain"),
         lambda: matrix_loader([[1.0, 2.0]], "butterfly"),
-        lambda: distribution_loader([1.0], None),
     ],
 )
 def test_unknown_layout(call):
     with pytest.raises(ValueError, match="layout must be one of 'parallel', 'diagonal'"):
         call()
+
+
+def test_layout_of_the_wrong_type():
+    with pytest.raises(TypeError, match="layout must be one of 'parallel', 'diagonal'"):
+        distribution_loader([1.0], None)
 
 
 def test_loader_angles_refuses_bad_input():
@@ -359,7 +363,7 @@ def test_loader_angles_refuses_bad_input():
 
 
 def test_template_refuses_bad_input():
-    with pytest.raises(ValueError, match="d must be >= 2"):
+    with pytest.raises(ValueError, match="d must be an int >= 2"):
         unary_loader_template(1)
     with pytest.raises(TypeError, match="d must be an int"):
         unary_loader_template(3.0)

@@ -319,7 +319,7 @@ def _ok_counts(n=3):
 def test_bad_counts():
     with pytest.raises(ValueError, match="exactly 3"):
         reconstruct(_ok_counts()[:2], 3)
-    with pytest.raises(ValueError, match="single"):
+    with pytest.raises(TypeError, match="counts must be a list of the three circuits"):
         reconstruct(_ok_counts()[0], 3)
     with pytest.raises(TypeError, match=r"counts\[1\]"):
         reconstruct([_ok_counts()[0], [1, 2], _ok_counts()[2]], 3)

@@ -96,7 +96,7 @@ def test_cluster_addresses():
     for bad in ("locale", "local:0", "local:x", "udp://h:1", "tcp://nohost", "tcp://h:0", ""):
         with pytest.raises(ValueError, match="allowed: 'local'.*'local:N'.*tcp://HOST:PORT"):
             parse_cluster(bad)
-    with pytest.raises(TypeError, match="cluster must be a str or a distributed.Client"):
+    with pytest.raises(TypeError, match="cluster must be a str"):
         parse_cluster(4)
 
 
@@ -122,7 +122,7 @@ def test_bad_cluster_arguments(toys, capsys):
         registry.run("toy", cluster="slurm://x", progress=False)
     with pytest.raises(ValueError, match="give jobs .* or cluster .*, not both"):
         registry.run("toy", jobs=2, cluster="tcp://127.0.0.1:1", progress=False)
-    with pytest.raises(ValueError, match="retries must be a non-negative int"):
+    with pytest.raises(ValueError, match="retries must be an int >= 0"):
         registry.run("toy", retries=-1, progress=False)
     assert main(["experiment", "toy", "--cluster", "mpi://x"]) == 2
     assert "allowed: 'local'" in capsys.readouterr().err

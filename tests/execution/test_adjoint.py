@@ -265,7 +265,7 @@ def test_refuses_wide_circuits_before_allocating():
         AdjointEngine().value_and_gradient(wide, SparsePauliOp("Z" * 40), [[0.1]])
     with pytest.raises(ValueError, match=r"max_qubits = 3"):
         AdjointEngine(max_qubits=3).statevector(hardware_efficient(4, 1), np.zeros(4))
-    with pytest.raises(ValueError, match="max_qubits must be <= 30"):
+    with pytest.raises(ValueError, match="max_qubits must be an int >= 1 and <= 30"):
         AdjointEngine(max_qubits=31)
 
 

@@ -215,7 +215,7 @@ def test_budget_too_small():
         proportional(alpha, 2, PlusMinusSource(np.zeros(4)), seed=0)
     with pytest.raises(ValueError, match=r"budget must be >= 9"):
         neyman(alpha, 8, PlusMinusSource(np.zeros(4)), seed=0)
-    with pytest.raises(ValueError, match="budget must be >= 1"):
+    with pytest.raises(ValueError, match="budget must be an int >= 1"):
         per_shot(alpha, 0, PlusMinusSource(np.zeros(4)), seed=0)
     with pytest.raises(ValueError, match="budget"):
         allocate_proportional(alpha, 2)
@@ -621,7 +621,7 @@ def test_sampler_source_transpiled_circuits_with_given_sampler():
 
 def test_sampler_source_bad_input():
     circuits = _ry_circuits()
-    with pytest.raises(TypeError, match="sequence"):
+    with pytest.raises(TypeError, match="circuits must be a list or tuple"):
         sampler_source(circuits[0], _z_value)
     with pytest.raises(TypeError, match=r"circuits\[1\]"):
         sampler_source([circuits[0], "x"], _z_value)

@@ -39,7 +39,7 @@ def test_noise_on_a_snapshot_file_equals_the_device_it_was_saved_from(tmp_path):
 
 def test_noise_refuses_a_bad_snapshot_file_by_setting(tmp_path):
     missing = tmp_path / "missing.json"
-    with pytest.raises(ValueError, match=r"setting 'target'.*missing\.json.*does not exist"):
+    with pytest.raises(ValueError, match=r"setting 'target'.*existing file.*missing\.json"):
         noise.check_config(dict(noise.QUICK, target=str(missing)))
     foreign = tmp_path / "other.json"
     foreign.write_text(json.dumps({"format": "something else"}))

@@ -107,7 +107,8 @@ def test_full_mode_uses_its_settings_and_seed_count(toy):
 
 @pytest.mark.parametrize("jobs", [0, -1, 1.5, True])
 def test_bad_jobs(toy, jobs):
-    with pytest.raises(ValueError, match="jobs must be a positive int"):
+    error = TypeError if isinstance(jobs, (bool, float)) else ValueError  # wrong type, or value
+    with pytest.raises(error, match="jobs must be an int >= 1"):
         registry.run("toy", jobs=jobs, progress=False)
 
 

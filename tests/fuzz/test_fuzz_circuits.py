@@ -38,12 +38,12 @@ LAYOUTS = ["parallel", "diagonal", "semi_diagonal"]
 @pytest.mark.parametrize("theta", [math.inf, -math.inf, math.nan])
 def test_found_rbs_fbs_non_finite_angles_refused(theta):
     for make in (RBSGate, lambda t: FBSGate(t, 2), rbs_matrix, lambda t: fbs_matrix(t, 3)):
-        with pytest.raises(ValueError, match="theta must be finite"):
+        with pytest.raises(ValueError, match="theta must be a finite real number"):
             make(theta)
 
 
 def test_found_rbs_string_angle_is_a_type_error():
-    with pytest.raises(TypeError, match="theta must be a real number"):
+    with pytest.raises(TypeError, match="theta must be a finite real number"):
         RBSGate("a")
 
 

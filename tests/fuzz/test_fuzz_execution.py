@@ -45,9 +45,9 @@ def test_found_zero_parameter_rows_refused_before_aer():
 
 
 def test_found_engine_options_refused():
-    with pytest.raises(ValueError, match="optimization_level must be 0, 1, 2 or 3"):
+    with pytest.raises(ValueError, match="optimization_level must be one of 0, 1, 2, 3"):
         SamplerEngine(optimization_level=7)
-    with pytest.raises(ValueError, match="device must be 'CPU' or 'GPU'"):
+    with pytest.raises(ValueError, match="device must be one of 'CPU', 'GPU'"):
         ExactEngine(device="TPU")
 
 

@@ -228,7 +228,7 @@ def test_adjoint_engine_instance_and_outputs_agree_with_aer():
     np.testing.assert_allclose(own.forward(X), given.forward(X), atol=1e-14)
     with pytest.raises(ValueError, match="'auto', 'unary', 'statevector' or 'aer'"):
         model.expert_outputs(X, method="gpu")
-    with pytest.raises(ValueError, match="AdjointEngine, an ExactEngine or a SamplerEngine"):
+    with pytest.raises(ValueError, match="engine must be 'exact' or an AdjointEngine, ExactEngine"):
         QuantumLayer(model, engine="fast")
 
 
@@ -262,7 +262,7 @@ def test_warm_start_outputs_are_the_mixture_of_the_trained_models():
 def test_warm_start_refuses_bad_input():
     a = DensityQNN([reuploading(1, parameter_prefix="a")])
     b = DensityQNN([reuploading(1, parameter_prefix="b")])
-    with pytest.raises(ValueError, match="at least one"):
+    with pytest.raises(ValueError, match="sub_models must be a list or tuple of 1 to"):
         warm_start([], [])
     with pytest.raises(ValueError, match="one weight per sub-model"):
         warm_start([a, b], [1.0])

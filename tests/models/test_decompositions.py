@@ -211,7 +211,7 @@ def test_copies_and_independent():
     assert trainable_parameters(qc) == list(theta)
     with pytest.raises(ValueError, match="num_copies"):
         copies(qc, 0)
-    with pytest.raises(ValueError, match="K >= 1"):
+    with pytest.raises(ValueError, match="circuits must be a list or tuple of 1 to"):
         independent([])
     with pytest.raises(TypeError, match=r"circuits\[1\]"):
         independent([qc, "nope"])

@@ -226,7 +226,7 @@ def test_decomposition_parameter_counts():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"sub_unitaries": []}, "K >= 1"),
+        ({"sub_unitaries": []}, "list or tuple of 1 to"),
         ({"sub_unitaries": [round_robin(3), round_robin(4)]}, "same width"),
         ({"sub_unitaries": [round_robin(3)], "mixture": [0.5, 0.6]}, "sum to 1"),
         ({"sub_unitaries": [round_robin(3)] * 2, "mixture": [-0.5, 1.5]}, "non-negative"),

@@ -30,7 +30,18 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.circuits._copying import _gate_copy
 from qdensity.datasets.bars_and_dots import bars_and_dots
-from qdensity.validation import check_layers, check_num_qubits, check_positive_int
+from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    Instance,
+    Interval,
+    Layers,
+    Options,
+    Qubits,
+    check_layers,
+    check_num_qubits,
+    check_positive_int,
+    validates,
+)
 
 __all__ = [
     "translation_classes",
@@ -65,6 +76,7 @@ def _canonical(supports: np.ndarray, n: int) -> np.ndarray:
     return best
 
 
+@validates(num_qubits=Qubits(1), max_weight=Interval(int, 1, MAX_CIRCUIT_QUBITS))
 def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int, ...]]]:
     """Orbits of qubit subsets of size ``1 .. max_weight`` under the cyclic shift of a ring.
 
@@ -138,6 +150,10 @@ def _append_string(qc: QuantumCircuit, pauli: str, support: tuple[int, ...], tim
     qc.append(PauliEvolutionGate(op, time=time), list(support))
 
 
+@validates(
+    num_qubits=Qubits(2), pauli=Options(PAULIS), max_weight=Interval(int, 1, MAX_CIRCUIT_QUBITS),
+    parameter_prefix=Instance(str), name=[Instance(str), None],
+)
 def equivariant_commuting(
     num_qubits: int,
     pauli: str = "X",
@@ -223,6 +239,10 @@ def _distance_classes(n: int) -> list[list[tuple[int, ...]]]:
     return out
 
 
+@validates(
+    num_qubits=Qubits(2), layers=Layers(), parameter_prefix=Instance(str),
+    name=[Instance(str), None],
+)
 def equivariant_noncommuting(
     num_qubits: int,
     layers: int,
@@ -282,6 +302,7 @@ def equivariant_noncommuting(
     return qc
 
 
+@validates(num_qubits=Qubits(1), parameter_prefix=Instance(str))
 def angle_encoding(num_qubits: int, *, parameter_prefix: str = "x") -> QuantumCircuit:
     """Angle encoding ``|x> = ⊗_i R_y(π x_i / 2)|0>`` (Methods, "Equivariant density QNN").
 
@@ -313,6 +334,7 @@ def angle_encoding(num_qubits: int, *, parameter_prefix: str = "x") -> QuantumCi
     return qc
 
 
+@validates(num_qubits=Qubits(1))
 def equivariant_observable(num_qubits: int) -> SparsePauliOp:
     """The translation-invariant observable ``H = Σ_i Z_i`` (Methods; model output ``Tr(H ρ)``).
 

@@ -24,7 +24,16 @@ from collections.abc import Iterable
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.circuits.gates import FBSGate, RBSGate
-from qdensity.validation import check_num_qubits
+from qdensity.validation import (
+    MAX_LAYERS,
+    Instance,
+    Options,
+    Qubits,
+    SequenceOf,
+    Unchecked,
+    check_num_qubits,
+    validates,
+)
 
 __all__ = ["pyramid", "x_circuit", "butterfly", "round_robin", "pairs_circuit"]
 
@@ -33,6 +42,13 @@ def _check_n(n: int, minimum: int = 2) -> int:
     return check_num_qubits(n, minimum=minimum)
 
 
+@validates(
+    num_qubits=Qubits(2),
+    layers=SequenceOf(Unchecked('pairs checked against num_qubits in the body'), min_len=0,
+                      max_len=MAX_LAYERS),
+    gate=Options(('rbs', 'fbs')), parameter_prefix=Instance(str), name=Instance(str),
+    insert_barriers=Instance(bool),
+)
 def pairs_circuit(
     num_qubits: int,
     layers: Iterable[Iterable[tuple[int, int]]],
@@ -86,6 +102,7 @@ def pairs_circuit(
     return qc
 
 
+@validates(num_qubits=Qubits(2))
 def pyramid(num_qubits: int, **kwargs) -> QuantumCircuit:
     """Pyramid ansatz (Landman et al.; paper Fig. 9a): nearest-neighbour RBS gates.
 
@@ -118,6 +135,7 @@ def pyramid(num_qubits: int, **kwargs) -> QuantumCircuit:
     return pairs_circuit(n, layers, name=f"pyramid_{n}", **kwargs)
 
 
+@validates(num_qubits=Qubits(2))
 def x_circuit(num_qubits: int, **kwargs) -> QuantumCircuit:
     """X ansatz (Cherrat et al.; paper Fig. 9b): two nearest-neighbour diagonals that cross.
 
@@ -145,6 +163,7 @@ def x_circuit(num_qubits: int, **kwargs) -> QuantumCircuit:
     return pairs_circuit(n, layers, name=f"x_{n}", **kwargs)
 
 
+@validates(num_qubits=Qubits(2))
 def butterfly(num_qubits: int, **kwargs) -> QuantumCircuit:
     """Butterfly ansatz (Cherrat et al.; paper Fig. 9c), FFT-like connectivity.
 
@@ -179,6 +198,7 @@ def butterfly(num_qubits: int, **kwargs) -> QuantumCircuit:
     return pairs_circuit(n, layers, name=f"butterfly_{n}", **kwargs)
 
 
+@validates(num_qubits=Qubits(2))
 def round_robin_pairs(num_qubits: int) -> list[list[tuple[int, int]]]:
     """Rounds of the circle method: every pair of ``n`` players meets exactly once.
 
@@ -207,6 +227,7 @@ def round_robin_pairs(num_qubits: int) -> list[list[tuple[int, int]]]:
     return rounds
 
 
+@validates(num_qubits=Qubits(2))
 def round_robin(num_qubits: int, **kwargs) -> QuantumCircuit:
     """Round-robin ansatz (Hamze et al.; paper Fig. 9d, Fig. 6).
 

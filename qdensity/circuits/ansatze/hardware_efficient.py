@@ -14,7 +14,16 @@ from collections.abc import Sequence
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from qdensity.validation import check_layers, check_num_qubits
+from qdensity.validation import (
+    Instance,
+    Layers,
+    Options,
+    Qubits,
+    SequenceOf,
+    check_layers,
+    check_num_qubits,
+    validates,
+)
 
 __all__ = ["hardware_efficient", "ROTATIONS", "ENTANGLEMENTS"]
 
@@ -52,6 +61,12 @@ def _check_rotations(rotations: str | Sequence[str]) -> tuple[str, ...]:
     return tuple(r.lower() for r in rots)
 
 
+@validates(
+    num_qubits=Qubits(2), reps=Layers(),
+    rotations=[Options(ROTATIONS), SequenceOf(Options(ROTATIONS), max_len=len(ROTATIONS))],
+    entanglement=Options(ENTANGLEMENTS), parameter_prefix=Instance(str),
+    insert_barriers=Instance(bool), name=[Instance(str), None],
+)
 def hardware_efficient(
     num_qubits: int,
     reps: int,

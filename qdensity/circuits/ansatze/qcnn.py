@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
-from qdensity.validation import check_num_qubits
+from qdensity.validation import Instance, Qubits, check_num_qubits, validates
 
 __all__ = [
     "qcnn",
@@ -48,6 +48,7 @@ def _check_n(num_qubits: int) -> int:
     return check_num_qubits(num_qubits, minimum=2)
 
 
+@validates(num_qubits=Qubits(2))
 def qcnn_layers(num_qubits: int) -> list[tuple[list[tuple[int, int]], list[tuple[int, int]]]]:
     """Qubit pairs of every QCNN layer: ``(convolution edges, pooling (discarded, kept))``.
 
@@ -79,6 +80,7 @@ def qcnn_layers(num_qubits: int) -> list[tuple[list[tuple[int, int]], list[tuple
     return out
 
 
+@validates(num_qubits=Qubits(2))
 def qcnn_readout_qubit(num_qubits: int) -> int:
     """The qubit left active after the last pooling layer (measure ``Z`` there).
 
@@ -116,6 +118,10 @@ def _pool_block(qc: QuantumCircuit, psi, control: int, target: int) -> None:
     qc.x(control)
 
 
+@validates(
+    num_qubits=Qubits(2), parameter_prefix=Instance(str), insert_barriers=Instance(bool),
+    name=[Instance(str), None],
+)
 def qcnn(
     num_qubits: int,
     *,

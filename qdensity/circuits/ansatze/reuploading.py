@@ -13,7 +13,7 @@ from __future__ import annotations
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.datasets.chebyshev import chebyshev_dataset
-from qdensity.validation import check_layers
+from qdensity.validation import Instance, Layers, Options, check_layers, validates
 
 __all__ = ["reuploading", "chebyshev_dataset", "ENCODINGS"]
 
@@ -21,6 +21,10 @@ __all__ = ["reuploading", "chebyshev_dataset", "ENCODINGS"]
 ENCODINGS = ("rx", "ry")
 
 
+@validates(
+    layers=Layers(), encoding=Options(ENCODINGS), parameter_prefix=Instance(str),
+    data_prefix=Instance(str), name=[Instance(str), None],
+)
 def reuploading(
     layers: int,
     *,

@@ -27,7 +27,7 @@ from qiskit.circuit.library.standard_gates import get_standard_gate_name_mapping
 from qiskit.quantum_info import Operator, SparsePauliOp
 
 from qdensity.circuits.preparation._common import _NON_UNITARY, _PASS_THROUGH, DATA_REGISTER
-from qdensity.validation import check_circuit
+from qdensity.validation import Circuit, check_circuit, validates
 
 __all__ = ["controlled_subunitary"]
 
@@ -245,6 +245,7 @@ def _is_recursable(op: Instruction, definition: QuantumCircuit) -> bool:
     return all(not inst.clbits for inst in definition.data)
 
 
+@validates(circuit=Circuit(min_qubits=1))
 def controlled_subunitary(circuit: QuantumCircuit) -> QuantumCircuit:
     """Controlled-``U`` for a sub-unitary circuit ``U``, gate by gate (Fig. 1b, Fig. 13a).
 

@@ -22,10 +22,15 @@ from qdensity.circuits.preparation._common import (
 from qdensity.circuits.preparation.deterministic import deterministic_circuit
 from qdensity.circuits.preparation.lcu import lcu_circuit
 from qdensity.circuits.preparation.randomised import randomised_circuits
+from qdensity.validation import MAX_SUBUNITARIES, Array, Circuit, SequenceOf, validates
 
 __all__ = ["PreparationCircuits", "prepare_all"]
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    loader=[Circuit(min_qubits=1), None],
+)
 @dataclass(frozen=True)
 class PreparationCircuits:
     """The three preparations of one density QNN (Fig. 1a, b, c), validated once.
@@ -105,6 +110,10 @@ class PreparationCircuits:
         }
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES),
+    alpha=Array(ndim=1), loader=[Circuit(min_qubits=1), None],
+)
 def prepare_all(
     sub_unitaries: Sequence[QuantumCircuit],
     alpha,

@@ -19,10 +19,15 @@ from qdensity.circuits.preparation._common import (
     _mix_and_data,
 )
 from qdensity.circuits.preparation._controlled import _append_controlled_circuit
+from qdensity.validation import MAX_SUBUNITARIES, Array, Circuit, SequenceOf, validates
 
 __all__ = ["deterministic_circuit"]
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    loader=[Circuit(min_qubits=1), None],
+)
 def deterministic_circuit(
     sub_unitaries: Sequence[QuantumCircuit],
     alpha,

@@ -18,11 +18,24 @@ from qdensity.circuits.preparation._common import (
     _check_sub_unitaries,
     _mix_and_data,
 )
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_SUBUNITARIES,
+    Array,
+    Circuit,
+    Interval,
+    SequenceOf,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["hw_generative_circuit"]
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    start_qubit=Interval(int, 0, MAX_CIRCUIT_QUBITS),
+)
 def hw_generative_circuit(
     sub_unitaries: Sequence[QuantumCircuit], alpha, start_qubit: int = 0
 ) -> QuantumCircuit:

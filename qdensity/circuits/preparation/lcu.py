@@ -25,11 +25,23 @@ from qdensity.circuits.preparation._common import (
 )
 from qdensity.circuits.preparation._controlled import _append_controlled_circuit
 from qdensity.circuits.preparation.deterministic import deterministic_circuit
-from qdensity.validation import check_circuit
+from qdensity.validation import (
+    MAX_SUBUNITARIES,
+    Array,
+    Circuit,
+    Instance,
+    SequenceOf,
+    check_circuit,
+    validates,
+)
 
 __all__ = ["lcu_circuit", "lcu_template", "lcu_success_probability", "lcu_postselected_state"]
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    loader=[Circuit(min_qubits=1), None],
+)
 def lcu_circuit(
     sub_unitaries: Sequence[QuantumCircuit],
     alpha,
@@ -71,6 +83,10 @@ def lcu_circuit(
     return qc
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES),
+    loader=[Circuit(min_qubits=1), None], parameter_prefix=Instance(str),
+)
 def lcu_template(
     sub_unitaries: Sequence[QuantumCircuit],
     loader: QuantumCircuit | None = None,
@@ -166,6 +182,10 @@ def _data_statevector(data_state, width: int) -> Statevector:
     )
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    data_state=[Instance(Statevector), Circuit(min_qubits=1), None],
+)
 def lcu_success_probability(
     sub_unitaries: Sequence[QuantumCircuit],
     alpha,
@@ -205,6 +225,10 @@ def lcu_success_probability(
     return float(np.vdot(out, out).real)
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES), alpha=Array(ndim=1),
+    loader=[Circuit(min_qubits=1), None],
+)
 def lcu_postselected_state(
     sub_unitaries: Sequence[QuantumCircuit],
     alpha,

@@ -17,10 +17,15 @@ from qdensity.circuits.preparation._common import (
     _check_parameter_names,
     _check_sub_unitaries,
 )
+from qdensity.validation import MAX_SUBUNITARIES, Circuit, SequenceOf, validates
 
 __all__ = ["randomised_circuits"]
 
 
+@validates(
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES),
+    loader=[Circuit(min_qubits=1), None],
+)
 def randomised_circuits(
     sub_unitaries: Sequence[QuantumCircuit], loader: QuantumCircuit | None = None
 ) -> list[QuantumCircuit]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from qdensity.circuits.tomography._common import _check_delta, _check_p_fail
-from qdensity.validation import check_positive_int
+from qdensity.validation import Interval, Qubits, check_positive_int, validates
 
 __all__ = ["shots_for_error", "SIGN_FACTOR"]
 
@@ -18,6 +18,10 @@ __all__ = ["shots_for_error", "SIGN_FACTOR"]
 SIGN_FACTOR = 1.0 + 4.0 * math.sqrt(2.0)
 
 
+@validates(
+    delta=Interval(float, 0, None, closed='neither'), num_qubits=Qubits(2),
+    p_fail=Interval(float, 0, 1, closed='neither'),
+)
 def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     r"""Shots per tomography circuit for l-infinity error ``<= delta`` w.p. ``>= 1 - p_fail``.
 

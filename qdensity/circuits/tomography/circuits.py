@@ -15,7 +15,14 @@ from qiskit.circuit import QuantumCircuit
 from qdensity.circuits.gates import RBSGate
 from qdensity.circuits.measure import measured
 from qdensity.circuits.tomography._common import _REGISTER, _check_pairs, _layer_pairs
-from qdensity.validation import check_circuit
+from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    Circuit,
+    Interval,
+    SequenceOf,
+    check_circuit,
+    validates,
+)
 
 __all__ = ["tomography_circuits", "bridge_circuit"]
 
@@ -39,6 +46,7 @@ def _measured(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]], name: s
     return measured(out, _REGISTER)
 
 
+@validates(circuit=Circuit(min_qubits=2))
 def tomography_circuits(circuit: QuantumCircuit) -> list[QuantumCircuit]:
     """The three measured circuits of unary l-infinity tomography (Supp. F, Landman Fig. 18).
 
@@ -73,6 +81,11 @@ def tomography_circuits(circuit: QuantumCircuit) -> list[QuantumCircuit]:
     ]
 
 
+@validates(
+    circuit=Circuit(min_qubits=2),
+    pairs=SequenceOf(SequenceOf(Interval(int, 0, MAX_CIRCUIT_QUBITS), min_len=2, max_len=2),
+                     min_len=0),
+)
 def bridge_circuit(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]) -> QuantumCircuit:
     """An extra tomography circuit with ``RBS(pi/4)`` on arbitrary disjoint qubit pairs.
 

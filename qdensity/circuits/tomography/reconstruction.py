@@ -22,7 +22,16 @@ from qdensity.circuits.tomography._common import (
     _sqrt_error,
 )
 from qdensity.circuits.tomography.bounds import SIGN_FACTOR
-from qdensity.validation import check_positive_int
+from qdensity.validation import (
+    Array,
+    Instance,
+    Interval,
+    Qubits,
+    SequenceOf,
+    Unchecked,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["TomographyResult", "reconstruct", "bridge_pairs"]
 
@@ -107,6 +116,12 @@ def _shots_value(total: float) -> int | float:
 
 
 # ----------------------------------------------------------------------------- result
+@validates(
+    amplitudes=Array(ndim=1), magnitudes=Array(ndim=1), signs=Array(ndim=1), shots=Instance(tuple),
+    kept_fraction=Instance(tuple), error_estimate=Interval(float, 0), components=Instance(tuple),
+    negligible=Instance(tuple), magnitude_error=Interval(float, 0), delta=Interval(float, 0),
+    p_fail=Interval(float, 0, 1, closed='neither'),
+)
 @dataclass(frozen=True)
 class TomographyResult:
     """Outcome of :func:`reconstruct`.
@@ -186,6 +201,13 @@ class _SignedUnionFind:
             self.parity[rb] = pa ^ pb ^ opposite
 
 
+@validates(
+    counts=Instance((list, tuple), 'list of the three circuits\' counts (mappings or BitArrays)'),
+    num_qubits=Qubits(2), postselect=Instance(bool),
+    delta=[Interval(float, 0, None, closed='neither'), None],
+    p_fail=Interval(float, 0, 1, closed='neither'),
+    extra=[SequenceOf(Unchecked('each (pairs, counts) checked in the body'), min_len=0), None],
+)
 def reconstruct(
     counts: Sequence,
     num_qubits: int,
@@ -329,6 +351,7 @@ def reconstruct(
     )
 
 
+@validates(result=Instance(TomographyResult))
 def bridge_pairs(result: TomographyResult) -> list[list[tuple[int, int]]]:
     """Pairs for :func:`bridge_circuit` that join the sign components of a result.
 

@@ -16,8 +16,13 @@ import weakref
 import numpy as np
 
 from qdensity.execution.job_results import JobResult
+from qdensity.validation import MAX_ROWS, MAX_SHOTS, Instance, Interval, validates
 
 
+@validates(
+    bitarray=Instance('qiskit.primitives:BitArray'), rows=Interval(int, 1, MAX_ROWS),
+    shots=[Interval(int, 1, MAX_SHOTS), None],
+)
 def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
     """The measured bits of a ``BitArray`` holding ``rows * shots`` samples.
 

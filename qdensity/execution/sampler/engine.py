@@ -38,16 +38,27 @@ from qdensity.hardware.aer_sampling import (
     aer_seed,
     check_memory,
 )
+from qdensity.hardware.mitigation import MITIGATIONS, POSTSELECTIONS
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
+    MAX_ROWS,
+    MAX_SHOTS,
+    CallableC,
+    Instance,
+    Interval,
+    Options,
+    Seed,
     SeedLike,
+    SequenceOf,
+    TargetLike,
     check_callable,
     check_positive_int,
     check_sequence_of,
     check_target,
     check_type,
     seed_int,
+    validates,
 )
 
 __all__ = [
@@ -59,6 +70,7 @@ __all__ = [
 ]
 
 
+@validates(label=Instance(str), circuits=Interval(int, 0), shots=Interval(int, 0))
 @dataclass
 class LedgerEntry:
     """One sampled job: what it was for, how many circuits (rows) and shots it spent, and
@@ -71,6 +83,7 @@ class LedgerEntry:
     sampler: str = ""
 
 
+@validates(entries=SequenceOf(Instance(LedgerEntry), min_len=0))
 @dataclass
 class ShotLedger:
     """Running account of every sampled execution.
@@ -118,6 +131,10 @@ class ShotLedger:
         return "\n".join(lines)
 
 
+@validates(
+    bitarray=Instance('qiskit.primitives:BitArray'), rows=Interval(int, 1, MAX_ROWS),
+    shots=[Interval(int, 1, MAX_SHOTS), None],
+)
 def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
     """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
 
@@ -142,6 +159,14 @@ def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> 
     return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 
 
+@validates(
+    sampler=[Instance('qiskit.primitives:BaseSamplerV2'), None], target=[TargetLike(), None],
+    transpiler=[CallableC('a callable QuantumCircuit -> QuantumCircuit'), None], seed=Seed(),
+    ledger=[Instance(ShotLedger), None], default_shots=Interval(int, 1, MAX_SHOTS),
+    optimization_level=Options((0, 1, 2, 3)), progress=Instance((bool, np.bool_), 'bool'),
+    mitigation=[Options(MITIGATIONS), None], postselect=[Options(POSTSELECTIONS), None],
+    calibration_shots=Interval(int, 1, MAX_SHOTS),
+)
 class SamplerEngine:
     """Shots through a ``BaseSamplerV2``, one PUB per template, transpiled once.
 

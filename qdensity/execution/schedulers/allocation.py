@@ -11,7 +11,16 @@ from __future__ import annotations
 import numpy as np
 
 from qdensity.execution.schedulers._common import _check_budget, _check_shots
-from qdensity.validation import check_distribution, check_positive_int, check_real_vector
+from qdensity.validation import (
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Array,
+    Interval,
+    check_distribution,
+    check_positive_int,
+    check_real_vector,
+    validates,
+)
 
 __all__ = ["allocate_proportional", "allocate_neyman", "stratified_variance", "per_shot_variance"]
 
@@ -59,6 +68,10 @@ def _round_allocation(
     return alloc
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), budget=Interval(int, 1, MAX_SHOTS),
+    minimum=Interval(int, 1, MAX_SHOTS),
+)
 def allocate_proportional(alpha, budget: int, *, minimum: int = 1) -> np.ndarray:
     """Integer shots ``n_k ~ alpha_k * budget`` summing to exactly ``budget``.
 
@@ -97,6 +110,10 @@ def allocate_proportional(alpha, budget: int, *, minimum: int = 1) -> np.ndarray
     return _round_allocation(alpha, positive, budget, minimum)
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), sigma=Array(ndim=1, max_size=MAX_SUBUNITARIES),
+    budget=Interval(int, 1, MAX_SHOTS), minimum=Interval(int, 1, MAX_SHOTS),
+)
 def allocate_neyman(alpha, sigma, budget: int, *, minimum: int = 1) -> np.ndarray:
     """Neyman allocation ``n_k ~ alpha_k sigma_k``, integer, summing to exactly ``budget``.
 
@@ -148,6 +165,11 @@ def allocate_neyman(alpha, sigma, budget: int, *, minimum: int = 1) -> np.ndarra
     return _round_allocation(weights, positive, budget, minimum)
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES),
+    variances=Array(ndim=1, max_size=MAX_SUBUNITARIES),
+    allocation=Array(ndim=1, max_size=MAX_SUBUNITARIES),
+)
 def stratified_variance(alpha, variances, allocation) -> float:
     """Variance of the stratified estimator ``sum_k alpha_k mean_k``: ``sum alpha_k^2 v_k / n_k``.
 
@@ -176,6 +198,10 @@ def stratified_variance(alpha, variances, allocation) -> float:
     return float(np.sum(alpha[pos] ** 2 * var[pos] / n[pos]))
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), means=Array(ndim=1, max_size=MAX_SUBUNITARIES),
+    variances=Array(ndim=1, max_size=MAX_SUBUNITARIES), budget=Interval(int, 1, MAX_SHOTS),
+)
 def per_shot_variance(alpha, means, variances, budget: int) -> float:
     """Variance of the per-shot protocol's estimate (mean of ``budget`` i.i.d. shots).
 

@@ -13,7 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
-from qdensity.validation import SeedLike
+from qdensity.validation import Array, Instance, Interval, SeedLike, validates
 
 __all__ = ["ScheduleResult", "ShotSource", "Scheduler"]
 
@@ -21,6 +21,12 @@ ShotSource = Callable[..., Sequence[np.ndarray]]
 """``source(shots_per_k: ndarray[int] (K,), rng: Generator | None) -> list of K value arrays``."""
 
 
+@validates(
+    name=Instance(str), estimate=Interval(float), standard_error=Interval(float, 0),
+    allocation=Array(ndim=1, dtype='int', min_size=0),
+    per_subunitary=Array(ndim=1, min_size=0, finite=False), shots_used=Interval(int, 0),
+    pilot_allocation=[Array(ndim=1, dtype='int', min_size=0), None], info=Instance(dict),
+)
 @dataclass(frozen=True)
 class ScheduleResult:
     """What a scheduler spent and what it estimated.

@@ -22,11 +22,27 @@ from qdensity.execution.schedulers._common import (
 )
 from qdensity.execution.schedulers.allocation import allocate_neyman, allocate_proportional
 from qdensity.execution.schedulers.base import ScheduleResult, ShotSource
-from qdensity.validation import SeedLike, as_rng, check_distribution
+from qdensity.validation import (
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Array,
+    CallableC,
+    Interval,
+    Seed,
+    SeedLike,
+    SequenceOf,
+    as_rng,
+    check_distribution,
+    validates,
+)
 
 __all__ = ["NeymanScheduler", "neyman"]
 
 
+@validates(
+    pilot_fraction=Interval(float, 0, 1, closed='neither'),
+    value_range=SequenceOf(Interval(float), min_len=2, max_len=2), prior_weight=Interval(float, 0),
+)
 @dataclass(frozen=True)
 class NeymanScheduler:
     """Two-phase stratified sampling: a pilot, then Neyman allocation ``n_k ~ alpha_k sigma_k``.
@@ -152,6 +168,12 @@ class NeymanScheduler:
         )
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), budget=Interval(int, 1, MAX_SHOTS),
+    source=CallableC('a callable source(shots_per_k, rng) -> K value arrays'), seed=Seed(),
+    pilot_fraction=Interval(float, 0, 1, closed='neither'),
+    value_range=SequenceOf(Interval(float), min_len=2, max_len=2), prior_weight=Interval(float, 0),
+)
 def neyman(
     alpha,
     budget: int,

@@ -13,11 +13,25 @@ import numpy as np
 from qdensity.execution.intervals import wilson_standard_error
 from qdensity.execution.schedulers._common import _check_value_range, _draw, _means
 from qdensity.execution.schedulers.base import ScheduleResult, ShotSource
-from qdensity.validation import SeedLike, as_rng, check_distribution, check_positive_int
+from qdensity.validation import (
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Array,
+    CallableC,
+    Interval,
+    Seed,
+    SeedLike,
+    SequenceOf,
+    as_rng,
+    check_distribution,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["PerShotScheduler", "per_shot"]
 
 
+@validates(value_range=SequenceOf(Interval(float), min_len=2, max_len=2))
 @dataclass(frozen=True)
 class PerShotScheduler:
     """The physical protocol of Fig. 1c: each shot draws its sub-unitary ``k ~ alpha``.
@@ -65,6 +79,11 @@ class PerShotScheduler:
         )
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), budget=Interval(int, 1, MAX_SHOTS),
+    source=CallableC('a callable source(shots_per_k, rng) -> K value arrays'), seed=Seed(),
+    value_range=SequenceOf(Interval(float), min_len=2, max_len=2),
+)
 def per_shot(
     alpha,
     budget: int,

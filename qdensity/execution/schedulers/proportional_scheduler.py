@@ -19,11 +19,24 @@ from qdensity.execution.schedulers._common import (
 )
 from qdensity.execution.schedulers.allocation import allocate_proportional
 from qdensity.execution.schedulers.base import ScheduleResult, ShotSource
-from qdensity.validation import SeedLike, as_rng, check_distribution
+from qdensity.validation import (
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Array,
+    CallableC,
+    Interval,
+    Seed,
+    SeedLike,
+    SequenceOf,
+    as_rng,
+    check_distribution,
+    validates,
+)
 
 __all__ = ["ProportionalScheduler", "proportional"]
 
 
+@validates(value_range=SequenceOf(Interval(float), min_len=2, max_len=2))
 @dataclass(frozen=True)
 class ProportionalScheduler:
     """Stratified sampling with proportional allocation.
@@ -72,6 +85,11 @@ class ProportionalScheduler:
         )
 
 
+@validates(
+    alpha=Array(ndim=1, max_size=MAX_SUBUNITARIES), budget=Interval(int, 1, MAX_SHOTS),
+    source=CallableC('a callable source(shots_per_k, rng) -> K value arrays'), seed=Seed(),
+    value_range=SequenceOf(Interval(float), min_len=2, max_len=2),
+)
 def proportional(
     alpha,
     budget: int,

@@ -17,12 +17,22 @@ from qdensity.execution.sampler._independent import run_independent
 from qdensity.execution.schedulers._common import _check_shots
 from qdensity.execution.schedulers.base import ShotSource
 from qdensity.validation import (
+    MAX_DENSE_ENTRIES,
+    MAX_SUBUNITARIES,
+    Array,
+    CallableC,
+    Circuit,
+    Instance,
+    Seed,
     SeedLike,
+    SequenceOf,
+    Unchecked,
     as_rng,
     check_circuit,
     check_distribution,
     check_parameter_values,
     seed_int,
+    validates,
 )
 
 __all__ = ["discrete_source", "sampler_source"]
@@ -30,6 +40,10 @@ __all__ = ["discrete_source", "sampler_source"]
 _MAX_CLBITS = 63  # outcomes are packed into int64
 
 
+@validates(
+    probabilities=Array(ndim=2, max_size=MAX_DENSE_ENTRIES),
+    values=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), seed=Seed(),
+)
 def discrete_source(probabilities, values, seed: SeedLike = None) -> ShotSource:
     """A synthetic shot source: sub-unitary ``k`` yields ``values[j]`` with ``probabilities[k, j]``.
 
@@ -102,6 +116,13 @@ def _outcome_ints(pub_result, circuit: QuantumCircuit) -> np.ndarray:
     return ints
 
 
+@validates(
+    circuits=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES),
+    values_fn=CallableC('a callable outcomes -> values'),
+    sampler=[Instance('qiskit.primitives:BaseSamplerV2'), None], seed=Seed(),
+    parameter_values=[SequenceOf(Unchecked('rows checked against each circuit in the body'),
+                                 min_len=0), None],
+)
 def sampler_source(
     circuits: Sequence[QuantumCircuit],
     values_fn: Callable[[np.ndarray], np.ndarray],

@@ -43,10 +43,13 @@ from qdensity.execution.statevector import _kernels
 from qdensity.execution.statevector import _torch as _on_torch
 from qdensity.execution.statevector._program import Program, compile_program, real_dot
 from qdensity.validation import (
+    Interval,
+    Options,
     as_parameter_rows,
     check_circuit,
     check_positive_int,
     check_sequence_of,
+    validates,
 )
 
 __all__ = ["AdjointEngine", "MAX_QUBITS", "BACKENDS"]
@@ -100,6 +103,10 @@ class _Observable:
         return out
 
 
+@validates(
+    max_qubits=Interval(int, 1, _CEILING), memory_budget=Interval(int, 1, 2**40),
+    backend=Options(BACKENDS),
+)
 class AdjointEngine:
     """Exact statevector values and adjoint gradients, batched over parameter rows.
 

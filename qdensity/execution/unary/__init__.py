@@ -55,7 +55,17 @@ from qdensity.execution.unary._inputs import values as _values
 from qdensity.execution.unary._layers import Layer, check_gate_list, schedule
 from qdensity.execution.unary._plan import Plan, make_plan, reverse
 from qdensity.execution.unary._plan import rotate_columns as _rotate
-from qdensity.validation import check_circuit
+from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_DENSE_ENTRIES,
+    Array,
+    Circuit,
+    Instance,
+    Options,
+    Qubits,
+    SequenceOf,
+    validates,
+)
 
 __all__ = [
     "UnaryCircuit",
@@ -69,6 +79,12 @@ __all__ = [
 _IGNORED = frozenset({"barrier"})
 
 
+@validates(
+    num_qubits=Qubits(1), parameters=SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0),
+    first=Array(ndim=1, dtype='int', min_size=0), second=Array(ndim=1, dtype='int', min_size=0),
+    parameter_index=Array(ndim=1, dtype='int', min_size=0), coefficient=Array(ndim=1, min_size=0),
+    offset=Array(ndim=1, min_size=0),
+)
 @dataclass(frozen=True)
 class UnaryCircuit:
     """A compiled RBS / FBS circuit: the Givens rotations it applies to unary amplitudes.
@@ -195,6 +211,7 @@ class UnaryCircuit:
         return np.where(free, self.parameter_index, 0), self.coefficient * free
 
 
+@validates(circuit=[Circuit(min_qubits=1), Instance(UnaryCircuit)])
 def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
     """Extract the Givens rotations of an RBS / FBS circuit once.
 
@@ -223,7 +240,6 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
     """
     if isinstance(circuit, UnaryCircuit):
         return circuit
-    check_circuit(circuit)
     phase = circuit.global_phase
     if isinstance(phase, ParameterExpression) and phase.parameters:
         raise ValueError(
@@ -273,6 +289,7 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
     )
 
 
+@validates(circuit=[Circuit(), Instance(UnaryCircuit)], values=[Array(ndim=1, min_size=0), None])
 def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np.ndarray:
     """The orthogonal matrix ``O`` of a circuit on unary states: ``y = O @ x``.
 
@@ -312,6 +329,10 @@ def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np
     return _rotate(np.eye(compiled.num_qubits), compiled, compiled.angles(v))
 
 
+@validates(
+    circuit=[Circuit(), Instance(UnaryCircuit)], X=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES),
+    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+)
 def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarray:
     """Output unary amplitudes ``y_b = O(values_b) @ x_b`` for a batch of inputs.
 
@@ -355,6 +376,12 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     return Z[:, 0].copy() if single else np.ascontiguousarray(Z.T)
 
 
+@validates(
+    circuit=[Circuit(), Instance(UnaryCircuit)], X=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES),
+    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    grad_Y=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), reduce=Options(('none', 'sum')),
+    outputs=[Array(ndim=(1, 2)), None],
+)
 def vjp(
     circuit: QuantumCircuit | UnaryCircuit,
     X,
@@ -442,6 +469,10 @@ def vjp(
     return np.ascontiguousarray(grad_values), np.ascontiguousarray(grad_X)
 
 
+@validates(
+    circuit=[Circuit(), Instance(UnaryCircuit)], x=Array(ndim=1, max_size=MAX_CIRCUIT_QUBITS),
+    values=[Array(ndim=1, min_size=0), None],
+)
 def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarray:
     """Jacobian ``dy_k / dvalues_p`` of one output (reverse mode, one pass per output).
 

@@ -1,0 +1,46 @@
+"""Declared argument constraints: the vocabulary that :mod:`qdensity.validation` exports.
+
+The core (:mod:`._core`: the base class, numbers, options, unions and the :func:`validates`
+decorator) and the kinds of values the library takes (:mod:`._kinds`: arrays, paths, circuits,
+observables, engines, targets, seeds, callables, sequences).
+"""
+
+from qdensity._constraints._core import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_LAYERS,
+    MAX_ROWS,
+    MAX_SEEDS,
+    MAX_SHOTS,
+    MAX_SUBUNITARIES,
+    Constraint,
+    Instance,
+    Interval,
+    Layers,
+    Options,
+    Qubits,
+    Shots,
+    Unchecked,
+    as_constraint,
+    check_declared,
+    declared,
+    refuse,
+    validates,
+)
+from qdensity._constraints._kinds import (
+    Array,
+    CallableC,
+    Circuit,
+    EngineLike,
+    FilePath,
+    Observable,
+    Seed,
+    SequenceOf,
+    TargetLike,
+)
+
+__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "Circuit",
+           "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
+           "Unchecked", "validates", "refuse", "as_constraint", "declared",
+           "check_declared", "MAX_CIRCUIT_QUBITS",
+           "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "MAX_SUBUNITARIES", "Qubits",
+           "Layers", "Shots"]

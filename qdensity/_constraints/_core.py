@@ -1,0 +1,419 @@
+"""Declared argument constraints, the core (base, numbers, options, the decorator).
+
+A public callable states what each argument accepts in one place, with :func:`validates`::
+
+    @validates(num_qubits=Qubits(minimum=2), layers=Interval(int, 1, MAX_LAYERS), seed=Seed())
+    def pyramid(num_qubits, layers=1, seed=None): ...
+
+The decorator binds each call's arguments (``inspect.signature(fn).bind``) and checks every
+declared argument before the body runs; a violation is a ``TypeError`` (wrong type) or
+``ValueError`` (right type, value not allowed) naming the callable, the argument, the value
+(its ``repr``, truncated) and what is allowed. The declarations are stored on the function as
+``fn.__constraints__`` (on a class, wrapped around ``__init__`` and kept as
+``cls.__constraints__``) so that tests and the fuzzer read them: every constraint can say whether
+a value satisfies it (``is_satisfied_by``), describe itself (``str``), give one valid example
+(``example``) and a list of values that violate it (``violations``).
+
+A declaration is a constraint, a list of them (any one may hold; ``None`` in the list allows
+None) or a type (``isinstance``). The checks look at types, shapes, dtypes and one
+``isfinite`` pass: no copies of numpy arrays, microseconds per call. Cross-argument checks stay
+in the bodies (:func:`refuse` words their messages the same way).
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import numbers
+import os
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+_NOT_A_FILE = os.path.join(os.sep, "nonexistent-qdensity-dir", "missing.file")
+
+
+def _show(value, width: int = 80) -> str:
+    """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big)."""
+    if isinstance(value, np.ndarray) and value.size > 16:
+        return f"array of shape {value.shape} and dtype {value.dtype}"
+    if type(value).__repr__ is object.__repr__:  # no repr of its own: say what it is
+        name = getattr(value, "name", None)
+        return f"{type(value).__name__}" + (f" {name!r}" if isinstance(name, str) else "")
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - a broken __repr__ must not hide the real error
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+class Constraint:
+    """What one argument accepts.
+
+    Subclasses define ``type_ok`` (the value has an acceptable type; a failure is a
+    ``TypeError``), ``is_satisfied_by`` (type and value acceptable), ``__str__`` (what is
+    allowed, in words), ``example`` (one valid value) and ``violations`` (values that are not).
+    """
+
+    def type_ok(self, value) -> bool:
+        return self.is_satisfied_by(value)
+
+    def is_satisfied_by(self, value) -> bool:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def reason(self, value) -> str:
+        """Why ``value`` fails (empty when ``str(self)`` says it all)."""
+        return ""
+
+    def example(self):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def violations(self) -> list:
+        """Values that violate this constraint (the fuzzer draws from them)."""
+        return [object(), "bogus", None, math.nan, -1, 1e300, 1j, []]
+
+
+class Unchecked(Constraint):
+    """An argument no single constraint describes (``**kwargs`` passed on, a value whose checks
+    need other arguments); ``why`` says where it is checked. The fuzzer skips it."""
+
+    def __init__(self, why: str, example=None):
+        self.why, self._example = why, example
+
+    def is_satisfied_by(self, value) -> bool:
+        return True
+
+    def __str__(self) -> str:
+        return f"anything here ({self.why})"
+
+    def example(self):
+        return self._example
+
+    def violations(self) -> list:
+        return []
+
+
+class Instance(Constraint):
+    """``isinstance(value, types)``; ``what`` names the types in words (bools refused as ints)."""
+
+    def __init__(self, types, what: str | None = None, example=None):
+        self._types = types if isinstance(types, tuple) else (types,)
+        self.what = what or " or ".join(t.rsplit(":", 1)[-1] if isinstance(t, str) else
+                                        t.__name__ for t in self._types)
+        self._example = example
+        self._lazy = any(isinstance(t, str) for t in self._types)
+
+    @property
+    def types(self) -> tuple:
+        """The classes; ``"module:Class"`` strings (a class of a higher layer) load on first
+        use."""
+        if self._lazy and any(isinstance(t, str) for t in self._types):
+            import importlib
+
+            self._types = tuple(getattr(importlib.import_module(t.split(":")[0]),
+                                        t.split(":")[1]) if isinstance(t, str) else t
+                                for t in self._types)
+            self._lazy = False
+        return self._types
+
+    def is_satisfied_by(self, value) -> bool:
+        if isinstance(value, (bool, np.bool_)) and bool not in self.types:
+            return False
+        return isinstance(value, self.types)
+
+    def type_ok(self, value) -> bool:
+        return Instance.is_satisfied_by(self, value)
+
+    def __str__(self) -> str:
+        if self.what.startswith(("a ", "an ")):
+            return self.what
+        return f"{'an' if self.what[:1].lower() in 'aeiou' else 'a'} {self.what}"
+
+    def example(self):
+        if self._example is not None:
+            return self._example() if callable(self._example) else self._example
+        for t in self.types:  # builtins only: constructing other classes has side effects
+            if t in (str, int, float, list, tuple, dict, bool):
+                return t()
+        raise LookupError(f"no example for {self}")
+
+    def violations(self) -> list:
+        return [v for v in [object(), "bogus", 1.5, -1, math.nan, 1j, [], b"x"]
+                if not self.is_satisfied_by(v)]
+
+
+class Interval(Constraint):
+    """A real or integer number in an interval (bools refused, reals finite).
+
+    Parameters
+    ----------
+    kind : int or float
+        ``int`` (any ``numbers.Integral``) or ``float`` (any finite ``numbers.Real``).
+    low, high : number or None
+        Bounds; None is unbounded on that side (a ``high`` is an upper bound on what the
+        library will allocate or run: qubits, shots, rows, counts).
+    closed : {"both", "left", "right", "neither"}
+    why : str
+        Why the bound is there (for the message).
+    """
+
+    def __init__(self, kind, low=None, high=None, *, closed: str = "both", why: str = ""):
+        if kind not in (int, float):
+            raise TypeError(f"kind must be int or float, got {kind!r}")
+        if closed not in ("both", "left", "right", "neither"):
+            raise ValueError(f"closed must be 'both', 'left', 'right' or 'neither', got {closed!r}")
+        self.kind, self.low, self.high, self.closed, self.why = kind, low, high, closed, why
+
+    def type_ok(self, value) -> bool:
+        if isinstance(value, (bool, np.bool_)):
+            return False
+        return isinstance(value, numbers.Integral if self.kind is int else numbers.Real)
+
+    def is_satisfied_by(self, value) -> bool:
+        if not self.type_ok(value):
+            return False
+        if self.kind is float and not math.isfinite(value):
+            return False
+        lo_ok = self.low is None or (value >= self.low if self.closed in ("both", "left")
+                                     else value > self.low)
+        hi_ok = self.high is None or (value <= self.high if self.closed in ("both", "right")
+                                      else value < self.high)
+        return bool(lo_ok and hi_ok)
+
+    def __str__(self) -> str:
+        noun = "an int" if self.kind is int else "a finite real number"
+        ge = ">=" if self.closed in ("both", "left") else ">"
+        le = "<=" if self.closed in ("both", "right") else "<"
+        bounds = ([f"{ge} {self.low!r}"] if self.low is not None else []) + (
+            [f"{le} {self.high!r}"] if self.high is not None else [])
+        out = " ".join([noun, " and ".join(bounds)]).strip()
+        return out + (f" ({self.why})" if self.why else "")
+
+    def example(self):
+        if self.kind is int:
+            lo = self.low if self.low is not None else 0
+            lo = lo if self.closed in ("both", "left") else lo + 1
+            return int(math.ceil(lo)) if self.high is None or lo <= self.high else int(self.high)
+        if self.low is not None and self.high is not None:
+            return (self.low + self.high) / 2
+        if self.low is not None:
+            return float(self.low) + 1.0
+        return float(self.high) - 1.0 if self.high is not None else 0.5
+
+    def violations(self) -> list:
+        out = ["1", None, 1j, True, [1], math.nan, math.inf, -math.inf]
+        if self.kind is int:
+            out.append(2.5)
+        if self.low is not None:
+            out += [self.low - 1, self.low - 1e-3 if self.kind is float else self.low - 1]
+            if self.closed in ("right", "neither"):
+                out.append(self.low)
+            out.append(-10**12)
+        if self.high is not None:
+            out += [self.high + 1, 10**12 if self.kind is int else 1e300]
+            if self.closed in ("left", "neither"):
+                out.append(self.high)
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class Options(Constraint):
+    """One of a fixed set of values (strings, usually)."""
+
+    def __init__(self, options: Iterable):
+        self.options = tuple(options)
+
+    def type_ok(self, value) -> bool:
+        return any(type(value) is type(o) for o in self.options)
+
+    def is_satisfied_by(self, value) -> bool:
+        try:
+            return self.type_ok(value) and value in self.options
+        except TypeError:  # unhashable or incomparable
+            return False
+
+    def __str__(self) -> str:
+        if len(self.options) == 1:
+            return repr(self.options[0])
+        return "one of " + ", ".join(repr(o) for o in self.options)
+
+    def example(self):
+        return self.options[0]
+
+    def violations(self) -> list:
+        return [v for v in ["bogus", "", 3, None, object(), math.nan, ["x"]]
+                if not self.is_satisfied_by(v)]
+
+
+class _AnyOf(Constraint):
+    """Any one of several constraints (a declared list)."""
+
+    def __init__(self, members):
+        self.members = [as_constraint(m) for m in members]
+
+    def type_ok(self, value) -> bool:
+        return any(m.type_ok(value) for m in self.members)
+
+    def is_satisfied_by(self, value) -> bool:
+        return any(m.is_satisfied_by(value) for m in self.members)
+
+    def reason(self, value) -> str:
+        for m in self.members:
+            if m.type_ok(value):
+                return m.reason(value)
+        return ""
+
+    def __str__(self) -> str:
+        return " or ".join(str(m) for m in self.members)
+
+    def example(self):
+        for m in self.members:
+            try:
+                return m.example()
+            except LookupError:
+                continue
+        raise LookupError(f"no example for {self}")
+
+    def violations(self) -> list:
+        out = [v for m in self.members for v in m.violations()]
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class _IsNone(Constraint):
+    def is_satisfied_by(self, value) -> bool:
+        return value is None
+
+    def __str__(self) -> str:
+        return "None"
+
+    def example(self):
+        return None
+
+    def violations(self) -> list:
+        return [0]
+
+
+def as_constraint(declaration) -> Constraint:
+    """A :class:`Constraint` from a declaration: a constraint, a type, None or a list of them."""
+    if isinstance(declaration, Constraint):
+        return declaration
+    if declaration is None:
+        return _IsNone()
+    if isinstance(declaration, type):
+        return Instance(declaration)
+    if isinstance(declaration, tuple) and all(isinstance(t, type) for t in declaration):
+        return Instance(declaration)
+    if isinstance(declaration, list):
+        return _AnyOf(declaration) if len(declaration) > 1 else as_constraint(declaration[0])
+    raise TypeError(f"a declaration must be a Constraint, a type, None or a list of them, got "
+                    f"{declaration!r}")
+
+
+def refuse(where: str, name: str, value, allowed, reason: str = "",
+           error: type[Exception] = ValueError) -> Exception:
+    """The error a declaration raises, for checks that stay in a body (cross-argument ones):
+    ``"{where}: {name} must be {allowed}, got {value}"``; raise what it returns."""
+    if reason.startswith("["):  # an item of a sequence: name it as name[i]
+        return error(f"{where}: {name} must be {allowed}; {name}{reason}")
+    text = f"{where}: {name} must be {allowed}, got {_show(value)}"
+    return error(text + (f" ({reason})" if reason else ""))
+
+
+def _check(where: str, name: str, constraint: Constraint, value) -> None:
+    if constraint.is_satisfied_by(value):
+        return
+    error = ValueError if constraint.type_ok(value) else TypeError
+    raise refuse(where, name, value, constraint, constraint.reason(value), error)
+
+
+def check_declared(where: str, constraints: dict, arguments: dict) -> None:
+    """Check ``arguments`` (name -> value) against ``constraints`` (name -> declaration) as
+    :func:`validates` does; for hyperparameters checked when a scikit-learn estimator is fitted
+    (its ``_parameter_constraints``) rather than when it is constructed."""
+    for name, declaration in constraints.items():
+        if name in arguments:
+            _check(where, name, as_constraint(declaration), arguments[name])
+
+
+def declared(fn) -> dict[str, Constraint]:
+    """The declarations of a callable or class (``{}`` when it declares none)."""
+    return dict(getattr(fn, "__constraints__", None) or {})
+
+
+def validates(**declarations) -> Callable:
+    """Declare what each argument of a function (or a class's constructor) accepts.
+
+    Parameters
+    ----------
+    **declarations
+        ``argument name -> declaration`` (a :class:`Constraint`, a type, None, or a list of
+        them of which one must hold). Every name must be a parameter of the decorated callable.
+
+    Returns
+    -------
+    callable
+        A decorator. The decorated callable checks each declared argument it is given, before
+        its body runs, and carries the declarations as ``__constraints__``.
+    """
+    constraints = {k: as_constraint(v) for k, v in declarations.items()}
+
+    def decorate(obj):
+        target = obj.__init__ if isinstance(obj, type) else obj
+        sig = inspect.signature(target)
+        unknown = set(constraints) - set(sig.parameters)
+        if unknown:
+            raise TypeError(f"validates: {obj.__qualname__} has no parameters {sorted(unknown)}")
+        where = obj.__qualname__
+        if isinstance(obj, type):
+            where = obj.__qualname__
+        items = [(k, constraints[k]) for k in sig.parameters if k in constraints]
+
+        @functools.wraps(target)
+        def checked(*args, **kwargs):
+            try:
+                arguments = sig.bind(*args, **kwargs).arguments
+            except TypeError as exc:
+                raise TypeError(f"{where}: {exc}") from None
+            for name, constraint in items:
+                if name in arguments:
+                    _check(where, name, constraint, arguments[name])
+            return target(*args, **kwargs)
+
+        checked.__constraints__ = constraints
+        if isinstance(obj, type):
+            obj.__init__ = checked
+            obj.__constraints__ = constraints
+            return obj
+        return checked
+
+    return decorate
+
+
+#: Widest circuit a builder makes (far beyond any device; refuses 10**9 before building).
+MAX_CIRCUIT_QUBITS = 4096
+#: Most repetitions (layers, reps) a builder makes.
+MAX_LAYERS = 10_000
+#: Most shots one call may ask for (10**8 shots is hours of sampling).
+MAX_SHOTS = 10**8
+#: Most data rows, parameter rows or units one call may ask for.
+MAX_ROWS = 10**7
+#: Most sub-unitaries (K) a density model or preparation circuit may hold.
+MAX_SUBUNITARIES = 10_000
+#: Most seeds (repetitions) one experiment run may ask for.
+MAX_SEEDS = 10_000
+
+
+def Qubits(minimum: int = 1, maximum: int = MAX_CIRCUIT_QUBITS) -> Interval:
+    """The declared width of a circuit: an int in ``[minimum, maximum]``."""
+    return Interval(int, minimum, maximum, why="wider circuits are beyond any device and take "
+                    "minutes to build" if maximum == MAX_CIRCUIT_QUBITS else "")
+
+
+def Layers(minimum: int = 1) -> Interval:
+    """The declared repetition count of a builder: an int in ``[minimum, MAX_LAYERS]``."""
+    return Interval(int, minimum, MAX_LAYERS, why="deeper circuits take minutes to build")
+
+
+def Shots(minimum: int = 1) -> Interval:
+    """The declared shot count: an int in ``[minimum, MAX_SHOTS]``."""
+    return Interval(int, minimum, MAX_SHOTS)

@@ -1,0 +1,380 @@
+"""Declared constraints for arrays, paths, circuits, observables, engines, targets, seeds,
+callables and sequences (see :mod:`qdensity._constraints`)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+
+import numpy as np
+
+from qdensity._constraints._core import _NOT_A_FILE, Constraint, Instance, _show, as_constraint
+
+_DTYPES = {"real": "biuf", "int": "iu", "bool": "b", "complex": "biufc", "any": None}
+
+
+class Array(Constraint):
+    """An array-like of a given number of dimensions, shape, dtype kind and finiteness.
+
+    Parameters
+    ----------
+    ndim : int or tuple of int, optional
+        Allowed ``ndim`` values.
+    shape : tuple, optional
+        Required shape; ``None`` entries are free (checked only when ``ndim`` matches).
+    dtype : {"real", "int", "bool", "complex", "any"}
+        Allowed element kind (``"real"`` refuses complex values, ``"int"`` refuses floats).
+    finite : bool
+        Refuse NaN and inf.
+    min_size : int
+        Fewest elements.
+    max_size : int, optional
+        Most elements (an upper bound on what the callable will allocate from it).
+    """
+
+    def __init__(self, ndim=None, shape=None, *, dtype: str = "real", finite: bool = True,
+                 min_size: int = 1, max_size: int | None = None):
+        self.ndim = (ndim,) if isinstance(ndim, int) else ndim
+        self.shape, self.dtype, self.finite = shape, dtype, finite
+        self.min_size, self.max_size = min_size, max_size
+        if shape is not None and self.ndim is None:
+            self.ndim = (len(shape),)
+
+    @staticmethod
+    def _as_array(value):
+        if isinstance(value, np.ndarray):
+            return value
+        if isinstance(value, (str, bytes, dict, set)) or value is None:
+            return None
+        if not isinstance(value, (list, tuple, numbers.Number)) and not hasattr(value,
+                                                                                "__array__"):
+            return None
+        try:
+            arr = np.asarray(value)
+        except (ValueError, TypeError):  # ragged
+            return None
+        return arr
+
+    def type_ok(self, value) -> bool:
+        arr = self._as_array(value)
+        if arr is None:
+            return False
+        kinds = _DTYPES[self.dtype]
+        return kinds is None or arr.dtype.kind in kinds
+
+    def reason(self, value) -> str:
+        arr = self._as_array(value)
+        if arr is None:
+            return ""
+        if self.ndim is not None and arr.ndim not in self.ndim:
+            return f"it has {arr.ndim} dimensions, shape {arr.shape}"
+        if self.shape is not None and any(s is not None and s != a for s, a in
+                                          zip(self.shape, arr.shape, strict=False)):
+            return f"it has shape {arr.shape}"
+        if arr.size < self.min_size or (self.max_size is not None and arr.size > self.max_size):
+            return f"it has length {arr.size}" if arr.ndim == 1 else f"it has shape {arr.shape}"
+        if arr.dtype.kind not in (_DTYPES[self.dtype] or arr.dtype.kind):
+            return f"its dtype is {arr.dtype}"
+        return "it holds NaN or inf"
+
+    def is_satisfied_by(self, value) -> bool:
+        arr = self._as_array(value)
+        kinds = _DTYPES[self.dtype]
+        if arr is None or (kinds is not None and arr.dtype.kind not in kinds):
+            return False
+        if self.ndim is not None and arr.ndim not in self.ndim:
+            return False
+        if self.shape is not None and any(s is not None and s != a
+                                          for s, a in zip(self.shape, arr.shape, strict=False)):
+            return False
+        if arr.size < self.min_size or (self.max_size is not None and arr.size > self.max_size):
+            return False
+        if self.finite and arr.dtype.kind in "fc":
+            with np.errstate(invalid="ignore"):
+                return bool(np.isfinite(arr).all())
+        return True
+
+    def __str__(self) -> str:
+        kind = {"real": "real", "int": "integer", "bool": "boolean", "complex": "numeric",
+                "any": ""}[self.dtype]
+        dims = ""
+        if self.ndim is not None:
+            dims = " or ".join(f"{d}-dimensional" for d in self.ndim) + " "
+        out = f"a {dims}{'finite ' if self.finite else ''}{kind} array".replace("  ", " ")
+        if self.shape is not None:
+            out += " of shape (" + ", ".join("any" if s is None else str(s)
+                                             for s in self.shape) + ")"
+        size = "length" if self.ndim == (1,) else "size"
+        limits = ([f"{size} >= {self.min_size}"] if self.min_size > 0 else []) + (
+            [f"<= {self.max_size}" if self.min_size > 0 else f"{size} <= {self.max_size}"]
+            if self.max_size is not None else [])
+        return out + (" of " + " and ".join(limits) if limits else "")
+
+    def example(self):
+        ndim = self.ndim[0] if self.ndim else 1
+        shape = [2] * ndim
+        if self.shape is not None:
+            shape = [2 if s is None else s for s in self.shape]
+        dtype = {"int": int, "bool": bool}.get(self.dtype, float)
+        return np.ones(shape, dtype=dtype) if ndim else dtype(1)
+
+    def violations(self) -> list:
+        good = np.asarray(self.example())
+        out = ["bogus", None, object(), {"a": 1}]
+        if good.ndim >= 1:
+            bad = good.astype(float)
+            bad.flat[0] = math.nan
+            out.append(bad)
+            bad = good.astype(float)
+            bad.flat[-1] = math.inf
+            out.append(bad)
+            out.append(good.astype(complex) + 1j)
+            out.append(np.zeros((0,) * good.ndim))
+            out.append(good.reshape(-1)[:1].reshape((1,) * (good.ndim + 1)))
+            out.append(good.astype(float) + 0.5)
+        out.append(np.float64(math.nan))
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class FilePath(Constraint):
+    """A path (``str`` or ``os.PathLike``); with ``exists="file"`` an existing file, with
+    ``"dir"`` an existing folder, with None any path."""
+
+    def __init__(self, exists: str | None = "file"):
+        self.exists = exists
+
+    def type_ok(self, value) -> bool:
+        return isinstance(value, (str, os.PathLike)) and not isinstance(value, bytes)
+
+    def is_satisfied_by(self, value) -> bool:
+        if not self.type_ok(value) or not os.fspath(value):
+            return False
+        if self.exists == "file":
+            return os.path.isfile(value)
+        if self.exists == "dir":
+            return os.path.isdir(value)
+        return "\0" not in os.fspath(value)
+
+    def __str__(self) -> str:
+        return {"file": "the path of an existing file", "dir": "the path of an existing folder",
+                None: "a file path"}[self.exists]
+
+    def example(self):
+        return {"file": __file__, "dir": os.path.dirname(__file__),
+                None: os.path.join(os.path.dirname(__file__), "x")}[self.exists]
+
+    def violations(self) -> list:
+        out = [3, None, b"x", object(), "", "a\0b"]
+        if self.exists:
+            out += [_NOT_A_FILE, os.path.dirname(__file__) if self.exists == "file" else __file__]
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class Circuit(Instance):
+    """A ``QuantumCircuit`` of at most ``max_qubits`` qubits (and at least ``min_qubits``)."""
+
+    def __init__(self, min_qubits: int = 0, max_qubits: int | None = None):
+        from qiskit.circuit import QuantumCircuit
+
+        super().__init__(QuantumCircuit, "qiskit QuantumCircuit",
+                         example=lambda: QuantumCircuit(max(min_qubits, 2)))
+        self.min_qubits, self.max_qubits = min_qubits, max_qubits
+
+    def is_satisfied_by(self, value) -> bool:
+        if not super().is_satisfied_by(value):
+            return False
+        n = value.num_qubits
+        return n >= self.min_qubits and (self.max_qubits is None or n <= self.max_qubits)
+
+    def __str__(self) -> str:
+        limits = ([f">= {self.min_qubits}"] if self.min_qubits else []) + (
+            [f"<= {self.max_qubits}"] if self.max_qubits is not None else [])
+        return "a qiskit QuantumCircuit" + (f" of {' and '.join(limits)} qubits" if limits
+                                            else "")
+
+    def reason(self, value) -> str:
+        return f"it has {value.num_qubits} qubits" if self.type_ok(value) else ""
+
+    def violations(self) -> list:
+        from qiskit.circuit import QuantumCircuit
+
+        out = super().violations() + [QuantumCircuit(max(self.min_qubits - 1, 0))]
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class Observable(Constraint):
+    """An observable: a ``SparsePauliOp``, ``Pauli`` or Pauli label string (checked as a label,
+    ``I X Y Z`` only; widths against the circuit are checked in the body)."""
+
+    def type_ok(self, value) -> bool:
+        from qiskit.quantum_info import Pauli, SparsePauliOp
+
+        return isinstance(value, (str, Pauli, SparsePauliOp))
+
+    def is_satisfied_by(self, value) -> bool:
+        if not self.type_ok(value):
+            return False
+        return not isinstance(value, str) or (bool(value) and set(value) <= set("IXYZ"))
+
+    def __str__(self) -> str:
+        return "a SparsePauliOp, a Pauli or a Pauli label such as 'ZI'"
+
+    def example(self):
+        return "ZZ"
+
+    def violations(self) -> list:
+        return [3, None, object(), "", "ZQ", math.nan, ["Z"]]
+
+
+class _ExampleEngine:
+    """The smallest value :class:`EngineLike` accepts (its ``run`` answers nothing)."""
+
+    def run(self, jobs):
+        raise NotImplementedError("an example engine for the declarations' tests")
+
+
+class EngineLike(Constraint):
+    """An engine: anything with ``run(jobs)`` (ExactEngine, SamplerEngine, AdjointEngine)."""
+
+    def is_satisfied_by(self, value) -> bool:
+        return callable(getattr(value, "run", None)) and not isinstance(value, type)
+
+    def __str__(self) -> str:
+        return "an engine with run(jobs) (ExactEngine, SamplerEngine, AdjointEngine)"
+
+    def example(self):
+        return _ExampleEngine()
+
+    def violations(self) -> list:
+        return ["exact", 3, object(), math.nan, [], type("E", (), {"run": lambda s, j: j})]
+
+
+class TargetLike(Constraint):
+    """A target as :func:`qdensity.hardware.targets.get_target` takes it: a ``HardwareTarget``,
+    a target name or snapshot path, a ``BackendV2`` or a ``qiskit.transpiler.Target``."""
+
+    def is_satisfied_by(self, value) -> bool:
+        if isinstance(value, (str, os.PathLike)):
+            return bool(os.fspath(value))
+        if all(callable(getattr(value, a, None)) for a in ("sampler", "transpile")):
+            return True
+        from qiskit.providers import BackendV2
+        from qiskit.transpiler import Target
+
+        return isinstance(value, (BackendV2, Target))
+
+    def type_ok(self, value) -> bool:
+        return isinstance(value, (str, os.PathLike)) or self.is_satisfied_by(value)
+
+    def __str__(self) -> str:
+        return ("a HardwareTarget, a target name or snapshot path, a BackendV2 or a "
+                "qiskit.transpiler.Target (qdensity.targets.get_target)")
+
+    def example(self):
+        return "all_to_all"
+
+    def violations(self) -> list:
+        return [3, object(), math.nan, [], ""]
+
+
+class Seed(Constraint):
+    """A seed: an int in ``[0, high]``, a ``numpy.random.Generator`` or None."""
+
+    def __init__(self, high: int = 2**63 - 1):
+        self.high = high
+
+    def type_ok(self, value) -> bool:
+        if value is None or isinstance(value, np.random.Generator):
+            return True
+        return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+    def is_satisfied_by(self, value) -> bool:
+        if not self.type_ok(value):
+            return False
+        return not isinstance(value, numbers.Integral) or 0 <= value <= self.high
+
+    def __str__(self) -> str:
+        return f"an int >= 0 and <= {self.high}, a numpy.random.Generator or None"
+
+    def example(self):
+        return 7
+
+    def violations(self) -> list:
+        return [-1, self.high + 1, 1.5, "7", math.nan, True, object(), [1]]
+
+
+class CallableC(Constraint):
+    """A callable (``what`` says which, in words)."""
+
+    def __init__(self, what: str = "a callable"):
+        self.what = what
+
+    def is_satisfied_by(self, value) -> bool:
+        return callable(value)
+
+    def __str__(self) -> str:
+        return self.what
+
+    def example(self):
+        return np.asarray
+
+    def violations(self) -> list:
+        return ["notcallable", 3, None, math.nan, []]
+
+
+class SequenceOf(Constraint):
+    """A list, tuple (or ``range``, ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
+    satisfying ``item``."""
+
+    def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
+        self.item, self.min_len, self.max_len = as_constraint(item), min_len, max_len
+
+    def type_ok(self, value) -> bool:
+        from qiskit.circuit import ParameterVector
+
+        if not isinstance(value, (list, tuple, range, ParameterVector)):
+            return False
+        return all(self.item.type_ok(v) for v in value)
+
+    def is_satisfied_by(self, value) -> bool:
+        if not self.type_ok(value) or len(value) < self.min_len:
+            return False
+        if self.max_len is not None and len(value) > self.max_len:
+            return False
+        return all(self.item.is_satisfied_by(v) for v in value)
+
+    def reason(self, value) -> str:
+        if self.type_ok(value):
+            if len(value) < self.min_len or (self.max_len is not None
+                                             and len(value) > self.max_len):
+                return f"it has {len(value)} items"
+            for i, v in enumerate(value):
+                if not self.item.is_satisfied_by(v):
+                    why = self.item.reason(v)
+                    return f"[{i}] is {_show(v)}" + (f": {why}" if why else "")
+        elif isinstance(value, (list, tuple)):
+            for i, v in enumerate(value):
+                if not self.item.type_ok(v):
+                    return f"[{i}] is {_show(v)}"
+        return ""
+
+    def __str__(self) -> str:
+        bound = f"{self.min_len}" + (f" to {self.max_len}" if self.max_len is not None
+                                     else " or more")
+        return f"a list or tuple of {bound} items, each {self.item}"
+
+    def example(self):
+        if self.min_len == 0:
+            return []
+        return [self.item.example()] * self.min_len
+
+    def violations(self) -> list:
+        out = ["bogus", 3, None, object()]
+        if self.min_len:
+            out.append([])
+        bad = [v for v in self.item.violations() if v is not None][:2]
+        out += [[b] * max(self.min_len, 1) for b in bad]
+        return [v for v in out if not self.is_satisfied_by(v)]
+
+
