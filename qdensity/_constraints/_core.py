@@ -38,7 +38,8 @@ def _show(value, width: int = 80) -> str:
     """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big)."""
     if isinstance(value, np.ndarray) and value.size > 16:
         return f"array of shape {value.shape} and dtype {value.dtype}"
-    if type(value).__repr__ is object.__repr__:  # no repr of its own: say what it is
+    own_repr: object = type(value).__repr__
+    if own_repr is object.__repr__:  # no repr of its own: say what it is
         name = getattr(value, "name", None)
         return f"{type(value).__name__}" + (f" {name!r}" if isinstance(name, str) else "")
     try:
@@ -358,7 +359,8 @@ def validates(**declarations) -> Callable:
     constraints = {k: as_constraint(v) for k, v in declarations.items()}
 
     def decorate(obj):
-        target = obj.__init__ if isinstance(obj, type) else obj
+        # a class is checked at its constructor (the class's own, looked up on the class)
+        target = obj.__dict__.get("__init__", obj.__init__) if isinstance(obj, type) else obj  # type: ignore[misc]
         sig = inspect.signature(target)
         unknown = set(constraints) - set(sig.parameters)
         if unknown:
@@ -379,10 +381,10 @@ def validates(**declarations) -> Callable:
                     _check(where, name, constraint, arguments[name])
             return target(*args, **kwargs)
 
-        checked.__constraints__ = constraints
+        checked.__constraints__ = constraints  # type: ignore[attr-defined]  # our own marker
         if isinstance(obj, type):
-            obj.__init__ = checked
-            obj.__constraints__ = constraints
+            type.__setattr__(obj, "__init__", checked)
+            type.__setattr__(obj, "__constraints__", constraints)
             return obj
         return checked
 

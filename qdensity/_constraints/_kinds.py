@@ -292,7 +292,7 @@ class Seed(Constraint):
     def is_satisfied_by(self, value) -> bool:
         if not self.type_ok(value):
             return False
-        return not isinstance(value, numbers.Integral) or 0 <= value <= self.high
+        return not isinstance(value, numbers.Integral) or 0 <= int(value) <= self.high
 
     def __str__(self) -> str:
         return f"an int >= 0 and <= {self.high}, a numpy.random.Generator or None"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.models.decompositions import DATA_PREFIX
 from qdensity.validation import Circuit, Instance, validates
 
 __all__ = ["bind_rows"]
@@ -49,3 +50,33 @@ def _parameter_holder(encoding, sub: QuantumCircuit) -> QuantumCircuit:
     for p in set(encoding.circuit.parameters) | set(sub.parameters):
         holder.rz(p, 0)
     return holder
+
+
+def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None) -> np.ndarray:
+    """:meth:`DensityQNN.rows <qdensity.models.density.DensityQNN.rows>`: the parameter rows of
+    ``model.circuit(k)`` (or of ``circuit`` built on it) for data X, shape (B, P_circuit)."""
+    circ = (circuit if circuit is not None  # parameters only: no copy of U_k
+            else _parameter_holder(model.encoding, model.sub_unitaries[k]))
+    theta = model.theta if theta is None else model._check_theta(theta)
+    cols: dict = {}
+    B = 1
+    if X is not None:
+        X = model._check_X(X)
+        B = X.shape[0]
+        if model.encoding is not None:
+            enc = model.encoding.values(X)
+            cols.update(zip(model.encoding.circuit.parameters, enc.T, strict=True))
+    for p in circ.parameters:
+        if p in cols:
+            continue
+        vec = getattr(p, "vector", None)
+        if vec is not None and vec.name == DATA_PREFIX:
+            if X is None:
+                raise ValueError("this model uploads data; X is required")
+            cols[p] = X[:, p.index]
+        elif p in model._index:
+            cols[p] = theta[..., model._index[p]]
+    out = bind_rows(circ, cols)
+    if out.shape[0] == 1 and B > 1:
+        out = np.repeat(out, B, axis=0)
+    return out

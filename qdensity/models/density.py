@@ -18,7 +18,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution.plans import Plan, check_observable, expectation_plan
 from qdensity.models._derived import DerivedStore, structure_key
-from qdensity.models._rows import _parameter_holder, bind_rows
+from qdensity.models._rows import bind_rows, model_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
@@ -299,31 +299,7 @@ class DensityQNN:
         -------
         numpy.ndarray, shape (B, P_circuit)
         """
-        circ = (circuit if circuit is not None  # parameters only: no copy of U_k
-                else _parameter_holder(self.encoding, self.sub_unitaries[k]))
-        theta = self.theta if theta is None else self._check_theta(theta)
-        cols: dict = {}
-        B = 1
-        if X is not None:
-            X = self._check_X(X)
-            B = X.shape[0]
-            if self.encoding is not None:
-                enc = self.encoding.values(X)
-                cols.update(zip(self.encoding.circuit.parameters, enc.T, strict=True))
-        for p in circ.parameters:
-            if p in cols:
-                continue
-            vec = getattr(p, "vector", None)
-            if vec is not None and vec.name == DATA_PREFIX:
-                if X is None:
-                    raise ValueError("this model uploads data; X is required")
-                cols[p] = X[:, p.index]
-            elif p in self._index:
-                cols[p] = theta[..., self._index[p]]
-        out = bind_rows(circ, cols)
-        if out.shape[0] == 1 and B > 1:
-            out = np.repeat(out, B, axis=0)
-        return out
+        return model_rows(self, k, X, theta, circuit)
 
     # ------------------------------------------------------------------ exact evaluation
     def _sub_theta(self, k: int, theta) -> np.ndarray:
