@@ -36,11 +36,12 @@ from qdensity._constraints._kinds import (
     Seed,
     SequenceOf,
     TargetLike,
+    TorchTensor,
 )
 
 __all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "Circuit",
            "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
-           "Unchecked", "validates", "refuse", "as_constraint", "declared",
+           "Unchecked", "TorchTensor", "validates", "refuse", "as_constraint", "declared",
            "check_declared", "MAX_CIRCUIT_QUBITS",
            "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "MAX_SUBUNITARIES", "Qubits",
            "Layers", "Shots"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import sys
 
 import numpy as np
 
@@ -378,3 +379,29 @@ class SequenceOf(Constraint):
         return [v for v in out if not self.is_satisfied_by(v)]
 
 
+
+
+class TorchTensor(Constraint):
+    """A ``torch.Tensor`` of ``ndim`` dimensions (the torch engines' inputs), checked without
+    importing torch: a tensor can only exist once torch is imported. Its values are checked
+    by the torch engine on the tensor's own device (no copy to the host here)."""
+
+    def __init__(self, ndim: int | tuple[int, ...]):
+        self.ndim = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+
+    def type_ok(self, value) -> bool:
+        torch = sys.modules.get("torch")
+        return torch is not None and isinstance(value, torch.Tensor)
+
+    def is_satisfied_by(self, value) -> bool:
+        return self.type_ok(value) and value.dim() in self.ndim
+
+    def __str__(self) -> str:
+        dims = " or ".join(str(d) for d in self.ndim)
+        return f"a {dims}-dimensional torch.Tensor"
+
+    def example(self):
+        raise LookupError("no example for a torch tensor (torch is optional)")
+
+    def violations(self) -> list:
+        return [object(), "bogus", None, 1j]

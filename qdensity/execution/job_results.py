@@ -16,7 +16,8 @@ __all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
     probabilities=[Array(ndim=(1, 2), min_size=0), None],
     shots=[Interval(int, 1, MAX_SHOTS), None],
     job=[Instance('qdensity.execution.plans:CircuitJob'), None],
-    bits=[Array(ndim=3, dtype='bool', min_size=0), None],
+    # a BitArray: the packed shots a PackedJobResult (the sampler engine's) unpacks on read
+    bits=[Array(ndim=3, dtype='bool', min_size=0), Instance('qiskit.primitives:BitArray'), None],
     weights=[Array(ndim=2, min_size=0), None], effective_shots=[Array(ndim=1, min_size=0), None],
     readout=[Instance(list), None],
 )

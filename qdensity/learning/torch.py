@@ -148,7 +148,7 @@ class _UnaryTorch(torch.autograd.Function):
 
 @validates(
     model=Instance(DensityQNN),
-    engine=[Options(('exact',)), Instance('qdensity.execution.sampler.engine:SamplerEngine')],
+    engine=[Options(('exact', 'torch')), Instance('qdensity.execution.sampler.engine:SamplerEngine')],
     shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
     gate=[Instance(nn.Module, 'torch.nn.Module'), None],
 )
@@ -286,7 +286,8 @@ class DensityQNNLayer(nn.Module):
         if x.ndim == 0 or x.shape[-1] != self.num_features or x.numel() == 0:
             raise ValueError(f"input must have shape (d,), (batch, d) or (..., d) with d = "
                              f"{self.num_features} and at least one row, got {tuple(x.shape)}")
-        if not bool(torch.isfinite(x).all()):
+        # (a meta tensor has shapes and no values: nothing to check)
+        if x.device.type != "meta" and not bool(torch.isfinite(x).all()):
             raise ValueError("input must be finite (no NaN or inf)")
         lead = x.shape[:-1]
         flat = x.reshape(-1, self.num_features)

@@ -533,7 +533,8 @@ def test_engine_seeded_runs_repeat():
 def test_engine_bad_hamming_weight_option(bad):
     from qdensity import SamplerEngine
 
-    with pytest.raises(ValueError, match="hamming_weight"):
+    # a wrong value is a ValueError, a wrong type a TypeError (the declared contract)
+    with pytest.raises((ValueError, TypeError), match="hamming_weight"):
         SamplerEngine(hamming_weight=bad)
 
 

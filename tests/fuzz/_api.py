@@ -26,6 +26,8 @@ NO_ARGUMENTS = {
     "its implementations (NeymanScheduler, ...) declare theirs",
     "qdensity.models.mixtures.Mixture": "an abstract base class: never constructed; its "
     "subclasses (FixedMixture, ...) declare theirs",
+    "qdensity.learning._encoding.UnscaledFeaturesWarning": "a warning category: raised by fit "
+    "through warnings.warn, never called by users",
 }
 
 #: Callables kept out of the declared surface on purpose: name -> why.

@@ -167,4 +167,6 @@ def test_every_callable_with_declarations_is_fuzzed():
 def test_signatures_are_kept():
     # the decorator keeps each callable's signature (scikit-learn's get_params and help() read it)
     for obj in PUBLIC.values():
+        if isinstance(obj, type) and issubclass(obj, Warning):
+            continue  # a warning category: raised by the library, never called
         inspect.signature(obj)

@@ -70,7 +70,8 @@ __all__ = [
 ]
 
 
-@validates(label=Instance(str), circuits=Interval(int, 0), shots=Interval(int, 0))
+@validates(label=Instance(str), circuits=Interval(int, 0), shots=Interval(int, 0),
+           sampler=Instance(str))
 @dataclass
 class LedgerEntry:
     """One sampled job: what it was for, how many circuits (rows) and shots it spent, and
@@ -166,6 +167,7 @@ def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> 
     optimization_level=Options((0, 1, 2, 3)), progress=Instance((bool, np.bool_), 'bool'),
     mitigation=[Options(MITIGATIONS), None], postselect=[Options(POSTSELECTIONS), None],
     calibration_shots=Interval(int, 1, MAX_SHOTS),
+    hamming_weight=Options(("auto", "never", "always")),
 )
 class SamplerEngine:
     """Shots through a ``BaseSamplerV2``, one PUB per template, transpiled once.

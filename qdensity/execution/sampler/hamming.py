@@ -39,7 +39,15 @@ from qdensity.execution.sampler._hamming_bits import (
 from qdensity.execution.sampler._hamming_compile import HammingTemplate, compile_template
 from qdensity.execution.sampler._hamming_readout import ReadoutChannel, readout_channel
 from qdensity.execution.sampler._hamming_subspace import SubspaceProgram
-from qdensity.validation import SeedLike, check_positive_int
+from qdensity.validation import (
+    MAX_SHOTS,
+    Interval,
+    Seed,
+    SeedLike,
+    Unchecked,
+    check_positive_int,
+    validates,
+)
 
 __all__ = ["HammingWeightSampler", "MAX_DIMENSION"]
 
@@ -131,6 +139,12 @@ def _rng_for(seed, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed) % 2**63, 0x4A3, index]))
 
 
+@validates(
+    default_shots=Interval(int, 1, MAX_SHOTS), seed=Seed(),
+    readout_error=Unchecked("None, a probability, a (p(1|0), p(0|1)) pair, an (n, 2) array, "
+                            "a NoiseModel or a target; read by readout_channel"),
+    max_dimension=Interval(int, 1, 2**34),
+)
 class HammingWeightSampler(BaseSamplerV2):
     """A qiskit ``BaseSamplerV2`` for Hamming-weight-preserving circuits, exact in ``C(n, k)``.
 

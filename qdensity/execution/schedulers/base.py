@@ -22,9 +22,11 @@ ShotSource = Callable[..., Sequence[np.ndarray]]
 
 
 @validates(
-    name=Instance(str), estimate=Interval(float), standard_error=Interval(float, 0),
+    # scalars for an observable, one entry per qubit (n,) for the unary-probability readout
+    name=Instance(str), estimate=[Interval(float), Array(ndim=1)],
+    standard_error=[Interval(float, 0), Array(ndim=1)],
     allocation=Array(ndim=1, dtype='int', min_size=0),
-    per_subunitary=Array(ndim=1, min_size=0, finite=False), shots_used=Interval(int, 0),
+    per_subunitary=Array(ndim=(1, 2), min_size=0, finite=False), shots_used=Interval(int, 0),
     pilot_allocation=[Array(ndim=1, dtype='int', min_size=0), None], info=Instance(dict),
 )
 @dataclass(frozen=True)

@@ -45,6 +45,7 @@ from qdensity.execution.statevector._program import Program, compile_program, re
 from qdensity.validation import (
     Interval,
     Options,
+    Unchecked,
     as_parameter_rows,
     check_circuit,
     check_positive_int,
@@ -106,6 +107,9 @@ class _Observable:
 @validates(
     max_qubits=Interval(int, 1, _CEILING), memory_budget=Interval(int, 1, 2**40),
     backend=Options(BACKENDS),
+    device=Unchecked("None or a torch device ('cpu', 'cuda', 'cuda:1', a torch.device), with "
+                     "backend='torch'; checked against the devices torch sees"),
+    dtype=[Options(("complex128", "complex64")), None],
 )
 class AdjointEngine:
     """Exact statevector values and adjoint gradients, batched over parameter rows.

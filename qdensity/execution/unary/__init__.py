@@ -64,6 +64,7 @@ from qdensity.validation import (
     Options,
     Qubits,
     SequenceOf,
+    TorchTensor,
     validates,
 )
 
@@ -330,8 +331,10 @@ def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np
 
 
 @validates(
-    circuit=[Circuit(), Instance(UnaryCircuit)], X=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES),
-    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
+    circuit=[Circuit(), Instance(UnaryCircuit)],
+    X=[TorchTensor((1, 2)), Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES)],
+    values=[TorchTensor((1, 2)), Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES),
+            None],
 )
 def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarray:
     """Output unary amplitudes ``y_b = O(values_b) @ x_b`` for a batch of inputs.
@@ -377,10 +380,12 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
 
 
 @validates(
-    circuit=[Circuit(), Instance(UnaryCircuit)], X=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES),
-    values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
-    grad_Y=Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), reduce=Options(('none', 'sum')),
-    outputs=[Array(ndim=(1, 2)), None],
+    circuit=[Circuit(), Instance(UnaryCircuit)],
+    X=[TorchTensor((1, 2)), Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES)],
+    values=[TorchTensor((1, 2)), Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES),
+            None],
+    grad_Y=[TorchTensor((1, 2)), Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES)],
+    reduce=Options(('none', 'sum')), outputs=[TorchTensor((1, 2)), Array(ndim=(1, 2)), None],
 )
 def vjp(
     circuit: QuantumCircuit | UnaryCircuit,
@@ -470,8 +475,9 @@ def vjp(
 
 
 @validates(
-    circuit=[Circuit(), Instance(UnaryCircuit)], x=Array(ndim=1, max_size=MAX_CIRCUIT_QUBITS),
-    values=[Array(ndim=1, min_size=0), None],
+    circuit=[Circuit(), Instance(UnaryCircuit)],
+    x=[TorchTensor(1), Array(ndim=1, max_size=MAX_CIRCUIT_QUBITS)],
+    values=[TorchTensor(1), Array(ndim=1, min_size=0), None],
 )
 def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarray:
     """Jacobian ``dy_k / dvalues_p`` of one output (reverse mode, one pass per output).
