@@ -148,7 +148,8 @@ class _UnaryTorch(torch.autograd.Function):
 
 @validates(
     model=Instance(DensityQNN),
-    engine=[Options(('exact', 'torch')), Instance('qdensity.execution.sampler.engine:SamplerEngine')],
+    engine=[Options(('exact', 'torch')),
+            Instance('qdensity.execution.sampler.engine:SamplerEngine')],
     shots=[Interval(int, 2, MAX_SHOTS), None], gradient=Options(METHODS),
     gate=[Instance(nn.Module, 'torch.nn.Module'), None],
 )
