@@ -103,3 +103,25 @@ def test_analyses_are_kept_outside_the_model_and_shared_by_equal_structures():
     # the second model's gradient circuits are the first's (derived once per structure)
     assert all(ja.circuit is jb.circuit for ja, jb in zip(a.jobs, b.jobs, strict=True)
                if ja.label.startswith("commuting"))
+
+
+def test_raw_shot_estimates_on_distinct_outcomes_equal_the_per_shot_mean_and_variance():
+    # gradient_from_bits reads each row's distinct outcomes with their counts: the mean and the
+    # unbiased variance must be those of the per-shot values, computed here shot by shot
+    from qdensity.analysis.pauli import ZStringTable
+    from qdensity.gradients._circuits import _raw_mean
+
+    rng = np.random.default_rng(7)
+    n, P = 6, 3
+    z = rng.integers(0, 2, size=(5, n)).astype(bool)
+    table = ZStringTable(z, rng.normal(size=(5, P)))
+    outcomes = rng.integers(0, 2, size=(4, n)).astype(bool)  # few distinct outcomes, like HW-1
+    bits = outcomes[rng.integers(0, 4, size=(3, 200))]  # (rows, shots, n)
+    per_shot = np.array([[[sum(table.coefficients[t, p] * (-1) ** int(np.sum(b & z[t]))
+                                for t in range(5)) for p in range(P)] for b in row]
+                         for row in bits])
+    mean, se = _raw_mean(table, bits)
+    np.testing.assert_allclose(mean, per_shot.mean(axis=1), atol=1e-12)
+    var = per_shot.var(axis=1, ddof=1)
+    R = table.value_range()
+    np.testing.assert_allclose(se, np.sqrt(var / 200 + R**2 / (4 * 200**2)), atol=1e-12)
