@@ -59,7 +59,8 @@ def wilson_standard_error(variance, shots, value_range_width=1.0) -> np.ndarray:
     return np.sqrt(var / n + width**2 / (4.0 * n**2))
 
 
-@validates(p=Array(ndim=None), shots=[Interval(int, 1), Array(ndim=None, dtype="int")])
+@validates(p=Array(ndim=None, min_size=0),
+           shots=[Interval(int, 1), Array(ndim=None, dtype="int", min_size=0)])
 def binomial_standard_error(p, shots) -> np.ndarray:
     """Standard error of an outcome frequency ``p_hat`` from ``shots`` shots, never zero.
 

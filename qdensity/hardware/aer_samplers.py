@@ -256,3 +256,21 @@ class NoiselessSimulators:
 
     def __call__(self, method: str) -> AerSimulator:
         return AerSimulator(method=method, seed_simulator=aer_seed(self.seed))
+
+
+class TargetSimulators:
+    """``make_simulator`` of a hardware target's :class:`AdaptiveSampler`: the target's Aer
+    simulator for a method, on ``device`` with ``seed`` (picklable, so the sampler is).
+
+    Parameters
+    ----------
+    target : qdensity.hardware.targets.HardwareTarget
+    device : {"CPU", "GPU"}
+    seed : int or None
+    """
+
+    def __init__(self, target, device: str, seed: int | None):
+        self.target, self.device, self.seed = target, device, seed
+
+    def __call__(self, method: str) -> AerSimulator:
+        return self.target.simulator(method=method, device=self.device, seed=self.seed)

@@ -62,7 +62,7 @@ from qdensity.hardware._native import (
 from qdensity.hardware._objects import backend_fields, target_fields
 from qdensity.hardware._passmanagers import check_batch, transpile_with
 from qdensity.hardware._served_noise import ServedNoiseSimulator
-from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler
+from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler, TargetSimulators
 from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, aer_seed
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import (
@@ -361,7 +361,7 @@ class HardwareTarget:
         if options is not None and not isinstance(options, dict):
             raise TypeError(f"options must be a dict of Aer options or None, got {options!r}")
         if method == "auto":
-            make = _TargetSimulators(self, device, sim_seed)
+            make = TargetSimulators(self, device, sim_seed)
             return AdaptiveSampler(make, self.is_noisy, seed=aer_seed(sim_seed),
                                    default_shots=default_shots, options=options)
         sim = self.simulator(method=method, device=device, seed=sim_seed)
@@ -373,16 +373,6 @@ class HardwareTarget:
 
 
 HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
-
-
-class _TargetSimulators:
-    """``make_simulator`` of a target's :class:`AdaptiveSampler` (picklable)."""
-
-    def __init__(self, target: HardwareTarget, device: str, seed: int | None):
-        self.target, self.device, self.seed = target, device, seed
-
-    def __call__(self, method: str) -> AerSimulator:
-        return self.target.simulator(method=method, device=self.device, seed=self.seed)
 
 
 @validates(

@@ -16,6 +16,7 @@ import os
 import numpy as np
 from sklearn.decomposition import PCA
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.validation import check_is_fitted
 
 from qdensity.learning._spec import check_hyperparameters, encoded_width
 from qdensity.learning.layer import History, QuantumLayer
@@ -300,3 +301,32 @@ def read_estimator(est, path):
     est.history_ = History()
     est.stopped_by_budget_ = False
     return est
+
+
+class SavedMixin:
+    """``save`` / ``load`` of the QNN estimators (:func:`write_estimator`,
+    :func:`read_estimator`)."""
+
+    def save(self, path) -> None:
+        """Save everything ``predict`` needs (``.json`` or ``.npz``; never pickle).
+
+        The file records its format version, the estimator's class, the model spec, the
+        learned classes and feature count, the PCA step and all trained parameters.
+        """
+        check_is_fitted(self, "model_")
+        write_estimator(self, path)
+
+    def load(self, path):
+        """Restore an estimator saved by :meth:`save`; returns ``self``, ready to ``predict``.
+
+        Every metadata field and array size is checked against the others (and against this
+        estimator's template, ``pre`` and ``post``) before any circuit is built.
+
+        Raises
+        ------
+        ValueError
+            Naming the file and the field: another format or version, another estimator
+            class, a missing or ill-typed field (e.g. no ``classes``), an invalid spec, or
+            arrays whose sizes do not fit the model.
+        """
+        return read_estimator(self, path)

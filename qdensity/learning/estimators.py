@@ -41,7 +41,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin, RegressorMixin
 from sklearn.decomposition import PCA
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.multiclass import check_classification_targets
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import validate_data
 
 from qdensity.execution.plans import Estimate
 from qdensity.learning import losses as _losses
@@ -52,7 +52,7 @@ from qdensity.learning._encoding import (
     warn_if_unscaled,
 )
 from qdensity.learning._estimate import EstimateMixin
-from qdensity.learning._saved import FORMAT_VERSION, read_estimator, write_estimator
+from qdensity.learning._saved import FORMAT_VERSION, SavedMixin
 from qdensity.learning._spec import (
     PARAMETER_CONSTRAINTS,
     build_model,
@@ -72,7 +72,7 @@ __all__ = ["QNNClassifier", "QNNRegressor", "FORMAT_VERSION", "UnscaledFeaturesW
 _LOG = logging.getLogger(__name__)
 
 
-class _QNNEstimator(EncodingMixin, EstimateMixin, BaseEstimator):
+class _QNNEstimator(EncodingMixin, EstimateMixin, SavedMixin, BaseEstimator):
     """Shared machinery; see :class:`QNNClassifier` for the parameters."""
 
     #: The hyperparameters, declared; ``fit`` checks them (scikit-learn's convention).
@@ -281,30 +281,6 @@ class _QNNEstimator(EncodingMixin, EstimateMixin, BaseEstimator):
         return stop
 
     # ---------------------------------------------------------------- persistence
-    def save(self, path) -> None:
-        """Save everything ``predict`` needs (``.json`` or ``.npz``; never pickle).
-
-        The file records its format version, the estimator's class, the model spec, the
-        learned classes and feature count, the PCA step and all trained parameters.
-        """
-        check_is_fitted(self, "model_")
-        write_estimator(self, path)
-
-    def load(self, path):
-        """Restore an estimator saved by :meth:`save`; returns ``self``, ready to ``predict``.
-
-        Every metadata field and array size is checked against the others (and against this
-        estimator's template, ``pre`` and ``post``) before any circuit is built.
-
-        Raises
-        ------
-        ValueError
-            Naming the file and the field: another format or version, another estimator
-            class, a missing or ill-typed field (e.g. no ``classes``), an invalid spec, or
-            arrays whose sizes do not fit the model.
-        """
-        return read_estimator(self, path)
-
     def _meta(self) -> dict:
         return {}
 

@@ -41,6 +41,7 @@ from qdensity.execution._torch import is_tensor
 from qdensity.execution.plans import CircuitJob, JobResult, check_observable
 from qdensity.execution.statevector import _kernels
 from qdensity.execution.statevector import _torch as _on_torch
+from qdensity.execution.statevector._cache_keys import _outline, _same_terms, _terms
 from qdensity.execution.statevector._program import Program, compile_program, real_dot
 from qdensity.validation import (
     Interval,
@@ -478,25 +479,3 @@ class AdjointEngine:
         bare, qubits = _measurement_map(circuit)
         cache[id(circuit)] = (circuit, bare, qubits, _outline(circuit))
         return bare, qubits
-
-
-def _outline(circuit: QuantumCircuit) -> tuple:
-    """What an in-place change of a circuit almost always alters, in microseconds: its
-    number of instructions, of parameters, and its count of each gate (a full fingerprint
-    costs about 2 µs per gate, more than a small adjoint call)."""
-    return len(circuit.data), circuit.num_parameters, tuple(circuit.count_ops().items())
-
-
-def _terms(obs) -> tuple | None:
-    """A copy of a Pauli observable's terms (None for a label, which cannot change)."""
-    if isinstance(obs, SparsePauliOp):
-        return obs.paulis.x.copy(), obs.paulis.z.copy(), obs.paulis.phase.copy(), obs.coeffs.copy()
-    return None
-
-
-def _same_terms(obs, terms: tuple | None) -> bool:
-    if terms is None:
-        return not isinstance(obs, SparsePauliOp)
-    now = _terms(obs)
-    return now is not None and all(a.shape == b.shape and np.array_equal(a, b)
-                                   for a, b in zip(now, terms, strict=True))

@@ -1,0 +1,150 @@
+"""The compiled form of an RBS / FBS circuit for the unary engine: its Givens rotations
+(gate pairs, the parameter and affine map of each angle) and their schedule in layers of
+disjoint rotations. Built by :func:`qdensity.execution.unary.compile_unary`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from qiskit.circuit import Parameter, ParameterVector
+
+from qdensity.execution.unary._layers import Layer, check_gate_list, schedule
+from qdensity.execution.unary._plan import Plan, make_plan
+from qdensity.validation import Array, Instance, Qubits, SequenceOf, validates
+
+__all__ = ["UnaryCircuit"]
+
+
+@validates(
+    num_qubits=Qubits(1), parameters=SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0),
+    first=Array(ndim=1, dtype='int', min_size=0), second=Array(ndim=1, dtype='int', min_size=0),
+    parameter_index=Array(ndim=1, dtype='int', min_size=0), coefficient=Array(ndim=1, min_size=0),
+    offset=Array(ndim=1, min_size=0),
+)
+@dataclass(frozen=True)
+class UnaryCircuit:
+    """A compiled RBS / FBS circuit: the Givens rotations it applies to unary amplitudes.
+
+    Gate ``g`` rotates the plane ``(first[g], second[g])`` by the angle
+    ``coefficient[g] * values[parameter_index[g]] + offset[g]`` (``parameter_index[g] == -1``
+    for a fixed angle, which is then ``offset[g]``).
+
+    Attributes
+    ----------
+    num_qubits : int
+        ``n``, the dimension of the unary subspace.
+    parameters : tuple of Parameter or ParameterVector
+        The circuit's parameters in ``circuit.parameters`` order (the order of ``values``).
+    first, second : numpy.ndarray of int, shape (G,)
+        Qubits of each rotation in gate-argument order (``first`` is RBS's ``i``).
+    parameter_index : numpy.ndarray of int, shape (G,)
+        Index into ``parameters``, or ``-1`` for a fixed angle.
+    coefficient, offset : numpy.ndarray of float, shape (G,)
+        Angle ``= coefficient * value + offset``.
+    """
+
+    num_qubits: int
+    parameters: Sequence[Parameter]
+    first: np.ndarray
+    second: np.ndarray
+    parameter_index: np.ndarray
+    coefficient: np.ndarray
+    offset: np.ndarray
+
+    @property
+    def num_parameters(self) -> int:
+        """Number of circuit parameters ``P``."""
+        return len(self.parameters)
+
+    @property
+    def num_gates(self) -> int:
+        """Number of rotations ``G``."""
+        return int(self.first.size)
+
+    @cached_property
+    def layers(self) -> list[Layer]:
+        """The gates grouped into layers of disjoint rotations (as soon as possible), the unit
+        of work of the vectorised kernels; ``len(layers)`` is the circuit's RBS depth."""
+        return schedule(self.num_qubits, self.first, self.second, self.parameter_index,
+                        self.coefficient)
+
+    @cached_property
+    def _plan(self) -> Plan:  # the layers as sparse matrices (kernels for shared angles)
+        return make_plan(self.num_qubits, self.layers, self.num_gates)
+
+    @classmethod
+    def from_gates(
+        cls,
+        num_qubits: int,
+        pairs,
+        parameter_index=None,
+        coefficient=None,
+        offset=None,
+        num_parameters: int | None = None,
+    ) -> UnaryCircuit:
+        """A unary circuit straight from a gate list, without building a ``QuantumCircuit``.
+
+        Parameters
+        ----------
+        num_qubits : int
+            ``n``.
+        pairs : array_like of int, shape (G, 2)
+            ``(i, j)`` of each RBS gate in circuit order (an FBS gate on ``[i, ..., j]`` acts
+            on unary states as RBS on ``(i, j)``).
+        parameter_index : array_like of int, shape (G,), optional
+            Parameter of each gate, ``-1`` for a fixed angle; default ``0 .. G - 1`` (one
+            parameter per gate, as a ``ParameterVector("theta", G)`` would give).
+        coefficient, offset : array_like of float, shape (G,), optional
+            Angle ``= coefficient * value + offset``; default 1 and 0.
+        num_parameters : int, optional
+            ``P``; default ``max(parameter_index) + 1``.
+
+        Returns
+        -------
+        UnaryCircuit
+            Its ``parameters`` is a ``ParameterVector("theta", P)`` (created lazily).
+
+        Examples
+        --------
+        >>> c = UnaryCircuit.from_gates(4, [(0, 1), (2, 3), (1, 2)])
+        >>> c.num_gates, c.num_parameters, len(c.layers)
+        (3, 3, 2)
+        >>> forward(c, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]).tolist()
+        [1.0, 0.0, 0.0, 0.0]
+        """
+        n, first, second, pidx, coef, off, p = check_gate_list(
+            num_qubits, pairs, parameter_index, coefficient, offset, num_parameters)
+        return cls(n, ParameterVector("theta", p), first, second, pidx, coef, off)
+
+    def angles(self, values: np.ndarray) -> np.ndarray:
+        """Gate angles for parameter rows.
+
+        Parameters
+        ----------
+        values : numpy.ndarray, shape (P,) or (B, P)
+
+        Returns
+        -------
+        numpy.ndarray, shape (G,) or (G, B)
+        """
+        values = np.asarray(values, dtype=float)
+        idx, scale = self._angle_map
+        if values.shape[-1] == 0:
+            picked = np.zeros((self.num_gates,) + values.shape[:-1])
+        elif values.ndim == 1:
+            picked = np.take(values, idx)
+        else:
+            picked = values[:, idx].T
+        if picked.ndim == 2:
+            return scale[:, None] * picked + self.offset[:, None]
+        picked *= scale  # a fresh array (fancy index or zeros)
+        picked += self.offset
+        return picked
+
+    @cached_property
+    def _angle_map(self) -> tuple[np.ndarray, np.ndarray]:  # parameter of each gate, scale
+        free = self.parameter_index >= 0
+        return np.where(free, self.parameter_index, 0), self.coefficient * free
