@@ -35,7 +35,10 @@ _NOT_A_FILE = os.path.join(os.sep, "nonexistent-qdensity-dir", "missing.file")
 
 
 def _show(value, width: int = 80) -> str:
-    """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big)."""
+    """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big;
+    a path is shown whole up to 1,000 characters: the user needs to see which file)."""
+    if isinstance(value, os.PathLike) or (isinstance(value, str) and os.sep in value):
+        width = max(width, 1000)
     if isinstance(value, np.ndarray) and value.size > 16:
         return f"array of shape {value.shape} and dtype {value.dtype}"
     own_repr: object = type(value).__repr__

@@ -112,6 +112,7 @@ class UnaryCircuit:
         >>> c = UnaryCircuit.from_gates(4, [(0, 1), (2, 3), (1, 2)])
         >>> c.num_gates, c.num_parameters, len(c.layers)
         (3, 3, 2)
+        >>> from qdensity.execution.unary import forward
         >>> forward(c, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]).tolist()
         [1.0, 0.0, 0.0, 0.0]
         """
