@@ -17,7 +17,6 @@ def test_colours_follow_labels_not_panel_order():
 
 
 def test_bands_clipped_and_colours_fixed(tmp_path, monkeypatch):
-    pytest.importorskip("matplotlib")
     from matplotlib.axes import Axes
 
     per_seed = [{"curves": {"a/acc": curve([1, 2], [0.05, 0.95], "epoch", "test accuracy"),
@@ -68,7 +67,6 @@ def test_sweep_label_names_the_runs_each_seed_averages():
 def test_noise_figures_keep_one_colour_per_method(tmp_path, monkeypatch):
     """The four noise figures of the committed run, redrawn: every label has one colour in
     all of them (a method's colour used to change between figures)."""
-    pytest.importorskip("matplotlib")
     from pathlib import Path
 
     from matplotlib.axes import Axes
