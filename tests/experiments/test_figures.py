@@ -4,7 +4,6 @@ metric's range (a 2-seed accuracy interval reaches far outside [0, 1])."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from qdensity.experiments._common import curve, curve_colours, plot_curves
 from qdensity.experiments.registry import curve_summary
