@@ -112,7 +112,10 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                 labels: Mapping[str, str] | None = None, log_x: Sequence[bool] = (),
                 y_labels: Sequence[str | None] = (),
                 thin: Mapping[str, Sequence[str]] | None = None,
-                colours: Mapping[str, str] | None = None) -> Path:
+                colours: Mapping[str, str] | None = None,
+                split: Mapping[str, float] | None = None,
+                gaps: Mapping[str, tuple[float, str]] | None = None,
+                points: Mapping[str, Sequence[str]] | None = None) -> Path:
     """One figure, one panel per ``(panel title, curve names)``: each curve's mean over seeds
     with its 95% confidence band (``result.curves``). Missing curves are skipped.
 
@@ -131,6 +134,17 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     colours : mapping, optional
         Label -> colour, for labels that must keep a colour across figures too (the others
         follow :func:`curve_colours`).
+    split : mapping, optional
+        Curve name -> x: the curve is drawn solid up to x and thin and dashed after it (a base
+        model trained on past the point where its density version leaves it).
+    gaps : mapping, optional
+        Curve name -> ``(x_from, label)``: the span from ``x_from`` to the curve's first x is
+        shaded in its colour and labelled, and no line joins the curve to anything before its
+        first point (the paper's Fig. 5b gap: shots spent pretraining a second sub-unitary
+        before the density model's first step).
+    points : mapping, optional
+        Curve name -> names of curves drawn as open markers of its colour, no line (single
+        points such as the accuracy of a warm start before its first step).
 
     Returns
     -------
@@ -144,6 +158,7 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
 
     labels = labels or {}
     thin = thin or {}
+    split, gaps, points = split or {}, gaps or {}, points or {}
     names_in_order = [name for _, names in panels for name in names if name in result.curves]
     colours = {**curve_colours([labels.get(n, n.split("/")[0]) for n in names_in_order]),
                **(colours or {})}
@@ -159,14 +174,33 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                 t = result.curves.get(sub)
                 if t is not None:
                     ax.plot(t["x"], t["mean"], color=colour, lw=0.6, alpha=0.6)
-            ax.plot(c["x"], c["mean"], marker="o", ms=3, color=colour, label=label)
-            lo_b, hi_b = metric_bounds(str(c.get("y_label", "")))
+            x = np.asarray(c["x"], dtype=float)
             mean = np.asarray(c["mean"], dtype=float)
+            cut = x <= split.get(name, np.inf)
+            after = ~cut  # the part past the split, drawn from the split point on
+            if after.any():
+                after[max(int(np.argmax(after)) - 1, 0)] = True
+            ax.plot(x[cut], mean[cut], marker="o", ms=3, color=colour, label=label)
+            if after.any():
+                ax.plot(x[after], mean[after], ls="--", lw=0.8, color=colour, alpha=0.7,
+                        label=f"{label}, trained on")
+            if name in gaps and x.size:
+                x_from, gap_label = gaps[name]
+                ax.axvspan(float(x_from), float(x[0]), color=colour, alpha=0.12, lw=0,
+                           label=gap_label)
+            for sub in points.get(name, ()):
+                t = result.curves.get(sub)
+                if t is not None:
+                    ax.plot(t["x"], t["mean"], ls="none", marker="o", ms=6, mfc="none",
+                            color=colour, label=labels.get(sub, sub))
+            lo_b, hi_b = metric_bounds(str(c.get("y_label", "")))
             if mean.size and (mean.min() < lo_b or mean.max() > hi_b):
                 lo_b, hi_b = -np.inf, np.inf  # the label's range does not hold: no clipping
             low = np.clip(np.asarray(c["low"], dtype=float), lo_b, hi_b)
             high = np.clip(np.asarray(c["high"], dtype=float), lo_b, hi_b)
-            ax.fill_between(c["x"], low, high, color=colour, alpha=0.2)
+            ax.fill_between(x[cut], low[cut], high[cut], color=colour, alpha=0.2)
+            if after.any():
+                ax.fill_between(x[after], low[after], high[after], color=colour, alpha=0.07)
             ax.set_xlabel(c["x_label"])
             ax.set_ylabel(c["y_label"])
         if i < len(y_labels) and y_labels[i]:

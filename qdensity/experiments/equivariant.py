@@ -64,7 +64,8 @@ from qdensity.experiments.results import ExperimentResult
 from qdensity.models.warm_start import warm_start
 from qdensity.validation import SeedLike, as_rng
 
-__all__ = ["EXPERIMENT", "run_seed", "plot", "check_config", "gradient_circuits"]
+__all__ = ["EXPERIMENT", "run_seed", "plot", "check_config", "gradient_circuits", "switch_shots",
+           "SECOND"]
 
 _INTS = {"num_qubits": 4, "train_size": 2, "test_size": 1, "batch_size": 1,
          "pretrain_steps": 1, "density_steps": 1, "eval_every": 1, "shots_per_circuit": 1,
@@ -234,19 +235,55 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     return out
 
 
+def switch_shots(result: ExperimentResult, family: str) -> float | None:
+    """Shots the base model of ``family`` has spent at the switch (``pretrain_steps`` steps):
+    ``pretrain_steps x circuits_per_row x batch_size x shots_per_circuit``; None where the
+    file lacks the circuit count."""
+    cfg = result.config
+    counts = {int(m[f"{family}/base_circuits_per_row"]) for m in result.per_seed
+              if f"{family}/base_circuits_per_row" in m}
+    if len(counts) != 1:
+        return None
+    return float(cfg["pretrain_steps"] * counts.pop() * cfg["batch_size"]
+                 * cfg["shots_per_circuit"])
+
+
 def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     """Two figures in the shape of the paper's Fig. 5: test accuracy against epochs (Adam
-    steps) and against shots (log scale), one panel per family, base and density model."""
+    steps) and against shots (log scale), one panel per family, base and density model.
+
+    The base model's curve is solid up to the switch (``pretrain_steps``, where the density
+    model takes ``U_1`` over) and thin and dashed after it (the base model trained on, for
+    comparison at equal epochs or shots). Against shots the density curve starts only after
+    the shots that pretrained ``U_2``: the span from the base model's shots at the switch to
+    the density model's first point is shaded and no line crosses it (Fig. 5b: "the gaps in
+    (b) are to account for the extra measurement overhead to initialise and train the second
+    sub-unitaries").
+    """
     fams = list(result.config["families"])
+    pre = float(result.config["pretrain_steps"])
     paths = []
     for kind, log in (("epoch", False), ("shots", True)):
         panels = [(LABELS[f][0] + " family", [f"{lab}/test_vs_{kind}" for lab in LABELS[f]])
                   for f in fams]
+        split, gaps = {}, {}
+        for f in fams:
+            base, dens = LABELS[f]
+            at = pre if kind == "epoch" else switch_shots(result, f)
+            if at is None:
+                continue
+            split[f"{base}/test_vs_{kind}"] = at
+            if kind == "shots":
+                gaps[f"{dens}/test_vs_shots"] = (at, f"shots pretraining {SECOND[f]}")
         path = Path(directory) / figure_name(result, f"equivariant-{kind}.png")
         paths.append(plot_curves(result, panels, path,
                                  title=f"equivariant: test accuracy vs {kind}",
-                                 log_x=[log] * len(panels)))
+                                 log_x=[log] * len(panels), split=split, gaps=gaps))
     return paths
+
+
+#: The second sub-unitary of each family, in words (the gap of Fig. 5b is its pretraining).
+SECOND = {"xx": "U_YY", "noncommuting": "U_2", "qcnn": "U_2"}
 
 
 _PAPER = {"num_qubits": 10, "noise_std": 1.8, "test_size": 100, "batch_size": 20,

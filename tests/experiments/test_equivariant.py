@@ -163,3 +163,48 @@ def test_papers_way_sum_z_readout_and_one_initialisation():
         assert abs(acc * n - round(acc * n)) < 1e-9
     with pytest.raises(ValueError, match="readout"):
         run("equivariant", seeds=[0], config={"readout": "softmax"}, progress=False)
+
+
+def test_shots_figure_shows_the_gap_of_fig_5b(tiny, tmp_path, monkeypatch):
+    """Fig. 5b: the density curve starts only after the shots that pretrained the second
+    sub-unitary. Its first shot count exceeds the base model's at the switch by
+    ``pretrain_steps x circuits(U_2) x batch x shots per circuit``, with the circuits counted
+    here from Bowles et al.'s formulas (XX / YY: one circuit per Z_i plus the forward one;
+    non-commuting: two shifted circuits per generator, ``layers n/2 (n + 3)`` generators, plus
+    the forward one); the figure shades exactly that span, the base model's solid line ends at
+    the switch, and no line of the density model reaches into the gap."""
+    from matplotlib.axes import Axes
+
+    from qdensity.experiments.equivariant import plot
+
+    result, _ = tiny
+    n, pre, batch, spc = 4, 2, 4, 10
+    second = {"xx": n + 1, "noncommuting": 2 * (1 * n // 2 * (n + 3)) + 1}
+    base_circuits = second  # U_1 has U_2's structure in both families
+    lines, spans = [], []
+    real_plot, real_span = Axes.plot, Axes.axvspan
+    monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
+        lines.append((id(self.figure), np.asarray(a[0], float), kw.get("label"),
+                      kw.get("ls", "-"))),
+        real_plot(self, *a, **kw))[1])
+    monkeypatch.setattr(Axes, "axvspan", lambda self, lo, hi, **kw: (
+        spans.append((lo, hi, kw.get("label"))), real_span(self, lo, hi, **kw))[1])
+    paths = plot(result, tmp_path)
+    shots_figure = lines[-1][0]  # the shots figure is drawn last
+    lines = [line[1:] for line in lines if line[0] == shots_figure]
+    assert paths[1].name == "equivariant-quick-shots.png" and paths[1].stat().st_size > 1000
+    for fam, c2 in second.items():
+        base, dens = LABELS[fam]
+        switch = pre * base_circuits[fam] * batch * spc
+        start = switch + pre * c2 * batch * spc
+        for m in result.per_seed:
+            assert m["curves"][f"{dens}/test_vs_shots"]["x"][0] == start
+        assert (switch, start) in [(lo, hi) for lo, hi, _ in spans]
+        solid = [x for x, label, ls in lines if label == base and ls == "-"]
+        assert len(solid) == 1 and solid[0].max() == switch
+        dens_x = [x for x, label, _ in lines if label == dens]
+        assert len(dens_x) == 1 and dens_x[0].min() == start
+        # nothing but the base model's dashed "trained on" line spans the gap
+        for x, label, ls in lines:
+            crosses = np.any((x[:-1] <= switch) & (x[1:] >= start))
+            assert not crosses or (label == f"{base}, trained on" and ls == "--")
