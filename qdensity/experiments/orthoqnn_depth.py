@@ -26,6 +26,7 @@ the sum of its sub-models' circuits. Test-set evaluation is not counted.
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import cast
 
@@ -95,6 +96,14 @@ def _mean_post(clfs: list[QNNClassifier], n: int) -> Linear:
     return post
 
 
+def _warm_start_accuracy(model: DensityQNN, post: Linear, classes: np.ndarray, data) -> float:
+    """Test accuracy of the warm-started density model before its first step: the exact
+    mixture ``sum_k alpha_k(x) p_k(x)`` (eq. 3) through the read-out ``post``, argmax."""
+    X_te, y_te = data[1], data[3]
+    logits = copy.deepcopy(post).forward(model.predict(X_te))
+    return float(np.mean(classes[np.argmax(logits, axis=1)] == y_te))
+
+
 def _accuracies(clf: QNNClassifier) -> list[float]:
     return [float(r["test_metric"]) for r in clf.history_.epochs]
 
@@ -116,6 +125,8 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     dict
         ``pure/test_accuracy``, ``D{d}/test_accuracy`` (end of training),
         ``D{d}/best_subunitary_accuracy`` (best sub-model after pretraining),
+        ``D{d}/warm_start_accuracy`` (the density model before its first step; also the
+        one-point curves ``D{d}/warm_start/...``),
         ``*/circuits_per_row`` and its breakdown ``*/circuits/...``, ``*/shots`` and the curves
         ``*/test_vs_epoch`` and ``*/test_vs_shots`` (D{d}: pretraining epochs carry the mean
         over sub-models; ``D{d}/sub{k}/...`` each pretrained sub-unitary alone).
@@ -167,19 +178,28 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
             dens.mixture = GatedMixture(n, len(subs), weights=np.zeros((len(subs), n)))
         dens_cpr = circuits_per_row(dens, row, "auto")
         out.update(breakdown_metrics(name, circuit_breakdown(dens, row, method="auto")))
-        clf = _fit(dens, data, e2, config, next(seeds), progress, post=_mean_post(subs, n))
+        post = _mean_post(subs, n)
+        warm = _warm_start_accuracy(dens, post, subs[0].classes_, data)
+        clf = _fit(dens, data, e2, config, next(seeds), progress, post=post)
         acc = list(sub_acc.mean(axis=0)) + _accuracies(clf)
         spent = np.cumsum([sub_cpr * rows * shots] * e1 + [dens_cpr * rows * shots] * e2)
         epochs = list(range(1, len(acc) + 1))
         out.update({f"{name}/test_accuracy": acc[-1],
                     f"{name}/best_subunitary_accuracy": float(sub_acc[:, -1].max()),
                     f"{name}/mean_subunitary_accuracy": float(sub_acc[:, -1].mean()),
+                    f"{name}/warm_start_accuracy": warm,
                     f"{name}/pretrain_circuits_per_row": sub_cpr,
                     f"{name}/num_parameters": dens.num_parameters,
                     f"{name}/shots": int(spent[-1])})
         curves[f"{name}/test_vs_epoch"] = curve(epochs, acc, "epoch", "test accuracy")
         curves[f"{name}/test_vs_shots"] = curve(spent, acc, "shots spent in training",
                                                 "test accuracy")
+        # the warm start before its first step: same epoch and shots as the end of pretraining
+        curves[f"{name}/warm_start/test_vs_epoch"] = curve([e1], [warm], "epoch",
+                                                           "test accuracy")
+        curves[f"{name}/warm_start/test_vs_shots"] = curve([spent[e1 - 1]], [warm],
+                                                           "shots spent in training",
+                                                           "test accuracy")
         for k, sub_curve in enumerate(sub_acc):  # the paper's thin lines: each pretrained U_k
             curves[f"{name}/sub{k}/test_vs_epoch"] = curve(epochs[:e1], sub_curve, "epoch",
                                                            "test accuracy")
@@ -199,7 +219,8 @@ def units(config: dict) -> list[dict]:
 
 def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     """Fig. 7 in two figures: pure vs D = 1 (top row), and all depths (bottom row), each
-    against epochs and against shots (log scale)."""
+    against epochs and against shots (log scale); an open circle marks each density model's
+    warm start before its first step, where the run records it."""
     depths = result.config["depths"]
     labels = {"pure/test_vs_epoch": "OrthoQNN (round-robin)",
               "pure/test_vs_shots": "OrthoQNN (round-robin)"}
@@ -211,6 +232,14 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     first = f"D{min(depths)}"
     drawn = any("/sub" in name for name in result.curves)
     note = "; thin: the pretrained sub-unitaries" if drawn else ""
+    # open circles: each density model at its warm start, before its first step (runs that
+    # record it); one legend entry
+    points = {f"D{d}/test_vs_{kind}": [f"D{d}/warm_start/test_vs_{kind}"]
+              for d in depths for kind in ("epoch", "shots")}
+    for kind in ("epoch", "shots"):
+        for d in depths:
+            labels[f"D{d}/warm_start/test_vs_{kind}"] = "_nolegend_"
+        labels[f"{first}/warm_start/test_vs_{kind}"] = "warm start, before its first step"
     n = len(result.seeds)
     y = [f"test accuracy, mean of {n} seeds"] * 2
     top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
@@ -219,7 +248,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                                            f"{first}/test_vs_shots"])],
                       Path(directory) / figure_name(result, "orthoqnn-depth-shallow.png"),
                       title=f"round-robin OrthoQNN vs shallow density QNN (Fig. 7 top{note})",
-                      labels=labels, log_x=(False, True), thin=thin, y_labels=y)
+                      labels=labels, log_x=(False, True), thin=thin, y_labels=y,
+                      points=points)
     names = ["pure"] + [f"D{d}" for d in depths]
     bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
                                                                for m in names]),
@@ -227,7 +257,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                                                               for m in names])],
                          Path(directory) / figure_name(result, "orthoqnn-depth-depths.png"),
                          title=f"density QNN sub-unitary depth D (Fig. 7 bottom{note})",
-                         labels=labels, log_x=(False, True), thin=thin, y_labels=y)
+                         labels=labels, log_x=(False, True), thin=thin, y_labels=y,
+                         points=points)
     return [top, bottom]
 
 

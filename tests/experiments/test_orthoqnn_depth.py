@@ -95,3 +95,44 @@ def test_mnist_files(tmp_path):
 def test_bad_settings(change, setting):
     with pytest.raises(ValueError, match=setting):
         run("orthoqnn-depth", seeds=1, config=dict(TINY, **change), progress=False)
+
+
+def test_warm_start_point_is_the_mixture_before_any_step(monkeypatch):
+    """The recorded warm start (``D{d}/warm_start_accuracy``, the one-point curves at the end
+    of pretraining) is the density model before its first step: the K pretrained sub-models'
+    unary probabilities from qiskit Statevectors, mixed with the MoE gate's uniform start
+    (W = 0, b = 0: alpha = 1/K), through the mean of their read-outs, argmax."""
+    from qiskit.quantum_info import Statevector
+
+    from qdensity.experiments import orthoqnn_depth as od
+    from qdensity.models.decompositions import trainable_parameters
+
+    fitted = []
+    real_fit = od._fit
+    monkeypatch.setattr(od, "_fit", lambda *a, **kw: (fitted.append(real_fit(*a, **kw)),
+                                                       fitted[-1])[1])
+    config = {**od.EXPERIMENT.quick, **TINY, "mixture": "moe", "part": "D1"}
+    out = od.run_seed(config, 0, False)
+    subs = fitted[:-1]  # the last fit is the density model's
+    assert len(subs) == N - 1
+    X_te, y_te = od.load_data(config, 0, N)[1::2]
+    mix = np.zeros((len(X_te), N))
+    for clf in subs:
+        model = clf.model_
+        sub = model.sub_unitaries[0]
+        names = trainable_parameters(sub)
+        theta = model.theta[[model.parameters.index(p) for p in names]]
+        bound = sub.assign_parameters(dict(zip(names, theta, strict=True)))
+        for b, x in enumerate(X_te):
+            enc = model.encoding.circuit.assign_parameters(model.encoding.values(x[None])[0])
+            probs = Statevector(enc.compose(bound)).probabilities()
+            mix[b] += probs[[1 << j for j in range(N)]] / len(subs)
+    W = np.mean([clf.post_.params["W"] for clf in subs], axis=0)
+    bias = np.mean([clf.post_.params["b"] for clf in subs], axis=0)
+    expected = np.mean(subs[0].classes_[np.argmax(mix @ W + bias, axis=1)] == y_te)
+    assert out["D1/warm_start_accuracy"] == pytest.approx(expected, abs=1e-12)
+    e1 = TINY["pretrain_epochs"]
+    assert out["curves"]["D1/warm_start/test_vs_epoch"] == {
+        "x": [e1], "y": [expected], "x_label": "epoch", "y_label": "test accuracy"}
+    shots = out["curves"]["D1/warm_start/test_vs_shots"]["x"]
+    assert shots == [out["curves"]["D1/test_vs_shots"]["x"][e1 - 1]]
