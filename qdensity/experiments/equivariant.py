@@ -64,8 +64,7 @@ from qdensity.experiments.results import ExperimentResult
 from qdensity.models.warm_start import warm_start
 from qdensity.validation import SeedLike, as_rng
 
-__all__ = ["EXPERIMENT", "run_seed", "plot", "check_config", "gradient_circuits", "switch_shots",
-           "SECOND"]
+__all__ = ["EXPERIMENT", "run_seed", "plot", "check_config", "gradient_circuits"]
 
 _INTS = {"num_qubits": 4, "train_size": 2, "test_size": 1, "batch_size": 1,
          "pretrain_steps": 1, "density_steps": 1, "eval_every": 1, "shots_per_circuit": 1,
@@ -235,7 +234,7 @@ def run_seed(config: dict, seed: int, progress: bool) -> dict:
     return out
 
 
-def switch_shots(result: ExperimentResult, family: str) -> float | None:
+def _switch_shots(result: ExperimentResult, family: str) -> float | None:
     """Shots the base model of ``family`` has spent at the switch (``pretrain_steps`` steps):
     ``pretrain_steps x circuits_per_row x batch_size x shots_per_circuit``; None where the
     file lacks the circuit count."""
@@ -269,12 +268,12 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
         split, gaps = {}, {}
         for f in fams:
             base, dens = LABELS[f]
-            at = pre if kind == "epoch" else switch_shots(result, f)
+            at = pre if kind == "epoch" else _switch_shots(result, f)
             if at is None:
                 continue
             split[f"{base}/test_vs_{kind}"] = at
             if kind == "shots":
-                gaps[f"{dens}/test_vs_shots"] = (at, f"shots pretraining {SECOND[f]}")
+                gaps[f"{dens}/test_vs_shots"] = (at, f"shots pretraining {_SECOND[f]}")
         path = Path(directory) / figure_name(result, f"equivariant-{kind}.png")
         paths.append(plot_curves(result, panels, path,
                                  title=f"equivariant: test accuracy vs {kind}",
@@ -283,7 +282,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
 
 
 #: The second sub-unitary of each family, in words (the gap of Fig. 5b is its pretraining).
-SECOND = {"xx": "U_YY", "noncommuting": "U_2", "qcnn": "U_2"}
+_SECOND = {"xx": "U_YY", "noncommuting": "U_2", "qcnn": "U_2"}
 
 
 _PAPER = {"num_qubits": 10, "noise_std": 1.8, "test_size": 100, "batch_size": 20,
