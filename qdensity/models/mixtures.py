@@ -147,8 +147,8 @@ class SoftmaxMixture(Mixture):
                 raise ValueError("alpha must be strictly positive to be expressed as logits")
             self.logits = np.log(a)
         else:
-            k = int(num_components)
-            self.logits = np.zeros(k)
+            assert num_components is not None  # the one of the three given
+            self.logits = np.zeros(int(num_components))
         self.num_components = self.logits.size
 
     @property
