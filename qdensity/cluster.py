@@ -83,9 +83,6 @@ def parse_cluster(cluster: str) -> tuple[str, Any]:
     >>> parse_cluster("local:4"), parse_cluster("tcp://10.0.0.5:8786")
     (('local', 4), ('tcp', 'tcp://10.0.0.5:8786'))
     """
-    if not isinstance(cluster, str):
-        raise TypeError(f"cluster must be a str or a distributed.Client, got "
-                        f"{type(cluster).__name__}; allowed: {CLUSTER_FORMS}")
     text = cluster.strip()
     if text == "local":
         return "local", None

@@ -78,12 +78,7 @@ def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
         return PauliList([paulis])
     if isinstance(paulis, SparsePauliOp):
         raise TypeError(f"{name} must be Pauli strings, not a SparsePauliOp; pass op.paulis")
-    try:
-        items = list(paulis)
-    except TypeError as exc:
-        raise TypeError(
-            f"{name} must be a PauliList or a sequence of Pauli / labels, got {paulis!r}"
-        ) from exc
+    items = list(paulis)
     if not items:
         raise ValueError(f"{name} must contain at least one Pauli operator, got an empty list")
     try:
@@ -464,8 +459,6 @@ def conjugate_two_qubit(
     SparsePauliOp
     """
     mat = Operator(unitary).data
-    if mat.shape != (4, 4):
-        raise ValueError(f"unitary must be 4 x 4 (two qubits), got shape {mat.shape}")
     q0, q1 = (int(q) for q in qubits)
     key = mat.tobytes()
     tm = _TRANSFER_CACHE.get(key)

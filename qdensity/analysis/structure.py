@@ -47,8 +47,6 @@ def moment_indices(
     Positions are stable identifiers (Qiskit builds new ``CircuitInstruction`` objects on each
     access, so object identity is not).
     """
-    if not isinstance(circuit, QuantumCircuit):
-        raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
     front: dict[int, int] = {}
     layers: list[list[int]] = []
     for pos, inst in enumerate(circuit.data):

@@ -47,7 +47,6 @@ from qdensity.validation import (
     Options,
     Qubits,
     check_distribution,
-    check_nonzero_vector,
     check_num_qubits,
     validates,
 )
@@ -219,16 +218,6 @@ def _append_rbs(qc: QuantumCircuit, qubits, plan: _Plan, angles, *, inverse: boo
             qc.append(RBSGate(theta), [qubits[node.src], qubits[node.tgt]])
 
 
-def _check_matrix(X, name: str) -> np.ndarray:
-    try:
-        arr = np.asarray(X, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a real array, got {X!r}") from exc
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
-
-
 # --------------------------------------------------------------------------------------------
 # Public builders
 # --------------------------------------------------------------------------------------------
@@ -284,9 +273,8 @@ def unary_loader_template(
     >>> qc = tpl.assign_parameters(loader_angles(np.array([1.0, -2.0, 0.0, 0.5, 3.0]),
     ...                                          "semi_diagonal"))
     """
-    d = check_num_qubits(d, "d", minimum=2)
-    layout = _check_layout(layout)
-    if not isinstance(parameter_prefix, str) or not parameter_prefix:
+    d = int(d)
+    if not parameter_prefix:
         raise ValueError(f"parameter_prefix must be a non-empty str, got {parameter_prefix!r}")
     plan = _plan(d, layout)
     theta = ParameterVector(parameter_prefix, d - 1)
@@ -320,10 +308,7 @@ def loader_angles(X, layout: str = "parallel") -> np.ndarray:
     >>> loader_angles([[1.0, 0.0], [0.0, -1.0]], "diagonal").round(4).tolist()
     [[0.0], [-1.5708]]
     """
-    layout = _check_layout(layout)
-    arr = _check_matrix(X, "X")
-    if arr.ndim not in (1, 2):
-        raise ValueError(f"X must have shape (d,) or (B, d), got shape {arr.shape}")
+    arr = np.asarray(X, dtype=float)
     batch = arr.reshape(1, -1) if arr.ndim == 1 else arr
     if batch.shape[1] < 2:
         raise ValueError(f"X must have d >= 2 columns (vector length), got shape {arr.shape}")
@@ -364,8 +349,9 @@ def unary_loader(x, layout: str = "parallel") -> QuantumCircuit:
     >>> [round(float(sv[2**j]), 6) for j in range(3)]
     [0.6, 0.0, -0.8]
     """
-    arr = check_nonzero_vector(x, "x", min_length=2)
-    layout = _check_layout(layout)
+    arr = np.asarray(x, dtype=float)
+    if not np.any(arr):
+        raise ValueError("x must not be the zero vector (it cannot be normalised)")
     plan = _plan(arr.size, layout)
     qc = QuantumCircuit(arr.size, name=f"unary_loader_{layout}")
     qc.x(plan.start)
@@ -410,10 +396,7 @@ def matrix_loader(X, layout: str = "parallel") -> QuantumCircuit:
     >>> [reg.name for reg in qc.qregs], qc.num_qubits
     (['row', 'col'], 6)
     """
-    layout = _check_layout(layout)
-    arr = _check_matrix(X, "X")
-    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
-        raise ValueError(f"X must be a 2-dimensional (n, d) matrix with n, d >= 1, got {arr.shape}")
+    arr = np.asarray(X, dtype=float)
     if not np.any(arr):
         raise ValueError("X must not be the zero matrix (it cannot be normalised)")
     n, d = arr.shape
@@ -464,7 +447,6 @@ def distribution_loader(alpha, layout: str = "parallel") -> QuantumCircuit:
     >>> qc.name, qc.num_qubits
     ('load_sqrt_alpha', 3)
     """
-    layout = _check_layout(layout)
     arr = check_distribution(alpha, "alpha")
     amplitudes = np.sqrt(arr)
     plan = _plan(arr.size, layout)

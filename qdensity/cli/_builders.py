@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 from qiskit import QuantumCircuit
 
-from qdensity.validation import Instance, Qubits, Seed, check_seed, validates
+from qdensity.validation import Instance, Qubits, Seed, validates
 
 __all__ = ["BUILDERS", "build_circuit"]
 
@@ -138,10 +138,9 @@ def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> Q
     ValueError
         For an unknown name (the message lists the known ones).
     """
-    if not isinstance(name, str) or name not in BUILDERS:
+    if name not in BUILDERS:
         raise ValueError(f"unknown builder {name!r} (argument name); known builders: "
                          f"{', '.join(BUILDERS)}")
-    check_seed(bind_seed, "bind_seed")
     qc = BUILDERS[name](num_qubits)
     if bind_seed is not None and qc.num_parameters:
         qc = qc.assign_parameters(

@@ -13,9 +13,6 @@ from qdensity.validation import (
     Seed,
     SeedLike,
     as_rng,
-    check_nonnegative_float,
-    check_num_qubits,
-    check_positive_int,
     validates,
 )
 
@@ -65,12 +62,11 @@ def bars_and_dots(
     >>> X.shape, sorted(set(y.tolist())) <= [-1, 1]
     ((4, 6), True)
     """
-    num = check_positive_int(num_samples, "num_samples", minimum=1)
-    d = check_num_qubits(num_qubits, minimum=4)
+    num, d = int(num_samples), int(num_qubits)
     if num * d > MAX_DENSE_ENTRIES:
         raise ValueError(f"num_samples * num_qubits = {num * d} entries exceed "
                          f"{MAX_DENSE_ENTRIES} (2 GiB of float64); draw fewer samples")
-    sigma = check_nonnegative_float(noise_std, "noise_std")
+    sigma = float(noise_std)
     rng = as_rng(seed)
     length = d // 2
     is_bar = rng.random(num) < 0.5

@@ -25,7 +25,6 @@ from qdensity.validation import (
     FilePath,
     Interval,
     Seed,
-    check_positive_int,
     seed_u32,
     validates,
 )
@@ -263,8 +262,6 @@ def load_mnist(
     >>> X_tr.shape, X_te.shape  # doctest: +SKIP
     ((4000, 10), (1000, 10))
     """
-    if path is not None and not isinstance(path, (str, Path)):
-        raise TypeError(f"path must be a str, a pathlib.Path or None, got {type(path).__name__}")
     where = BUNDLED if path is None else repr(str(path))
     if path is None:
         X_tr, y_tr, X_te, y_te = _bundled(seed, BUNDLED_TEST_SIZE)
@@ -283,10 +280,10 @@ def load_mnist(
     for name, images, labels in (("train", X_tr, y_tr), ("test", X_te, y_te)):
         _check_mnist(name, np.asarray(images), np.asarray(labels), where)
     if limit_train is not None:
-        n = check_positive_int(limit_train, "limit_train")
+        n = int(limit_train)
         X_tr, y_tr = X_tr[:n], y_tr[:n]
     if limit_test is not None:
-        n = check_positive_int(limit_test, "limit_test")
+        n = int(limit_test)
         X_te, y_te = X_te[:n], y_te[:n]
     scale = _pixel_scale(np.asarray(X_tr), np.asarray(X_te), where)
     X_tr = X_tr.reshape(len(X_tr), -1).astype(float) / scale
@@ -294,7 +291,7 @@ def load_mnist(
     if num_features is not None:
         from sklearn.decomposition import PCA
 
-        k = check_positive_int(num_features, "num_features")
+        k = int(num_features)
         random_state = seed_u32(seed)
         if k > min(X_tr.shape):
             raise ValueError(f"num_features={k} exceeds what the training split allows "

@@ -59,10 +59,6 @@ class ExactEngine:
     def __init__(self, method: str = "statevector", noise_model=None, device: str = "CPU"):
         from qiskit_aer import AerSimulator
 
-        if method not in ("statevector", "density_matrix"):
-            raise ValueError(f"method must be 'statevector' or 'density_matrix', got {method!r}")
-        if device not in ("CPU", "GPU"):
-            raise ValueError(f"device must be 'CPU' or 'GPU', got {device!r}")
         if device == "GPU" and "GPU" not in AerSimulator().available_devices():
             raise ValueError("device='GPU' needs qiskit-aer-gpu and a CUDA GPU; none is available")
         self.simulator = AerSimulator(method=method, noise_model=noise_model, device=device)

@@ -137,7 +137,7 @@ def get_experiment(name: str) -> Experiment:
     ValueError
         For an unknown name; the message lists the known ones.
     """
-    if not isinstance(name, str) or name not in EXPERIMENTS:
+    if name not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {name!r}; known: {', '.join(EXPERIMENTS)}")
     module = importlib.import_module(f"qdensity.experiments.{EXPERIMENTS[name]}")
     return module.EXPERIMENT
@@ -205,9 +205,8 @@ def _run_unit(run_seed: Callable, name: str, config: dict, seed: int, progress: 
 
 
 def _check_parallel(jobs, cluster):
-    """The cluster the run uses (None: in this process)."""
-    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
-        raise ValueError(f"jobs must be a positive int, got {jobs!r}")
+    """The cluster the run uses (None: in this process); ``jobs`` and ``cluster`` as
+    :func:`run` declares them."""
     if cluster is None:
         return None if jobs == 1 else f"local:{int(jobs)}"
     if isinstance(cluster, str):
@@ -299,8 +298,6 @@ def run(name: str, *, mode: str = "quick", seeds=None, config: Mapping | None = 
     settings = resolve_config(experiment, mode, config)
     seed_list = resolve_seeds(seeds, int(experiment.seeds.get(mode, 3)))
     target = _check_parallel(jobs, cluster)
-    if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
-        raise ValueError(f"retries must be a non-negative int, got {retries!r}")
     show = True if progress is None else bool(progress)
     t0 = time.perf_counter()
     parts = _split(experiment, settings)

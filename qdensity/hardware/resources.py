@@ -24,7 +24,6 @@ from qdensity.validation import (
     Seed,
     SeedLike,
     TargetLike,
-    check_circuit,
     validates,
 )
 
@@ -163,9 +162,6 @@ def resource_report(
     >>> resource_report(qc, "rbs_native").two_qubit_count
     2
     """
-    check_circuit(circuit)
-    if not isinstance(transpiled, bool):
-        raise TypeError(f"transpiled must be a bool, got {transpiled!r}")
     if target is None:
         hw = get_target("ideal", max(circuit.num_qubits, 1), seed=seed, basis_gates=DEFAULT_BASIS)
     else:
@@ -207,12 +203,9 @@ def compare_reports(reports: Mapping[str, ResourceReport], *, width: int = 100) 
     >>> _ = qc.cx(0, 2)
     >>> text = compare_reports({"ideal": resource_report(qc), "line": resource_report(qc, "line")})
     """
-    if not isinstance(reports, Mapping):
-        raise TypeError(f"reports must be a mapping name -> ResourceReport, got {reports!r}")
     if not reports:
         raise ValueError("reports must hold at least one ResourceReport")
-    if isinstance(width, bool) or not isinstance(width, int) or width < 40:
-        raise ValueError(f"width must be an int >= 40 (columns), got {width!r}")
+    width = int(width)
     for key, rep in reports.items():
         if not isinstance(key, str):
             raise TypeError(f"reports keys must be str, got {key!r}")

@@ -206,8 +206,6 @@ def load_snapshot(path: str | os.PathLike) -> SnapshotFileBackend:
         anything is built.
     """
     p = Path(path)
-    if not p.is_file():
-        raise ValueError(f"snapshot file {os.fspath(path)!r} does not exist")
     size = p.stat().st_size
     if size > MAX_SNAPSHOT_BYTES:
         _refuse(path, f"{size} bytes, more than the {MAX_SNAPSHOT_BYTES} a snapshot may take")

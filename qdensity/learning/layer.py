@@ -54,7 +54,6 @@ from qdensity.validation import (
     Instance,
     Interval,
     Options,
-    check_positive_int,
     validates,
 )
 
@@ -94,14 +93,10 @@ class QuantumLayer:
 
     def __init__(self, model: DensityQNN, engine="exact", shots: int | None = None,
                  gradient: str = "auto", input_gradients: bool = False):
-        if not isinstance(input_gradients, (bool, np.bool_)):
-            raise TypeError(f"input_gradients must be a bool, got {input_gradients!r}")
         self.input_gradients = bool(input_gradients)
         self.model = model
         self.engine = engine
         self.shots = shots
-        if not isinstance(gradient, str) or gradient not in METHODS:
-            raise ValueError(f"gradient must be one of {METHODS}, got {gradient!r}")
         self.gradient = gradient
         self.grads: dict[str, np.ndarray] = {}
         self._cache: tuple | None = None
@@ -111,14 +106,6 @@ class QuantumLayer:
         if isinstance(engine, SamplerEngine):
             if shots is None:
                 raise ValueError("a sampler engine needs shots (per circuit)")
-            check_positive_int(shots, "shots", minimum=2)  # sampled gradients need a variance
-        elif isinstance(engine, str):
-            if engine != "exact":
-                raise ValueError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or "
-                                 f"a SamplerEngine, got {engine!r}")
-        elif not isinstance(engine, (AdjointEngine, ExactEngine)):
-            raise TypeError(f"engine must be 'exact', an AdjointEngine, an ExactEngine or a "
-                            f"SamplerEngine, got {type(engine).__name__} {engine!r}")
 
     @property
     def params(self) -> dict[str, np.ndarray]:

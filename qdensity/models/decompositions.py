@@ -33,8 +33,6 @@ from qdensity.validation import (
     Instance,
     Interval,
     SequenceOf,
-    check_circuit,
-    check_positive_int,
     validates,
 )
 
@@ -144,11 +142,9 @@ def by_moments(circuit: QuantumCircuit, depth: int = 1, *,
     >>> by_moments(round_robin(6)).num_subunitaries
     5
     """
-    check_circuit(circuit)
     index, count = _moment_index(circuit)
     if count == 0:
         raise ValueError("circuit has no parameterised gates to decompose")
-    depth = check_positive_int(depth, "depth")
     if depth > count:
         raise ValueError(f"depth must be <= the number of parameterised moments {count}, "
                          f"got {depth}")
@@ -190,10 +186,8 @@ def cyclic_moments(circuit: QuantumCircuit, depth: int) -> Decomposition:
     Decomposition
         ``K = M`` sub-unitaries, ``depth * (gates per moment)`` parameters each.
     """
-    check_circuit(circuit)
     layers = moments(circuit, include_unparameterised=False)
     m = len(layers)
-    depth = check_positive_int(depth, "depth")
     if m == 0 or depth > m:
         raise ValueError(f"depth must be between 1 and the number of moments {m}, got {depth}")
     parts = []
@@ -225,7 +219,6 @@ def odd_even(circuit: QuantumCircuit) -> Decomposition:
     Decomposition
         Two sub-unitaries ``[U_even, U_odd]`` sharing the source's parameters.
     """
-    check_circuit(circuit)
     even = circuit.copy_empty_like(name=f"{circuit.name}_even")
     odd = circuit.copy_empty_like(name=f"{circuit.name}_odd")
     for inst in circuit.data:
@@ -259,9 +252,7 @@ def independent(circuits: Sequence[QuantumCircuit], name: str = "independent") -
     -------
     Decomposition
     """
-    circuits = [check_circuit(c, f"circuits[{i}]") for i, c in enumerate(circuits)]
-    if not circuits:
-        raise ValueError("circuits must not be empty (K >= 1)")
+    circuits = list(circuits)
     return Decomposition(name, _fresh_parameters(circuits), None, independent=True)
 
 
@@ -280,7 +271,7 @@ def copies(circuit: QuantumCircuit, num_copies: int) -> Decomposition:
     Decomposition
         K sub-unitaries with K times the source's parameters.
     """
-    k = check_positive_int(num_copies, "num_copies")
+    k = int(num_copies)
     dec = independent([circuit] * k, name=f"{circuit.name}_copies_{k}")
     dec.source = circuit
     return dec

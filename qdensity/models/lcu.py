@@ -40,7 +40,6 @@ from qdensity.validation import (
     Instance,
     Seed,
     SequenceOf,
-    check_sequence_of,
     validates,
 )
 
@@ -87,8 +86,7 @@ class LCUQNN:
     """
 
     def __init__(self, sub_unitaries: Sequence[QuantumCircuit], mixture=None, *, seed=None):
-        subs = None if isinstance(sub_unitaries, QuantumCircuit) else check_sequence_of(
-            sub_unitaries, "sub_unitaries", QuantumCircuit, "QuantumCircuit")
+        subs = None if isinstance(sub_unitaries, QuantumCircuit) else list(sub_unitaries)
         if not subs:
             raise ValueError("sub_unitaries must be a non-empty sequence of QuantumCircuits")
         n = subs[0].num_qubits if isinstance(subs[0], QuantumCircuit) else 0

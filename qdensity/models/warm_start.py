@@ -75,11 +75,7 @@ def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softm
     True
     """
     subs = list(sub_models)
-    if not subs:
-        raise ValueError("sub_models must hold at least one trained DensityQNN (K >= 1)")
     for i, m in enumerate(subs):
-        if not isinstance(m, DensityQNN):
-            raise TypeError(f"sub_models[{i}] must be a DensityQNN, got {type(m).__name__}")
         if m.num_subunitaries != 1:
             raise ValueError(f"sub_models[{i}] has K = {m.num_subunitaries} sub-unitaries; each "
                              "trained model must hold one")
@@ -95,8 +91,6 @@ def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softm
     if alpha.shape != (len(subs),):
         raise ValueError(f"alpha must have one weight per sub-model ({len(subs)}), got "
                          f"{alpha.shape}")
-    if mixture not in MIXTURES:
-        raise ValueError(f"mixture must be one of {MIXTURES}, got {mixture!r}")
     if mixture == "softmax" and np.any(alpha <= 0):
         raise ValueError("alpha must be positive for mixture='softmax' (logits are log alpha); "
                          "use mixture='fixed' for zero weights")

@@ -37,9 +37,6 @@ from qdensity.validation import (
     Layers,
     Options,
     Qubits,
-    check_layers,
-    check_num_qubits,
-    check_positive_int,
     validates,
 )
 
@@ -109,8 +106,7 @@ def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int
     >>> translation_classes(4, 2)[2]
     [(0, 2), (1, 3)]
     """
-    n = check_num_qubits(num_qubits, minimum=1)
-    k_max = check_positive_int(max_weight, "max_weight", minimum=1)
+    n, k_max = int(num_qubits), int(max_weight)
     if k_max > n:
         raise ValueError(
             f"max_weight must be <= num_qubits ({n}) (a string has at most one Pauli per "
@@ -136,12 +132,6 @@ def translation_classes(num_qubits: int, max_weight: int) -> list[list[tuple[int
         members = [supports[i] for i in order.tolist()]
         classes.extend(members[a:b] for a, b in zip(starts.tolist(), ends.tolist(), strict=True))
     return classes
-
-
-def _check_pauli(pauli: str) -> str:
-    if not isinstance(pauli, str) or pauli.upper() not in PAULIS:
-        raise ValueError(f"pauli must be one of {PAULIS}, got {pauli!r}")
-    return pauli.upper()
 
 
 def _append_string(qc: QuantumCircuit, pauli: str, support: tuple[int, ...], time) -> None:
@@ -207,8 +197,8 @@ def equivariant_commuting(
     >>> qc.num_parameters, len(qc.data)
     (18, 175)
     """
-    n = check_num_qubits(num_qubits, minimum=2)
-    p = _check_pauli(pauli)
+    n = int(num_qubits)
+    p = pauli
     classes = translation_classes(n, max_weight)
     theta = ParameterVector(parameter_prefix, len(classes))
     qc = QuantumCircuit(n, name=name or f"equivariant_{p.lower() * 2}_{n}")
@@ -284,8 +274,7 @@ def equivariant_noncommuting(
     >>> equivariant_noncommuting(6, 2).num_parameters
     10
     """
-    n = check_num_qubits(num_qubits, minimum=2)
-    num_layers = check_layers(layers)
+    n, num_layers = int(num_qubits), int(layers)
     xx_classes = _distance_classes(n)
     per_layer = 2 + len(xx_classes)
     theta = ParameterVector(parameter_prefix, num_layers * per_layer)
@@ -326,7 +315,7 @@ def angle_encoding(num_qubits: int, *, parameter_prefix: str = "x") -> QuantumCi
     >>> angle_encoding(3).num_parameters
     3
     """
-    n = check_num_qubits(num_qubits, minimum=1)
+    n = int(num_qubits)
     x = ParameterVector(parameter_prefix, n)
     qc = QuantumCircuit(n, name=f"angle_encoding_{n}")
     for i in range(n):
@@ -348,5 +337,5 @@ def equivariant_observable(num_qubits: int) -> SparsePauliOp:
     SparsePauliOp
         ``n`` terms ``Z_i`` with coefficient 1 (eigenvalues ``-n .. n``).
     """
-    n = check_num_qubits(num_qubits, minimum=1)
+    n = int(num_qubits)
     return SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)

@@ -31,15 +31,10 @@ from qdensity.validation import (
     Qubits,
     SequenceOf,
     Unchecked,
-    check_num_qubits,
     validates,
 )
 
 __all__ = ["pyramid", "x_circuit", "butterfly", "round_robin", "pairs_circuit"]
-
-
-def _check_n(n: int, minimum: int = 2) -> int:
-    return check_num_qubits(n, minimum=minimum)
 
 
 @validates(
@@ -81,8 +76,6 @@ def pairs_circuit(
     QuantumCircuit
         ``num_qubits`` qubits, one parameter per pair, in the given order.
     """
-    if gate not in ("rbs", "fbs"):
-        raise ValueError(f"gate must be 'rbs' or 'fbs', got {gate!r}")
     ordered = [[(min(p), max(p)) for p in layer] for layer in layers]
     count = sum(len(layer) for layer in ordered)
     theta = ParameterVector(parameter_prefix, count)
@@ -127,7 +120,7 @@ def pyramid(num_qubits: int, **kwargs) -> QuantumCircuit:
     >>> qc.num_parameters, qc.depth()
     (6, 5)
     """
-    n = _check_n(num_qubits)
+    n = int(num_qubits)
     layers = [
         [(i, i + 1) for i in range(n - 1) if (i - t) % 2 == 0 and i <= t and i <= 2 * (n - 2) - t]
         for t in range(2 * n - 3)
@@ -155,7 +148,7 @@ def x_circuit(num_qubits: int, **kwargs) -> QuantumCircuit:
         ``2 n - 3`` RBS gates and depth ``n - 1`` for even ``n``; ``2 n - 2`` gates and depth
         ``n + 1`` for odd ``n`` (the diagonals meet on a shared qubit for two steps).
     """
-    n = _check_n(num_qubits)
+    n = int(num_qubits)
     layers = []
     for t in range(n - 1):
         a, b = (t, t + 1), (n - 2 - t, n - 1 - t)
@@ -187,7 +180,7 @@ def butterfly(num_qubits: int, **kwargs) -> QuantumCircuit:
     ValueError
         If ``n`` is not a power of two.
     """
-    n = _check_n(num_qubits)
+    n = int(num_qubits)
     if n & (n - 1):
         raise ValueError(f"butterfly needs num_qubits a power of two (2, 4, 8, ...), got {n}")
     layers = []
@@ -212,7 +205,7 @@ def round_robin_pairs(num_qubits: int) -> list[list[tuple[int, int]]]:
         ``n - 1`` rounds of ``n / 2`` disjoint pairs (even ``n``); ``n`` rounds of
         ``(n - 1) / 2`` pairs (odd ``n``, one qubit rests each round).
     """
-    n = _check_n(num_qubits)
+    n = int(num_qubits)
     players = list(range(n)) + ([None] if n % 2 else [])
     m = len(players)
     rounds = []
@@ -246,5 +239,5 @@ def round_robin(num_qubits: int, **kwargs) -> QuantumCircuit:
     QuantumCircuit
         ``n (n - 1) / 2`` gates in ``n - 1`` layers (even ``n``) or ``n`` layers (odd ``n``).
     """
-    n = _check_n(num_qubits)
+    n = int(num_qubits)
     return pairs_circuit(n, round_robin_pairs(n), name=f"round_robin_{n}", **kwargs)

@@ -20,8 +20,6 @@ from qdensity.validation import (
     Options,
     Qubits,
     SequenceOf,
-    check_layers,
-    check_num_qubits,
     validates,
 )
 
@@ -41,24 +39,6 @@ def _ladder_pairs(n: int, layer: int, entanglement: str) -> list[tuple[int, int]
     if layer % 2 == 1:
         pairs = [(t, c) for c, t in reversed(pairs)]
     return pairs
-
-
-def _check_rotations(rotations: str | Sequence[str]) -> tuple[str, ...]:
-    if isinstance(rotations, str):
-        rotations = (rotations,)
-    try:
-        rots = tuple(rotations)
-    except TypeError as exc:
-        raise TypeError(
-            f"rotations must be a gate name or a sequence of gate names from {ROTATIONS}, "
-            f"got {rotations!r}"
-        ) from exc
-    if not rots:
-        raise ValueError(f"rotations must name at least one gate from {ROTATIONS}, got {rots!r}")
-    for r in rots:
-        if not isinstance(r, str) or r.lower() not in ROTATIONS:
-            raise ValueError(f"rotations entries must be one of {ROTATIONS}, got {r!r}")
-    return tuple(r.lower() for r in rots)
 
 
 @validates(
@@ -129,11 +109,8 @@ def hardware_efficient(
     >>> [qc.find_bit(inst.qubits[0]).index for inst in cx[3:6]]  # layer 1 runs backwards
     [3, 2, 1]
     """
-    n = check_num_qubits(num_qubits, minimum=2)
-    depth = check_layers(reps, "reps")
-    rots = _check_rotations(rotations)
-    if entanglement not in ENTANGLEMENTS:
-        raise ValueError(f"entanglement must be one of {ENTANGLEMENTS}, got {entanglement!r}")
+    n, depth = int(num_qubits), int(reps)
+    rots = (rotations,) if isinstance(rotations, str) else tuple(rotations)
     theta = ParameterVector(parameter_prefix, n * depth)
     qc = QuantumCircuit(n, name=name or f"hardware_efficient_{n}x{depth}")
     for d in range(depth):

@@ -13,7 +13,7 @@ from __future__ import annotations
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.datasets.chebyshev import chebyshev_dataset
-from qdensity.validation import Instance, Layers, Options, check_layers, validates
+from qdensity.validation import Instance, Layers, Options, validates
 
 __all__ = ["reuploading", "chebyshev_dataset", "ENCODINGS"]
 
@@ -73,9 +73,7 @@ def reuploading(
     >>> qc.num_parameters, [inst.operation.name for inst in qc.data][:4]
     (7, ['rx', 'rz', 'ry', 'rz'])
     """
-    num_layers = check_layers(layers)
-    if encoding not in ENCODINGS:
-        raise ValueError(f"encoding must be one of {ENCODINGS}, got {encoding!r}")
+    num_layers = int(layers)
     if parameter_prefix == data_prefix:
         raise ValueError(
             f"parameter_prefix and data_prefix must differ, both are {parameter_prefix!r}"

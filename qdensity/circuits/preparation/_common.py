@@ -7,13 +7,11 @@ given qubits, and the ``mix``/``data`` skeleton with ``Load(sqrt(alpha))`` and `
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 from qiskit.circuit import Gate, Parameter, QuantumCircuit, QuantumRegister
 
 from qdensity.circuits.loaders import distribution_loader
-from qdensity.validation import check_circuit, check_distribution
+from qdensity.validation import check_distribution
 
 #: Name of the ancilla register that carries ``Load(sqrt(alpha))`` (register A of Fig. 1).
 MIX_REGISTER = "mix"
@@ -37,22 +35,12 @@ def _check_unitary_circuit(circuit: QuantumCircuit, name: str) -> None:
 
 
 def _check_sub_unitaries(sub_unitaries) -> list[QuantumCircuit]:
-    """A non-empty list of unitary circuits of one width; parameter names consistent."""
-    if isinstance(sub_unitaries, QuantumCircuit) or not isinstance(sub_unitaries, Sequence):
-        raise TypeError(
-            "sub_unitaries must be a list or tuple of QuantumCircuits (one per sub-unitary "
-            f"U_k), got {type(sub_unitaries).__name__}"
-        )
-    if len(sub_unitaries) == 0:
-        raise ValueError("sub_unitaries must hold at least one circuit (K >= 1), got K = 0")
-    circuits = []
-    for k, circ in enumerate(sub_unitaries):
-        circ = check_circuit(circ, f"sub_unitaries[{k}]")
+    """Declared sub-unitaries (a non-empty list of circuits of >= 1 qubits: every caller's
+    declaration) that are unitary and of one width, as a list."""
+    circuits = list(sub_unitaries)
+    for k, circ in enumerate(circuits):
         _check_unitary_circuit(circ, f"sub_unitaries[{k}]")
-        circuits.append(circ)
     width = circuits[0].num_qubits
-    if width < 1:
-        raise ValueError("sub_unitaries[0] must act on at least one qubit, got 0 qubits")
     for k, circ in enumerate(circuits[1:], start=1):
         if circ.num_qubits != width:
             raise ValueError(
@@ -65,7 +53,6 @@ def _check_sub_unitaries(sub_unitaries) -> list[QuantumCircuit]:
 def _check_loader(loader, width: int) -> QuantumCircuit | None:
     if loader is None:
         return None
-    loader = check_circuit(loader, "loader")
     if loader.num_qubits != width:
         raise ValueError(
             f"loader must act on the {width} data qubits of the sub-unitaries, got "

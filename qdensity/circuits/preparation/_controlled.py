@@ -27,7 +27,7 @@ from qiskit.circuit.library.standard_gates import get_standard_gate_name_mapping
 from qiskit.quantum_info import Operator, SparsePauliOp
 
 from qdensity.circuits.preparation._common import _NON_UNITARY, _PASS_THROUGH, DATA_REGISTER
-from qdensity.validation import Circuit, check_circuit, validates
+from qdensity.validation import Circuit, validates
 
 __all__ = ["controlled_subunitary"]
 
@@ -290,10 +290,7 @@ def controlled_subunitary(circuit: QuantumCircuit) -> QuantumCircuit:
     >>> cu.num_qubits, cu.num_parameters
     (4, 3)
     """
-    circuit = check_circuit(circuit, "circuit")
     n = circuit.num_qubits
-    if n < 1:
-        raise ValueError("circuit must act on at least one qubit, got 0 qubits")
     ctrl = QuantumRegister(1, "ctrl")
     data = QuantumRegister(n, DATA_REGISTER)
     out = QuantumCircuit(ctrl, data, name=f"c_{circuit.name}")

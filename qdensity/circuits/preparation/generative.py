@@ -25,7 +25,6 @@ from qdensity.validation import (
     Circuit,
     Interval,
     SequenceOf,
-    check_positive_int,
     validates,
 )
 
@@ -81,7 +80,7 @@ def hw_generative_circuit(
     circuits = _check_sub_unitaries(sub_unitaries)
     arr = _check_alpha(alpha, len(circuits))
     n = circuits[0].num_qubits
-    start = check_positive_int(start_qubit, "start_qubit", minimum=0)
+    start = int(start_qubit)
     if start >= n:
         raise ValueError(f"start_qubit must be in [0, {n - 1}] (a data qubit), got {start}")
     for k, circ in enumerate(circuits):

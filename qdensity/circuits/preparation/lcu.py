@@ -31,7 +31,6 @@ from qdensity.validation import (
     Circuit,
     Instance,
     SequenceOf,
-    check_circuit,
     validates,
 )
 
@@ -260,7 +259,7 @@ def lcu_postselected_state(
     for k, circ in enumerate(circuits):
         _bound(circ, f"sub_unitaries[{k}]")
     if loader is not None:
-        _bound(check_circuit(loader, "loader"), "loader")
+        _bound(loader, "loader")
     qc = lcu_circuit(circuits, arr, loader)
     num_mix = len(circuits)
     amplitudes = Statevector(qc).data[:: 2**num_mix]  # entries with mix = 0...0

@@ -50,22 +50,6 @@ def _check_pairs(pairs, num_qubits: int, name: str = "pairs") -> list[tuple[int,
     return out
 
 
-def _check_p_fail(p_fail) -> float:
-    if isinstance(p_fail, bool) or not isinstance(p_fail, numbers.Real):
-        raise TypeError(f"p_fail must be a float in (0, 1), got {p_fail!r}")
-    if not 0.0 < float(p_fail) < 1.0:
-        raise ValueError(f"p_fail must be in (0, 1), got {p_fail!r}")
-    return float(p_fail)
-
-
-def _check_delta(delta, name: str = "delta") -> float:
-    if isinstance(delta, bool) or not isinstance(delta, numbers.Real):
-        raise TypeError(f"{name} must be a positive float, got {delta!r}")
-    if not (math.isfinite(float(delta)) and float(delta) > 0):
-        raise ValueError(f"{name} must be a positive finite float, got {delta!r}")
-    return float(delta)
-
-
 def _sqrt_error(shots: float, events: int, p_fail: float) -> float:
     """``t`` with ``P(|sqrt(p_hat) - sqrt(p)| >= t) <= p_fail / events``: see shots_for_error."""
     return math.sqrt(math.log(2.0 * events / p_fail) / shots)

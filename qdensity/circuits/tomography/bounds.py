@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import math
 
-from qdensity.circuits.tomography._common import _check_delta, _check_p_fail
-from qdensity.validation import Interval, Qubits, check_positive_int, validates
+from qdensity.validation import Interval, Qubits, validates
 
 __all__ = ["shots_for_error", "SIGN_FACTOR"]
 
@@ -73,7 +72,5 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     >>> shots_for_error(0.1, 8, 0.01)
     37562
     """
-    delta = _check_delta(delta)
-    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
-    p_fail = _check_p_fail(p_fail)
+    delta, n, p_fail = float(delta), int(num_qubits), float(p_fail)
     return math.ceil(SIGN_FACTOR**2 * math.log(6.0 * n / p_fail) / delta**2)

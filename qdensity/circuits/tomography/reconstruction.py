@@ -15,8 +15,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from qdensity.circuits.tomography._common import (
-    _check_delta,
-    _check_p_fail,
     _check_pairs,
     _layer_pairs,
     _sqrt_error,
@@ -29,7 +27,6 @@ from qdensity.validation import (
     Qubits,
     SequenceOf,
     Unchecked,
-    check_positive_int,
     validates,
 )
 
@@ -94,15 +91,6 @@ def _unary_counts(counts, num_qubits: int, name: str) -> tuple[np.ndarray, float
 
 
 def _counts_list(counts) -> list:
-    if isinstance(counts, Mapping) or isinstance(counts, (str, bytes)):
-        raise ValueError(
-            "counts must be a sequence of 3 counts mappings (one per tomography circuit), "
-            f"got a single {type(counts).__name__}"
-        )
-    if not isinstance(counts, Sequence):
-        raise ValueError(
-            f"counts must be a sequence of 3 counts mappings, got {type(counts).__name__}"
-        )
     if len(counts) != 3:
         raise ValueError(
             f"counts must hold exactly 3 counts mappings (Z, even-pair and odd-pair circuits), "
@@ -265,17 +253,12 @@ def reconstruct(
     >>> res.amplitudes.round(2).tolist(), res.components
     ([0.8, 0.6], ((0, 1),))
     """
-    n = check_positive_int(num_qubits, "num_qubits", minimum=2)
-    p_fail = _check_p_fail(p_fail)
-    if not isinstance(postselect, bool):
-        raise TypeError(f"postselect must be a bool, got {postselect!r}")
+    n, p_fail = int(num_qubits), float(p_fail)
     mappings = _counts_list(counts)
     layers = [[], _layer_pairs(n, 0), _layer_pairs(n, 1)]
     names = ["counts[0]", "counts[1]", "counts[2]"]
     if extra is None:
         extra = ()
-    if isinstance(extra, Mapping) or not isinstance(extra, Sequence):
-        raise TypeError(f"extra must be a sequence of (pairs, counts) tuples, got {extra!r}")
     for k, item in enumerate(extra):
         try:
             pairs, bridge_counts = item
@@ -301,7 +284,7 @@ def reconstruct(
 
     magnitudes = np.sqrt(probs[0])
     t0 = errors[0]
-    delta = SIGN_FACTOR * t0 if delta is None else _check_delta(delta)
+    delta = SIGN_FACTOR * t0 if delta is None else float(delta)
 
     # significant edges, most significant first
     edges = []
@@ -377,8 +360,6 @@ def bridge_pairs(result: TomographyResult) -> list[list[tuple[int, int]]]:
     >>> res.components, bridge_pairs(res)
     (((0,), (2,)), [[(0, 2)]])
     """
-    if not isinstance(result, TomographyResult):
-        raise TypeError(f"result must be a TomographyResult, got {type(result).__name__}")
     if result.signs_resolved:
         return []
     ordered = sorted(result.components, key=min)

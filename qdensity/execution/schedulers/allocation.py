@@ -17,8 +17,6 @@ from qdensity.validation import (
     Array,
     Interval,
     check_distribution,
-    check_positive_int,
-    check_real_vector,
     validates,
 )
 
@@ -101,7 +99,7 @@ def allocate_proportional(alpha, budget: int, *, minimum: int = 1) -> np.ndarray
     [8, 1, 1, 0]
     """
     alpha = check_distribution(alpha, "alpha")
-    minimum = check_positive_int(minimum, "minimum")
+    minimum = int(minimum)
     positive = alpha > 0
     m = int(positive.sum())
     budget = _check_budget(
@@ -146,14 +144,14 @@ def allocate_neyman(alpha, sigma, budget: int, *, minimum: int = 1) -> np.ndarra
     [80, 20]
     """
     alpha = check_distribution(alpha, "alpha")
-    sigma = check_real_vector(sigma, "sigma")
+    sigma = np.asarray(sigma, dtype=float)
     if sigma.shape != alpha.shape:
         raise ValueError(
             f"sigma must have the shape of alpha {alpha.shape}, got shape {sigma.shape}"
         )
     if np.any(sigma < 0):
         raise ValueError(f"sigma must be non-negative (standard deviations), got {sigma}")
-    minimum = check_positive_int(minimum, "minimum")
+    minimum = int(minimum)
     positive = alpha > 0
     m = int(positive.sum())
     budget = _check_budget(
@@ -186,7 +184,7 @@ def stratified_variance(alpha, variances, allocation) -> float:
     float
     """
     alpha = check_distribution(alpha, "alpha")
-    var = check_real_vector(variances, "variances")
+    var = np.asarray(variances, dtype=float)
     n = _check_shots(allocation, alpha.size, "allocation")
     if var.shape != alpha.shape:
         raise ValueError(f"variances must have shape {alpha.shape}, got {var.shape}")
@@ -219,9 +217,8 @@ def per_shot_variance(alpha, means, variances, budget: int) -> float:
     float
     """
     alpha = check_distribution(alpha, "alpha")
-    mu = check_real_vector(means, "means")
-    var = check_real_vector(variances, "variances")
-    budget = check_positive_int(budget, "budget")
+    mu, var = np.asarray(means, dtype=float), np.asarray(variances, dtype=float)
+    budget = int(budget)
     if mu.shape != alpha.shape or var.shape != alpha.shape:
         raise ValueError(
             f"means and variances must have shape {alpha.shape}, got {mu.shape}, {var.shape}"

@@ -7,7 +7,6 @@ Neyman's variance-optimal allocation, and pilot and main phase are combined with
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,16 +95,6 @@ class NeymanScheduler:
 
     def __post_init__(self):
         _check_value_range(self.value_range)
-        pf = self.pilot_fraction
-        if isinstance(pf, bool) or not isinstance(pf, numbers.Real) or not 0 < pf < 1:
-            raise ValueError(f"pilot_fraction must be a real number in (0, 1), got {pf!r}")
-        pw = self.prior_weight
-        if (
-            isinstance(pw, bool)
-            or not isinstance(pw, numbers.Real)
-            or not (math.isfinite(pw) and pw >= 0)
-        ):
-            raise ValueError(f"prior_weight must be a finite real number >= 0, got {pw!r}")
 
     def run(self, alpha, budget: int, source: ShotSource, seed: SeedLike = None) -> ScheduleResult:
         """Spend exactly ``budget`` shots (pilot included); see the class docstring."""

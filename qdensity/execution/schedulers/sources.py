@@ -28,7 +28,6 @@ from qdensity.validation import (
     SequenceOf,
     Unchecked,
     as_rng,
-    check_circuit,
     check_distribution,
     check_parameter_values,
     seed_int,
@@ -72,16 +71,14 @@ def discrete_source(probabilities, values, seed: SeedLike = None) -> ShotSource:
     [(3,), (0,)]
     """
     probs = np.asarray(probabilities, dtype=float)
-    if probs.ndim != 2:
-        raise ValueError(f"probabilities must have shape (K, M), got shape {probs.shape}")
     for k in range(probs.shape[0]):
         check_distribution(probs[k], f"probabilities[{k}]")
     vals = np.asarray(values, dtype=float)
     if vals.shape == (probs.shape[1],):
         vals = np.broadcast_to(vals, probs.shape)
-    if vals.shape != probs.shape or not np.all(np.isfinite(vals)):
+    if vals.shape != probs.shape:
         raise ValueError(
-            f"values must be finite with shape ({probs.shape[1]},) or {probs.shape}, "
+            f"values must have shape ({probs.shape[1]},) or {probs.shape}, "
             f"got shape {np.shape(values)}"
         )
     cdf = np.cumsum(probs, axis=1)
@@ -183,13 +180,8 @@ def sampler_source(
     >>> bool(abs(res.estimate - exact) < 5 * res.standard_error)
     True
     """
-    if isinstance(circuits, QuantumCircuit):
-        raise TypeError("circuits must be a sequence of QuantumCircuits (one per sub-unitary)")
     circuits = list(circuits)
-    if not circuits:
-        raise ValueError("circuits must hold at least one QuantumCircuit, got none")
     for k, qc in enumerate(circuits):
-        check_circuit(qc, f"circuits[{k}]")
         if not 1 <= qc.num_clbits <= _MAX_CLBITS:
             raise ValueError(
                 f"circuits[{k}] must have 1 to {_MAX_CLBITS} classical bits (measured outcomes), "
@@ -201,13 +193,6 @@ def sampler_source(
                 f"circuits[{k}] has {len(loose)} classical bits outside any ClassicalRegister; "
                 "samplers only return registers"
             )
-    if not callable(values_fn):
-        raise TypeError(f"values_fn must be callable, got {type(values_fn).__name__}")
-    if sampler is not None and not isinstance(sampler, BaseSamplerV2):
-        raise TypeError(
-            f"sampler must be a qiskit BaseSamplerV2 (e.g. qiskit_aer.primitives.SamplerV2), "
-            f"got {type(sampler).__name__}"
-        )
     num = len(circuits)
     if parameter_values is None:
         parameter_values = [None] * num
