@@ -12,10 +12,11 @@ from qiskit_aer import AerSimulator
 
 from qdensity.hardware._mps_line import line_order, relabelled, renumbered
 from qdensity.hardware._served_noise import (
-    _SERIALISED,
+    _SERVED,
+    ServedModel,
     ServedNoiseSimulator,
-    _Serialised,
     restricted_errors,
+    served_model,
 )
 from qdensity.hardware.targets import get_target
 
@@ -55,8 +56,9 @@ def test_density_matrix_of_active_qubits_equals_the_whole_model():
         assert q.shape == (2**circuit.num_clbits,)
         np.testing.assert_allclose(q, p, atol=1e-12)
         assert 1 - p.max() > 1e-3  # the errors are there
-    served_sets = _SERIALISED[id(tgt.noise_model)][2]
+    served_sets = _SERVED[id(tgt.noise_model)][2]
     assert {len(q) for q in served_sets} == {3, 4}  # two qubit sets served, each its own errors
+    assert all(isinstance(m, ServedModel) for m in served_sets.values())
 
 
 def test_counts_for_a_seed_equal_the_whole_model_with_readout_errors():
@@ -86,9 +88,9 @@ def test_one_serialisation_per_model_shared_by_simulators_and_pickles():
     circuit = _chain(3, 0, tgt.num_qubits)
     a, b = tgt.simulator(method="statevector", seed=5), tgt.simulator(method="density_matrix")
     before = a.run(circuit, shots=200).result().get_counts()
-    whole = _SERIALISED[id(tgt.noise_model)][1]
+    whole = _SERVED[id(tgt.noise_model)][1]
     b.run(circuit, shots=10).result()
-    assert _SERIALISED[id(tgt.noise_model)][1] is whole
+    assert _SERVED[id(tgt.noise_model)][1] is whole
     copy = pickle.loads(pickle.dumps(a))  # a fresh noise model object: serialised anew
     assert copy.options.noise_model is not tgt.noise_model
     assert copy.run(circuit, shots=200).result().get_counts() == before
@@ -113,16 +115,12 @@ def test_mps_line_relabelling_keeps_the_channel():
     far = max(abs(position[circuit.find_bit(a).index] - position[circuit.find_bit(b).index])
               for i in circuit.data if len(i.qubits) == 2 for a, b in [i.qubits])
     assert far == 1  # a chain on the line
-    errors = renumbered(restricted_errors(tgt.noise_model.to_dict(serializable=True), qubits),
-                        position)
-
-    class _Given(AerSimulator):
-        def _compile(self, circuits, **run_options):
-            return super()._compile(circuits, **run_options)[0], _Serialised(errors)
-
+    errors = renumbered(restricted_errors(tgt.noise_model.to_dict(), qubits), position)
+    model = served_model(errors, tgt.noise_model.basis_gates)
+    assert model is not None
     full = AerSimulator.from_backend(tgt.backend, method="density_matrix",
                                      noise_model=tgt.noise_model)
-    given = _Given(method="density_matrix", noise_model=tgt.noise_model)
+    given = AerSimulator(method="density_matrix", noise_model=model)
     p, q = _probabilities(full, circuit), _probabilities(given, moved)
     np.testing.assert_allclose(q, p, atol=1e-12)
     assert 1 - p[0] - p[-1] > 1e-3  # noisy
