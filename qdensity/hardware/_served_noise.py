@@ -34,7 +34,7 @@ The device's model is read once per set of active qubits: change a simulator's n
 
 from __future__ import annotations
 
-import math
+import numbers
 import weakref
 
 import numpy as np
@@ -53,8 +53,10 @@ _WHOLE_MODEL_FOR = frozenset({"delay"})
 _MAX_SERVED = 64  # qubit sets kept per noise model
 #: Relative tolerance of the check of a served model's probabilities (see module).
 _RTOL = 1e-12
+_NUMBERS = (numbers.Number, np.number)
 #: id(noise model) -> (weak reference, its ``to_dict()``, {qubits or positions: served model
-#: or None, None meaning "serve the whole model"})
+#: or None, None meaning "serve the whole model"}, its rebuilt errors (``served_model``'s
+#: ``made``))
 _SERVED: dict[int, tuple] = {}
 
 
@@ -168,14 +170,13 @@ def _same(a, b) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         a, b = np.asarray(a), np.asarray(b)
         return a.shape == b.shape and bool(np.allclose(a, b, rtol=_RTOL, atol=0))
-    if isinstance(a, (int, float, complex, np.number)) and isinstance(
-            b, (int, float, complex, np.number)):
-        return bool(np.isclose(a, b, rtol=_RTOL, atol=0)) or (
-            a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b)))
+    if isinstance(a, _NUMBERS) and isinstance(b, _NUMBERS):
+        x, y = np.asarray(a, dtype=complex), np.asarray(b, dtype=complex)
+        return bool(x == y or abs(x - y) <= _RTOL * max(abs(x), abs(y)))
     return bool(a == b)
 
 
-def served_model(errors: dict, basis_gates) -> ServedModel | None:
+def served_model(errors: dict, basis_gates, made: dict | None = None) -> ServedModel | None:
     """A :class:`ServedModel` holding ``errors``, or None when one cannot be read back exactly.
 
     Parameters
@@ -185,6 +186,9 @@ def served_model(errors: dict, basis_gates) -> ServedModel | None:
         :func:`restricted_errors` of a device's model.
     basis_gates : list of str
         The device model's ``basis_gates``.
+    made : dict, optional
+        ``QuantumError``s rebuilt before, by ``id`` of their entry's ``instructions`` list
+        (shared by every restriction of one ``to_dict()``); filled in here.
 
     Returns
     -------
@@ -194,10 +198,14 @@ def served_model(errors: dict, basis_gates) -> ServedModel | None:
         not ``errors`` (to :data:`_RTOL` in the probabilities, ids aside).
     """
     model = ServedModel(basis_gates=list(basis_gates))
+    made = {} if made is None else made
     try:
         for e in errors["errors"]:
             if e.get("type") == "qerror":
-                qerr = QuantumError.from_dict(e)
+                key = id(e["instructions"])
+                if key not in made:
+                    made[key] = (e["instructions"], QuantumError.from_dict(e))
+                qerr = made[key][1]
                 if "gate_qubits" in e:
                     for g in e["gate_qubits"]:
                         model.add_quantum_error(qerr, e["operations"], g, warnings=False)
@@ -228,7 +236,7 @@ def _served(source: NoiseModel, qubits: frozenset[int], position: dict[int, int]
         def drop(_: object, k: int = key) -> None:
             _SERVED.pop(k, None)
 
-        entry = (weakref.ref(source, drop), source.to_dict(), {})
+        entry = (weakref.ref(source, drop), source.to_dict(), {}, {})
         _SERVED[key] = entry
     served = entry[2]
     at = qubits if position is None else tuple(sorted(position.items()))
@@ -238,7 +246,7 @@ def _served(source: NoiseModel, qubits: frozenset[int], position: dict[int, int]
         errors = restricted_errors(entry[1], qubits)
         if position is not None:
             errors = renumbered(errors, position)
-        served[at] = served_model(errors, source.basis_gates)
+        served[at] = served_model(errors, source.basis_gates, entry[3])
     out = served[at]
     return source if out is None else out
 
