@@ -1,5 +1,7 @@
-"""A target's simulator serves Aer only the noise of the active qubits: the same channel as the
-whole model (exact density-matrix probabilities, and identical counts for a seed)."""
+"""A target's simulator serves Aer only the noise of the active qubits, on public API: the same
+channel as the whole model (exact density-matrix probabilities; identical counts for a seed
+with statevector and density matrix, the law of the counts with matrix-product states, whose
+circuits go on a line)."""
 
 from __future__ import annotations
 
