@@ -16,7 +16,9 @@ device's model, ``QuantumError.from_dict``, ``ReadoutError``, ``add_quantum_erro
 ``add_all_qubit_quantum_error``, ``add_readout_error``, ``add_all_qubit_readout_error``). A
 served model keeps its own serialisation (``to_dict(serializable=True)``) until one of those
 public ``add_*``/``reset`` methods changes it, so a call pays for its qubits' errors once, not
-per run. It only overrides public methods (``run``, ``to_dict``, the ``add_*``).
+per run. It only overrides public methods (``run``, ``to_dict``, the ``add_*``); the kept
+serialisation saves time only because Aer reads the model through ``to_dict``: were that to
+change, the served model would still be the same channel, only slower to hand over.
 
 Measured (``benchmarks/bench_served_noise.py``, an 8-qubit chain, 256 shots, one thread, 2
 shared cores): a run costs 0.03-0.15 s of CPU against plain ``AerSimulator.from_backend``'s
@@ -35,7 +37,7 @@ those of the whole model (bit for bit unless a draw falls within rounding of a c
 probability). With the ``matrix_product_state`` method the circuits also go on the line of
 :func:`~qdensity.hardware._mps_line.line_order`, their served noise renumbered with them.
 
-The device's model is read once per set of active qubits: change a simulator's noise with
+The device's model is read (``to_dict``) once per model object: change a simulator's noise with
 ``set_options(noise_model=...)``, not by editing the model it holds in place.
 """
 
@@ -55,7 +57,7 @@ from qdensity.hardware._mps_line import line_order, relabelled, renumbered
 __all__: list[str] = []
 
 _NOT_QUBIT_WORK = frozenset({"barrier"})
-#: Instructions after which the device's whole model is served (see module).
+#: Instructions for which (in any circuit of a job) the device's whole model is served.
 _WHOLE_MODEL_FOR = frozenset({"delay"})
 _MAX_SERVED = 64  # qubit sets kept per noise model
 #: Relative tolerance of the check of a served model's probabilities (see module).
