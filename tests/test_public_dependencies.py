@@ -62,10 +62,6 @@ KNOWN = {
     ("circuits/ansatze/equivariant.py", "qc", "_append"): "documented fast path",
     ("gradients/shift.py", "out", "_append"): "documented fast path",
     ("hardware/_mps_line.py", "out", "_append"): "documented fast path",
-    ("analysis/blocks.py", "op", "_params"): "gate-reading fast path (to replace)",
-    # the served-noise simulator hooks Aer's compile step (to replace)
-    ("hardware/_served_noise.py", "super()", "_compile"): "noise served per job (to replace)",
-    ("hardware/_served_noise.py", "def", "_compile"): "noise served per job (to replace)",
 }
 
 

@@ -224,11 +224,12 @@ def _analyse_block(
     for idx, inst in enumerate(circuit.data[start:stop], start):
         op = inst.operation
         name = op.name
-        if name == "PauliEvolution" and type(op) is PauliEvolutionGate and len(op._params) == 1:
+        if (name == "PauliEvolution" and type(op) is PauliEvolutionGate
+                and len(ps := op.params) == 1):
             # what _read gives a Pauli evolution whose time is a trainable Parameter (angle
             # 1 p + 0) and whose operator's template the reader holds, without its dispatch;
             # the gates of a class share their Parameter object, tested once
-            p, o = op._params[0], op.operator
+            p, o = ps[0], op.operator
             seen = trainable.get(id(p))
             if seen is None or seen[0] is not p:
                 seen = trainable[id(p)] = (p, isinstance(p, Parameter) and p in params)

@@ -220,8 +220,9 @@ class HardwareTarget:
         qiskit_aer.AerSimulator
             ``AerSimulator.from_backend`` for ``GenericBackendV2`` targets (noise model passed
             explicitly, None when the target is noiseless). It does not transpile: run circuits
-            from :meth:`transpile`. Each run hands Aer only the errors of the qubits its
-            circuits act on, serialised once (``qdensity.hardware._served_noise``): the same
+            from :meth:`transpile`. Each run hands Aer, as its public ``noise_model`` run
+            option, a model of only the errors of the qubits its circuits act on, built and
+            serialised once per set of qubits (``qdensity.hardware._served_noise``): the same
             channel and counts, without re-serialising the device's whole model per call.
 
         Examples
