@@ -47,8 +47,7 @@ __all__ = ["LCUQNN"]
 
 
 @validates(
-    sub_unitaries=[Circuit(min_qubits=1),
-                   SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES)],
+    sub_unitaries=SequenceOf(Circuit(min_qubits=1), max_len=MAX_SUBUNITARIES),
     mixture=[Instance(Mixture), Array(ndim=1, max_size=MAX_SUBUNITARIES), None], seed=Seed(),
 )
 class LCUQNN:
@@ -86,11 +85,8 @@ class LCUQNN:
     """
 
     def __init__(self, sub_unitaries: Sequence[QuantumCircuit], mixture=None, *, seed=None):
-        subs = None if isinstance(sub_unitaries, QuantumCircuit) else list(sub_unitaries)
-        if not subs:
-            raise ValueError("sub_unitaries must be a non-empty sequence of QuantumCircuits")
-        n = subs[0].num_qubits if isinstance(subs[0], QuantumCircuit) else 0
-        self.density = DensityQNN(subs, mixture, encoding=Encoding.unary(max(n, 1)),
+        subs = list(sub_unitaries)
+        self.density = DensityQNN(subs, mixture, encoding=Encoding.unary(subs[0].num_qubits),
                                   readout="unary_amplitudes", seed=seed)
         if not uses_unary_engine(self.density):
             raise ValueError("sub_unitaries must be RBS/FBS (Hamming-weight-preserving) circuits: "
