@@ -439,8 +439,6 @@ def get_target(
     >>> get_target("ideal", 3).noise_model is None
     True
     """
-    if not isinstance(noise, (bool, np.bool_)):
-        raise TypeError(f"noise must be a bool, got {noise!r}")
     if num_qubits is not None:
         num_qubits = check_num_qubits(num_qubits)
     device = load_snapshot(name) if is_snapshot_path(name) else name

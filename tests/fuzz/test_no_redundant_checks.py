@@ -50,9 +50,6 @@ ALLOWED: dict[str, str] = {
     "qdensity.execution.sampler.engine:SamplerEngine:optimization_level": _PARALLEL,
     "qdensity.execution.sampler.engine:SamplerEngine:sampler": _PARALLEL,
     "qdensity.gradients.blocks:commuting_block_gradient:method": _PARALLEL,
-    "qdensity.hardware.targets:get_target:noise": _PARALLEL,
-    "qdensity.execution.unary.__init__:vjp:reduce": "a package __init__, left to its owner "
-    "for now",
 }
 
 _COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge"}
