@@ -251,15 +251,17 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
                 f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
-def _forward_plan(model, k: int, X, shots, circuit=None, rows=None) -> Plan:
+def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
+                  owned: bool = False) -> Plan:
     """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
-    when already made)."""
+    when already made; ``owned``: ``circuit`` is a copy made for this plan, measured in place
+    instead of copied again)."""
     if model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
         return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
     inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
                                model.rows(k, X) if rows is None else rows, shots=shots,
-                               label=f"forward_k{k}")
+                               label=f"forward_k{k}", inplace=owned and circuit is not None)
     post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
 
@@ -295,13 +297,17 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     jac_plans, fwd_plans = [], []
     for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
         circ, params = _circuit_of(model, k)
-        rows = model.rows(k, X)
+        rows = model.rows(k, X, circuit=circ)  # in circ's parameter order, read off circ
         if k == 0:
             B = rows.shape[0]
         jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))
         if forward:
-            same = model.encoding is not None  # then circ is model.circuit(k)
-            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows))
+            # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
+            # analysis only read it and its circuits are copies, so it becomes the forward
+            # circuit (measured in place); without one it is U_k itself, copied
+            same = model.encoding is not None
+            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
+                                           owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B)
