@@ -78,9 +78,10 @@ def _plain_vars(circuit: QuantumCircuit) -> bool:
     return not (circuit.num_vars or circuit.num_stretches)
 
 
-def append_owned(out: QuantumCircuit, instructions: Iterable[CircuitInstruction]) -> None:
+def append_owned(out: QuantumCircuit, instructions: Iterable[CircuitInstruction], *,
+                 new: bool = False) -> None:
     """Append ``instructions`` (on bits of ``out``: taken from a circuit ``out`` was made from
-    with ``copy_empty_like``) to ``out`` in place, each symbolic gate copied.
+    with ``copy_empty_like``, or made for it) to ``out`` in place, each symbolic gate copied.
 
     Parameters
     ----------
@@ -88,7 +89,13 @@ def append_owned(out: QuantumCircuit, instructions: Iterable[CircuitInstruction]
         Modified in place.
     instructions : iterable of CircuitInstruction
         Valid on ``out``'s bits (unchecked: Qiskit's ``_append``).
+    new : bool
+        The gates were made for ``out`` (in no other circuit): appended as they are.
     """
+    if new:
+        for inst in instructions:
+            out._append(inst)
+        return
     for inst in instructions:
         op = inst.operation
         out._append(inst.replace(operation=op.copy()) if _symbolic(op) else inst)

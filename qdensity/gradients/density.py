@@ -37,9 +37,8 @@ from qdensity.execution.plans import (
     unary_frequencies,
 )
 from qdensity.gradients import _analysis
-from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients._direct import _direct_gradient
-from qdensity.gradients._outputs import rbs_output_tables
+from qdensity.gradients._outputs import rbs_output_gradients
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     _one_block,
@@ -48,6 +47,7 @@ from qdensity.gradients.commuting import (
     commuting_gradient_count,
 )
 from qdensity.gradients.shift import parameter_shift_plan, shift_circuit_count
+from qdensity.models._rows import encoding_columns, model_rows
 from qdensity.models.decompositions import trainable_parameters
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
@@ -212,13 +212,11 @@ def _analyse(model, circ, params):
     terms, weights = _unary_terms(n)
     total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
     checked, obs, trainables = _one_block(circ, total, params, "auto")
+    # one RBS(pi/4) layer: every output's table from one pass over the block's strings
+    found = rbs_output_gradients(circ, trainables, terms, weights, checked)
+    if found is not None:
+        return found
     shared = _direct_gradient(circ, trainables, obs, checked, "auto")
-    if shared.diagonaliser == "rbs" and len(shared.circuits) == 1:
-        # one RBS(pi/4) layer: every output's table from one pass over the block's strings
-        tables = rbs_output_tables(trainables, terms, weights, checked)
-        if tables is not None:
-            return shared, [_GradientCircuits(shared.circuits, list(checked), [t])
-                            for t in tables]
     grads = [commuting_gradient(circ, o, params) for o in _readout_observables(model)]
     same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
                   and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
@@ -295,9 +293,11 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     _check_method(model, method)
     K = model.num_subunitaries
     jac_plans, fwd_plans = [], []
+    encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
         circ, params = _circuit_of(model, k)
-        rows = model.rows(k, X, circuit=circ)  # in circ's parameter order, read off circ
+        # model.rows(k, X), in circ's parameter order read off circ itself
+        rows = model_rows(model, k, X, None, circ, encoded)
         if k == 0:
             B = rows.shape[0]
         jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))

@@ -341,3 +341,31 @@ def test_assign_fresh_of_expressions_phases_and_standard_gates():
     assert gates(out) == gates(qc.assign_parameters({a: b}, inplace=False))
     with pytest.raises(CircuitError, match="Cannot bind"):
         assign_fresh(pauli_circuit(), {Parameter("absent"): b})
+
+
+def test_rbs_copies_own_their_parameters_and_rebuild_their_definition():
+    import copy
+
+    t = Parameter("t")
+    gate = RBSGate(t, label="g")
+    _ = gate.definition  # built: a copy rebuilds its own from its parameters
+    for cpy in (gate.copy(), copy.deepcopy(gate)):
+        assert type(cpy) is RBSGate and cpy is not gate
+        assert cpy.params == [t] and cpy.label == "g" and cpy.name == "rbs"
+        qc, ref = QuantumCircuit(2), QuantumCircuit(2)
+        qc.append(cpy, [0, 1], copy=False)
+        ref.h([0, 1])  # the definition written out by hand (paper eq. 8 via two CZs)
+        ref.cz(0, 1)
+        ref.ry(t, 0)
+        ref.ry(-t, 1)
+        ref.cz(0, 1)
+        ref.h([0, 1])
+        assert Operator(qc.decompose().assign_parameters([0.41])).equiv(
+            Operator(ref.assign_parameters([0.41])))
+        qc.assign_parameters([0.2], inplace=True)  # the copy's parameters are its own
+        assert gate.params == [t]
+    src = QuantumCircuit(3)
+    src.append(RBSGate(t), [0, 2])
+    cpy = src.copy()
+    cpy.assign_parameters([0.3], inplace=True)
+    assert src.parameters[:] == [t]
