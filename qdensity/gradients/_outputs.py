@@ -173,6 +173,10 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
     term_at[term_qubit] = np.arange(len(term_qubit))
     O, P = weights.shape[0], len(params)
     pcol = {p: k for k, p in enumerate(params)}
+    w_o, w_t = np.nonzero(weights)  # each term's outputs and weights, read once
+    outputs_of: list[list] = [[] for _ in range(weights.shape[1])]
+    for o, t, w in zip(w_o.tolist(), w_t.tolist(), weights[w_o, w_t].tolist(), strict=True):
+        outputs_of[t].append((o, w))
     stack = _terms_of(trainables)
     ab = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
     on = ab[stack.owner]  # each generator term's pair
@@ -197,11 +201,11 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
             if t < 0:
                 continue
             support = (a if zb[0] else -1, b if zb[1] else -1)
-            for o in np.flatnonzero(weights[:, t]).tolist():
+            for o, w in outputs_of[t]:
                 eo.append(o)
                 eq.append(support)
                 ecol.append(col)
-                ev.append(weights[o, t] * v)
+                ev.append(w * v)
     keys = np.concatenate([np.array(eo, dtype=np.intp).reshape(-1, 1),
                            np.array(eq, dtype=np.intp).reshape(-1, 2)], axis=1)
     uniq, inv = np.unique(keys, axis=0, return_inverse=True)
