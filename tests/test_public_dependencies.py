@@ -51,14 +51,7 @@ KNOWN = {
     # performance paths of the circuit builders and analysis (measured in their modules):
     # QuantumCircuit._append is Qiskit's documented unchecked fast path; the rest is not
     # public and is to be replaced (qiskit may change it)
-    ("circuits/_copying.py", "new", "_params"): "gate copy without deepcopy (to replace)",
-    ("circuits/_copying.py", "op", "_params"): "gate copy without deepcopy (to replace)",
-    ("circuits/_copying.py", "op", "_definition"): "gate copy without deepcopy (to replace)",
-    ("circuits/_copying.py", "cpy", "_data"): "circuit copy (to replace)",
-    ("circuits/_copying.py", "circuit", "_data"): "circuit copy (to replace)",
-    ("circuits/_copying.py", "cpy", "_append"): "documented fast path",
-    ("circuits/_copying.py", "cpy", "_increment_instances"): "circuit copy (to replace)",
-    ("circuits/_copying.py", "cpy", "_name_update"): "circuit copy (to replace)",
+    ("circuits/_copying.py", "out", "_append"): "documented fast path",
     ("circuits/ansatze/equivariant.py", "qc", "_append"): "documented fast path",
     ("gradients/shift.py", "out", "_append"): "documented fast path",
     ("hardware/_mps_line.py", "out", "_append"): "documented fast path",

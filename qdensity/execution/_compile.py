@@ -22,10 +22,12 @@ __all__ = ["circuit_fingerprint", "unroll_misbound", "AER_MISBOUND_GATES", "Tran
 def circuit_fingerprint(circuit: QuantumCircuit) -> tuple:
     """A hashable description of a template's structure (gates, qubits, clbits, parameter
     expressions), so an identical template rebuilt later is recognised and not transpiled again."""
+    qindex = {q: i for i, q in enumerate(circuit.qubits)}  # = find_bit(q).index, at once
+    cindex = {c: i for i, c in enumerate(circuit.clbits)}
     data = tuple(
         (inst.operation.name,
-         tuple(circuit.find_bit(q).index for q in inst.qubits),
-         tuple(circuit.find_bit(c).index for c in inst.clbits),
+         tuple([qindex[q] for q in inst.qubits]),
+         tuple([cindex[c] for c in inst.clbits]),
          tuple(_param_key(p) for p in inst.operation.params),
          _operator_key(inst.operation))
         for inst in circuit.data

@@ -378,10 +378,11 @@ def expectation_plan(
 @validates(
     circuit=Circuit(min_qubits=1),
     values=[Array(ndim=(1, 2), min_size=0, max_size=MAX_DENSE_ENTRIES), None],
-    shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str),
+    shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str), inplace=Instance(bool),
 )
 def probabilities_plan(
-    circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities"
+    circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities",
+    inplace: bool = False,
 ) -> Plan:
     """Plan for the computational-basis outcome distribution of ``circuit``.
 
@@ -391,6 +392,11 @@ def probabilities_plan(
         Unmeasured circuit with ``P`` free parameters.
     values : array_like, shape (rows, P)
     shots : int, optional
+    label : str
+        The job's label.
+    inplace : bool
+        Measure ``circuit`` itself (a copy the caller just made and gives away, as
+        :func:`measured` ``(..., inplace=True)``) instead of a copy of it.
 
     Returns
     -------
@@ -405,8 +411,8 @@ def probabilities_plan(
         check_width(circuit.num_qubits, engine="probabilities_plan without shots (dense "
                     "(rows, 2**n) outcome probabilities)", alternative="the unary engine for "
                     "RBS circuits, or shots= (sampled estimates from the measured bits)")
-    job = CircuitJob(measured(circuit), as_parameter_rows(values, circuit.num_parameters), shots,
-                     label)
+    vals = as_parameter_rows(values, circuit.num_parameters)
+    job = CircuitJob(measured(circuit, inplace=inplace), vals, shots, label)
     return Plan([job], _first_result, f"P(b) of {circuit.name}")
 
 

@@ -37,9 +37,8 @@ from qdensity.execution.plans import (
     unary_frequencies,
 )
 from qdensity.gradients import _analysis
-from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients._direct import _direct_gradient
-from qdensity.gradients._outputs import rbs_output_tables
+from qdensity.gradients._outputs import rbs_output_gradients
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     _one_block,
@@ -48,6 +47,7 @@ from qdensity.gradients.commuting import (
     commuting_gradient_count,
 )
 from qdensity.gradients.shift import parameter_shift_plan, shift_circuit_count
+from qdensity.models._rows import encoding_columns, model_rows
 from qdensity.models.decompositions import trainable_parameters
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
@@ -212,13 +212,11 @@ def _analyse(model, circ, params):
     terms, weights = _unary_terms(n)
     total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
     checked, obs, trainables = _one_block(circ, total, params, "auto")
+    # one RBS(pi/4) layer: every output's table from one pass over the block's strings
+    found = rbs_output_gradients(circ, trainables, terms, weights, checked)
+    if found is not None:
+        return found
     shared = _direct_gradient(circ, trainables, obs, checked, "auto")
-    if shared.diagonaliser == "rbs" and len(shared.circuits) == 1:
-        # one RBS(pi/4) layer: every output's table from one pass over the block's strings
-        tables = rbs_output_tables(trainables, terms, weights, checked)
-        if tables is not None:
-            return shared, [_GradientCircuits(shared.circuits, list(checked), [t])
-                            for t in tables]
     grads = [commuting_gradient(circ, o, params) for o in _readout_observables(model)]
     same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
                   and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
@@ -251,15 +249,17 @@ def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
                 f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
-def _forward_plan(model, k: int, X, shots, circuit=None, rows=None) -> Plan:
+def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
+                  owned: bool = False) -> Plan:
     """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
-    when already made)."""
+    when already made; ``owned``: ``circuit`` is a copy made for this plan, measured in place
+    instead of copied again)."""
     if model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
         return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
     inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
                                model.rows(k, X) if rows is None else rows, shots=shots,
-                               label=f"forward_k{k}")
+                               label=f"forward_k{k}", inplace=owned and circuit is not None)
     post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
 
@@ -293,15 +293,21 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     _check_method(model, method)
     K = model.num_subunitaries
     jac_plans, fwd_plans = [], []
+    encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
         circ, params = _circuit_of(model, k)
-        rows = model.rows(k, X)
+        # model.rows(k, X), in circ's parameter order read off circ itself
+        rows = model_rows(model, k, X, None, circ, encoded)
         if k == 0:
             B = rows.shape[0]
         jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))
         if forward:
-            same = model.encoding is not None  # then circ is model.circuit(k)
-            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows))
+            # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
+            # analysis only read it and its circuits are copies, so it becomes the forward
+            # circuit (measured in place); without one it is U_k itself, copied
+            same = model.encoding is not None
+            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
+                                           owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B)

@@ -13,13 +13,13 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 import numpy as np
-from qiskit.circuit import Parameter, QuantumCircuit
+from qiskit.circuit import CircuitInstruction, Parameter, QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis._conjugate import conjugate_by_layer
 from qdensity.analysis.blocks import _ATOL, _terms_of, _Trainable
 from qdensity.analysis.pauli import ZStringTable
-from qdensity.circuits._copying import copy_circuit
+from qdensity.circuits._copying import append_owned, extend
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.circuits.measure import measured
 from qdensity.validation import check_positive_int
@@ -53,7 +53,10 @@ def rbs_diagonalising_layer(num_qubits: int, pairs: Iterable[tuple[int, int]]) -
     """
     n = check_positive_int(num_qubits, "num_qubits", minimum=2)
     circ = QuantumCircuit(n, name="rbs_diagonalise")
-    used: set[int] = set()
+    bits = circ.qubits
+    gate = RBSGate(np.pi / 4)  # one gate without parameters serves every pair, as Qiskit's
+    used: set[int] = set()     # append(..., copy=True) shares such a gate
+    gates = []
     for pair in pairs:
         try:
             i, j = (int(v) for v in pair)
@@ -64,7 +67,8 @@ def rbs_diagonalising_layer(num_qubits: int, pairs: Iterable[tuple[int, int]]) -
         if i in used or j in used:
             raise ValueError(f"pairs must be disjoint; pair {pair!r} reuses a qubit")
         used.update((i, j))
-        circ.append(RBSGate(np.pi / 4), [i, j])
+        gates.append(CircuitInstruction(gate, (bits[i], bits[j])))
+    append_owned(circ, gates)  # checked above: distinct qubits in range
     return circ
 
 
@@ -75,12 +79,13 @@ def _diagonal_matrix(diag_ops: Sequence[SparsePauliOp], num_qubits: int) -> ZStr
 
 
 def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCircuit:
-    """``measured(circuit + barrier + tail)``, with one copy of ``circuit`` (not two; a cheap
-    one for a circuit of Pauli evolutions, :func:`qdensity.circuits._copying.copy_circuit`)."""
-    out = copy_circuit(circuit)
+    """``measured(circuit + barrier + tail)``: one copy of ``circuit`` (``QuantumCircuit.copy``),
+    the tail's gates appended to it (:func:`qdensity.circuits._copying.extend`: no
+    ``compose``), measured in place."""
+    out = circuit.copy()
     if tail is not None and tail.size():
         out.barrier()
-        out.compose(tail, qubits=range(tail.num_qubits), inplace=True)
+        extend(out, tail)
     return measured(out, inplace=True)
 
 

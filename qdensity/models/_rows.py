@@ -35,10 +35,16 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     missing = [p.name for p in params if p not in columns]
     if missing:
         raise ValueError(f"no values given for parameters {missing}")
-    cols = [np.atleast_1d(np.asarray(columns[p], dtype=float)) for p in params]
-    rows = max((c.size for c in cols), default=1)
-    return np.stack([np.broadcast_to(c, (rows,)) for c in cols], axis=1) if cols else np.zeros(
-        (rows, 0))
+    cols = [columns[p] for p in params]
+    rows = max((np.size(c) for c in cols), default=1)
+    out = np.empty((rows, len(params)))
+    for i, c in enumerate(cols):  # a scalar or a (1,) column is broadcast down the rows
+        c = np.asarray(c, dtype=float)
+        if c.ndim > 1 or c.size not in (1, rows):
+            raise ValueError(f"the values of {params[i].name} have shape {c.shape}; expected "
+                             f"a scalar or shape ({rows},)")
+        out[:, i] = c
+    return out
 
 
 def _parameter_holder(encoding, sub: QuantumCircuit) -> QuantumCircuit:
@@ -52,9 +58,20 @@ def _parameter_holder(encoding, sub: QuantumCircuit) -> QuantumCircuit:
     return holder
 
 
-def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None) -> np.ndarray:
+def encoding_columns(model, X) -> dict:
+    """``{encoding parameter: its column of values for X}`` (empty without X or encoding):
+    what every sub-unitary's rows share, computed once for all of them."""
+    if X is None or model.encoding is None:
+        return {}
+    enc = model.encoding.values(model._check_X(X))
+    return dict(zip(model.encoding.circuit.parameters, enc.T, strict=True))
+
+
+def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None,
+               encoded: dict | None = None) -> np.ndarray:
     """:meth:`DensityQNN.rows <qdensity.models.density.DensityQNN.rows>`: the parameter rows of
-    ``model.circuit(k)`` (or of ``circuit`` built on it) for data X, shape (B, P_circuit)."""
+    ``model.circuit(k)`` (or of ``circuit`` built on it) for data X, shape (B, P_circuit).
+    ``encoded``: :func:`encoding_columns` of ``(model, X)`` when already computed."""
     circ = (circuit if circuit is not None  # parameters only: no copy of U_k
             else _parameter_holder(model.encoding, model.sub_unitaries[k]))
     theta = model.theta if theta is None else model._check_theta(theta)
@@ -63,9 +80,7 @@ def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None) -> np.nd
     if X is not None:
         X = model._check_X(X)
         B = X.shape[0]
-        if model.encoding is not None:
-            enc = model.encoding.values(X)
-            cols.update(zip(model.encoding.circuit.parameters, enc.T, strict=True))
+        cols.update(encoding_columns(model, X) if encoded is None else encoded)
     for p in circ.parameters:
         if p in cols:
             continue

@@ -25,7 +25,7 @@ from qdensity.analysis.parameters import (  # re-exported: the helper lives belo
     trainable_parameters,
 )
 from qdensity.analysis.structure import moment_indices, moments
-from qdensity.circuits._copying import assign_fresh
+from qdensity.circuits._copying import append_owned, assign_fresh, empty_like
 from qdensity.validation import (
     MAX_LAYERS,
     MAX_SUBUNITARIES,
@@ -95,18 +95,27 @@ class Decomposition:
 def _groups_to_circuits(circuit: QuantumCircuit, group_of: dict[int, int], count: int,
                         name: str) -> list[QuantumCircuit]:
     """Split ``circuit.data`` into ``count`` circuits; unparameterised gates follow the group of
-    the latest parameterised gate on one of their qubits (group 0 before any)."""
-    parts = [circuit.copy_empty_like(name=f"{name}_{k}") for k in range(count)]
-    last_group: dict[int, int] = {}
+    the latest parameterised gate on one of their qubits (group 0 before any).
+
+    The instructions are sorted into groups first, then each part is an empty copy of
+    ``circuit`` (:func:`qdensity.circuits._copying.empty_like`) with its instructions
+    appended, parameterised gates copied (:func:`qdensity.circuits._copying.append_owned`).
+    """
+    groups: list[list] = [[] for _ in range(count)]
+    last_group: dict = {}
     for pos, inst in enumerate(circuit.data):
-        qubits = [circuit.find_bit(q).index for q in inst.qubits]
         g = group_of.get(pos)
         if g is None:
-            g = max((last_group.get(q, 0) for q in qubits), default=0)
+            g = max((last_group.get(q, 0) for q in inst.qubits), default=0)
         else:
-            for q in qubits:
+            for q in inst.qubits:
                 last_group[q] = g
-        parts[g].append(inst)
+        groups[g].append(inst)
+    parts = []
+    for k, insts in enumerate(groups):
+        part = empty_like(circuit, f"{name}_{k}")
+        append_owned(part, insts)
+        parts.append(part)
     return parts
 
 
@@ -233,10 +242,8 @@ def _fresh_parameters(circuits: Sequence[QuantumCircuit],
     for k, qc in enumerate(circuits):
         params = trainable_parameters(qc)
         vec = ParameterVector(f"{prefix}{k}", len(params))
-        # = qc.assign_parameters(mapping, inplace=False), cheaper for Pauli evolutions
-        fresh = assign_fresh(qc, dict(zip(params, vec, strict=True)))
-        fresh.name = qc.name  # Qiskit's copy appends an instance counter ("-50")
-        out.append(fresh)
+        # = qc.assign_parameters(mapping, inplace=False), keeping qc's name
+        out.append(assign_fresh(qc, dict(zip(params, vec, strict=True))))
     return out
 
 

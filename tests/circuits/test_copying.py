@@ -1,25 +1,39 @@
-"""Cheap copies of Pauli-evolution circuits (qdensity.circuits._copying) and the equivariant
-model built with them.
+"""Building circuits from other circuits' instructions (qdensity.circuits._copying) and the
+equivariant model built with it.
 
-Oracles: Qiskit's own ``QuantumCircuit.copy`` / ``assign_parameters(inplace=False)`` compared
-instruction by instruction, Qiskit ``Operator`` s, and gate lists built naively from the
-translation classes enumerated by bit masks (independent of ``translation_classes``).
+Oracles: Qiskit's own ``QuantumCircuit.compose`` / ``copy_empty_like`` /
+``assign_parameters(inplace=False)`` compared instruction by instruction, Qiskit ``Operator`` s,
+and gate lists built naively from the translation classes enumerated by bit masks (independent
+of ``translation_classes``).
 """
 
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 import pytest
-from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
+from qiskit.circuit import (
+    ClassicalRegister,
+    Parameter,
+    ParameterVector,
+    QuantumCircuit,
+    QuantumRegister,
+)
 from qiskit.circuit.exceptions import CircuitError
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Operator, SparsePauliOp
 
-from qdensity.circuits._copying import assign_fresh, copy_circuit
+from qdensity.circuits._copying import (
+    append_owned,
+    assign_fresh,
+    concatenate,
+    empty_like,
+    extend,
+    fresh_gate,
+)
 from qdensity.circuits.ansatze import equivariant_commuting, translation_classes
+from qdensity.circuits.gates import RBSGate
 
 pytestmark = pytest.mark.filterwarnings("ignore::scipy.sparse.SparseEfficiencyWarning")
 
@@ -158,55 +172,127 @@ def test_model_gates_are_independent_of_each_other():
     assert first is not second
 
 
-# ------------------------------------------------------------------------------- copying
+# --------------------------------------------------------------------- extend / concatenate
 
 
-@pytest.mark.parametrize("make", [pauli_circuit, lambda: equivariant_commuting(6, "Y")])
-def test_copy_equals_qiskit_copy_and_owns_its_gates(make):
-    qc = make()
-    cpy = copy_circuit(qc)
-    ref = qc.copy()
-    assert gates(cpy) == gates(ref) == gates(qc)
-    assert cpy.name == qc.name and cpy.parameters[:] == qc.parameters[:]
-    assert_own_gates(qc, cpy)
-    values = values_for(qc, 1)
-    assert Operator(cpy.assign_parameters(values)).equiv(Operator(qc.assign_parameters(values)))
-    before = gates(qc)
-    cpy.assign_parameters(values, inplace=True)  # mutating the copy leaves the source alone
-    assert gates(qc) == before
-    assert cpy.num_parameters == 0 and qc.num_parameters == len(values)
-    cpy2 = copy_circuit(qc)
-    qc.assign_parameters(values, inplace=True)  # and the other way round
-    assert cpy2.num_parameters == len(values)
+def rbs_circuit(n: int = 4, prefix: str = "t") -> QuantumCircuit:
+    theta = ParameterVector(prefix, 3)
+    qc = QuantumCircuit(n, name=f"rbs_{prefix}")
+    qc.x(0)
+    qc.append(RBSGate(theta[0]), [0, 1])
+    qc.append(RBSGate(theta[1]), [2, 1])
+    qc.append(RBSGate(np.pi / 4), [1, 3])  # no symbolic parameter: shared, as append shares it
+    qc.ry(theta[2], 3)
+    return qc
 
 
-def test_copy_of_other_gates_goes_through_qiskit():
-    theta = Parameter("t")
-    qc = pauli_circuit()
-    qc.rx(theta, 0)  # a standard gate: not a plain Pauli evolution
-    cpy = copy_circuit(qc)
-    assert gates(cpy) == gates(qc)
-    assert_own_gates(qc, cpy)
-    cpy.assign_parameters({theta: 0.5}, inplace=True)
-    assert theta in qc.parameters
-    # a Pauli evolution whose definition is built is copied by Qiskit (with the definition)
-    qc = pauli_circuit()
-    _ = qc.data[0].operation.definition
-    cpy = copy_circuit(qc)
-    assert cpy.data[0].operation._definition is not None
-    assert cpy.data[0].operation._definition is not qc.data[0].operation._definition
-    assert gates(cpy) == gates(qc)
-    assert_own_gates(qc, cpy)
+def assert_own_symbolic_gates(a: QuantumCircuit, b: QuantumCircuit) -> None:
+    """No gate holding a symbolic parameter is one object in both circuits."""
+    ops_a = [i.operation for i in a.data]  # kept alive: ids of live objects only
+    ops_b = [i.operation for i in b.data]
+
+    def ids(ops):
+        return {id(op) for op in ops if any(hasattr(p, "parameters") for p in op.params)}
+    assert ops_a and ops_b and not ids(ops_a) & ids(ops_b)
 
 
-def test_copy_keeps_registers_phase_and_metadata():
-    qc = pauli_circuit()
-    qc.global_phase = 0.7
-    qc.metadata = {"a": [1]}
-    cpy = copy_circuit(qc)
-    assert cpy.global_phase == 0.7 and cpy.metadata == {"a": [1]}
-    assert cpy.metadata is not qc.metadata
-    assert cpy.qregs == qc.qregs and cpy.qubits == qc.qubits
+@pytest.mark.parametrize("second", [rbs_circuit, pauli_circuit])
+def test_concatenate_equals_compose(second):
+    first = rbs_circuit(4, "s")
+    first.global_phase = 0.2
+    first.metadata = {"m": 1}
+    other = second(3) if second is pauli_circuit else second(4)
+    other.global_phase = 0.5
+    out = concatenate(first, other)
+    ref = first.compose(other)
+    assert gates(out) == gates(ref)
+    assert out.name == ref.name and out.metadata == ref.metadata
+    assert out.parameters[:] == ref.parameters[:]
+    assert np.isclose(float(out.global_phase), float(ref.global_phase))
+    assert_own_symbolic_gates(out, first)
+    assert_own_symbolic_gates(out, other)
+    values = values_for(out, 3)
+    assert Operator(out.assign_parameters(values)).equiv(Operator(ref.assign_parameters(values)))
+    before_first, before_other = gates(first), gates(other)
+    out.assign_parameters(values, inplace=True)  # mutating the result leaves both alone
+    assert gates(first) == before_first and gates(other) == before_other
+
+
+def test_extend_on_chosen_qubits_and_other_registers_equals_compose():
+    out = QuantumCircuit(QuantumRegister(2, "a"), QuantumRegister(3, "b"))
+    ref = out.copy()
+    other = rbs_circuit(4)  # its own register "q": bits mapped by position
+    extend(out, other, qubits=[4, 0, 3, 1])
+    ref.compose(other, qubits=[4, 0, 3, 1], inplace=True)
+    assert gates(out) == gates(ref)
+    assert_own_symbolic_gates(out, other)
+    with pytest.raises(ValueError, match="cannot put 4 qubits"):
+        extend(QuantumCircuit(3), other)
+
+
+def test_extend_with_classical_bits_goes_through_compose():
+    other = rbs_circuit(2 + 2)
+    other.add_register(ClassicalRegister(1, "c"))
+    other.measure(0, 0)
+    out, ref = QuantumCircuit(4, 1), QuantumCircuit(4, 1)
+    extend(out, other)
+    ref.compose(other, inplace=True)
+    assert gates(out) == gates(ref)
+
+
+# ---------------------------------------------------------------- empty_like / append_owned
+
+
+def test_empty_like_equals_copy_empty_like():
+    qc = QuantumCircuit(QuantumRegister(2, "a"), QuantumRegister(1, "b"), ClassicalRegister(2),
+                        name="src", global_phase=0.3, metadata={"k": [1]})
+    qc.h(0)
+    for name in (None, "part"):
+        out, ref = empty_like(qc, name), qc.copy_empty_like(name)
+        assert out.qregs == ref.qregs and out.cregs == ref.cregs
+        assert out.qubits == ref.qubits and out.clbits == ref.clbits
+        assert out.name == ref.name and out.global_phase == ref.global_phase
+        assert out.metadata == ref.metadata and out.metadata is not qc.metadata
+        assert len(out.data) == 0
+    loose = QuantumCircuit(2)
+    loose.add_bits([type(loose.qubits[0])()])  # a bit outside every register
+    out = empty_like(loose)
+    assert out.qubits == loose.qubits and len(out.qubits) == 3
+
+
+def test_append_owned_copies_symbolic_gates_only():
+    src = rbs_circuit()
+    out = empty_like(src)
+    append_owned(out, list(src.data))
+    assert gates(out) == gates(src)
+    assert_own_symbolic_gates(out, src)
+    fixed = [i.operation for i in src.data if i.operation.name == "rbs" and
+             not any(hasattr(p, "parameters") for p in i.operation.params)]
+    assert any(i.operation is fixed[0] for i in out.data)  # RBS(pi/4): shared, as append does
+    out.assign_parameters(values_for(out, 4), inplace=True)
+    assert src.num_parameters == 3
+
+
+# --------------------------------------------------------------------------- fresh gates
+
+
+@pytest.mark.parametrize("template", [
+    PauliEvolutionGate(SparsePauliOp("XZ"), time=Parameter("a")),
+    RBSGate(Parameter("a")),
+])
+def test_fresh_gate_equals_a_new_gate(template):
+    b = Parameter("b")
+    _ = template.definition  # built: the fresh gate must not keep it
+    new = fresh_gate(template, [b])
+    assert new.params == [b] and template.params[0].name == "a"
+    assert type(new) is type(template) and new.name == template.name
+    qc, ref = QuantumCircuit(2), QuantumCircuit(2)
+    qc.append(new, [0, 1])
+    ref.append(type(template)(template.operator, time=b) if isinstance(template,
+               PauliEvolutionGate) else RBSGate(b), [0, 1])
+    assert Operator(qc.assign_parameters([0.37])).equiv(Operator(ref.assign_parameters([0.37])))
+    qc.assign_parameters([0.1], inplace=True)
+    assert template.params[0].name == "a"
 
 
 # ----------------------------------------------------------------- fresh parameters at once
@@ -221,8 +307,7 @@ def test_assign_fresh_equals_assign_parameters(make):
     ref = qc.assign_parameters(mapping, inplace=False)
     assert gates(out) == gates(ref)
     assert out.parameters[:] == ref.parameters[:] == list(fresh)
-    # named as Qiskit names the copy: the base name and a count of circuits made
-    assert re.fullmatch(rf"{qc.name}-\d+", out.name) and re.fullmatch(rf"{qc.name}-\d+", ref.name)
+    assert out.name == qc.name  # the source's name, not Qiskit's counted copy name
     assert_own_gates(qc, out)
     values = values_for(out, 2)
     back = {p: values[mapping[p]] for p in qc.parameters}
@@ -239,7 +324,7 @@ def test_assign_fresh_partial_mapping_keeps_the_other_parameters():
     assert gates(out) == gates(qc.assign_parameters({qc.parameters[0]: new}, inplace=False))
 
 
-def test_assign_fresh_falls_back_to_qiskit():
+def test_assign_fresh_of_expressions_phases_and_standard_gates():
     a, b = Parameter("a"), Parameter("b")
     qc = QuantumCircuit(2)
     qc.append(PauliEvolutionGate(SparsePauliOp("XX"), time=2 * a), [0, 1])  # an expression
@@ -248,8 +333,7 @@ def test_assign_fresh_falls_back_to_qiskit():
     assert_own_gates(qc, out)
     qc = pauli_circuit()
     qc.global_phase = qc.parameters[0]  # a parameterised phase
-    mapping = {qc.parameters[0]: b}
-    out = assign_fresh(qc, mapping)
+    out = assign_fresh(qc, {qc.parameters[0]: b})
     assert out.global_phase == b
     qc = pauli_circuit()
     qc.rz(a, 0)  # a standard gate
@@ -257,3 +341,31 @@ def test_assign_fresh_falls_back_to_qiskit():
     assert gates(out) == gates(qc.assign_parameters({a: b}, inplace=False))
     with pytest.raises(CircuitError, match="Cannot bind"):
         assign_fresh(pauli_circuit(), {Parameter("absent"): b})
+
+
+def test_rbs_copies_own_their_parameters_and_rebuild_their_definition():
+    import copy
+
+    t = Parameter("t")
+    gate = RBSGate(t, label="g")
+    _ = gate.definition  # built: a copy rebuilds its own from its parameters
+    for cpy in (gate.copy(), copy.deepcopy(gate)):
+        assert type(cpy) is RBSGate and cpy is not gate
+        assert cpy.params == [t] and cpy.label == "g" and cpy.name == "rbs"
+        qc, ref = QuantumCircuit(2), QuantumCircuit(2)
+        qc.append(cpy, [0, 1], copy=False)
+        ref.h([0, 1])  # the definition written out by hand (paper eq. 8 via two CZs)
+        ref.cz(0, 1)
+        ref.ry(t, 0)
+        ref.ry(-t, 1)
+        ref.cz(0, 1)
+        ref.h([0, 1])
+        assert Operator(qc.decompose().assign_parameters([0.41])).equiv(
+            Operator(ref.assign_parameters([0.41])))
+        qc.assign_parameters([0.2], inplace=True)  # the copy's parameters are its own
+        assert gate.params == [t]
+    src = QuantumCircuit(3)
+    src.append(RBSGate(t), [0, 2])
+    cpy = src.copy()
+    cpy.assign_parameters([0.3], inplace=True)
+    assert src.parameters[:] == [t]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from qiskit import QuantumCircuit
+from qiskit.circuit import Parameter
 from qiskit.quantum_info import Operator, PauliList, SparsePauliOp, Statevector
 
 from qdensity import DensityQNN, Encoding, by_moments
@@ -67,6 +68,24 @@ def test_round_robin_unary_jacobians_match_finite_differences(n):
     plan's commuting Jacobians (one circuit per sub-unitary, one table per output) against
     central differences (step 1e-5: error ~1e-10 + rounding 1e-11) of exact probabilities."""
     subs = by_moments(round_robin(n)).sub_unitaries
+    _check_unary_jacobians(subs, n)
+
+
+def test_mixed_rbs_moments_unary_jacobians_match_finite_differences():
+    """One moment of RBS gates on disjoint pairs in either orientation, an angle ``2 b``, a
+    parameter shared by two gates of one moment and an idle qubit (its output has no
+    gradient): the per-pair tables (one template per distinct gate) against central
+    differences of exact probabilities."""
+    a, b, c = Parameter("a"), Parameter("b"), Parameter("c")
+    one, two = QuantumCircuit(5), QuantumCircuit(5)
+    one.append(RBSGate(a), [0, 3])
+    one.append(RBSGate(2 * b), [4, 1])
+    two.append(RBSGate(c), [2, 1])
+    two.append(RBSGate(c), [3, 0])
+    _check_unary_jacobians([one, two], 5)
+
+
+def _check_unary_jacobians(subs, n):
     model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=3)
     X = RNG.normal(size=(2, n))
     plan = density_gradient_plan(model, X, method="commuting")

@@ -28,7 +28,7 @@ from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.circuits._copying import _gate_copy
+from qdensity.circuits._copying import fresh_gate
 from qdensity.datasets.bars_and_dots import bars_and_dots
 from qdensity.validation import (
     MAX_CIRCUIT_QUBITS,
@@ -207,16 +207,15 @@ def equivariant_commuting(
     for c, cls in enumerate(classes):
         # one gate per weight, copied per string with its class parameter: equal gates at a
         # fraction of the cost of building a SparsePauliOp and a PauliEvolutionGate for each
-        # of the C(n, k) strings (or each class). The copy is what Instruction.copy makes of a
-        # gate without a definition yet (shallow, with its own parameter list; the operator is
-        # shared as there: _gate_copy), appended unchecked: the qubits are distinct and in
-        # range by construction.
+        # of the C(n, k) strings (or each class). The copy is shallow with its own parameter
+        # list and no definition (the operator, immutable, is shared: fresh_gate), appended
+        # unchecked: the qubits are distinct and in range by construction.
         k, t = len(cls[0]), theta[c]
         gate = templates.get(k)
         if gate is None:
             gate = templates[k] = PauliEvolutionGate(SparsePauliOp(p * k), time=t)
         for support in cls:
-            qc._append(CircuitInstruction(_gate_copy(gate, [t]), tuple([bits[q] for q in support])))
+            qc._append(CircuitInstruction(fresh_gate(gate, [t]), tuple([bits[q] for q in support])))
     return qc
 
 

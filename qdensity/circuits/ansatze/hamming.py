@@ -21,8 +21,9 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from qiskit.circuit import ParameterVector, QuantumCircuit
+from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 
+from qdensity.circuits._copying import append_owned, fresh_gate
 from qdensity.circuits.gates import FBSGate, RBSGate
 from qdensity.validation import (
     MAX_LAYERS,
@@ -80,13 +81,16 @@ def pairs_circuit(
     count = sum(len(layer) for layer in ordered)
     theta = ParameterVector(parameter_prefix, count)
     qc = QuantumCircuit(num_qubits, name=name)
-    k = 0
+    bits = qc.qubits
+    template = RBSGate(theta[0]) if count else None  # copied per pair (fresh_gate): a new
+    k = 0                                            # gate without the checked constructor
     for li, layer in enumerate(ordered):
         for i, j in layer:
             if i == j or not (0 <= i < num_qubits and 0 <= j < num_qubits):
                 raise ValueError(f"invalid pair {(i, j)} for {num_qubits} qubits")
-            if gate == "rbs" or j == i + 1:
-                qc.append(RBSGate(theta[k]), [i, j])
+            if gate == "rbs" or j == i + 1:  # a new gate on checked qubits: appended as is
+                append_owned(qc, [CircuitInstruction(fresh_gate(template, [theta[k]]),
+                                                     (bits[i], bits[j]))], new=True)
             else:
                 qc.append(FBSGate(theta[k], j - i + 1), list(range(i, j + 1)))
             k += 1
