@@ -47,6 +47,21 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
     return bits[..., : bitarray.num_bits].astype(bool)
 
 
+def packed_set_bits(packed: np.ndarray, num_bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(shot, clbit)`` of the set bits of ``BitArray`` bytes ``packed`` (shots, nbytes)
+    (big-endian: the last byte holds clbits 0..7), shot ascending, clbits below ``num_bits``."""
+    shot, byte = np.nonzero(packed)
+    if not shot.size:
+        return shot.astype(np.int64), shot.astype(np.int64)
+    values = packed[shot, byte]
+    bits = np.unpackbits(values[:, None], axis=1, bitorder="little")  # (nnz bytes, 8)
+    which, pos = np.nonzero(bits)
+    clbit = (packed.shape[1] - 1 - byte[which]).astype(np.int64) * 8 + pos
+    shot = shot[which].astype(np.int64)
+    keep = clbit < num_bits
+    return (shot, clbit) if keep.all() else (shot[keep], clbit[keep])
+
+
 class PackedJobResult(JobResult):
     """:class:`~qdensity.execution.job_results.JobResult` whose ``bits`` are unpacked on read.
 
@@ -71,6 +86,19 @@ class PackedJobResult(JobResult):
             held = bitarray_to_bits(*self._packed)
             self._unpacked = weakref.ref(held)
         return held
+
+    @property
+    def bits_shape(self) -> tuple[int, int, int]:
+        """``(rows, shots, num_clbits)``, read off the packed shots."""
+        bitarray, rows, shots = self._packed
+        return rows, shots, int(bitarray.num_bits)
+
+    def set_clbits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The set clbits of every shot read off the packed bytes: a scan of the bytes and
+        unpacking only the nonzero ones (see :meth:`JobResult.set_clbits`)."""
+        bitarray, rows, shots = self._packed
+        return packed_set_bits(np.asarray(bitarray.array).reshape(rows * shots, -1),
+                               bitarray.num_bits)
 
     @bits.setter
     def bits(self, value) -> None:  # JobResult.__init__ stores the packed form
