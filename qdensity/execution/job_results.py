@@ -81,6 +81,11 @@ class JobResult:
         return self.shots
 
     @property
+    def has_bits(self) -> bool:
+        """Whether the result holds sampled shots (checked without reading ``bits``)."""
+        return self.bits is not None
+
+    @property
     def bits_shape(self) -> tuple[int, int, int]:
         """``(rows, shots, num_clbits)`` of the sampled ``bits`` (read without unpacking)."""
         if self.bits is None:
@@ -164,7 +169,7 @@ def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std
         Frequencies without bits but with ``shots`` use the binomial error of ``shots``.
     """
     se = None
-    if result.bits is not None and result.weights is None:
+    if result.has_bits and result.weights is None:
         # raw shots: counts of the weight-1 outcomes from the set clbits, O(rows x shots)
         rows, shots, m = result.bits_shape
         shot, clbit = result.set_clbits()

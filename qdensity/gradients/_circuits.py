@@ -252,33 +252,36 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
     z = np.concatenate([t.z for t in tables], axis=0)  # (M, width)
     M, TP = z.shape[0], T * P
     # C: (M, T * P) each string's coefficients in its table's block of columns
-    offsets = np.cumsum([0] + [t.z.shape[0] for t in tables])
-    r_idx, c_idx, c_val = [], [], []
-    for t, table in enumerate(tables):
-        rr, cc = np.nonzero(table.coefficients)
-        r_idx.append(rr + offsets[t])
-        c_idx.append(cc + t * P)
-        c_val.append(table.coefficients[rr, cc])
-    C = sparse.csr_matrix((np.concatenate(c_val), (np.concatenate(r_idx),
-                                                   np.concatenate(c_idx))), shape=(M, TP))
-    a = np.asarray(C.sum(axis=0)).ravel()  # (TP,) every column's value with even parities
+    coeffs = np.concatenate([t.coefficients for t in tables], axis=0)  # (M, P)
+    table_of = np.repeat(np.arange(T), [t.z.shape[0] for t in tables])
+    rr, cc = np.nonzero(coeffs)
+    # the columns some string weighs on (the others are 0 with error 0): S of the T * P
+    support, col = np.unique(cc + table_of[rr] * P, return_inverse=True)
+    col = col.ravel()
+    S = support.size
+    C = sparse.csr_matrix((coeffs[rr, cc], (rr, col)), shape=(M, S))
+    # R per column: 2 sum |c_r| over the strings that vary (ZStringTable.value_range)
+    varying = z.any(axis=1)
+    R = 2.0 * np.bincount(col, weights=np.abs(coeffs[rr, cc]) * varying[rr], minlength=S)
+    a = np.asarray(C.sum(axis=0)).ravel()  # (S,) every column's value with even parities
     B = sparse.csr_matrix((np.ones(shot.size, np.int32), (shot, clbit)),
                           shape=(rows * shots, width))
     parity = (B @ sparse.csr_matrix(z.T.astype(np.int32))).tocoo()
     odd = (parity.data & 1).astype(bool)
     Odd = sparse.csr_matrix((np.ones(int(odd.sum())), (parity.row[odd], parity.col[odd])),
                             shape=(rows * shots, M))
-    Y = (Odd @ C).tocoo()  # (rows * shots, TP): y per shot where some odd string counts
-    key = (Y.row // shots).astype(np.int64) * TP + Y.col
-    size = rows * TP
+    Y = (Odd @ C).tocoo()  # (rows * shots, S): y per shot where some odd string counts
+    key = (Y.row // shots).astype(np.int64) * S + Y.col
+    size = rows * S
     ybar = np.bincount(key, weights=Y.data, minlength=size) / shots
     held = np.bincount(key, minlength=size)  # shots with an entry (the rest have y = 0)
     sq = (np.bincount(key, weights=(Y.data - ybar[key]) ** 2, minlength=size)
           + (shots - held) * ybar**2)
-    mean = (a[None, :] - 2.0 * ybar.reshape(rows, TP)).reshape(rows, T, P)
-    var = (4.0 * sq / (shots - 1)).reshape(rows, T, P)
-    R = np.stack([t.value_range() for t in tables])  # (T, P)
-    return mean, wilson_standard_error(var, shots, R)
+    mean = np.zeros((rows, TP))
+    se = np.zeros((rows, TP))
+    mean[:, support] = a[None, :] - 2.0 * ybar.reshape(rows, S)
+    se[:, support] = wilson_standard_error(4.0 * sq.reshape(rows, S) / (shots - 1), shots, R)
+    return mean.reshape(rows, T, P), se.reshape(rows, T, P)
 
 
 def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
@@ -299,14 +302,14 @@ def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
                                       [r.readout for r in results]) for g in grads]
         return (np.stack([v for v, _ in parts], axis=1),
                 np.stack([e for _, e in parts], axis=1))
-    value: float | np.ndarray = 0.0
-    var: float | np.ndarray = 0.0
+    parts = []
     for c, r in enumerate(results):
         rows, shots, _ = r.bits_shape
         if shots < 2:
             raise ValueError(f"results[{c}] needs >= 2 shots to estimate a variance")
         shot, clbit = r.set_clbits()
-        mean, se = _raw_means([g._values[c] for g in grads], shot, clbit, rows, shots)
-        value = value + mean
-        var = var + se**2
-    return np.asarray(value), np.sqrt(var)
+        parts.append(_raw_means([g._values[c] for g in grads], shot, clbit, rows, shots))
+    if len(parts) == 1:
+        return parts[0]
+    # independent circuits: estimates add, variances add
+    return (sum(m for m, _ in parts), np.sqrt(sum(e**2 for _, e in parts)))

@@ -405,7 +405,7 @@ def _shift_observable_post(inner, results):
 
 
 def _commuting_post(grads, shots, results):
-    if shots is not None and all(r.bits is not None for r in results):
+    if shots is not None and all(r.has_bits for r in results):
         # sampled: estimator values on the observed bits, never a 2**n array
         # (every output's table on each circuit's shots read once)
         return Estimate(*gradients_from_results(grads, results))

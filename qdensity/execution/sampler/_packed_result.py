@@ -49,15 +49,35 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
 
 def packed_set_bits(packed: np.ndarray, num_bits: int) -> tuple[np.ndarray, np.ndarray]:
     """``(shot, clbit)`` of the set bits of ``BitArray`` bytes ``packed`` (shots, nbytes)
-    (big-endian: the last byte holds clbits 0..7), shot ascending, clbits below ``num_bits``."""
-    shot, byte = np.nonzero(packed)
-    if not shot.size:
-        return shot.astype(np.int64), shot.astype(np.int64)
-    values = packed[shot, byte]
-    bits = np.unpackbits(values[:, None], axis=1, bitorder="little")  # (nnz bytes, 8)
-    which, pos = np.nonzero(bits)
-    clbit = (packed.shape[1] - 1 - byte[which]).astype(np.int64) * 8 + pos
-    shot = shot[which].astype(np.int64)
+    (big-endian: the last byte holds clbits 0..7), shot ascending, clbits below ``num_bits``.
+
+    The bytes are read as little-endian 64-bit words (zero bytes in front make up the last
+    word); the set bits of the nonzero words are peeled off lowest first (``v & -v``, its
+    position an exact ``log2``), one vectorised pass per bit a word holds: a shot of Hamming
+    weight ``k`` costs its ``nbytes / 8`` words plus ``k`` bits, never ``8 nbytes`` bits."""
+    shots, nbytes = packed.shape
+    pad = -nbytes % 8
+    words = np.zeros((shots, (nbytes + pad) // 8), np.dtype("<u8"))
+    words.view(np.uint8)[:, pad:] = packed  # byte j of the row is byte j + pad here
+    flat = np.flatnonzero(words)
+    value = words.ravel()[flat]
+    shot_parts, byte_parts = [], []
+    while flat.size:
+        low = value & (~value + np.uint64(1))  # the lowest set bit
+        pos = np.log2(low.astype(np.float64)).astype(np.int64)  # exact for powers of two
+        shot_parts.append(flat)
+        byte_parts.append((flat % words.shape[1]) * 64 + pos)  # bit index in the padded row
+        value = value ^ low
+        more = value != 0
+        flat, value = flat[more], value[more]
+    if not shot_parts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    word_flat = np.concatenate(shot_parts)
+    bit = np.concatenate(byte_parts)  # byte = bit // 8 (padded), bit % 8 inside the byte
+    shot = word_flat // words.shape[1]
+    clbit = (nbytes - 1 - (bit // 8 - pad)) * 8 + bit % 8
+    order = np.argsort(shot, kind="stable")
+    shot, clbit = shot[order], clbit[order]
     keep = clbit < num_bits
     return (shot, clbit) if keep.all() else (shot[keep], clbit[keep])
 
@@ -86,6 +106,11 @@ class PackedJobResult(JobResult):
             held = bitarray_to_bits(*self._packed)
             self._unpacked = weakref.ref(held)
         return held
+
+    @property
+    def has_bits(self) -> bool:
+        """True: sampled shots (held packed; ``bits`` would unpack them)."""
+        return True
 
     @property
     def bits_shape(self) -> tuple[int, int, int]:
