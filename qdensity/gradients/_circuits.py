@@ -261,7 +261,7 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
     S = support.size
     C = sparse.csr_matrix((coeffs[rr, cc], (rr, col)), shape=(M, S))
     # R per column: 2 sum |c_r| over the strings that vary (ZStringTable.value_range)
-    varying = z.any(axis=1)
+    varying = np.asarray(z.any(axis=1), dtype=float)
     R = 2.0 * np.bincount(col, weights=np.abs(coeffs[rr, cc]) * varying[rr], minlength=S)
     a = np.asarray(C.sum(axis=0)).ravel()  # (S,) every column's value with even parities
     B = sparse.csr_matrix((np.ones(shot.size, np.int32), (shot, clbit)),

@@ -2,7 +2,8 @@
 ``BitArray``) and unpacks ``bits`` when read.
 
 A density gradient at device widths holds every job's shots until its post-processing reads
-them, one sub-unitary at a time: at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
+them, one sub-unitary at a time, as sparse set clbits (``set_clbits``, read off the packed
+bytes by :func:`packed_set_bits`): at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
 unpacked booleans would take 2.1 GB, the packed bytes 0.26 GB. The unpacked array is kept
 only while a caller holds it (a weak reference), so reading ``bits`` twice in a row costs one
 unpacking and nothing stays allocated after the caller lets go. :func:`bitarray_to_bits`
@@ -107,6 +108,11 @@ class PackedJobResult(JobResult):
             self._unpacked = weakref.ref(held)
         return held
 
+    @bits.setter
+    def bits(self, value) -> None:  # JobResult.__init__ stores the packed form
+        if value is not self._packed[0]:
+            raise AttributeError("a PackedJobResult's bits are read from its packed shots")
+
     @property
     def has_bits(self) -> bool:
         """True: sampled shots (held packed; ``bits`` would unpack them)."""
@@ -119,16 +125,11 @@ class PackedJobResult(JobResult):
         return rows, shots, int(bitarray.num_bits)
 
     def set_clbits(self) -> tuple[np.ndarray, np.ndarray]:
-        """The set clbits of every shot read off the packed bytes: a scan of the bytes and
-        unpacking only the nonzero ones (see :meth:`JobResult.set_clbits`)."""
+        """The set clbits of every shot read off the packed bytes (:func:`packed_set_bits`;
+        see :meth:`JobResult.set_clbits`), never unpacked to ``num_clbits`` per shot."""
         bitarray, rows, shots = self._packed
         return packed_set_bits(np.asarray(bitarray.array).reshape(rows * shots, -1),
                                bitarray.num_bits)
-
-    @bits.setter
-    def bits(self, value) -> None:  # JobResult.__init__ stores the packed form
-        if value is not self._packed[0]:
-            raise AttributeError("a PackedJobResult's bits are read from its packed shots")
 
     def __getstate__(self):
         state = dict(self.__dict__)
