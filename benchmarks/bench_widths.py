@@ -49,16 +49,33 @@ def _readout_target(n: int, p: float):
     return get_target(device, seed=0, noise_model=noise)
 
 
-def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str) -> dict:
+def _subs(n: int, sub: int, direct: bool) -> list:
+    """The round-robin moments (the first ``sub`` of them when ``sub``): ``by_moments`` of
+    the whole circuit, or (``direct``) each round of pairs built as its own circuit, which
+    does not build the ``n (n - 1) / 2``-gate circuit first (at n = 1024 that circuit and its
+    decomposition take more memory than the benchmark machine has)."""
+    from qdensity import by_moments
+    from qdensity.ansatze import round_robin
+    from qdensity.ansatze.hamming import pairs_circuit, round_robin_pairs
+
+    if direct:
+        rounds = round_robin_pairs(n)
+        rounds = rounds[:sub] if sub else rounds
+        return [pairs_circuit(n, [pairs], parameter_prefix=f"θ{k}", name=f"moment_{k}")
+                for k, pairs in enumerate(rounds)]
+    subs = by_moments(round_robin(n)).sub_unitaries
+    return subs[:sub] if sub else subs
+
+
+def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
+          direct: bool = False) -> dict:
     import numpy as np
 
-    from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity import DensityQNN, Encoding, SamplerEngine
     from qdensity.gradients import density_gradient_plan
 
     t0 = time.process_time()  # CPU of this process so far: interpreter start and imports
-    subs = by_moments(round_robin(n)).sub_unitaries
-    subs = subs[:sub] if sub else subs
+    subs = _subs(n, sub, direct)
     model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
     X = np.random.default_rng(1).normal(size=(rows, n))
     plan = density_gradient_plan(model, X, method="commuting", shots=shots)
@@ -83,19 +100,17 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str)
 
 
 def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
-                  hamming: str) -> dict:
+                  hamming: str, direct: bool = False) -> dict:
     """Only the sampling: the plan's kind of templates built directly (no gradient plan)."""
     import numpy as np
     from qiskit import QuantumCircuit
 
-    from qdensity import Encoding, SamplerEngine, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity import Encoding, SamplerEngine
     from qdensity.circuits.gates import RBSGate
     from qdensity.execution.plans import CircuitJob
 
     t0 = time.process_time()
-    subs = by_moments(round_robin(n)).sub_unitaries
-    subs = subs[:sub] if sub else subs
+    subs = _subs(n, sub, direct)
     loader = Encoding.unary(n).circuit
     rng = np.random.default_rng(1)
     jobs = []
@@ -159,12 +174,16 @@ def main() -> None:
                     help="no gradient plan: time sampling the plan's kind of templates (loader "
                          "+ sub-unitary, and + an RBS(pi/4) layer on its pairs; 2 per "
                          "sub-unitary), built directly; 'build' is then building those")
+    ap.add_argument("--direct-moments", action="store_true",
+                    help="build each round-robin moment as its own circuit (the same pairs) "
+                         "instead of by_moments(round_robin(n)); with --sub, widths whose "
+                         "whole circuit does not fit in memory (n = 1024)")
     ap.add_argument("--child", nargs=2, metavar=("N", "READOUT"))
     a = ap.parse_args()
     if a.child:
         n, readout = int(a.child[0]), float(a.child[1])
         case = _sampler_case if a.sampler_only else _case
-        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming)
+        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming, a.direct_moments)
         res["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
         print(json.dumps(res))
         return
@@ -178,7 +197,8 @@ def main() -> None:
     for n, readout in cases:
         res = _run_child([str(n), str(readout), "--sub", str(a.sub), "--rows", str(a.rows),
                           "--shots", str(a.shots), "--hamming", a.hamming]
-                         + (["--sampler-only"] if a.sampler_only else []), a.timeout)
+                         + (["--sampler-only"] if a.sampler_only else [])
+                         + (["--direct-moments"] if a.direct_moments else []), a.timeout)
         name = f"n={n} " + (f"readout {readout:g}" if readout else "noiseless")
         if "error" in res:
             print(f"{name:<22}  {res['error']}")
