@@ -4,9 +4,11 @@ layers, every sub-unitary, ``readout="unary_probabilities"``, 16 rows, 1000 shot
 
 The engine samples these Hamming-weight-1 templates exactly in their ``n``-dimensional
 subspace (``HammingWeightSampler``) unless ``--hamming never`` sends them to Aer (matrix-product
-states from 14 qubits). Each case runs in its own process; the table gives its CPU time (user +
-system, children included, plan build included), the split into plan build, sampling
-(``engine.run``) and post-processing (CPU of this process), and peak resident memory; max |z|
+states from 14 qubits). Each case runs in its own process. CPU seconds (user + system, all
+threads): ``total`` is the whole process (interpreter, imports, work and the exact check that
+follows it), ``result`` the process until the gradient is in hand (= ``import`` + ``work``),
+``import`` the interpreter start and imports, ``work`` = ``build`` (the gradient plan) +
+``sample`` (``engine.run``) + ``post`` (``plan.postprocess``); then peak resident memory; max |z|
 compares the sampled outputs with the exact unary probabilities (binomial errors of the exact
 values, floor ``1 / shots``). A readout-noisy case runs on the ``ideal`` target with a
 symmetric readout error (``--readout``), which the sampler applies to the drawn bits.
@@ -47,16 +49,33 @@ def _readout_target(n: int, p: float):
     return get_target(device, seed=0, noise_model=noise)
 
 
-def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str) -> dict:
+def _subs(n: int, sub: int, direct: bool) -> list:
+    """The round-robin moments (the first ``sub`` of them when ``sub``): ``by_moments`` of
+    the whole circuit, or (``direct``) each round of pairs built as its own circuit, which
+    does not build the ``n (n - 1) / 2``-gate circuit first (at n = 1024 that circuit and its
+    decomposition take more memory than the benchmark machine has)."""
+    from qdensity import by_moments
+    from qdensity.ansatze import round_robin
+    from qdensity.ansatze.hamming import pairs_circuit, round_robin_pairs
+
+    if direct:
+        rounds = round_robin_pairs(n)
+        rounds = rounds[:sub] if sub else rounds
+        return [pairs_circuit(n, [pairs], parameter_prefix=f"θ{k}", name=f"moment_{k}")
+                for k, pairs in enumerate(rounds)]
+    subs = by_moments(round_robin(n)).sub_unitaries
+    return subs[:sub] if sub else subs
+
+
+def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
+          direct: bool = False) -> dict:
     import numpy as np
 
-    from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity import DensityQNN, Encoding, SamplerEngine
     from qdensity.gradients import density_gradient_plan
 
-    t0 = time.process_time()
-    subs = by_moments(round_robin(n)).sub_unitaries
-    subs = subs[:sub] if sub else subs
+    t0 = time.process_time()  # CPU of this process so far: interpreter start and imports
+    subs = _subs(n, sub, direct)
     model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
     X = np.random.default_rng(1).normal(size=(rows, n))
     plan = density_gradient_plan(model, X, method="commuting", shots=shots)
@@ -74,25 +93,24 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str)
     se = np.sqrt(np.maximum(exact * (1 - exact), 1.0 / shots) / shots)
     err = float(np.max(np.abs(grad.outputs - exact) / se))
     samplers = sorted({e.sampler for e in engine.ledger.entries})
-    return {"build_s": t1 - t0, "sample_s": t2 - t1, "post_s": t3 - t2,
-            "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
+    return {"import_s": t0, "build_s": t1 - t0, "sample_s": t2 - t1, "post_s": t3 - t2,
+            "result_s": t3, "circuits": engine.ledger.total_circuits,
+            "shots": engine.ledger.total_shots,
             "max_z": err, "samplers": samplers, "sub": len(subs)}
 
 
 def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
-                  hamming: str) -> dict:
+                  hamming: str, direct: bool = False) -> dict:
     """Only the sampling: the plan's kind of templates built directly (no gradient plan)."""
     import numpy as np
     from qiskit import QuantumCircuit
 
-    from qdensity import Encoding, SamplerEngine, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity import Encoding, SamplerEngine
     from qdensity.circuits.gates import RBSGate
     from qdensity.execution.plans import CircuitJob
 
     t0 = time.process_time()
-    subs = by_moments(round_robin(n)).sub_unitaries
-    subs = subs[:sub] if sub else subs
+    subs = _subs(n, sub, direct)
     loader = Encoding.unary(n).circuit
     rng = np.random.default_rng(1)
     jobs = []
@@ -113,7 +131,8 @@ def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
     engine.run(jobs)
     t2 = time.process_time()
     samplers = sorted({e.sampler for e in engine.ledger.entries})
-    return {"build_s": t1 - t0, "sample_s": t2 - t1, "post_s": float("nan"),
+    return {"import_s": t0, "build_s": t1 - t0, "sample_s": t2 - t1, "post_s": float("nan"),
+            "result_s": t2,
             "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
             "max_z": float("nan"), "samplers": samplers, "sub": len(subs)}
 
@@ -155,30 +174,38 @@ def main() -> None:
                     help="no gradient plan: time sampling the plan's kind of templates (loader "
                          "+ sub-unitary, and + an RBS(pi/4) layer on its pairs; 2 per "
                          "sub-unitary), built directly; 'build' is then building those")
+    ap.add_argument("--direct-moments", action="store_true",
+                    help="build each round-robin moment as its own circuit (the same pairs) "
+                         "instead of by_moments(round_robin(n)); with --sub, widths whose "
+                         "whole circuit does not fit in memory (n = 1024)")
     ap.add_argument("--child", nargs=2, metavar=("N", "READOUT"))
     a = ap.parse_args()
     if a.child:
         n, readout = int(a.child[0]), float(a.child[1])
         case = _sampler_case if a.sampler_only else _case
-        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming)
+        res = case(n, readout, a.sub, a.rows, a.shots, a.hamming, a.direct_moments)
         res["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # Linux: KiB
         print(json.dumps(res))
         return
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores; hamming_weight="
           f"{a.hamming!r}, {a.rows} rows x {a.shots} shots"
           + ("; sampler only (no gradient plan)" if a.sampler_only else ""))
-    print(f"{'case':<22}{'K':>5}{'cpu s':>8}{'build':>8}{'sample':>8}{'post':>8}{'wall s':>8}"
+    print(f"{'case':<22}{'K':>5}{'total':>8}{'result':>8}{'import':>8}{'work':>8}{'build':>8}"
+          f"{'sample':>8}{'post':>8}{'wall s':>8}"
           f"{'peak MB':>9}{'circuits':>9}{'shots':>10}{'max |z|':>8}  sampler")
     cases = [(n, 0.0) for n in a.widths] + [(n, a.readout) for n in a.noisy_widths]
     for n, readout in cases:
         res = _run_child([str(n), str(readout), "--sub", str(a.sub), "--rows", str(a.rows),
                           "--shots", str(a.shots), "--hamming", a.hamming]
-                         + (["--sampler-only"] if a.sampler_only else []), a.timeout)
+                         + (["--sampler-only"] if a.sampler_only else [])
+                         + (["--direct-moments"] if a.direct_moments else []), a.timeout)
         name = f"n={n} " + (f"readout {readout:g}" if readout else "noiseless")
         if "error" in res:
             print(f"{name:<22}  {res['error']}")
             continue
-        print(f"{name:<22}{res['sub']:>5}{res['cpu_s']:>8.1f}{res['build_s']:>8.1f}"
+        work = res["result_s"] - res["import_s"]
+        print(f"{name:<22}{res['sub']:>5}{res['cpu_s']:>8.1f}{res['result_s']:>8.1f}"
+              f"{res['import_s']:>8.1f}{work:>8.1f}{res['build_s']:>8.1f}"
               f"{res['sample_s']:>8.1f}{res['post_s']:>8.1f}{res['wall_s']:>8.1f}"
               f"{res['peak_mb']:>9.0f}{res['circuits']:>9}{res['shots']:>10}"
               f"{res['max_z']:>8.2f}  {','.join(res['samplers'])}")

@@ -252,9 +252,11 @@ def _cmd_demo(args) -> int:
     return 0
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(demo: bool = True) -> argparse.ArgumentParser:
+    """The command's parser; ``demo=False`` leaves out the ``demo`` command's options, whose
+    help reads the demo's defaults (importing the training stack: scikit-learn, numba, about
+    1.5 s of CPU) -- :func:`main` builds them only when ``demo`` is on the command line."""
     from qdensity.cli import experiment, results, sweep
-    from qdensity.experiments.demo import DemoConfig
     from qdensity.hardware.targets import target_help
 
     any_size = _int_in(-(2**31), 2**31)  # build / transpile: checked with the builder's name
@@ -356,6 +358,20 @@ def _parser() -> argparse.ArgumentParser:
                                     "digits with sampled gradients on a noisy heavy-hex device "
                                     "at the same shot budget, beside each model's exact-training "
                                     "ceiling (about a minute)", **texts("demo"))
+    if demo:
+        _demo_options(d, shots)
+    d.set_defaults(func=_cmd_demo)
+
+    sweep.add_parser(sub, _int_in, _SEED, MAX_CLI_QUBITS)
+    experiment.add_parser(sub)
+    results.add_parser(sub)
+    return p
+
+
+def _demo_options(d: argparse.ArgumentParser, shots) -> None:
+    from qdensity.experiments.demo import DemoConfig
+    from qdensity.hardware.targets import target_help
+
     d.add_argument("--output", default=".", help="directory for qdensity-demo.png "
                    "(qdensity-demo-quick.png with --quick)")
     full, quick = DemoConfig(), DemoConfig.quick()
@@ -372,19 +388,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="print JSON instead of text: per model accuracy, ceiling, "
                         "fraction_of_ceiling, circuits, shots, steps, gradient_method, seconds, "
                         "curve; config, plot, seconds (what run_demo returns)")
-    d.set_defaults(func=_cmd_demo)
-
-    sweep.add_parser(sub, _int_in, _SEED, MAX_CLI_QUBITS)
-    experiment.add_parser(sub)
-    results.add_parser(sub)
-    return p
 
 
 @validates(argv=[SequenceOf(Instance(str), min_len=0), None])
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``qdensity`` command; returns the exit status."""
-    parser = _parser()
-    args = parser.parse_args(argv)  # usage errors: one line, SystemExit(2)
+    words = sys.argv[1:] if argv is None else list(argv)
+    parser = _parser(demo="demo" in words)
+    args = parser.parse_args(words)  # usage errors: one line, SystemExit(2)
     warnings.filterwarnings("ignore", category=DeprecationWarning)
     try:
         return int(args.func(args) or 0)

@@ -4,18 +4,10 @@ engine with its gradients, any ``SamplerV2`` with a shot ledger, the unary engin
 shot schedulers for randomised density sampling (Fig. 1c). Targets, noise, transpilation,
 resources and mitigation are the device's side: :mod:`qdensity.hardware`."""
 
-from qdensity.execution.exact import ExactEngine
-from qdensity.execution.plans import (
-    CircuitJob,
-    Estimate,
-    JobResult,
-    Plan,
-    expectation_plan,
-    probabilities_plan,
-)
-from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
-from qdensity.execution.sampler.hamming import HammingWeightSampler
-from qdensity.execution.statevector.adjoint import AdjointEngine
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
 
 __all__ = [
     "CircuitJob",
@@ -30,3 +22,46 @@ __all__ = [
     "ShotLedger",
     "HammingWeightSampler",
 ]
+
+#: public name -> the module that defines it, imported on first use (PEP 562)
+_EXPORTS: dict[str, str] = {
+    "ExactEngine": "qdensity.execution.exact",
+    "CircuitJob": "qdensity.execution.plans",
+    "Estimate": "qdensity.execution.plans",
+    "JobResult": "qdensity.execution.plans",
+    "Plan": "qdensity.execution.plans",
+    "expectation_plan": "qdensity.execution.plans",
+    "probabilities_plan": "qdensity.execution.plans",
+    "SamplerEngine": "qdensity.execution.sampler.engine",
+    "ShotLedger": "qdensity.execution.sampler.engine",
+    "HammingWeightSampler": "qdensity.execution.sampler.hamming",
+    "AdjointEngine": "qdensity.execution.statevector.adjoint",
+}
+
+if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
+    from qdensity.execution.exact import ExactEngine
+    from qdensity.execution.plans import (
+        CircuitJob,
+        Estimate,
+        JobResult,
+        Plan,
+        expectation_plan,
+        probabilities_plan,
+    )
+    from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
+    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.statevector.adjoint import AdjointEngine
+
+
+def __getattr__(name: str):
+    """A public name loads its defining module on first use."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -80,6 +80,38 @@ class JobResult:
             return np.asarray(self.effective_shots)[:, None]
         return self.shots
 
+    @property
+    def has_bits(self) -> bool:
+        """Whether the result holds sampled shots (checked without reading ``bits``)."""
+        return self.bits is not None
+
+    @property
+    def bits_shape(self) -> tuple[int, int, int]:
+        """``(rows, shots, num_clbits)`` of the sampled ``bits`` (read without unpacking)."""
+        if self.bits is None:
+            raise ValueError("bits_shape needs sampled bits; this result holds probabilities")
+        rows, shots, m = np.shape(self.bits)
+        return int(rows), int(shots), int(m)
+
+    def set_clbits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The clbits read as 1 in every shot, as sparse indices (sampled results only).
+
+        Estimates of Hamming-weight circuits read these instead of the dense ``bits``: a shot
+        sets a few of its ``num_clbits`` bits, so the work is ``O(rows x shots)`` (plus a scan
+        of the packed bytes of a :class:`~qdensity.execution.sampler.engine.SamplerEngine`
+        result), not ``O(rows x shots x num_clbits)``.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray), int64, each shape (nnz,)
+            ``shot = row * shots + s`` (ascending) and the clbit set in it.
+        """
+        if self.bits is None:
+            raise ValueError("set_clbits needs sampled bits; this result holds probabilities")
+        b = np.asarray(self.bits)
+        shot, clbit = np.nonzero(b.reshape(b.shape[0] * b.shape[1], b.shape[2]))
+        return shot.astype(np.int64), clbit.astype(np.int64)
+
     def __repr__(self) -> str:
         what = "bits" if self._probabilities is None else "probabilities"
         return f"JobResult({what}, shots={self.shots}, job={self.job!r})"
@@ -137,35 +169,40 @@ def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std
         Frequencies without bits but with ``shots`` use the binomial error of ``shots``.
     """
     se = None
-    if result.bits is not None:
+    if result.has_bits and result.weights is None:
+        # raw shots: counts of the weight-1 outcomes from the set clbits, O(rows x shots)
+        rows, shots, m = result.bits_shape
+        shot, clbit = result.set_clbits()
+        one = np.bincount(shot, minlength=rows * shots)[shot] == 1
+        hit_count = np.bincount(shot[one] // shots * m + clbit[one],
+                                minlength=rows * m).reshape(rows, m)
+        n_kept = hit_count.sum(axis=1)
+        p = hit_count / shots
+        kept = n_kept / shots
+        if return_std:
+            if postselect:
+                n_ps = np.maximum(n_kept, 1)[:, None]
+                se = binomial_standard_error(hit_count / n_ps, n_ps)
+            else:
+                se = binomial_standard_error(p, shots)
+    elif result.bits is not None:
         b = result.bits
         weight_one = b.sum(axis=-1) == 1
         hits = b & weight_one[..., None]
         shots = b.shape[1]
-        if result.weights is None:
-            p = hits.mean(axis=1)
-            kept = weight_one.mean(axis=1)
-            if return_std:
-                if postselect:
-                    n_kept = np.maximum(weight_one.sum(axis=1), 1)[:, None]
-                    p_ps = hits.sum(axis=1) / n_kept
-                    se = binomial_standard_error(p_ps, n_kept)
-                else:
-                    se = binomial_standard_error(p, shots)
-        else:
-            w = np.asarray(result.weights, dtype=float)
-            p = np.einsum("rs,rsm->rm", w, hits) / shots
-            kept = np.einsum("rs,rs->r", w, weight_one) / shots
-            if return_std:
-                x = hits.astype(float)
-                if postselect and np.all(kept > 0):
-                    ratio = p / kept[:, None]
-                    x = (x - ratio[:, None, :] * weight_one[..., None]) / kept[:, None, None]
-                    width = 1.0 / np.minimum(kept, 1.0)[:, None]
-                else:
-                    width = 1.0
-                _, se = shot_mean(x, width, weights=w, effective_shots=result.effective_shots,
-                                  linearisations=result.readout)
+        w = np.asarray(result.weights, dtype=float)
+        p = np.einsum("rs,rsm->rm", w, hits) / shots
+        kept = np.einsum("rs,rs->r", w, weight_one) / shots
+        if return_std:
+            x = hits.astype(float)
+            if postselect and np.all(kept > 0):
+                ratio = p / kept[:, None]
+                x = (x - ratio[:, None, :] * weight_one[..., None]) / kept[:, None, None]
+                width = 1.0 / np.minimum(kept, 1.0)[:, None]
+            else:
+                width = 1.0
+            _, se = shot_mean(x, width, weights=w, effective_shots=result.effective_shots,
+                              linearisations=result.readout)
     else:
         probs = result.probabilities
         m = int(round(np.log2(probs.shape[1])))

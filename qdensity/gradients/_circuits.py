@@ -213,30 +213,103 @@ class _GradientCircuits:
 
 def _raw_mean(table, bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`~qdensity.execution.intervals.shot_mean` (``ddof=1``) of ``table``'s values on
-    raw shots ``bits`` (rows, shots, width), computed on each row's distinct outcomes with
-    their counts: the same mean and unbiased variance, at the cost of the outcomes the rows
-    saw (a few per row for a Hamming-weight circuit) instead of every shot. Outcomes are told
-    apart exactly: their bits packed into 64-bit words, sorted once for all rows."""
+    raw shots ``bits`` (rows, shots, width): :func:`_raw_means` of the shots' set bits."""
     rows, shots, width = bits.shape
-    packed = np.packbits(bits, axis=-1)
-    pad = -packed.shape[-1] % 8
-    if pad:
-        packed = np.concatenate([packed, np.zeros(packed.shape[:-1] + (pad,), np.uint8)], -1)
-    words = np.ascontiguousarray(packed).view(np.uint64).reshape(rows * shots, -1)
-    row_of = np.repeat(np.arange(rows), shots)
-    order = np.lexsort(tuple(words[:, i] for i in range(words.shape[1] - 1, -1, -1))
-                       + (row_of,))
-    ordered, ordered_row = words[order], row_of[order]
-    new = np.ones(order.size, dtype=bool)
-    new[1:] = np.any(ordered[1:] != ordered[:-1], axis=1) | (ordered_row[1:] != ordered_row[:-1])
-    starts = np.flatnonzero(new)
-    counts = np.diff(np.append(starts, order.size)).astype(float)
-    row = ordered_row[starts]
-    vals = table.on_bits(bits.reshape(rows * shots, width)[order[starts]])  # (U, P)
-    mean = np.zeros((rows, vals.shape[1]))
-    np.add.at(mean, row, counts[:, None] * vals)
-    mean /= shots
-    var = np.zeros_like(mean)
-    np.add.at(var, row, counts[:, None] * (vals - mean[row]) ** 2)
-    var /= shots - 1
-    return mean, wilson_standard_error(var, shots, table.value_range())
+    shot, clbit = np.nonzero(bits.reshape(rows * shots, width))
+    mean, se = _raw_means([table], shot, clbit, rows, shots)
+    return mean[:, 0], se[:, 0]
+
+
+def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
+               shots: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and Wilson-form error (:func:`~qdensity.execution.intervals.shot_mean`,
+    ``ddof=1``) of every column of several tables on the same raw shots, from the shots' set
+    bits only.
+
+    A column's value on a shot is ``v = a - 2 y`` with ``a = sum_r c_r`` and ``y`` the sum of
+    ``c_r`` over the strings with odd parity on the shot's bits (Supp. F.3). Parities are a
+    sparse product (set bits x string bits), so a shot costs the strings that touch its set
+    bits; the unbiased variance is summed exactly over the shots with a nonzero ``y`` entry
+    plus the rest (``y = 0``) in closed form. Work ``O(rows x shots x touched strings)`` plus
+    the ``(rows, T, P)`` results: never ``O(shots x width)`` per table.
+
+    Parameters
+    ----------
+    tables : sequence of ZStringTable, T of them, the same width and P columns each
+    shot, clbit : numpy.ndarray of int, shape (nnz,)
+        Set bits: ``shot = row * shots + s`` and the clbit (column of the table's bits).
+    rows, shots : int
+        ``shots >= 2``.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray), each shape (rows, T, P)
+    """
+    from scipy import sparse
+
+    T, P = len(tables), tables[0].num_columns
+    width = tables[0].num_qubits
+    z = np.concatenate([t.z for t in tables], axis=0)  # (M, width)
+    M, TP = z.shape[0], T * P
+    # C: (M, T * P) each string's coefficients in its table's block of columns
+    coeffs = np.concatenate([t.coefficients for t in tables], axis=0)  # (M, P)
+    table_of = np.repeat(np.arange(T), [t.z.shape[0] for t in tables])
+    rr, cc = np.nonzero(coeffs)
+    # the columns some string weighs on (the others are 0 with error 0): S of the T * P
+    support, col = np.unique(cc + table_of[rr] * P, return_inverse=True)
+    col = col.ravel()
+    S = support.size
+    C = sparse.csr_matrix((coeffs[rr, cc], (rr, col)), shape=(M, S))
+    # R per column: 2 sum |c_r| over the strings that vary (ZStringTable.value_range)
+    varying = np.asarray(z.any(axis=1), dtype=float)
+    R = 2.0 * np.bincount(col, weights=np.abs(coeffs[rr, cc]) * varying[rr], minlength=S)
+    a = np.asarray(C.sum(axis=0)).ravel()  # (S,) every column's value with even parities
+    B = sparse.csr_matrix((np.ones(shot.size, np.int32), (shot, clbit)),
+                          shape=(rows * shots, width))
+    parity = (B @ sparse.csr_matrix(z.T.astype(np.int32))).tocoo()
+    odd = (parity.data & 1).astype(bool)
+    Odd = sparse.csr_matrix((np.ones(int(odd.sum())), (parity.row[odd], parity.col[odd])),
+                            shape=(rows * shots, M))
+    Y = (Odd @ C).tocoo()  # (rows * shots, S): y per shot where some odd string counts
+    key = (Y.row // shots).astype(np.int64) * S + Y.col
+    size = rows * S
+    ybar = np.bincount(key, weights=Y.data, minlength=size) / shots
+    held = np.bincount(key, minlength=size)  # shots with an entry (the rest have y = 0)
+    sq = (np.bincount(key, weights=(Y.data - ybar[key]) ** 2, minlength=size)
+          + (shots - held) * ybar**2)
+    mean = np.zeros((rows, TP))
+    se = np.zeros((rows, TP))
+    mean[:, support] = a[None, :] - 2.0 * ybar.reshape(rows, S)
+    se[:, support] = wilson_standard_error(4.0 * sq.reshape(rows, S) / (shots - 1), shots, R)
+    return mean.reshape(rows, T, P), se.reshape(rows, T, P)
+
+
+def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
+    """Every gradient of ``grads`` (one per output, the same circuits and parameters) from the
+    sampled results of their shared circuits: value and standard error, each
+    ``(rows, len(grads), P)``.
+
+    Raw shots are read once per circuit (:meth:`~qdensity.execution.job_results.JobResult.
+    set_clbits`) and every output's table is evaluated on them together
+    (:func:`_raw_means`); corrected results (weights, readout linearisations) go through
+    :meth:`_GradientCircuits.gradient_from_bits` per output.
+    """
+    raw = all(r.weights is None and r.readout is None for r in results)
+    if not raw or len({t.num_columns for g in grads for t in g._values}) != 1:
+        parts = [g.gradient_from_bits([r.bits for r in results],
+                                      [r.weights for r in results],
+                                      [r.effective_shots for r in results],
+                                      [r.readout for r in results]) for g in grads]
+        return (np.stack([v for v, _ in parts], axis=1),
+                np.stack([e for _, e in parts], axis=1))
+    parts = []
+    for c, r in enumerate(results):
+        rows, shots, _ = r.bits_shape
+        if shots < 2:
+            raise ValueError(f"results[{c}] needs >= 2 shots to estimate a variance")
+        shot, clbit = r.set_clbits()
+        parts.append(_raw_means([g._values[c] for g in grads], shot, clbit, rows, shots))
+    if len(parts) == 1:
+        return parts[0]
+    # independent circuits: estimates add, variances add
+    return (sum(m for m, _ in parts), np.sqrt(sum(e**2 for _, e in parts)))

@@ -37,6 +37,7 @@ from qdensity.execution.plans import (
     unary_frequencies,
 )
 from qdensity.gradients import _analysis
+from qdensity.gradients._circuits import gradients_from_results
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients._outputs import rbs_output_gradients
 from qdensity.gradients.commuting import (
@@ -411,14 +412,10 @@ def _shift_observable_post(inner, results):
 
 
 def _commuting_post(grads, shots, results):
-    if shots is not None and all(r.bits is not None for r in results):
+    if shots is not None and all(r.has_bits for r in results):
         # sampled: estimator values on the observed bits, never a 2**n array
-        parts = [g.gradient_from_bits([r.bits for r in results],
-                                      [r.weights for r in results],
-                                      [r.effective_shots for r in results],
-                                      [r.readout for r in results]) for g in grads]
-        return Estimate(np.stack([v for v, _ in parts], axis=1),
-                        np.stack([e for _, e in parts], axis=1))
+        # (every output's table on each circuit's shots read once)
+        return Estimate(*gradients_from_results(grads, results))
     probs = [r.probabilities for r in results]
     if len(grads) == 1:
         val = grads[0].gradient_from_probabilities(probs)[:, None, :]

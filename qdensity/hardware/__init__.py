@@ -6,9 +6,10 @@ mitigation with Hamming-weight post-selection.
 ``execution`` (plans, engines, schedulers) builds on this package; nothing here imports it.
 """
 
-from qdensity.hardware.resources import ResourceReport, compare_reports, resource_report
-from qdensity.hardware.snapshot_files import load_snapshot, save_snapshot
-from qdensity.hardware.targets import HardwareTarget, get_target, known_targets
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
 
 __all__ = [
     "HardwareTarget",
@@ -20,3 +21,34 @@ __all__ = [
     "save_snapshot",
     "load_snapshot",
 ]
+
+#: public name -> the module that defines it, imported on first use (PEP 562)
+_EXPORTS: dict[str, str] = {
+    "ResourceReport": "qdensity.hardware.resources",
+    "compare_reports": "qdensity.hardware.resources",
+    "resource_report": "qdensity.hardware.resources",
+    "load_snapshot": "qdensity.hardware.snapshot_files",
+    "save_snapshot": "qdensity.hardware.snapshot_files",
+    "HardwareTarget": "qdensity.hardware.targets",
+    "get_target": "qdensity.hardware.targets",
+    "known_targets": "qdensity.hardware.targets",
+}
+
+if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
+    from qdensity.hardware.resources import ResourceReport, compare_reports, resource_report
+    from qdensity.hardware.snapshot_files import load_snapshot, save_snapshot
+    from qdensity.hardware.targets import HardwareTarget, get_target, known_targets
+
+
+def __getattr__(name: str):
+    """A public name loads its defining module on first use."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -6,28 +6,12 @@ amplitudes instead of outputs (:mod:`~.lcu`, Fig. 1a, Supp. C), exact evaluation
 engines a model keeps (:mod:`~.exact`) and the warm start from trained sub-unitaries
 (:mod:`~.warm_start`)."""
 
-from qdensity.models.decompositions import (
-    Decomposition,
-    by_moments,
-    copies,
-    cyclic_moments,
-    independent,
-    odd_even,
-    trainable_parameters,
-)
-from qdensity.models.density import READOUTS, DensityQNN, bind_rows
-from qdensity.models.encoding import Encoding
-from qdensity.models.exact import ExactGradients, exact_gradients, exact_outputs
-from qdensity.models.lcu import LCUQNN
-from qdensity.models.mixtures import (
-    FixedMixture,
-    GatedMixture,
-    Mixture,
-    SoftmaxMixture,
-    as_mixture,
-    softmax,
-)
-from qdensity.models.warm_start import warm_start
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING
 
 __all__ = [
     "LCUQNN",
@@ -53,3 +37,80 @@ __all__ = [
     "exact_gradients",
     "ExactGradients",
 ]
+
+#: public name -> the module that defines it, imported on first use (PEP 562)
+_EXPORTS: dict[str, str] = {
+    "Decomposition": "qdensity.models.decompositions",
+    "by_moments": "qdensity.models.decompositions",
+    "copies": "qdensity.models.decompositions",
+    "cyclic_moments": "qdensity.models.decompositions",
+    "independent": "qdensity.models.decompositions",
+    "odd_even": "qdensity.models.decompositions",
+    "trainable_parameters": "qdensity.models.decompositions",
+    "READOUTS": "qdensity.models.density",
+    "DensityQNN": "qdensity.models.density",
+    "bind_rows": "qdensity.models.density",
+    "Encoding": "qdensity.models.encoding",
+    "ExactGradients": "qdensity.models.exact",
+    "exact_gradients": "qdensity.models.exact",
+    "exact_outputs": "qdensity.models.exact",
+    "LCUQNN": "qdensity.models.lcu",
+    "FixedMixture": "qdensity.models.mixtures",
+    "GatedMixture": "qdensity.models.mixtures",
+    "Mixture": "qdensity.models.mixtures",
+    "SoftmaxMixture": "qdensity.models.mixtures",
+    "as_mixture": "qdensity.models.mixtures",
+    "softmax": "qdensity.models.mixtures",
+    "warm_start": "qdensity.models.warm_start",
+}
+
+if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
+    from qdensity.models.decompositions import (
+        Decomposition,
+        by_moments,
+        copies,
+        cyclic_moments,
+        independent,
+        odd_even,
+        trainable_parameters,
+    )
+    from qdensity.models.density import READOUTS, DensityQNN, bind_rows
+    from qdensity.models.encoding import Encoding
+    from qdensity.models.exact import ExactGradients, exact_gradients, exact_outputs
+    from qdensity.models.lcu import LCUQNN
+    from qdensity.models.mixtures import (
+        FixedMixture,
+        GatedMixture,
+        Mixture,
+        SoftmaxMixture,
+        as_mixture,
+        softmax,
+    )
+    from qdensity.models.warm_start import warm_start
+
+
+def __getattr__(name: str):
+    """A public name loads its defining module on first use."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """``warm_start`` names both a submodule and its function: importing the submodule must
+    not replace the package's function (as the eager import of the function did)."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if name == "warm_start" and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -164,7 +164,8 @@ class _Walker:
     def __init__(self, circuit: QuantumCircuit, label: str):
         self.n = circuit.num_qubits
         self.label = label
-        self.position = {p: i for i, p in enumerate(circuit.parameters)}
+        self.parameters = tuple(circuit.parameters)  # a sorted view built on each read
+        self.position = {p: i for i, p in enumerate(self.parameters)}
         self.bits: list = [0] * self.n  # 0/1 while a basis state, None once acted on
         self.gates: list[GateOp] = []
         self.measured: list = [None] * circuit.num_clbits
@@ -174,12 +175,14 @@ class _Walker:
 
     def walk(self, circuit: QuantumCircuit, qmap: list[int], cmap: list[int] | None,
              top: str | None = None) -> None:
+        qindex = {q: i for i, q in enumerate(circuit.qubits)}  # find_bit, once per bit
+        cindex = {c: i for i, c in enumerate(circuit.clbits)}
         for index, inst in enumerate(circuit.data):
             if top is None:
                 self.top_index = index
             op = inst.operation
             name = op.name
-            qs = [qmap[circuit.find_bit(q).index] for q in inst.qubits]
+            qs = [qmap[qindex[q]] for q in inst.qubits]
             shown = top or name
             if name in _SKIPPED:
                 continue
@@ -189,7 +192,7 @@ class _Walker:
             if name == "measure":
                 if cmap is None:
                     _refuse(self.label, self.top_index, shown, qs, "measures inside a gate")
-                self.measured[cmap[circuit.find_bit(inst.clbits[0]).index]] = qs[0]
+                self.measured[cmap[cindex[inst.clbits[0]]]] = qs[0]
                 self.done.add(qs[0])
                 continue
             if self.done.intersection(qs):
@@ -294,4 +297,4 @@ def compile_template(circuit: QuantumCircuit, label: str | None = None) -> Hammi
     occupied = tuple(q for q in range(circuit.num_qubits)
                      if w.bits[q] == 1 or (w.bits[q] is None and q in w.initial))
     return HammingTemplate(circuit.num_qubits, occupied, w.gates, w.measured,
-                           tuple(circuit.parameters), label or circuit.name)
+                           w.parameters, label or circuit.name)

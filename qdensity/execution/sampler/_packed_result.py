@@ -2,7 +2,8 @@
 ``BitArray``) and unpacks ``bits`` when read.
 
 A density gradient at device widths holds every job's shots until its post-processing reads
-them, one sub-unitary at a time: at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
+them, one sub-unitary at a time, as sparse set clbits (``set_clbits``, read off the packed
+bytes by :func:`packed_set_bits`): at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
 unpacked booleans would take 2.1 GB, the packed bytes 0.26 GB. The unpacked array is kept
 only while a caller holds it (a weak reference), so reading ``bits`` twice in a row costs one
 unpacking and nothing stays allocated after the caller lets go. :func:`bitarray_to_bits`
@@ -47,6 +48,41 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
     return bits[..., : bitarray.num_bits].astype(bool)
 
 
+def packed_set_bits(packed: np.ndarray, num_bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(shot, clbit)`` of the set bits of ``BitArray`` bytes ``packed`` (shots, nbytes)
+    (big-endian: the last byte holds clbits 0..7), shot ascending, clbits below ``num_bits``.
+
+    The bytes are read as little-endian 64-bit words (zero bytes in front make up the last
+    word); the set bits of the nonzero words are peeled off lowest first (``v & -v``, its
+    position an exact ``log2``), one vectorised pass per bit a word holds: a shot of Hamming
+    weight ``k`` costs its ``nbytes / 8`` words plus ``k`` bits, never ``8 nbytes`` bits."""
+    shots, nbytes = packed.shape
+    pad = -nbytes % 8
+    words = np.zeros((shots, (nbytes + pad) // 8), np.dtype("<u8"))
+    words.view(np.uint8)[:, pad:] = packed  # byte j of the row is byte j + pad here
+    flat = np.flatnonzero(words)
+    value = words.ravel()[flat]
+    shot_parts, byte_parts = [], []
+    while flat.size:
+        low = value & (~value + np.uint64(1))  # the lowest set bit
+        pos = np.log2(low.astype(np.float64)).astype(np.int64)  # exact for powers of two
+        shot_parts.append(flat)
+        byte_parts.append((flat % words.shape[1]) * 64 + pos)  # bit index in the padded row
+        value = value ^ low
+        more = value != 0
+        flat, value = flat[more], value[more]
+    if not shot_parts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    word_flat = np.concatenate(shot_parts)
+    bit = np.concatenate(byte_parts)  # byte = bit // 8 (padded), bit % 8 inside the byte
+    shot = word_flat // words.shape[1]
+    clbit = (nbytes - 1 - (bit // 8 - pad)) * 8 + bit % 8
+    order = np.argsort(shot, kind="stable")
+    shot, clbit = shot[order], clbit[order]
+    keep = clbit < num_bits
+    return (shot, clbit) if keep.all() else (shot[keep], clbit[keep])
+
+
 class PackedJobResult(JobResult):
     """:class:`~qdensity.execution.job_results.JobResult` whose ``bits`` are unpacked on read.
 
@@ -76,6 +112,24 @@ class PackedJobResult(JobResult):
     def bits(self, value) -> None:  # JobResult.__init__ stores the packed form
         if value is not self._packed[0]:
             raise AttributeError("a PackedJobResult's bits are read from its packed shots")
+
+    @property
+    def has_bits(self) -> bool:
+        """True: sampled shots (held packed; ``bits`` would unpack them)."""
+        return True
+
+    @property
+    def bits_shape(self) -> tuple[int, int, int]:
+        """``(rows, shots, num_clbits)``, read off the packed shots."""
+        bitarray, rows, shots = self._packed
+        return rows, shots, int(bitarray.num_bits)
+
+    def set_clbits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The set clbits of every shot read off the packed bytes (:func:`packed_set_bits`;
+        see :meth:`JobResult.set_clbits`), never unpacked to ``num_clbits`` per shot."""
+        bitarray, rows, shots = self._packed
+        return packed_set_bits(np.asarray(bitarray.array).reshape(rows * shots, -1),
+                               bitarray.num_bits)
 
     def __getstate__(self):
         state = dict(self.__dict__)

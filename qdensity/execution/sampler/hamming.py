@@ -285,7 +285,7 @@ class HammingWeightSampler(BaseSamplerV2):
                 compiled.append(self._compile(pub.circuit))
             except ValueError as exc:
                 raise ValueError(f"pub {i}: {exc}") from exc
-            p = len(pub.circuit.parameters)
+            p = len(compiled[-1].template.parameters)
             held = pub.parameter_values.num_parameters
             if held != p:
                 raise ValueError(f"pub {i}: parameter values hold {held} parameters per row, "
@@ -301,10 +301,11 @@ class HammingWeightSampler(BaseSamplerV2):
                  ) -> SamplerPubResult:
         circuit, shots, shape = pub.circuit, pub.shots, pub.parameter_values.shape
         rows = int(np.prod(shape, dtype=int))
-        p = len(circuit.parameters)
-        values = (pub.parameter_values.as_array(circuit.parameters).reshape(rows, p)
-                  if p else np.zeros((rows, 0)))
         template = comp.template
+        params = template.parameters  # circuit.parameters, read once at compile time
+        p = len(params)
+        values = (pub.parameter_values.as_array(list(params)).reshape(rows, p)
+                  if p else np.zeros((rows, 0)))
         nclbits = circuit.num_clbits
         nbytes = (nclbits + 7) // 8
         packed = np.zeros((rows * shots, nbytes), dtype=np.uint8)
@@ -330,14 +331,14 @@ class HammingWeightSampler(BaseSamplerV2):
                     flip_readout(chunk, cols, p01, p10, rng)
                 packed[start * shots:start * shots + chunk.shape[0]] = chunk
         data = {}
-        whole = [circuit.find_bit(b).index for b in circuit.cregs[0]] if len(
-            circuit.cregs) == 1 else None
+        cregs = circuit.cregs  # a list built on each read of the property
+        whole = [circuit.find_bit(b).index for b in cregs[0]] if len(cregs) == 1 else None
         if whole == list(range(nclbits)):  # one register of every clbit, in order
             arr = packed[:, ::-1].reshape(shape + (shots, nbytes))
-            data[circuit.cregs[0].name] = BitArray(np.ascontiguousarray(arr), nclbits)
+            data[cregs[0].name] = BitArray(np.ascontiguousarray(arr), nclbits)
         else:
             bits = np.unpackbits(packed, axis=-1, bitorder="little")[:, :nclbits].astype(bool)
-            for creg in circuit.cregs:
+            for creg in cregs:
                 idx = [circuit.find_bit(b).index for b in creg]
                 arr = bits[:, idx].reshape(shape + (shots, len(idx)))
                 # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
