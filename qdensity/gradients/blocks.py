@@ -298,8 +298,6 @@ def commuting_block_gradient(
     >>> commuting_block_gradient(pyramid(3), z0, method="hadamard").num_gradient_circuits
     3
     """
-    if method not in BLOCK_METHODS:
-        raise ValueError(f"method must be one of {BLOCK_METHODS}, got {method!r}")
     params, obs = _check_inputs(circuit, observable, parameters, diagonaliser)
     pset = set(params)
     n = circuit.num_qubits

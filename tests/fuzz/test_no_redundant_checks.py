@@ -44,12 +44,7 @@ from qdensity.validation import (
 ROOT = Path(qdensity.__file__).resolve().parent
 
 #: Re-checks left for now: ``"module:callable:argument"`` -> why.
-_PARALLEL = "module rewritten in parallel; its re-checks go when that work is merged"
 ALLOWED: dict[str, str] = {
-    "qdensity.execution.sampler.engine:SamplerEngine:hamming_weight": _PARALLEL,
-    "qdensity.execution.sampler.engine:SamplerEngine:optimization_level": _PARALLEL,
-    "qdensity.execution.sampler.engine:SamplerEngine:sampler": _PARALLEL,
-    "qdensity.gradients.blocks:commuting_block_gradient:method": _PARALLEL,
 }
 
 _COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge"}

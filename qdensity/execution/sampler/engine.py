@@ -52,10 +52,8 @@ from qdensity.validation import (
     SeedLike,
     SequenceOf,
     TargetLike,
-    check_callable,
     check_positive_int,
     check_sequence_of,
-    check_target,
     check_type,
     seed_int,
     validates,
@@ -276,32 +274,18 @@ class SamplerEngine:
         calibration_shots: int = 4000,
         hamming_weight: str = "auto",
     ):
-        if (isinstance(optimization_level, bool) or not isinstance(optimization_level, int)
-                or optimization_level not in (0, 1, 2, 3)):
-            raise ValueError(f"optimization_level must be 0, 1, 2 or 3 (Qiskit's transpiler "
-                             f"levels), got {optimization_level!r}")
-        if hamming_weight not in ("auto", "never", "always"):
-            raise ValueError(f"hamming_weight must be 'auto', 'never' or 'always', got "
-                             f"{hamming_weight!r}")
         if hamming_weight == "always" and mitigation is not None:
             raise ValueError(f"hamming_weight='always' cannot be combined with mitigation="
                              f"{mitigation!r} (M3 calibrates the transpiled circuit's physical "
                              f"qubits on Aer); use hamming_weight='auto' or 'never'")
         own_sampler = sampler is None
         seed = seed_int(seed)
-        check_target(target)
-        if transpiler is not None:
-            check_callable(transpiler, "transpiler", "a callable QuantumCircuit -> QuantumCircuit")
-        check_type(ledger, "ledger", ShotLedger, "a ShotLedger", allow_none=True)
-        check_type(progress, "progress", (bool, np.bool_), "a bool")
         if target is not None:
             target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
             sampler = (target.sampler(seed=seed) if target is not None
                        else AdaptiveSampler(NoiselessSimulators(seed), False,
                                             seed=aer_seed(seed)))
-        if not isinstance(sampler, BaseSamplerV2):
-            raise TypeError(f"sampler must be a BaseSamplerV2, got {type(sampler).__name__}")
         self.sampler = sampler
         self.target = target
         self._device = device_of(sampler)  # a provider's backend: circuits are checked against it
