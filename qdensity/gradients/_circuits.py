@@ -19,6 +19,7 @@ from qdensity.analysis.blocks import _ATOL, _check_parameters
 from qdensity.analysis.pauli import ZStringTable
 from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.plans import check_observable
+from qdensity.gradients._sparse import add_sparse, outputs_to_sparse, support_to_sparse
 from qdensity.validation import check_circuit, check_rows_sum_to_one
 
 
@@ -221,7 +222,7 @@ def _raw_mean(table, bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
-               shots: int) -> tuple[np.ndarray, np.ndarray]:
+               shots: int, *, support_only: bool = False) -> tuple:
     """Mean and Wilson-form error (:func:`~qdensity.execution.intervals.shot_mean`,
     ``ddof=1``) of every column of several tables on the same raw shots, from the shots' set
     bits only.
@@ -241,9 +242,15 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
     rows, shots : int
         ``shots >= 2``.
 
+    support_only : bool
+        Return only the columns some string weighs on (the others are zero with zero error),
+        never the ``(rows, T, P)`` arrays.
+
     Returns
     -------
     (numpy.ndarray, numpy.ndarray), each shape (rows, T, P)
+        Or, with ``support_only``, ``(support, mean, se)``: the ascending column indices
+        ``t * P + p`` (S of them) and the estimates, each ``(rows, S)``.
     """
     from scipy import sparse
 
@@ -277,17 +284,23 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
     held = np.bincount(key, minlength=size)  # shots with an entry (the rest have y = 0)
     sq = (np.bincount(key, weights=(Y.data - ybar[key]) ** 2, minlength=size)
           + (shots - held) * ybar**2)
+    mean_s = a[None, :] - 2.0 * ybar.reshape(rows, S)
+    se_s = wilson_standard_error(4.0 * sq.reshape(rows, S) / (shots - 1), shots, R)
+    if support_only:
+        return support, mean_s, se_s
     mean = np.zeros((rows, TP))
     se = np.zeros((rows, TP))
-    mean[:, support] = a[None, :] - 2.0 * ybar.reshape(rows, S)
-    se[:, support] = wilson_standard_error(4.0 * sq.reshape(rows, S) / (shots - 1), shots, R)
+    mean[:, support] = mean_s
+    se[:, support] = se_s
     return mean.reshape(rows, T, P), se.reshape(rows, T, P)
 
 
-def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
+def gradients_from_results(grads, results, *, sparse: bool = False) -> tuple:
     """Every gradient of ``grads`` (one per output, the same circuits and parameters) from the
     sampled results of their shared circuits: value and standard error, each
-    ``(rows, len(grads), P)``.
+    ``(rows, len(grads), P)``, or with ``sparse`` each a ``scipy.sparse.csr_array``
+    ``(rows * len(grads), P)`` (the layout of :mod:`qdensity.gradients._sparse`) built from
+    the estimated columns alone.
 
     Raw shots are read once per circuit (:meth:`~qdensity.execution.job_results.JobResult.
     set_clbits`) and every output's table is evaluated on them together
@@ -300,6 +313,8 @@ def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
                                       [r.weights for r in results],
                                       [r.effective_shots for r in results],
                                       [r.readout for r in results]) for g in grads]
+        if sparse:  # one output's (rows, P) dense at a time
+            return outputs_to_sparse([v for v, _ in parts], [e for _, e in parts])
         return (np.stack([v for v, _ in parts], axis=1),
                 np.stack([e for _, e in parts], axis=1))
     parts = []
@@ -308,7 +323,15 @@ def gradients_from_results(grads, results) -> tuple[np.ndarray, np.ndarray]:
         if shots < 2:
             raise ValueError(f"results[{c}] needs >= 2 shots to estimate a variance")
         shot, clbit = r.set_clbits()
-        parts.append(_raw_means([g._values[c] for g in grads], shot, clbit, rows, shots))
+        tables = [g._values[c] for g in grads]
+        if sparse:
+            support, mean, se = _raw_means(tables, shot, clbit, rows, shots, support_only=True)
+            parts.append(support_to_sparse(mean, se, support, len(grads),
+                                           tables[0].num_columns))
+            continue
+        parts.append(_raw_means(tables, shot, clbit, rows, shots))
+    if sparse:
+        return parts[0] if len(parts) == 1 else add_sparse(parts)
     if len(parts) == 1:
         return parts[0]
     # independent circuits: estimates add, variances add

@@ -40,6 +40,12 @@ from qdensity.gradients import _analysis
 from qdensity.gradients._circuits import gradients_from_results
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients._outputs import rbs_output_gradients
+from qdensity.gradients._sparse import (
+    JACOBIAN_LAYOUTS,
+    dense_to_sparse,
+    jacobian_vjp,
+    outputs_to_sparse,
+)
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     _one_block,
@@ -80,9 +86,13 @@ class DensityGradient:
     ----------
     outputs : numpy.ndarray, shape (B, K, m)
         ``f_k`` per data row (m = 1 for an observable, n for unary probabilities).
-    jacobians : list of numpy.ndarray, each (B, m, P_k)
-        ``d f_k / d theta_k`` in sub-unitary k's parameter order.
-    output_errors, jacobian_errors : standard errors, same shapes (zeros when exact).
+    jacobians : list of numpy.ndarray, each (B, m, P_k), or of scipy.sparse.csr_array
+        ``d f_k / d theta_k`` in sub-unitary k's parameter order. With
+        ``density_gradient_plan(..., jacobian="sparse")`` each is a ``csr_array`` of shape
+        ``(B * m, P_k)``, row ``b * m + j`` = output ``j`` of data row ``b`` (the dense array
+        reshaped; entries left out are exactly zero).
+    output_errors, jacobian_errors : standard errors, same shapes and layout (zeros when
+        exact; a sparse Jacobian's errors share its sparsity pattern).
     """
 
     outputs: np.ndarray
@@ -145,11 +155,14 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     return _jacobian_plan(model, k, circ, params, model.rows(k, X), method, shots)
 
 
-def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots) -> Plan:
-    """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made."""
+def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
+                   sparse: bool = False) -> Plan:
+    """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made
+    (``sparse``: a commuting plan's post-processing returns the ``(value, error)`` pair in
+    :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`)."""
     if method in ("auto", "commuting"):
         try:
-            plan = _commuting_plan(model, circ, params, rows, shots, k)
+            plan = _commuting_plan(model, circ, params, rows, shots, k, sparse)
         except ValueError:
             if method == "commuting":
                 raise
@@ -241,12 +254,12 @@ def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
     return _analysis.cached(key, decide)
 
 
-def _commuting_plan(model, circ, params, rows, shots, k) -> Plan:
+def _commuting_plan(model, circ, params, rows, shots, k, sparse: bool = False) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k)
     jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
             for i, c in enumerate(shared.circuits)]
 
-    return Plan(jobs, partial(_commuting_post, grads, shots),
+    return Plan(jobs, partial(_commuting_post, grads, shots, sparse=sparse),
                 f"commuting gradient of sub-unitary {k}", {"gradient": shared})
 
 
@@ -269,9 +282,10 @@ def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
     model=Instance('qdensity.models.density:DensityQNN'),
     X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], method=Options(METHODS),
     shots=[Interval(int, 1, MAX_SHOTS), None], forward=Instance(bool),
+    jacobian=Options(JACOBIAN_LAYOUTS),
 )
 def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | None = None,
-                          forward: bool = True) -> Plan:
+                          forward: bool = True, jacobian: str = "dense") -> Plan:
     """Plan for the outputs and Jacobians of every sub-unitary (Cor. 1 / Prop. 1).
 
     Parameters
@@ -283,6 +297,14 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         Shots per circuit row; exact when None.
     forward : bool
         Include the forward circuits (``f_k``, needed for ``d f / d alpha``).
+    jacobian : {"dense", "sparse"}
+        Layout of :attr:`DensityGradient.jacobians` and ``jacobian_errors``: dense
+        ``(B, m, P_k)`` arrays, or ``scipy.sparse.csr_array`` ``(B * m, P_k)``
+        (:mod:`qdensity.gradients._sparse`). Unary outputs of RBS moments depend on one
+        parameter each, so the sparse layout holds ``O(B n)`` entries per sub-unitary where
+        the dense one holds ``B n P_k`` (2.1 GB over the round-robin model at ``n = 256``);
+        the commuting estimates are then built sparse, without the dense arrays.
+        :func:`chain_rule` takes either.
 
     Returns
     -------
@@ -301,7 +323,8 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         rows = model_rows(model, k, X, None, circ, encoded)
         if k == 0:
             B = rows.shape[0]
-        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots))
+        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
+                                        jacobian == "sparse"))
         if forward:
             # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
             # analysis only read it and its circuits are copies, so it becomes the forward
@@ -311,7 +334,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                                            owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
-    post = partial(_density_post, combined, K, B)
+    post = partial(_density_post, combined, K, B, jacobian == "sparse")
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
     return Plan(combined.jobs, post, "density gradient",
                 {"gradient_circuits": per_point,
@@ -383,6 +406,7 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
     model : DensityQNN
     X : array_like, shape (B, d) or None
     grad : DensityGradient
+        Its Jacobians dense or sparse (:func:`density_gradient_plan`'s ``jacobian``).
     upstream : numpy.ndarray, shape (B, m)
         ``dL / d f`` per data row and output.
 
@@ -398,7 +422,7 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
     g_theta = np.zeros(model.num_parameters)
     for k, jac in enumerate(grad.jacobians):
         idx = model.subunitary_parameter_indices(k)
-        contrib = np.einsum("bm,bmp->p", upstream * alpha[:, k:k + 1], jac)
+        contrib = jacobian_vjp(jac, upstream * alpha[:, k:k + 1])
         np.add.at(g_theta, idx, contrib)
     grad_alpha = np.einsum("bm,bkm->bk", upstream, grad.outputs)
     g_mix = model.mixture.vjp(X, grad_alpha)
@@ -411,12 +435,19 @@ def _shift_observable_post(inner, results):
     return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
 
 
-def _commuting_post(grads, shots, results):
+def _commuting_post(grads, shots, results, *, sparse: bool = False):
     if shots is not None and all(r.has_bits for r in results):
         # sampled: estimator values on the observed bits, never a 2**n array
         # (every output's table on each circuit's shots read once)
-        return Estimate(*gradients_from_results(grads, results))
+        found = gradients_from_results(grads, results, sparse=sparse)
+        return found if sparse else Estimate(*found)
     probs = [r.probabilities for r in results]
+    if sparse:  # one output's (rows, P) at a time
+        vals = [g.gradient_from_probabilities(probs) for g in grads]
+        errs = [g.standard_error(probs, shots) if shots is not None else np.zeros_like(v)
+                for g, v in zip(grads, vals, strict=True)]
+        return outputs_to_sparse([np.atleast_2d(v) for v in vals],
+                                 [np.atleast_2d(e) for e in errs])
     if len(grads) == 1:
         val = grads[0].gradient_from_probabilities(probs)[:, None, :]
         err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
@@ -443,13 +474,15 @@ def _forward_unary_post(inner, unary, results):
     return Estimate(p, se)
 
 
-def _density_post(combined, K, B, results):
+def _density_post(combined, K, B, sparse, results):
     parts = combined.postprocess(results)
-    jacs, fwds = parts[:K], parts[K:]
+    jacs, fwds = [tuple(j) for j in parts[:K]], parts[K:]
+    if sparse:  # parameter-shift plans answer dense: converted one sub-unitary at a time
+        jacs = [j if not isinstance(j[0], np.ndarray) else dense_to_sparse(*j) for j in jacs]
     if fwds:
         outputs = np.stack([f.value for f in fwds], axis=1)
         errors = np.stack([f.standard_error for f in fwds], axis=1)
     else:
-        outputs = errors = np.full((B, K, jacs[0].value.shape[1]), np.nan)
-    return DensityGradient(outputs, errors, [j.value for j in jacs],
-                           [j.standard_error for j in jacs])
+        m = jacs[0][0].shape[0] // B if sparse else jacs[0][0].shape[1]
+        outputs = errors = np.full((B, K, m), np.nan)
+    return DensityGradient(outputs, errors, [v for v, _ in jacs], [e for _, e in jacs])

@@ -51,6 +51,7 @@ from torch import nn
 from qdensity.execution.plans import Plan
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import METHODS, density_gradient_plan
+from qdensity.gradients._sparse import jacobian_vjp
 from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients, uses_unary_engine, z_readout_diagonal
@@ -380,7 +381,7 @@ class DensityQNNLayer(nn.Module):
         if state[0] in ("plan", "adjoint"):
             jacobians = state[1].jacobians if state[0] == "plan" else state[2].jacobians
             for k, jac in enumerate(jacobians):
-                np.add.at(g_theta, self._indices[k], np.einsum("bm,bmp->p", g[:, k, :], jac))
+                np.add.at(g_theta, self._indices[k], jacobian_vjp(jac, g[:, k, :]))
             xjacs = (state[2] if state[0] == "plan"
                      else input_jacobians(m, state[1], state[2]) if need_input else None)
             if xjacs is None or not need_input:
