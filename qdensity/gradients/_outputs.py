@@ -55,16 +55,23 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
         The shared circuit with the estimator of ``d/dp sum_o output_o`` and, per output, the
         same circuit with its own table.
     """
-    tables = rbs_output_tables(trainables, terms, weights, params)
-    if tables is None:
+    stacked = _stacked_tables(trainables, terms, weights, params)
+    if stacked is None:
         return None
     pairs = _rbs_pairs(trainables)
     assert pairs is not None  # tables are only made for such blocks
     circuits = [_measured(circuit, rbs_diagonalising_layer(circuit.num_qubits, pairs))]
-    total = ZStringTable(np.concatenate([t.z for t in tables]),
-                         np.concatenate([t.coefficients for t in tables]))
+    # the sum's table is every output's strings: the stacked arrays the outputs' tables are
+    # slices of (no copy; at n = 256 a copy is 160 MB over the round-robin model)
+    total = ZStringTable(*stacked[:2])
     return (_GradientCircuits(circuits, list(params), [total]),
-            [_GradientCircuits(circuits, list(params), [t]) for t in tables])
+            [_GradientCircuits(circuits, list(params), [t]) for t in _split(*stacked)])
+
+
+def _split(zbits: np.ndarray, coeffs: np.ndarray, bounds: np.ndarray) -> list[ZStringTable]:
+    """Output ``o``'s table: rows ``bounds[o]:bounds[o + 1]`` of the stacked arrays (views)."""
+    return [ZStringTable(zbits[a:b], coeffs[a:b]) for a, b in zip(bounds[:-1], bounds[1:],
+                                                                   strict=True)]
 
 
 def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
@@ -89,6 +96,14 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     -------
     list of ZStringTable (O of them, P columns each) or None
     """
+    stacked = _stacked_tables(trainables, terms, weights, params)
+    return None if stacked is None else _split(*stacked)
+
+
+def _stacked_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
+                    params: Sequence[Parameter]) -> tuple | None:
+    """:func:`rbs_output_tables` stacked: every output's strings ``(S, n)`` and coefficients
+    ``(S, P)``, output ``o``'s rows ``bounds[o]:bounds[o + 1]`` (``bounds`` shape (O + 1,))."""
     pairs = _rbs_pairs(trainables)
     if pairs is None:
         return None
@@ -124,8 +139,7 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     np.add.at(coeffs, (zinv, out_p), out_c)
     zbits = out_z[zfirst].reshape(len(zuniq), n)
     bounds = np.searchsorted(zuniq[:, 0], np.arange(O + 1))
-    return [ZStringTable(zbits[bounds[o]:bounds[o + 1]], coeffs[bounds[o]:bounds[o + 1]])
-            for o in range(O)]
+    return zbits, coeffs, bounds
 
 
 _PAIR_TERMS = PauliList.from_symplectic(np.eye(2, dtype=bool), np.zeros((2, 2), dtype=bool))
@@ -158,8 +172,8 @@ def _pair_template(x: np.ndarray, z: np.ndarray, phase: np.ndarray, coeffs: np.n
 
 def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
                      params: Sequence[Parameter],
-                     pairs: Sequence[tuple[int, int]]) -> list[ZStringTable] | None:
-    """:func:`rbs_output_tables` for outputs of single-qubit ``Z`` terms (on distinct qubits),
+                     pairs: Sequence[tuple[int, int]]) -> tuple | None:
+    """:func:`_stacked_tables` for outputs of single-qubit ``Z`` terms (on distinct qubits),
     gate by gate on its pair (``pairs[g]``, ``a < b``, from ``_rbs_pairs``) from
     :func:`_pair_template`; None when the terms are not of that kind or a template fails (the
     caller then takes the whole-register path)."""
@@ -219,5 +233,4 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
         on_q = uniq[:, j] >= 0
         zbits[np.flatnonzero(on_q), uniq[on_q, j]] = True
     bounds = np.searchsorted(uniq[:, 0], np.arange(O + 1))
-    return [ZStringTable(zbits[bounds[o]:bounds[o + 1]], coeffs[bounds[o]:bounds[o + 1]])
-            for o in range(O)]
+    return zbits, coeffs, bounds
