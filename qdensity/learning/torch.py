@@ -50,8 +50,8 @@ from torch import nn
 
 from qdensity.execution.plans import Plan
 from qdensity.execution.sampler.engine import SamplerEngine
-from qdensity.gradients.density import METHODS, density_gradient_plan
 from qdensity.gradients._sparse import jacobian_vjp
+from qdensity.gradients.density import METHODS, density_gradient_plan
 from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
 from qdensity.models.density import DensityQNN
 from qdensity.models.exact import exact_gradients, uses_unary_engine, z_readout_diagonal
