@@ -91,8 +91,11 @@ def support_to_sparse(mean: np.ndarray, se: np.ndarray, support: np.ndarray, m: 
 def add_sparse(parts: Sequence[tuple[sparse.csr_array, sparse.csr_array]]
                ) -> tuple[sparse.csr_array, sparse.csr_array]:
     """Independent circuits' estimates: values add, variances add (as the dense path)."""
-    value = sum(v for v, _ in parts)
-    var = sum(e.power(2) for _, e in parts)
+    value, error = parts[0]
+    var = error.power(2)
+    for v, e in parts[1:]:
+        value = value + v
+        var = var + e.power(2)
     return sparse.csr_array(value), sparse.csr_array(var).sqrt()
 
 
@@ -109,6 +112,7 @@ def jacobian_vjp(jacobian, weights: np.ndarray) -> np.ndarray:
     -------
     numpy.ndarray, shape (P,)
     """
-    if sparse.issparse(jacobian):
-        return np.asarray(jacobian.T @ np.asarray(weights, dtype=float).ravel()).ravel()
+    if isinstance(jacobian, sparse.sparray | sparse.spmatrix):
+        flat = np.asarray(weights, dtype=float).ravel()
+        return np.asarray(flat @ jacobian).ravel()  # (B * m,) @ (B * m, P)
     return np.einsum("bm,bmp->p", weights, jacobian)
