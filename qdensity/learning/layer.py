@@ -142,7 +142,10 @@ class QuantumLayer:
             alpha = np.broadcast_to(self.model.alpha(Z), res.outputs.shape[:2])
             self._cache = ("plan", Z, grad, res)
             return np.einsum("bk,bkm->bm", alpha, res.outputs)
-        plans = [density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots)]
+        # sparse Jacobians: chain_rule is their only reader (O(B n) entries per unary
+        # sub-unitary instead of B n P_k)
+        plans = [density_gradient_plan(self.model, Z, method=self.gradient, shots=self.shots,
+                                       jacobian="sparse")]
         if self.input_gradients and need_grad:  # shift rules on the data parameters, d f_k / d x
             plans.append(input_gradient_plan(self.model, Z, shots=self.shots))
         plan = Plan.combine(plans, "density and input gradients")

@@ -360,7 +360,9 @@ class DensityQNNLayer(nn.Module):
             res = exact_gradients(m, X)
             return res.outputs, ("adjoint", X, res)
         engine = self.engine
-        plans = [density_gradient_plan(m, X, method=self.gradient, shots=self.shots)]
+        # sparse Jacobians: _vjp is their only reader (jacobian_vjp takes either layout)
+        plans = [density_gradient_plan(m, X, method=self.gradient, shots=self.shots,
+                                       jacobian="sparse")]
         if need_input:  # shift rules on the data parameters (the loader's angles too)
             plans.append(input_gradient_plan(m, X, shots=self.shots))
         plan = Plan.combine(plans, "density and input gradients")
