@@ -131,3 +131,19 @@ def test_jacobian_layout_is_checked_before_any_work():
         density_gradient_plan(model, np.zeros((1, N)), jacobian="csr")
     with pytest.raises((TypeError, ValueError), match="jacobian"):
         density_gradient_plan(model, np.zeros((1, N)), jacobian=1)
+
+
+def test_sparse_sums_the_circuits_of_several_commuting_blocks():
+    """A pyramid sub-unitary has several commuting blocks (2B - 1 circuits, Cor. 2): the
+    sparse layout adds the circuits' estimates and variances as the dense one does."""
+    from qdensity.ansatze import pyramid
+
+    n = 4
+    obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], n)
+    model = DensityQNN([pyramid(n), pyramid(n)], encoding=Encoding.unary(n), observable=obs,
+                       seed=2)
+    X = RNG.normal(size=(2, n))
+    plan = density_gradient_plan(model, X, method="commuting", shots=300)
+    assert plan.meta["gradient_circuits"] > 2  # several circuits per sub-unitary
+    dense, sp = _both(model, X, "sampled")
+    _assert_same(dense, sp)
