@@ -55,23 +55,44 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
         The shared circuit with the estimator of ``d/dp sum_o output_o`` and, per output, the
         same circuit with its own table.
     """
-    stacked = _stacked_tables(trainables, terms, weights, params)
-    if stacked is None:
+    tables = rbs_output_tables(trainables, terms, weights, params)
+    if tables is None:
         return None
     pairs = _rbs_pairs(trainables)
     assert pairs is not None  # tables are only made for such blocks
     circuits = [_measured(circuit, rbs_diagonalising_layer(circuit.num_qubits, pairs))]
-    # the sum's table is every output's strings: the stacked arrays the outputs' tables are
-    # slices of (no copy; at n = 256 a copy is 160 MB over the round-robin model)
-    total = ZStringTable(*stacked[:2])
+    total = _whole(tables)
     return (_GradientCircuits(circuits, list(params), [total]),
-            [_GradientCircuits(circuits, list(params), [t]) for t in _split(*stacked)])
+            [_GradientCircuits(circuits, list(params), [t]) for t in tables])
 
 
-def _split(zbits: np.ndarray, coeffs: np.ndarray, bounds: np.ndarray) -> list[ZStringTable]:
-    """Output ``o``'s table: rows ``bounds[o]:bounds[o + 1]`` of the stacked arrays (views)."""
-    return [ZStringTable(zbits[a:b], coeffs[a:b]) for a, b in zip(bounds[:-1], bounds[1:],
-                                                                   strict=True)]
+def _whole(tables: Sequence[ZStringTable]) -> ZStringTable:
+    """The sum's table: every output's strings, in order. The outputs' tables are consecutive
+    row slices of one stacked pair of arrays, which is then the sum's table itself (no copy:
+    at n = 256 a copy is 160 MB over the round-robin model); otherwise concatenated."""
+    z0, c0 = tables[0].z, tables[0].coefficients
+    zb, cb = z0.base, c0.base
+    rows = sum(t.z.shape[0] for t in tables)
+    if (isinstance(zb, np.ndarray) and isinstance(cb, np.ndarray) and zb.ndim == cb.ndim == 2
+            and zb.shape == (rows, z0.shape[1]) and cb.shape == (rows, c0.shape[1])
+            and zb.dtype == bool and cb.dtype == float):
+        start, consecutive = 0, True
+        for t in tables:
+            consecutive = (t.z.base is zb and t.coefficients.base is cb
+                           and _offset(t.z, zb) == start * zb.strides[0]
+                           and _offset(t.coefficients, cb) == start * cb.strides[0])
+            if not consecutive:
+                break
+            start += t.z.shape[0]
+        if consecutive:
+            return ZStringTable(zb, cb)
+    return ZStringTable(np.concatenate([t.z for t in tables]),
+                        np.concatenate([t.coefficients for t in tables]))
+
+
+def _offset(view: np.ndarray, base: np.ndarray) -> int:
+    """Bytes from ``base``'s first element to ``view``'s."""
+    return view.__array_interface__["data"][0] - base.__array_interface__["data"][0]
 
 
 def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
@@ -96,14 +117,6 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     -------
     list of ZStringTable (O of them, P columns each) or None
     """
-    stacked = _stacked_tables(trainables, terms, weights, params)
-    return None if stacked is None else _split(*stacked)
-
-
-def _stacked_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
-                    params: Sequence[Parameter]) -> tuple | None:
-    """:func:`rbs_output_tables` stacked: every output's strings ``(S, n)`` and coefficients
-    ``(S, P)``, output ``o``'s rows ``bounds[o]:bounds[o + 1]`` (``bounds`` shape (O + 1,))."""
     pairs = _rbs_pairs(trainables)
     if pairs is None:
         return None
@@ -139,7 +152,8 @@ def _stacked_tables(trainables: Sequence[_Trainable], terms: PauliList, weights:
     np.add.at(coeffs, (zinv, out_p), out_c)
     zbits = out_z[zfirst].reshape(len(zuniq), n)
     bounds = np.searchsorted(zuniq[:, 0], np.arange(O + 1))
-    return zbits, coeffs, bounds
+    return [ZStringTable(zbits[bounds[o]:bounds[o + 1]], coeffs[bounds[o]:bounds[o + 1]])
+            for o in range(O)]
 
 
 _PAIR_TERMS = PauliList.from_symplectic(np.eye(2, dtype=bool), np.zeros((2, 2), dtype=bool))
@@ -172,8 +186,8 @@ def _pair_template(x: np.ndarray, z: np.ndarray, phase: np.ndarray, coeffs: np.n
 
 def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
                      params: Sequence[Parameter],
-                     pairs: Sequence[tuple[int, int]]) -> tuple | None:
-    """:func:`_stacked_tables` for outputs of single-qubit ``Z`` terms (on distinct qubits),
+                     pairs: Sequence[tuple[int, int]]) -> list[ZStringTable] | None:
+    """:func:`rbs_output_tables` for outputs of single-qubit ``Z`` terms (on distinct qubits),
     gate by gate on its pair (``pairs[g]``, ``a < b``, from ``_rbs_pairs``) from
     :func:`_pair_template`; None when the terms are not of that kind or a template fails (the
     caller then takes the whole-register path)."""
@@ -233,4 +247,5 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
         on_q = uniq[:, j] >= 0
         zbits[np.flatnonzero(on_q), uniq[on_q, j]] = True
     bounds = np.searchsorted(uniq[:, 0], np.arange(O + 1))
-    return zbits, coeffs, bounds
+    return [ZStringTable(zbits[bounds[o]:bounds[o + 1]], coeffs[bounds[o]:bounds[o + 1]])
+            for o in range(O)]

@@ -147,3 +147,18 @@ def test_sparse_sums_the_circuits_of_several_commuting_blocks():
     assert plan.meta["gradient_circuits"] > 2  # several circuits per sub-unitary
     dense, sp = _both(model, X, "sampled")
     _assert_same(dense, sp)
+
+
+def test_the_sum_table_of_unary_outputs_is_every_output_table_in_order():
+    """The shared circuit's table (the sum of the outputs) holds every output's strings and
+    coefficients in output order, without a copy of them."""
+    from qdensity.gradients.density import _circuit_of, _commuting_analysis
+
+    model = _model()
+    circ, params = _circuit_of(model, 1)
+    shared, grads = _commuting_analysis(model, circ, params, 1)
+    (total,) = shared._values
+    np.testing.assert_array_equal(total.z, np.concatenate([g._values[0].z for g in grads]))
+    np.testing.assert_array_equal(total.coefficients,
+                                  np.concatenate([g._values[0].coefficients for g in grads]))
+    assert np.shares_memory(total.coefficients, grads[0]._values[0].coefficients)
