@@ -22,7 +22,7 @@ import numpy as np
 from scipy import sparse
 
 __all__ = ["JACOBIAN_LAYOUTS", "outputs_to_sparse", "support_to_sparse", "dense_to_sparse",
-           "jacobian_vjp", "add_sparse"]
+           "jacobian_vjp", "add_sparse", "from_probabilities"]
 
 #: ``density_gradient_plan``'s ``jacobian`` layouts.
 JACOBIAN_LAYOUTS = ("dense", "sparse")
@@ -63,6 +63,16 @@ def outputs_to_sparse(values: Sequence[np.ndarray], errors: Sequence[np.ndarray]
     order = np.argsort(r, kind="stable")  # per row, columns stay ascending
     return _pair(r[order], c[order], np.concatenate(vals)[order], np.concatenate(errs)[order],
                  (B * m, P))
+
+
+def from_probabilities(grads, probs, shots) -> tuple[sparse.csr_array, sparse.csr_array]:
+    """Per output ``t`` the gradient ``grads[t]`` (a ``_GradientCircuits``) and its error
+    from the circuits' outcome probabilities ``probs`` (``shots`` per row, None: exact, zero
+    error), in the sparse layout, one output's ``(B, P)`` at a time."""
+    vals = [np.atleast_2d(g.gradient_from_probabilities(probs)) for g in grads]
+    errs = [np.atleast_2d(g.standard_error(probs, shots)) if shots is not None
+            else np.zeros_like(v) for g, v in zip(grads, vals, strict=True)]
+    return outputs_to_sparse(vals, errs)
 
 
 def dense_to_sparse(value: np.ndarray, error: np.ndarray

@@ -36,16 +36,10 @@ from qdensity.execution.plans import (
     probabilities_plan,
     unary_frequencies,
 )
-from qdensity.gradients import _analysis
+from qdensity.gradients import _analysis, _sparse
 from qdensity.gradients._circuits import gradients_from_results
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients._outputs import rbs_output_gradients
-from qdensity.gradients._sparse import (
-    JACOBIAN_LAYOUTS,
-    dense_to_sparse,
-    jacobian_vjp,
-    outputs_to_sparse,
-)
 from qdensity.gradients.commuting import (
     CommutingBlockGradient,
     _one_block,
@@ -282,7 +276,7 @@ def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
     model=Instance('qdensity.models.density:DensityQNN'),
     X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], method=Options(METHODS),
     shots=[Interval(int, 1, MAX_SHOTS), None], forward=Instance(bool),
-    jacobian=Options(JACOBIAN_LAYOUTS),
+    jacobian=Options(_sparse.JACOBIAN_LAYOUTS),
 )
 def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | None = None,
                           forward: bool = True, jacobian: str = "dense") -> Plan:
@@ -298,13 +292,11 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     forward : bool
         Include the forward circuits (``f_k``, needed for ``d f / d alpha``).
     jacobian : {"dense", "sparse"}
-        Layout of :attr:`DensityGradient.jacobians` and ``jacobian_errors``: dense
-        ``(B, m, P_k)`` arrays, or ``scipy.sparse.csr_array`` ``(B * m, P_k)``
-        (:mod:`qdensity.gradients._sparse`). Unary outputs of RBS moments depend on one
-        parameter each, so the sparse layout holds ``O(B n)`` entries per sub-unitary where
-        the dense one holds ``B n P_k`` (2.1 GB over the round-robin model at ``n = 256``);
-        the commuting estimates are then built sparse, without the dense arrays.
-        :func:`chain_rule` takes either.
+        :attr:`DensityGradient.jacobians` and ``jacobian_errors`` as dense ``(B, m, P_k)``
+        arrays or ``scipy.sparse.csr_array`` ``(B * m, P_k)`` (:mod:`~qdensity.gradients.
+        _sparse`), built sparse: unary outputs of RBS moments depend on one parameter each
+        (dense: 2.1 GB over the round-robin model at ``n = 256``). :func:`chain_rule` takes
+        either.
 
     Returns
     -------
@@ -422,7 +414,7 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
     g_theta = np.zeros(model.num_parameters)
     for k, jac in enumerate(grad.jacobians):
         idx = model.subunitary_parameter_indices(k)
-        contrib = jacobian_vjp(jac, upstream * alpha[:, k:k + 1])
+        contrib = _sparse.jacobian_vjp(jac, upstream * alpha[:, k:k + 1])
         np.add.at(g_theta, idx, contrib)
     grad_alpha = np.einsum("bm,bkm->bk", upstream, grad.outputs)
     g_mix = model.mixture.vjp(X, grad_alpha)
@@ -442,12 +434,8 @@ def _commuting_post(grads, shots, results, *, sparse: bool = False):
         found = gradients_from_results(grads, results, sparse=sparse)
         return found if sparse else Estimate(*found)
     probs = [r.probabilities for r in results]
-    if sparse:  # one output's (rows, P) at a time
-        vals = [g.gradient_from_probabilities(probs) for g in grads]
-        errs = [g.standard_error(probs, shots) if shots is not None else np.zeros_like(v)
-                for g, v in zip(grads, vals, strict=True)]
-        return outputs_to_sparse([np.atleast_2d(v) for v in vals],
-                                 [np.atleast_2d(e) for e in errs])
+    if sparse:
+        return _sparse.from_probabilities(grads, probs, shots)
     if len(grads) == 1:
         val = grads[0].gradient_from_probabilities(probs)[:, None, :]
         err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
@@ -478,7 +466,7 @@ def _density_post(combined, K, B, sparse, results):
     parts = combined.postprocess(results)
     jacs, fwds = [tuple(j) for j in parts[:K]], parts[K:]
     if sparse:  # parameter-shift plans answer dense: converted one sub-unitary at a time
-        jacs = [j if not isinstance(j[0], np.ndarray) else dense_to_sparse(*j) for j in jacs]
+        jacs = [_sparse.dense_to_sparse(*j) if isinstance(j[0], np.ndarray) else j for j in jacs]
     if fwds:
         outputs = np.stack([f.value for f in fwds], axis=1)
         errors = np.stack([f.standard_error for f in fwds], axis=1)
