@@ -114,7 +114,11 @@ def _instances_of(constraint, types) -> bool:
 
 
 def _excluded_by_interval(constraint, op: str, c) -> bool:
-    """Whether no value in the interval makes ``value <op> c`` true."""
+    """Whether no value in the interval makes ``value <op> c`` true (a ``Seed``'s ints are
+    the interval ``[0, high]``; its None and Generator are not compared, so a comparison of
+    them sits behind a guard)."""
+    if isinstance(constraint, Seed):
+        constraint = Interval(int, 0, constraint.high)
     if not isinstance(constraint, Interval):
         return False
     low_closed = constraint.closed in ("both", "left")
@@ -399,6 +403,19 @@ def test_the_checker_reports_helper_calls_the_declaration_implies():
         check_nonnegative_float(r, "r")
     """
     assert [arg for arg, _ in _found(src)] == ["c", "n", "m", "s", "f", "t", "q", "v", "r"]
+
+
+def test_the_checker_reads_a_seed_as_the_ints_it_allows():
+    src = """
+    @validates(seed=Seed(), other=Seed(10))
+    def f(seed, other):
+        if seed is not None and not isinstance(seed, np.random.Generator):
+            if seed < 0:
+                raise ValueError("seed")
+        if other >= 5:                         # stricter than Seed(10)
+            raise ValueError("other")
+    """
+    assert _found(src) == [("seed", 5)]
 
 
 def test_the_checker_leaves_stricter_and_cross_argument_helper_calls():
