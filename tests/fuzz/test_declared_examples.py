@@ -114,6 +114,10 @@ def test_checks_left_to_the_declarations_still_refuse_and_numpy_ints_still_work(
     assert (type(target.num_qubits), target.num_qubits) == (int, 3)
     with pytest.raises(ValueError, match="num_qubits must be"):
         get_target("line", 0)
+    with pytest.raises(TypeError, match="basis_gates must be a list or tuple"):
+        get_target("line", 3, basis_gates="cx")
+    with pytest.raises(ValueError, match="basis_gates must be a list or tuple of 1 to 64"):
+        get_target("line", 3, basis_gates=[])
 
     theta = ParameterVector("t", 2)
     circuit = QuantumCircuit(2)
