@@ -119,6 +119,11 @@ def test_checks_left_to_the_declarations_still_refuse_and_numpy_ints_still_work(
     with pytest.raises(ValueError, match="basis_gates must be a list or tuple of 1 to 64"):
         get_target("line", 3, basis_gates=[])
 
+    from qdensity.execution.statevector.adjoint import AdjointEngine
+
+    with pytest.raises(ValueError, match="dtype must be one of 'complex128', 'complex64'"):
+        AdjointEngine(backend="torch", dtype="complex32")  # refused before torch is needed
+
     theta = ParameterVector("t", 2)
     circuit = QuantumCircuit(2)
     circuit.ry(theta[0], 0)
