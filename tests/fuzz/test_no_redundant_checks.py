@@ -62,12 +62,7 @@ from qdensity.validation import (
 ROOT = Path(qdensity.__file__).resolve().parent
 
 #: Re-checks left for now: ``"module:callable:argument"`` -> why.
-ALLOWED: dict[str, str] = {
-    "qdensity.gradients.shift:parameter_shift_plan:circuit": "check_circuit of a declared "
-    "Circuit(min_qubits=1); the module is being rewritten elsewhere, delete it there",
-    "qdensity.gradients.shift:shift_circuit_count:circuit": "check_circuit of a declared "
-    "Circuit(min_qubits=1); the module is being rewritten elsewhere, delete it there",
-}
+ALLOWED: dict[str, str] = {}
 
 _COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge"}
 
