@@ -149,6 +149,16 @@ def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
     return _is_zero(_commutator(a, b))
 
 
+def _disjoint_supports(terms: _Terms) -> bool:
+    """Whether no qubit is acted on by two generators' terms (then every pair commutes: a
+    moment of gates, e.g. one round-robin layer); one OR per gate, no GF(2) product."""
+    sizes = np.diff(terms.starts)
+    if not len(sizes) or np.any(sizes == 0):
+        return False
+    support = np.logical_or.reduceat(terms.x | terms.z, terms.starts[:-1], axis=0)
+    return bool(support.sum(axis=0).max(initial=0) <= 1)
+
+
 def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, int] | None:
     """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
 
@@ -161,6 +171,8 @@ def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, in
     if terms.num_gates < 2:
         return None
     x, z, starts = terms.x, terms.z, terms.starts[:-1]
+    if _disjoint_supports(terms):  # gates on disjoint qubits (a moment) commute
+        return None
     if all_commute(x, z):  # every term commutes with every term
         return None
     anti = anticommutation(x, z).astype(np.int64)

@@ -128,6 +128,12 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
             for o in range(O)]
 
 
+#: Pair templates by their gate's two-qubit generator and coefficient (a pure function of the
+#: key, kept across blocks and plans: every gate of a round-robin moment has the same one).
+_TEMPLATES: dict = {}
+_MAX_TEMPLATES = 256
+_MISSING = object()
+
 _PAIR_TERMS = PauliList.from_symplectic(np.eye(2, dtype=bool), np.zeros((2, 2), dtype=bool))
 
 
@@ -183,15 +189,17 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
     rows = np.arange(len(on))
     lx = np.stack([stack.x[rows, on[:, 0]], stack.x[rows, on[:, 1]]], axis=1)  # (T, 2)
     lz = np.stack([stack.z[rows, on[:, 0]], stack.z[rows, on[:, 1]]], axis=1)
-    templates: dict = {}
+    templates = _TEMPLATES
     eo, eq, ecol, ev = [], [], [], []  # entries: output, Z support (a, b or -1), column, value
     for g, gate in enumerate(trainables):
         lo, hi = stack.starts[g], stack.starts[g + 1]
         ph, c = stack.phase[lo:hi], stack.coeffs[lo:hi]
         key = (lx[lo:hi].tobytes(), lz[lo:hi].tobytes(), ph.tobytes(), c.tobytes(), gate.coeff)
-        if key not in templates:
-            templates[key] = _pair_template(lx[lo:hi], lz[lo:hi], ph, c, gate.coeff)
-        strings = templates[key]
+        strings = templates.get(key, _MISSING)
+        if strings is _MISSING:
+            strings = templates[key] = _pair_template(lx[lo:hi], lz[lo:hi], ph, c, gate.coeff)
+            while len(templates) > _MAX_TEMPLATES:
+                templates.pop(next(iter(templates)))
         if strings is None:
             return None
         col = pcol[gate.parameter]
