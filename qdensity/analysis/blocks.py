@@ -24,7 +24,14 @@ from qiskit.circuit import (
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
+from qdensity.analysis._block_terms import (
+    _FIXED_FORM,
+    _joined,
+    _place,
+    _Reader,
+    _template,
+    _Terms,
+)
 from qdensity.analysis._gf2 import all_commute
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
@@ -251,6 +258,14 @@ def _analyse_block(
                 tpls.append(hit[1])
                 qubs.append(tuple(map(qindex, inst.qubits)))
                 continue
+        if (name in _FIXED_FORM and len(ps := op.params) == 1
+                and isinstance(p := ps[0], Parameter) and p in params):
+            # what _read gives a fixed-form gate (RBS, RY, ...) whose angle is a trainable
+            # Parameter: angle 1 p + 0, the template of its name and width
+            live.append(_Trainable(idx, name, p, 1.0, row=len(live), circuit=circuit))
+            tpls.append(_template(op))
+            qubs.append(tuple(map(qindex, inst.qubits)))
+            continue
         if name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)

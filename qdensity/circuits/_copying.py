@@ -167,7 +167,14 @@ def fresh_gate(template: Instruction, params: list) -> Instruction:
     -------
     Instruction
     """
-    new = copy.copy(template)
+    cls = type(template)
+    if (getattr(cls, "__copy__", None) is None and cls.__reduce_ex__ is object.__reduce_ex__
+            and cls.__reduce__ is object.__reduce__):
+        # what copy.copy does for such a class, without its reduce/reconstruct round trip
+        new = object.__new__(cls)
+        new.__dict__.update(template.__dict__)
+    else:
+        new = copy.copy(template)
     new.params = params  # the setter builds a new list: nothing shared with the template
     new.definition = None
     return new

@@ -36,9 +36,26 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     if missing:
         raise ValueError(f"no values given for parameters {missing}")
     cols = [columns[p] for p in params]
-    rows = max((np.size(c) for c in cols), default=1)
+    rows = max((c.size if type(c) is np.ndarray else np.size(c) for c in cols), default=1)
     out = np.empty((rows, len(params)))
-    for i, c in enumerate(cols):  # a scalar or a (1,) column is broadcast down the rows
+    # full float columns and float scalars (data and angles) placed by two assignments, the
+    # others one by one
+    full, full_at, scalars, scalar_at, rest = [], [], [], [], []
+    for i, c in enumerate(cols):
+        if type(c) is np.ndarray and c.ndim == 1 and c.size == rows and c.dtype.kind == "f":
+            full.append(c)
+            full_at.append(i)
+        elif isinstance(c, (float, np.floating)):
+            scalars.append(c)
+            scalar_at.append(i)
+        else:
+            rest.append(i)
+    if full:
+        out[:, full_at] = np.stack(full, axis=1)
+    if scalars:
+        out[:, scalar_at] = np.array(scalars, dtype=float)
+    for i in rest:  # a scalar or a (1,) column is broadcast down the rows
+        c = cols[i]
         c = np.asarray(c, dtype=float)
         if c.ndim > 1 or c.size not in (1, rows):
             raise ValueError(f"the values of {params[i].name} have shape {c.shape}; expected "
