@@ -42,7 +42,10 @@ __all__: list[str] = []
 
 def _symbolic(op: Instruction) -> bool:
     """Whether a gate holds a symbolic parameter (then a copy goes into another circuit)."""
-    return any(isinstance(p, ParameterExpression) for p in op.params)
+    for p in op.params:  # a loop, not any(...): called once per gate of every copy
+        if isinstance(p, ParameterExpression):
+            return True
+    return False
 
 
 def _owned(op: Instruction) -> Instruction:

@@ -55,16 +55,18 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
         The shared circuit with the estimator of ``d/dp sum_o output_o`` and, per output, the
         same circuit with its own table.
     """
-    tables = rbs_output_tables(trainables, terms, weights, params)
+    pairs = _rbs_pairs(trainables)
+    if pairs is None:
+        return None
+    tables = _tables_on(trainables, terms, weights, params, pairs)
     if tables is None:
         return None
-    pairs = _rbs_pairs(trainables)
-    assert pairs is not None  # tables are only made for such blocks
     circuits = [_measured_rbs(circuit, pairs)]
     total = ZStringTable(np.concatenate([t.z for t in tables]),
                          np.concatenate([t.coefficients for t in tables]))
+    names = list(params)  # one list for the block's outputs (read only), not one each
     return (_GradientCircuits(circuits, list(params), [total]),
-            [_GradientCircuits(circuits, list(params), [t]) for t in tables])
+            [_GradientCircuits(circuits, names, [t]) for t in tables])
 
 
 def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
@@ -92,6 +94,13 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     pairs = _rbs_pairs(trainables)
     if pairs is None:
         return None
+    return _tables_on(trainables, terms, weights, params, pairs)
+
+
+def _tables_on(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
+               params: Sequence[Parameter],
+               pairs: list[tuple[int, int]]) -> list[ZStringTable] | None:
+    """:func:`rbs_output_tables` on the block's pairs (``_rbs_pairs(trainables)``, not None)."""
     weights = np.asarray(weights, dtype=float)
     local = _pairwise_tables(trainables, terms, weights, params, pairs)
     if local is not None:
@@ -183,8 +192,11 @@ def _templates_of(trainables: Sequence[_Trainable], stack, ab: np.ndarray):
             ph.reshape(G, m).view(np.uint8).reshape(G, -1),
             c.reshape(G, m).view(np.uint8).reshape(G, -1),
             coeff.reshape(G, 1).view(np.uint8).reshape(G, -1)], axis=1)
-        _, firsts, tid = np.unique(raw, axis=0, return_index=True, return_inverse=True)
-        tid = tid.ravel()
+        if (raw == raw[0]).all():  # one template (a round-robin moment): no sort
+            firsts, tid = np.zeros(1, dtype=np.intp), np.zeros(G, dtype=np.intp)
+        else:
+            _, firsts, tid = np.unique(raw, axis=0, return_index=True, return_inverse=True)
+            tid = tid.ravel()
     else:
         seen: dict = {}
         tid = np.empty(G, dtype=np.intp)
@@ -265,8 +277,12 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
                                             - np.repeat(np.cumsum(reps) - reps, reps))
     cols = np.array([pcol[t.parameter] for t in trainables], dtype=np.intp)
     eo, ecol, ev = w_o[pos], cols[gate[entry]], w_v[pos] * s_val[row[entry]]
-    keys = np.concatenate([eo.reshape(-1, 1).astype(np.intp), support[entry]], axis=1)
-    uniq, inv = np.unique(keys, axis=0, return_inverse=True)
+    # (output, a + 1, b + 1) as one integer in base n + 1: its order is the rows' order
+    base = n + 1
+    flat_key = (eo.astype(np.int64) * base + (support[entry, 0] + 1)) * base \
+        + (support[entry, 1] + 1)
+    ukey, inv = np.unique(flat_key, return_inverse=True)
+    uniq = np.stack([ukey // (base * base), ukey // base % base - 1, ukey % base - 1], axis=1)
     coeffs = np.zeros((len(uniq), P))
     np.add.at(coeffs, (inv.ravel(), ecol), ev)
     coeffs[np.abs(coeffs) <= _ATOL] = 0.0
