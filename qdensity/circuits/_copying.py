@@ -151,6 +151,10 @@ def concatenate(first: QuantumCircuit, second: QuantumCircuit) -> QuantumCircuit
     return extend(first.copy(), second)
 
 
+_OBJECT_REDUCE_EX: object = object.__reduce_ex__
+_OBJECT_REDUCE: object = object.__reduce__
+
+
 def fresh_gate(template: Instruction, params: list) -> Instruction:
     """A shallow copy of ``template`` with its own parameter list ``params``.
 
@@ -171,8 +175,10 @@ def fresh_gate(template: Instruction, params: list) -> Instruction:
     Instruction
     """
     cls = type(template)
-    if (getattr(cls, "__copy__", None) is None and cls.__reduce_ex__ is object.__reduce_ex__
-            and cls.__reduce__ is object.__reduce__):
+    reduce_ex: object = cls.__reduce_ex__
+    reduce: object = cls.__reduce__
+    if (getattr(cls, "__copy__", None) is None and reduce_ex is _OBJECT_REDUCE_EX
+            and reduce is _OBJECT_REDUCE):
         # what copy.copy does for such a class, without its reduce/reconstruct round trip
         new = object.__new__(cls)
         new.__dict__.update(template.__dict__)
