@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.circuits._copying import gc_paused
 from qdensity.execution._compile import circuit_fingerprint
 from qdensity.execution.plans import (
     CircuitJob,
@@ -313,21 +314,22 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     enc_key = (None if model.encoding is None  # V(x)'s structure, fingerprinted once
                else circuit_fingerprint(model.encoding.circuit))
-    for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
-        circ, params = _circuit_of(model, k)
-        # model.rows(k, X), in circ's parameter order read off circ itself
-        rows = model_rows(model, k, X, None, circ, encoded)
-        if k == 0:
-            B = rows.shape[0]
-        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
-                                        _fingerprint_of(model, k, enc_key)))
-        if forward:
-            # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
-            # analysis only read it and its circuits are copies, so it becomes the forward
-            # circuit (measured in place); without one it is U_k itself, copied
-            same = model.encoding is not None
-            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
-                                           owned=same))
+    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
+        for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
+            circ, params = _circuit_of(model, k)
+            # model.rows(k, X), in circ's parameter order read off circ itself
+            rows = model_rows(model, k, X, None, circ, encoded)
+            if k == 0:
+                B = rows.shape[0]
+            jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
+                                            _fingerprint_of(model, k, enc_key)))
+            if forward:
+                # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
+                # analysis only read it and its circuits are copies, so it becomes the forward
+                # circuit (measured in place); without one it is U_k itself, copied
+                same = model.encoding is not None
+                fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
+                                               owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B)

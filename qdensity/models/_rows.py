@@ -31,7 +31,11 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     -------
     numpy.ndarray, shape (B, P)
     """
-    params = list(circuit.parameters)
+    return _placed(list(circuit.parameters), columns)
+
+
+def _placed(params: list, columns: dict) -> np.ndarray:
+    """:func:`bind_rows` on the circuit's parameters ``params`` (in order)."""
     missing = [p.name for p in params if p not in columns]
     if missing:
         raise ValueError(f"no values given for parameters {missing}")
@@ -42,9 +46,15 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     # others one by one
     full, full_at, scalars, scalar_at, rest = [], [], [], [], []
     for i, c in enumerate(cols):
-        if type(c) is np.ndarray and c.ndim == 1 and c.size == rows and c.dtype.kind == "f":
-            full.append(c)
-            full_at.append(i)
+        if type(c) is np.ndarray and c.dtype.kind == "f" and c.ndim < 2:
+            if c.ndim == 0:  # an angle read off theta: theta[..., i] of a vector
+                scalars.append(c)
+                scalar_at.append(i)
+            elif c.size == rows:
+                full.append(c)
+                full_at.append(i)
+            else:
+                rest.append(i)
         elif isinstance(c, (float, np.floating)):
             scalars.append(c)
             scalar_at.append(i)
@@ -98,7 +108,8 @@ def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None,
         X = model._check_X(X)
         B = X.shape[0]
         cols.update(encoding_columns(model, X) if encoded is None else encoded)
-    for p in circ.parameters:
+    params = list(circ.parameters)  # sorted by name once, for the columns and the rows
+    for p in params:
         if p in cols:
             continue
         vec = getattr(p, "vector", None)
@@ -108,7 +119,7 @@ def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None,
             cols[p] = X[:, p.index]
         elif p in model._index:
             cols[p] = theta[..., model._index[p]]
-    out = bind_rows(circ, cols)
+    out = _placed(params, cols)
     if out.shape[0] == 1 and B > 1:
         out = np.repeat(out, B, axis=0)
     return out

@@ -104,6 +104,9 @@ def test_bind_rows_places_mixed_columns_as_one_by_one():
         ps[5]: RNG.normal(size=B).astype(np.float32),   # float32 column
         ps[6]: np.arange(B),                            # an integer column
     }
+    ps.append(Parameter("q7"))
+    circ.rz(ps[7], 0)
+    columns[ps[7]] = np.array([0.5, 1.5])[..., 1]      # a 0-d float array (theta[..., i])
     expected = np.empty((B, len(ps)))
     for i, p in enumerate(circ.parameters):
         expected[:, i] = np.broadcast_to(np.asarray(columns[p], dtype=float).reshape(-1), B)
@@ -127,3 +130,27 @@ def test_analysis_key_of_an_encoded_circuit_holds_the_encoding():
         if ja.label.startswith("commuting"):
             assert ja.circuit is not jb.circuit
             assert ja.circuit != jb.circuit
+
+
+def test_gc_paused_restores_the_collector_state():
+    import gc
+
+    from qdensity.circuits._copying import gc_paused
+
+    assert gc.isenabled()
+    with gc_paused():
+        assert not gc.isenabled()
+        with gc_paused():  # nested: still off after the inner one ends
+            pass
+        assert not gc.isenabled()
+    assert gc.isenabled()
+    with pytest.raises(RuntimeError), gc_paused():
+        raise RuntimeError("inside")
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with gc_paused():
+            pass
+        assert not gc.isenabled()  # off on entry: left off
+    finally:
+        gc.enable()
