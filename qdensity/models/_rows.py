@@ -44,7 +44,11 @@ def _placed(params: list, columns: dict) -> np.ndarray:
     out = np.empty((rows, len(params)))
     # full float columns and float scalars (data and angles) placed by two assignments, the
     # others one by one
-    full, full_at, scalars, scalar_at, rest = [], [], [], [], []
+    full: list[np.ndarray] = []
+    scalars: list = []
+    full_at: list[int] = []
+    scalar_at: list[int] = []
+    rest: list[int] = []
     for i, c in enumerate(cols):
         if type(c) is np.ndarray and c.dtype.kind == "f" and c.ndim < 2:
             if c.ndim == 0:  # an angle read off theta: theta[..., i] of a vector
