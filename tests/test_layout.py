@@ -23,6 +23,7 @@ ROOT = Path(qdensity.__file__).resolve().parent
 #: Subpackages from the bottom of the spine to the top: a module may import only from its own
 #: layer or a layer below it (docs/design.md, "The spine"; CONTRIBUTING.md).
 LAYERS = [
+    "_lazy",
     "_constraints",
     "validation",
     "progress",

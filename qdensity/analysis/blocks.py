@@ -24,11 +24,18 @@ from qiskit.circuit import (
 from qiskit.circuit.library import PauliEvolutionGate
 from qiskit.quantum_info import Clifford, PauliList, SparsePauliOp
 
-from qdensity.analysis._block_terms import _joined, _place, _Reader, _Terms
+from qdensity.analysis._block_terms import (
+    _FIXED_FORM,
+    _joined,
+    _place,
+    _Reader,
+    _template,
+    _Terms,
+)
 from qdensity.analysis._gf2 import all_commute
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
-from qdensity.validation import Circuit, Instance, SequenceOf, check_circuit, validates
+from qdensity.validation import Circuit, Instance, SequenceOf, validates
 
 __all__ = ["commuting_blocks"]
 
@@ -88,8 +95,6 @@ def _check_parameters(circuit: QuantumCircuit, parameters) -> list[Parameter]:
         params = list(parameters)
         known = set(circuit.parameters)
         for p in params:
-            if not isinstance(p, Parameter):
-                raise TypeError(f"parameters must hold qiskit Parameters, got {p!r}")
             if p not in known:
                 raise ValueError(f"parameter {p} is not a parameter of the circuit")
         if len(set(params)) != len(params):
@@ -149,6 +154,16 @@ def _commute(a: SparsePauliOp, b: SparsePauliOp) -> bool:
     return _is_zero(_commutator(a, b))
 
 
+def _disjoint_supports(terms: _Terms) -> bool:
+    """Whether no qubit is acted on by two generators' terms (then every pair commutes: a
+    moment of gates, e.g. one round-robin layer); one OR per gate, no GF(2) product."""
+    sizes = np.diff(terms.starts)
+    if not len(sizes) or np.any(sizes == 0):
+        return False
+    support = np.logical_or.reduceat(terms.x | terms.z, terms.starts[:-1], axis=0)
+    return bool(support.sum(axis=0).max(initial=0) <= 1)
+
+
 def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, int] | None:
     """First pair ``(a, b)``, ``a < b`` (row-major), of generators that do not commute.
 
@@ -161,6 +176,8 @@ def _first_noncommuting(gens: Sequence[SparsePauliOp] | _Terms) -> tuple[int, in
     if terms.num_gates < 2:
         return None
     x, z, starts = terms.x, terms.z, terms.starts[:-1]
+    if _disjoint_supports(terms):  # gates on disjoint qubits (a moment) commute
+        return None
     if all_commute(x, z):  # every term commutes with every term
         return None
     anti = anticommutation(x, z).astype(np.int64)
@@ -239,6 +256,14 @@ def _analyse_block(
                 tpls.append(hit[1])
                 qubs.append(tuple(map(qindex, inst.qubits)))
                 continue
+        if (name in _FIXED_FORM and len(ps := op.params) == 1
+                and isinstance(p := ps[0], Parameter) and p in params):
+            # what _read gives a fixed-form gate (RBS, RY, ...) whose angle is a trainable
+            # Parameter: angle 1 p + 0, the template of its name and width
+            live.append(_Trainable(idx, name, p, 1.0, row=len(live), circuit=circuit))
+            tpls.append(_template(op))
+            qubs.append(tuple(map(qindex, inst.qubits)))
+            continue
         if name in _SKIP:
             continue
         _check_unitary(inst, circuit, idx)
@@ -364,7 +389,6 @@ def commuting_blocks(
     >>> len(commuting_blocks(round_robin(4)))
     3
     """
-    check_circuit(circuit)
     params = set(_check_parameters(circuit, parameters))
     blocks: list[tuple[int, int]] = []
     start: int | None = None

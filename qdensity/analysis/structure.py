@@ -47,13 +47,14 @@ def moment_indices(
     Positions are stable identifiers (Qiskit builds new ``CircuitInstruction`` objects on each
     access, so object identity is not).
     """
-    front: dict[int, int] = {}
+    front = [0] * circuit.num_qubits  # per qubit, the first layer free on it
     layers: list[list[int]] = []
+    qindex = {q: i for i, q in enumerate(circuit.qubits)}  # = find_bit(q).index, at once
     for pos, inst in enumerate(circuit.data):
-        qubits = [circuit.find_bit(q).index for q in inst.qubits]
+        qubits = [qindex[q] for q in inst.qubits]
         name = inst.operation.name
         if name == "barrier":
-            level = max((front.get(q, 0) for q in qubits), default=0)
+            level = max([front[q] for q in qubits], default=0)
             for q in qubits:
                 front[q] = level
             continue
@@ -61,7 +62,7 @@ def moment_indices(
             continue
         if not include_unparameterised and not _has_free_parameter(inst):
             continue
-        level = max((front.get(q, 0) for q in qubits), default=0)
+        level = max([front[q] for q in qubits], default=0)
         while len(layers) <= level:
             layers.append([])
         layers[level].append(pos)
@@ -124,7 +125,9 @@ def depth_of_gates(circuit: QuantumCircuit, names: Sequence[str]) -> int:
 
 
 def _has_free_parameter(inst: CircuitInstruction) -> bool:
-    return any(isinstance(p, ParameterExpression) and p.parameters for p in inst.operation.params)
+    # a Parameter is its own free parameter (no set built for it)
+    return any(isinstance(p, Parameter) or isinstance(p, ParameterExpression) and p.parameters
+               for p in inst.operation.params)
 
 
 @validates(inst=Instance(CircuitInstruction))

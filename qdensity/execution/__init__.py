@@ -6,8 +6,9 @@ resources and mitigation are the device's side: :mod:`qdensity.hardware`."""
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from qdensity._lazy import lazy_exports
 
 __all__ = [
     "CircuitJob",
@@ -53,15 +54,4 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.execution.statevector.adjoint import AdjointEngine
 
 
-def __getattr__(name: str):
-    """A public name loads its defining module on first use."""
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)

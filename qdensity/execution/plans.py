@@ -37,7 +37,6 @@ from qdensity.validation import (
     Observable,
     SequenceOf,
     as_parameter_rows,
-    check_circuit,
     check_engine,
     check_positive_int,
     check_width,
@@ -89,7 +88,6 @@ class CircuitJob:
     label: str = ""
 
     def __post_init__(self) -> None:
-        check_circuit(self.circuit)
         vals = as_parameter_rows(self.values, self.circuit.num_parameters, "values")
         if vals.shape[0] == 0:
             raise ValueError("values must have at least one parameter row, got shape "
@@ -353,7 +351,6 @@ def expectation_plan(
         Post-processing returns an :class:`Estimate` with ``value`` and ``standard_error`` of
         shape (rows,).
     """
-    check_circuit(circuit)
     observable = check_observable(observable, circuit.num_qubits).simplify()
     vals = as_parameter_rows(values, circuit.num_parameters)
     jobs: list[CircuitJob] = []
@@ -406,7 +403,6 @@ def probabilities_plan(
         (unary frequencies and parities are read off them; the dense ``probabilities`` only
         up to 24 qubits).
     """
-    check_circuit(circuit)
     if shots is None:
         check_width(circuit.num_qubits, engine="probabilities_plan without shots (dense "
                     "(rows, 2**n) outcome probabilities)", alternative="the unary engine for "

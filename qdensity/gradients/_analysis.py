@@ -23,9 +23,16 @@ MAX_ENTRIES = 1024
 _CACHE: OrderedDict = OrderedDict()
 
 
-def structure_key(kind: str, circuit, params, readout: tuple) -> tuple:
-    """What an analysis of ``circuit`` w.r.t. ``params`` under ``readout`` depends on."""
-    return (kind, circuit_fingerprint(circuit), tuple(params), readout)
+def structure_key(kind: str, circuit, params, readout: tuple,
+                  fingerprint: tuple | None = None) -> tuple:
+    """What an analysis of ``circuit`` w.r.t. ``params`` under ``readout`` depends on.
+
+    ``fingerprint``: a key that determines ``circuit``'s structure, when the caller has one
+    (``("encoded", fingerprint of V, fingerprint of U_k)`` for ``V(x) U_k``, the encoding's
+    fingerprint taken once per model rather than once per sub-unitary); default
+    ``circuit_fingerprint(circuit)``."""
+    return (kind, circuit_fingerprint(circuit) if fingerprint is None else fingerprint,
+            tuple(params), readout)
 
 
 def cached(key: tuple, build: Callable[[], object]):

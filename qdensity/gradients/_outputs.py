@@ -33,7 +33,7 @@ from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits.gates import rbs_matrix
 from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients._direct import _gradient_strings, _packed
-from qdensity.gradients.diagonalising import _measured, _rbs_pairs, rbs_diagonalising_layer
+from qdensity.gradients.diagonalising import _measured_rbs, _rbs_pairs
 
 __all__ = ["rbs_output_tables", "rbs_output_gradients"]
 
@@ -55,15 +55,17 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
         The shared circuit with the estimator of ``d/dp sum_o output_o`` and, per output, the
         same circuit with its own table.
     """
-    tables = rbs_output_tables(trainables, terms, weights, params)
+    pairs = _rbs_pairs(trainables)
+    if pairs is None:
+        return None
+    tables = _tables_on(trainables, terms, weights, params, pairs)
     if tables is None:
         return None
-    pairs = _rbs_pairs(trainables)
-    assert pairs is not None  # tables are only made for such blocks
-    circuits = [_measured(circuit, rbs_diagonalising_layer(circuit.num_qubits, pairs))]
+    circuits = [_measured_rbs(circuit, pairs)]
     total = _whole(tables)
+    names = list(params)  # one list for the block's outputs (read only), not one each
     return (_GradientCircuits(circuits, list(params), [total]),
-            [_GradientCircuits(circuits, list(params), [t]) for t in tables])
+            [_GradientCircuits(circuits, names, [t]) for t in tables])
 
 
 def _whole(tables: Sequence[ZStringTable]) -> ZStringTable:
@@ -120,6 +122,13 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     pairs = _rbs_pairs(trainables)
     if pairs is None:
         return None
+    return _tables_on(trainables, terms, weights, params, pairs)
+
+
+def _tables_on(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
+               params: Sequence[Parameter],
+               pairs: list[tuple[int, int]]) -> list[ZStringTable] | None:
+    """:func:`rbs_output_tables` on the block's pairs (``_rbs_pairs(trainables)``, not None)."""
     weights = np.asarray(weights, dtype=float)
     local = _pairwise_tables(trainables, terms, weights, params, pairs)
     if local is not None:
@@ -156,6 +165,12 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
             for o in range(O)]
 
 
+#: Pair templates by their gate's two-qubit generator and coefficient (a pure function of the
+#: key, kept across blocks and plans: every gate of a round-robin moment has the same one).
+_TEMPLATES: dict = {}
+_MAX_TEMPLATES = 256
+_MISSING = object()
+
 _PAIR_TERMS = PauliList.from_symplectic(np.eye(2, dtype=bool), np.zeros((2, 2), dtype=bool))
 
 
@@ -184,6 +199,58 @@ def _pair_template(x: np.ndarray, z: np.ndarray, phase: np.ndarray, coeffs: np.n
     return strings
 
 
+def _templates_of(trainables: Sequence[_Trainable], stack, ab: np.ndarray):
+    """Per gate, the index of its pair template (:func:`_pair_template`, read on its pair
+    ``ab[g]``) in the returned list of templates; ``(tid, None)`` when one fails. Gates whose
+    generators have as many terms are keyed at once (one ``np.unique`` over their bytes), else
+    one by one."""
+    G = len(trainables)
+    rows = np.arange(stack.x.shape[0])
+    on = ab[stack.owner]  # each generator term's pair
+    lx = np.stack([stack.x[rows, on[:, 0]], stack.x[rows, on[:, 1]]], axis=1)  # (T, 2)
+    lz = np.stack([stack.z[rows, on[:, 0]], stack.z[rows, on[:, 1]]], axis=1)
+    ph = np.asarray(stack.phase, dtype=np.int64)
+    c = np.asarray(stack.coeffs, dtype=complex)
+    coeff = np.array([t.coeff for t in trainables], dtype=float)
+    sizes = np.diff(stack.starts)
+    if G and np.all(sizes == sizes[0]) and sizes[0] > 0:
+        m = int(sizes[0])
+        raw = np.concatenate([
+            lx.reshape(G, 2 * m).astype(np.uint8), lz.reshape(G, 2 * m).astype(np.uint8),
+            ph.reshape(G, m).view(np.uint8).reshape(G, -1),
+            c.reshape(G, m).view(np.uint8).reshape(G, -1),
+            coeff.reshape(G, 1).view(np.uint8).reshape(G, -1)], axis=1)
+        if (raw == raw[0]).all():  # one template (a round-robin moment): no sort
+            firsts, tid = np.zeros(1, dtype=np.intp), np.zeros(G, dtype=np.intp)
+        else:
+            _, firsts, tid = np.unique(raw, axis=0, return_index=True, return_inverse=True)
+            tid = tid.ravel()
+    else:
+        seen: dict = {}
+        tid = np.empty(G, dtype=np.intp)
+        for g in range(G):
+            lo, hi = stack.starts[g], stack.starts[g + 1]
+            key = (lx[lo:hi].tobytes(), lz[lo:hi].tobytes(), ph[lo:hi].tobytes(),
+                   c[lo:hi].tobytes(), float(coeff[g]))
+            tid[g] = seen.setdefault(key, len(seen))
+        firsts = np.unique(tid, return_index=True)[1]
+    strings = []
+    for g in firsts.tolist():
+        lo, hi = stack.starts[g], stack.starts[g + 1]
+        key = (lx[lo:hi].tobytes(), lz[lo:hi].tobytes(), stack.phase[lo:hi].tobytes(),
+               stack.coeffs[lo:hi].tobytes(), trainables[g].coeff)
+        found = _TEMPLATES.get(key, _MISSING)
+        if found is _MISSING:
+            found = _TEMPLATES[key] = _pair_template(lx[lo:hi], lz[lo:hi], stack.phase[lo:hi],
+                                                     stack.coeffs[lo:hi], trainables[g].coeff)
+            while len(_TEMPLATES) > _MAX_TEMPLATES:
+                _TEMPLATES.pop(next(iter(_TEMPLATES)))
+        if found is None:
+            return tid, None
+        strings.append(found)
+    return tid, strings
+
+
 def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
                      params: Sequence[Parameter],
                      pairs: Sequence[tuple[int, int]]) -> list[ZStringTable] | None:
@@ -201,44 +268,51 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
     term_at[term_qubit] = np.arange(len(term_qubit))
     O, P = weights.shape[0], len(params)
     pcol = {p: k for k, p in enumerate(params)}
-    w_o, w_t = np.nonzero(weights)  # each term's outputs and weights, read once
-    outputs_of: list[list] = [[] for _ in range(weights.shape[1])]
-    for o, t, w in zip(w_o.tolist(), w_t.tolist(), weights[w_o, w_t].tolist(), strict=True):
-        outputs_of[t].append((o, w))
     stack = _terms_of(trainables)
     ab = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
-    on = ab[stack.owner]  # each generator term's pair
-    rows = np.arange(len(on))
-    lx = np.stack([stack.x[rows, on[:, 0]], stack.x[rows, on[:, 1]]], axis=1)  # (T, 2)
-    lz = np.stack([stack.z[rows, on[:, 0]], stack.z[rows, on[:, 1]]], axis=1)
-    templates: dict = {}
-    eo, eq, ecol, ev = [], [], [], []  # entries: output, Z support (a, b or -1), column, value
-    for g, gate in enumerate(trainables):
-        lo, hi = stack.starts[g], stack.starts[g + 1]
-        ph, c = stack.phase[lo:hi], stack.coeffs[lo:hi]
-        key = (lx[lo:hi].tobytes(), lz[lo:hi].tobytes(), ph.tobytes(), c.tobytes(), gate.coeff)
-        if key not in templates:
-            templates[key] = _pair_template(lx[lo:hi], lz[lo:hi], ph, c, gate.coeff)
-        strings = templates[key]
-        if strings is None:
-            return None
-        col = pcol[gate.parameter]
-        a, b = int(ab[g, 0]), int(ab[g, 1])
-        for local, zb, v in strings:
-            t = int(term_at[(a, b)[local]])
-            if t < 0:
-                continue
-            support = (a if zb[0] else -1, b if zb[1] else -1)
-            for o, w in outputs_of[t]:
-                eo.append(o)
-                eq.append(support)
-                ecol.append(col)
-                ev.append(w * v)
-    keys = np.concatenate([np.array(eo, dtype=np.intp).reshape(-1, 1),
-                           np.array(eq, dtype=np.intp).reshape(-1, 2)], axis=1)
-    uniq, inv = np.unique(keys, axis=0, return_inverse=True)
+    tid, strings = _templates_of(trainables, stack, ab)
+    if strings is None:
+        return None
+    # one entry per (gate, template string, output of the string's term), in that order (the
+    # order of the sums below): output, Z support (a, b or -1), column, value
+    count = np.array([len(s) for s in strings], dtype=np.intp)
+    flat = [(local, zb[0], zb[1], v) for s in strings for local, zb, v in s]
+    s_local, s_za, s_zb = (np.array([f[i] for f in flat], dtype=np.intp).reshape(-1)
+                           for i in range(3))
+    s_val = np.array([f[3] for f in flat], dtype=float).reshape(-1)
+    per_gate = count[tid]
+    gate = np.repeat(np.arange(len(tid)), per_gate)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.intp)
+    row = np.repeat(first[tid], per_gate) + (np.arange(len(gate))
+                                              - np.repeat(np.cumsum(per_gate) - per_gate,
+                                                          per_gate))
+    qubit = ab[gate, s_local[row]]
+    term = term_at[qubit]
+    on = term >= 0
+    gate, row, term = gate[on], row[on], term[on]
+    a, b = ab[gate, 0], ab[gate, 1]
+    support = np.stack([np.where(s_za[row] == 1, a, -1), np.where(s_zb[row] == 1, b, -1)],
+                       axis=1)
+    # each term's outputs and weights (in output order), expanded per entry
+    w_o, w_t = np.nonzero(weights)
+    by_term = np.argsort(w_t, kind="stable")
+    w_o, w_v = w_o[by_term], weights[w_o[by_term], w_t[by_term]]
+    n_out = np.bincount(w_t, minlength=weights.shape[1])
+    o_first = np.concatenate([[0], np.cumsum(n_out)[:-1]]).astype(np.intp)
+    reps = n_out[term]
+    entry = np.repeat(np.arange(len(term)), reps)
+    pos = np.repeat(o_first[term], reps) + (np.arange(len(entry))
+                                            - np.repeat(np.cumsum(reps) - reps, reps))
+    cols = np.array([pcol[t.parameter] for t in trainables], dtype=np.intp)
+    eo, ecol, ev = w_o[pos], cols[gate[entry]], w_v[pos] * s_val[row[entry]]
+    # (output, a + 1, b + 1) as one integer in base n + 1: its order is the rows' order
+    base = n + 1
+    flat_key = (eo.astype(np.int64) * base + (support[entry, 0] + 1)) * base \
+        + (support[entry, 1] + 1)
+    ukey, inv = np.unique(flat_key, return_inverse=True)
+    uniq = np.stack([ukey // (base * base), ukey // base % base - 1, ukey % base - 1], axis=1)
     coeffs = np.zeros((len(uniq), P))
-    np.add.at(coeffs, (inv.ravel(), np.array(ecol, dtype=np.intp)), np.array(ev, dtype=float))
+    np.add.at(coeffs, (inv.ravel(), ecol), ev)
     coeffs[np.abs(coeffs) <= _ATOL] = 0.0
     keep = coeffs.any(axis=1)
     uniq, coeffs = uniq[keep], coeffs[keep]

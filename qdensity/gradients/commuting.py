@@ -128,13 +128,25 @@ def commuting_gradient(
     return _direct_gradient(circuit, trainables, obs, params, diagonaliser)
 
 
+def _first_trainable(circuit, pset) -> int | None:
+    """Position of the first gate depending on ``pset`` (``_is_trainable``), else None; a
+    gate whose angle is a ``Parameter`` is tested by one set lookup (the data loader's gates
+    before the block, at every sub-unitary)."""
+    for i, inst in enumerate(circuit.data):
+        ps = inst.operation.params
+        if len(ps) == 1 and isinstance(p := ps[0], Parameter):
+            if p in pset:
+                return i
+        elif ps and _is_trainable(inst, pset):
+            return i
+    return None
+
+
 def _one_block(circuit, observable, parameters, diagonaliser):
     """Checked ``(params, observable, trainable gates)`` of a one-block circuit."""
     params, obs = _check_inputs(circuit, observable, parameters, diagonaliser)
     pset = set(params)
-    first = next(
-        (i for i, inst in enumerate(circuit.data) if _is_trainable(inst, pset)), None
-    )
+    first = _first_trainable(circuit, pset)
     if first is None:
         raise ValueError(f"no gate of the circuit depends on the parameters {params}")
     return params, obs, _analyse_block(circuit, first, len(circuit.data), pset)

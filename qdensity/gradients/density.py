@@ -29,6 +29,8 @@ from typing import Any
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.circuits._copying import gc_paused
+from qdensity.execution._compile import circuit_fingerprint
 from qdensity.execution.plans import (
     CircuitJob,
     Estimate,
@@ -119,6 +121,18 @@ def _circuit_of(model, k: int):
     return circ, trainable_parameters(model.sub_unitaries[k])
 
 
+def _fingerprint_of(model, k: int, encoding_key: tuple | None = None) -> tuple:
+    """A key determining the structure of :func:`_circuit_of` ``(model, k)``'s circuit:
+    ``U_k``'s fingerprint, with the encoding's (``encoding_key``: taken once by the caller for
+    every ``k``) when ``model.circuit(k)`` puts ``V(x)`` before it."""
+    sub = circuit_fingerprint(model.sub_unitaries[k])
+    if model.encoding is None:
+        return sub
+    if encoding_key is None:
+        encoding_key = circuit_fingerprint(model.encoding.circuit)
+    return ("encoded", encoding_key, sub)
+
+
 @validates(
     model=Instance('qdensity.models.density:DensityQNN'), k=Interval(int, 0, MAX_SUBUNITARIES),
     X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], method=Options(METHODS),
@@ -150,13 +164,14 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
 
 
 def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
-                   sparse: bool = False) -> Plan:
+                   fingerprint: tuple | None = None, sparse: bool = False) -> Plan:
     """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made
-    (``sparse``: a commuting plan's post-processing returns the ``(value, error)`` pair in
+    (``fingerprint``: :func:`_fingerprint_of` ``(model, k)`` when already taken; ``sparse``: a
+    commuting plan's post-processing returns the ``(value, error)`` pair in
     :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`)."""
     if method in ("auto", "commuting"):
         try:
-            plan = _commuting_plan(model, circ, params, rows, shots, k, sparse)
+            plan = _commuting_plan(model, circ, params, rows, shots, k, fingerprint, sparse)
         except ValueError:
             if method == "commuting":
                 raise
@@ -188,14 +203,16 @@ def _readout_key(model) -> tuple:
     return (model.readout, model.num_qubits)
 
 
-def _commuting_analysis(model, circ, params, k):
+def _commuting_analysis(model, circ, params, k, fingerprint: tuple | None = None):
     """Gradient observables and diagonalising circuits of sub-unitary ``k``.
 
     They depend only on the circuit, the parameters and the readout, not on data or angles,
     so they are derived once per structure and kept (failures too, so ``method="auto"``
     decides once): see :mod:`qdensity.gradients._analysis`.
     """
-    key = _analysis.structure_key("commuting", circ, params, _readout_key(model))
+    if fingerprint is None:
+        fingerprint = _fingerprint_of(model, k)
+    key = _analysis.structure_key("commuting", circ, params, _readout_key(model), fingerprint)
     return _analysis.cached(key, partial(_analyse, model, circ, params))
 
 
@@ -248,8 +265,9 @@ def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
     return _analysis.cached(key, decide)
 
 
-def _commuting_plan(model, circ, params, rows, shots, k, sparse: bool = False) -> Plan:
-    shared, grads = _commuting_analysis(model, circ, params, k)
+def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
+                    sparse: bool = False) -> Plan:
+    shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
     jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
             for i, c in enumerate(shared.circuits)]
 
@@ -309,21 +327,25 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     K = model.num_subunitaries
     jac_plans, fwd_plans = [], []
     encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
-    for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
-        circ, params = _circuit_of(model, k)
-        # model.rows(k, X), in circ's parameter order read off circ itself
-        rows = model_rows(model, k, X, None, circ, encoded)
-        if k == 0:
-            B = rows.shape[0]
-        jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
-                                        jacobian == "sparse"))
-        if forward:
-            # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
-            # analysis only read it and its circuits are copies, so it becomes the forward
-            # circuit (measured in place); without one it is U_k itself, copied
-            same = model.encoding is not None
-            fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
-                                           owned=same))
+    enc_key = (None if model.encoding is None  # V(x)'s structure, fingerprinted once
+               else circuit_fingerprint(model.encoding.circuit))
+    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
+        for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
+            circ, params = _circuit_of(model, k)
+            # model.rows(k, X), in circ's parameter order read off circ itself
+            rows = model_rows(model, k, X, None, circ, encoded)
+            if k == 0:
+                B = rows.shape[0]
+            jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
+                                            _fingerprint_of(model, k, enc_key),
+                                            jacobian == "sparse"))
+            if forward:
+                # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
+                # analysis only read it and its circuits are copies, so it becomes the forward
+                # circuit (measured in place); without one it is U_k itself, copied
+                same = model.encoding is not None
+                fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
+                                               owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B, jacobian == "sparse")

@@ -89,6 +89,19 @@ def _measured(circuit: QuantumCircuit, tail: QuantumCircuit | None) -> QuantumCi
     return measured(out, inplace=True)
 
 
+def _measured_rbs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]) -> QuantumCircuit:
+    """``_measured(circuit, rbs_diagonalising_layer(n, pairs))`` for ``pairs`` from
+    :func:`_rbs_pairs` (disjoint, on the circuit's qubits): the layer's one ``RBS(pi/4)`` gate
+    appended on each pair of the copy itself, with no layer circuit built and copied over."""
+    out = circuit.copy()
+    if pairs:
+        out.barrier()
+        gate, bits = RBSGate(np.pi / 4), out.qubits  # shared, as in rbs_diagonalising_layer
+        append_owned(out, [CircuitInstruction(gate, (bits[i], bits[j])) for i, j in pairs],
+                     new=True)
+    return measured(out, inplace=True)
+
+
 def _rbs_pairs(trainables: Sequence[_Trainable]) -> list[tuple[int, int]] | None:
     """The qubit pairs of a block of RBS gates on disjoint pairs (in gate order), else None."""
     if not trainables or any(t.name != "rbs" for t in trainables):

@@ -50,7 +50,6 @@ from qdensity.validation import (
     Options,
     SequenceOf,
     as_parameter_rows,
-    check_circuit,
     validates,
 )
 
@@ -188,7 +187,6 @@ def shift_circuit_count(circuit: QuantumCircuit, observable: SparsePauliOp | Non
     commuting measurement groups of ``observable``'s non-identity terms (one for the
     probabilities, ``observable=None``): ``parameter_shift_plan(...).num_circuits / B``.
     """
-    check_circuit(circuit)
     terms = sum(len(rule.shifts) for _, _, rule in shift_rules(circuit, parameters,
                                                                rbs_rule=rbs_rule))
     if observable is None:
@@ -244,7 +242,6 @@ def parameter_shift_plan(
         (B, len(parameters)) for an observable, (B, 2**n, len(parameters)) for probabilities,
         (B, n, len(parameters)) with ``unary``.
     """
-    check_circuit(circuit)
     if unary and observable is not None:
         raise ValueError("unary=True differentiates the unary outcome probabilities; give "
                          "observable=None with it")

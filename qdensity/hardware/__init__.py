@@ -8,8 +8,9 @@ mitigation with Hamming-weight post-selection.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from qdensity._lazy import lazy_exports
 
 __all__ = [
     "HardwareTarget",
@@ -40,15 +41,4 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.hardware.targets import HardwareTarget, get_target, known_targets
 
 
-def __getattr__(name: str):
-    """A public name loads its defining module on first use."""
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)

@@ -79,7 +79,6 @@ from qdensity.validation import (
     SequenceOf,
     TargetLike,
     Unchecked,
-    check_num_qubits,
     check_positive_int,
     seed_int,
     validates,
@@ -440,7 +439,7 @@ def get_target(
     True
     """
     if num_qubits is not None:
-        num_qubits = check_num_qubits(num_qubits)
+        num_qubits = int(num_qubits)
     device = load_snapshot(name) if is_snapshot_path(name) else name
     if isinstance(device, (BackendV2, Target)):
         if basis_gates is not None:

@@ -8,10 +8,11 @@ engines a model keeps (:mod:`~.exact`) and the warm start from trained sub-unita
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 from typing import TYPE_CHECKING
+
+from qdensity._lazy import lazy_exports
 
 __all__ = [
     "LCUQNN",
@@ -89,18 +90,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.models.warm_start import warm_start
 
 
-def __getattr__(name: str):
-    """A public name loads its defining module on first use."""
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)
 
 
 class _Package(types.ModuleType):

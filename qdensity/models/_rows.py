@@ -31,14 +31,45 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     -------
     numpy.ndarray, shape (B, P)
     """
-    params = list(circuit.parameters)
+    return _placed(list(circuit.parameters), columns)
+
+
+def _placed(params: list, columns: dict) -> np.ndarray:
+    """:func:`bind_rows` on the circuit's parameters ``params`` (in order)."""
     missing = [p.name for p in params if p not in columns]
     if missing:
         raise ValueError(f"no values given for parameters {missing}")
     cols = [columns[p] for p in params]
-    rows = max((np.size(c) for c in cols), default=1)
+    rows = max((c.size if type(c) is np.ndarray else np.size(c) for c in cols), default=1)
     out = np.empty((rows, len(params)))
-    for i, c in enumerate(cols):  # a scalar or a (1,) column is broadcast down the rows
+    # full float columns and float scalars (data and angles) placed by two assignments, the
+    # others one by one
+    full: list[np.ndarray] = []
+    scalars: list = []
+    full_at: list[int] = []
+    scalar_at: list[int] = []
+    rest: list[int] = []
+    for i, c in enumerate(cols):
+        if type(c) is np.ndarray and c.dtype.kind == "f" and c.ndim < 2:
+            if c.ndim == 0:  # an angle read off theta: theta[..., i] of a vector
+                scalars.append(c)
+                scalar_at.append(i)
+            elif c.size == rows:
+                full.append(c)
+                full_at.append(i)
+            else:
+                rest.append(i)
+        elif isinstance(c, (float, np.floating)):
+            scalars.append(c)
+            scalar_at.append(i)
+        else:
+            rest.append(i)
+    if full:
+        out[:, full_at] = np.stack(full, axis=1)
+    if scalars:
+        out[:, scalar_at] = np.array(scalars, dtype=float)
+    for i in rest:  # a scalar or a (1,) column is broadcast down the rows
+        c = cols[i]
         c = np.asarray(c, dtype=float)
         if c.ndim > 1 or c.size not in (1, rows):
             raise ValueError(f"the values of {params[i].name} have shape {c.shape}; expected "
@@ -81,7 +112,8 @@ def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None,
         X = model._check_X(X)
         B = X.shape[0]
         cols.update(encoding_columns(model, X) if encoded is None else encoded)
-    for p in circ.parameters:
+    params = list(circ.parameters)  # sorted by name once, for the columns and the rows
+    for p in params:
         if p in cols:
             continue
         vec = getattr(p, "vector", None)
@@ -91,7 +123,7 @@ def model_rows(model, k: int, X, theta, circuit: QuantumCircuit | None,
             cols[p] = X[:, p.index]
         elif p in model._index:
             cols[p] = theta[..., model._index[p]]
-    out = bind_rows(circ, cols)
+    out = _placed(params, cols)
     if out.shape[0] == 1 and B > 1:
         out = np.repeat(out, B, axis=0)
     return out

@@ -25,7 +25,7 @@ from qdensity.analysis.parameters import (  # re-exported: the helper lives belo
     trainable_parameters,
 )
 from qdensity.analysis.structure import moment_indices, moments
-from qdensity.circuits._copying import append_owned, assign_fresh, empty_like
+from qdensity.circuits._copying import append_owned, assign_fresh, empty_like, gc_paused
 from qdensity.validation import (
     MAX_LAYERS,
     MAX_SUBUNITARIES,
@@ -159,7 +159,8 @@ def by_moments(circuit: QuantumCircuit, depth: int = 1, *,
                          f"got {depth}")
     k = -(-count // depth)
     group_of = {key: m // depth for key, m in index.items()}
-    parts = _groups_to_circuits(circuit, group_of, k, name or circuit.name)
+    with gc_paused():  # a copy of every gate: no garbage cycles
+        parts = _groups_to_circuits(circuit, group_of, k, name or circuit.name)
     return Decomposition(name or f"{circuit.name}_by_moments_{depth}", parts, circuit,
                          independent=_disjoint(parts))
 

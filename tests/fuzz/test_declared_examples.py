@@ -83,3 +83,54 @@ def test_torch_layer_refuses_input_whose_norm_overflows():
         layer(torch.tensor([[1e300, 1.0, 1.0]], dtype=torch.float64))
     with pytest.raises(ValueError, match="input must be finite"):
         layer(torch.tensor([[float("nan"), 1.0, 1.0]], dtype=torch.float64))
+
+
+def test_checks_left_to_the_declarations_still_refuse_and_numpy_ints_still_work():
+    # the bodies of these callables no longer re-check seed / shots / widths / parameters
+    from qiskit.circuit import ParameterVector
+
+    from qdensity.analysis.blocks import commuting_blocks
+    from qdensity.circuits.gates import RBSGate
+    from qdensity.execution.sampler.hamming import HammingWeightSampler
+
+    with pytest.raises(ValueError, match="seed must be an int >= 0"):
+        HammingWeightSampler(seed=-1)
+    with pytest.raises(TypeError, match="seed must be"):
+        HammingWeightSampler(seed=True)
+    with pytest.raises(ValueError, match="max_dimension must be"):
+        HammingWeightSampler(max_dimension=0)
+    sampler = HammingWeightSampler(default_shots=np.int64(5), max_dimension=np.int64(8))
+    assert (type(sampler.default_shots), sampler.default_shots) == (int, 5)
+    assert (type(sampler.max_dimension), sampler.max_dimension) == (int, 8)
+    qc = QuantumCircuit(2)
+    qc.x(0)
+    qc.append(RBSGate(0.4), [0, 1])
+    qc.measure_all()
+    draws = [HammingWeightSampler(seed=s).run([qc], shots=50).result()[0].data.meas.get_counts()
+             for s in (3, np.int64(3))]
+    assert draws[0] == draws[1]  # a numpy int is the same seed as the int
+
+    target = get_target("line", np.int64(3))
+    assert (type(target.num_qubits), target.num_qubits) == (int, 3)
+    with pytest.raises(ValueError, match="num_qubits must be"):
+        get_target("line", 0)
+    with pytest.raises(TypeError, match="basis_gates must be a list or tuple"):
+        get_target("line", 3, basis_gates="cx")
+    with pytest.raises(ValueError, match="basis_gates must be a list or tuple of 1 to 64"):
+        get_target("line", 3, basis_gates=[])
+
+    from qdensity.execution.statevector.adjoint import AdjointEngine
+
+    with pytest.raises(ValueError, match="dtype must be one of 'complex128', 'complex64'"):
+        AdjointEngine(backend="torch", dtype="complex32")  # refused before torch is needed
+
+    theta = ParameterVector("t", 2)
+    circuit = QuantumCircuit(2)
+    circuit.ry(theta[0], 0)
+    circuit.ry(theta[1], 1)
+    with pytest.raises(TypeError, match="parameters must be"):
+        commuting_blocks(circuit, ["t[0]"])
+    with pytest.raises(TypeError, match="circuit must be"):
+        commuting_blocks("circuit")
+    # RY on two different qubits commute: one block over both gates (paper eq. 9)
+    assert commuting_blocks(circuit, tuple(theta)) == [(0, 2)]

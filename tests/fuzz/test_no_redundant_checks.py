@@ -15,9 +15,20 @@ excludes every value that would make it true:
 * ``a not in C`` with ``C`` a literal tuple/list/set or an UPPER_CASE constant: the
   declaration is ``Options`` whose options all lie in ``C``.
 
+* a call of a ``check_*`` helper of :mod:`qdensity.validation` whose first argument is ``a``
+  and whose other arguments are constants (``check_circuit``, ``check_positive_int``,
+  ``check_num_qubits``, ``check_layers``, ``check_seed``, ``check_callable``, ``check_engine``,
+  ``check_target``, ``check_type``, ``check_sequence_of``, ``check_real_scalar``,
+  ``check_nonnegative_float``, ``check_real_vector``, ``check_finite_array``): every value
+  the declaration accepts passes the helper (None too, unless the call sits under
+  ``if a is not None:``). Conversions (``as_rng``, ``seed_int``, ``as_parameter_rows``) and
+  helpers that check more than any declaration says (``check_distribution``, ``check_width``)
+  are not reported.
+
 A comparison with anything else (another argument, a length, a value read from the data) is a
-cross-argument check and is never reported; so is a check stricter than its declaration. The
-oracle is the declaration itself; the checker is tried on hand-written sources below.
+cross-argument check and is never reported; so is a check stricter than its declaration, or a
+helper given a bound computed from other values. The oracle is the declaration itself; the
+checker is tried on hand-written sources below.
 """
 
 from __future__ import annotations
@@ -32,11 +43,18 @@ import pytest
 
 import qdensity
 from qdensity.validation import (
+    MAX_CIRCUIT_QUBITS,
+    MAX_LAYERS,
+    Array,
+    CallableC,
     Circuit,
+    EngineLike,
     Instance,
     Interval,
     Options,
+    Seed,
     SequenceOf,
+    TargetLike,
     Unchecked,
     as_constraint,
 )
@@ -44,8 +62,7 @@ from qdensity.validation import (
 ROOT = Path(qdensity.__file__).resolve().parent
 
 #: Re-checks left for now: ``"module:callable:argument"`` -> why.
-ALLOWED: dict[str, str] = {
-}
+ALLOWED: dict[str, str] = {}
 
 _COMPARE = {ast.Lt: "lt", ast.LtE: "le", ast.Gt: "gt", ast.GtE: "ge"}
 
@@ -92,7 +109,11 @@ def _instances_of(constraint, types) -> bool:
 
 
 def _excluded_by_interval(constraint, op: str, c) -> bool:
-    """Whether no value in the interval makes ``value <op> c`` true."""
+    """Whether no value in the interval makes ``value <op> c`` true (a ``Seed``'s ints are
+    the interval ``[0, high]``; its None and Generator are not compared, so a comparison of
+    them sits behind a guard)."""
+    if isinstance(constraint, Seed):
+        constraint = Interval(int, 0, constraint.high)
     if not isinstance(constraint, Interval):
         return False
     low_closed = constraint.closed in ("both", "left")
@@ -101,6 +122,69 @@ def _excluded_by_interval(constraint, op: str, c) -> bool:
     if op in ("lt", "le"):
         return lo is not None and (lo > c or (lo == c and (op == "lt" or not low_closed)))
     return hi is not None and (hi < c or (hi == c and (op == "gt" or not high_closed)))
+
+
+def _int_within(m, minimum, maximum) -> bool:
+    """Whether the declared alternative ``m`` holds only ints in ``[minimum, maximum]``."""
+    return (isinstance(m, Interval) and m.kind is int and _excluded_by_interval(m, "lt", minimum)
+            and (maximum is None or _excluded_by_interval(m, "gt", maximum)))
+
+
+def _finite_real_array(m, ndim=None, min_size: int = 0) -> bool:
+    return (isinstance(m, Array) and m.dtype in ("real", "int", "bool")
+            and (m.finite or m.dtype != "real") and m.min_size >= min_size
+            and (ndim is None or m.ndim == (ndim,)))
+
+
+_BOUNDS = {"check_positive_int": None, "check_num_qubits": MAX_CIRCUIT_QUBITS,
+           "check_layers": MAX_LAYERS}
+#: Helpers that let None through (the others refuse it).
+_NONE_OK = ("check_seed", "check_target")
+
+
+def _helper_implied(fn: str, call, members: list, allows_none: bool, scope) -> bool:
+    """Whether every value of the declaration (``members``, and None when ``allows_none``)
+    passes the helper ``fn`` as ``call`` calls it (its other arguments constants)."""
+    def value(node):
+        return eval(compile(ast.Expression(node), "<argument>", "eval"), scope)
+
+    kw = {}
+    for k in call.keywords:
+        if k.arg in ("name", "what", "expected", "why"):
+            continue
+        if not (_is_constant(k.value) or (isinstance(k.value, ast.Constant)
+                                          and k.value.value in (True, False, None))):
+            return False  # a bound computed from other values: a cross-argument check
+        kw[k.arg] = value(k.value)
+    if not members or (allows_none and fn not in _NONE_OK and not kw.get("allow_none")):
+        return False
+    if fn == "check_circuit":
+        from qiskit.circuit import QuantumCircuit
+
+        return all(_instances_of(m, QuantumCircuit) for m in members)
+    if fn in _BOUNDS:
+        maximum = kw.get("maximum", _BOUNDS[fn])
+        return all(_int_within(m, kw.get("minimum", 1), maximum) for m in members)
+    if fn == "check_seed":
+        return all(isinstance(m, Seed) or _int_within(m, 0, None) for m in members)
+    if fn in ("check_real_scalar", "check_nonnegative_float"):
+        low = 0 if fn == "check_nonnegative_float" else None
+        return all(isinstance(m, Interval) and (low is None or _excluded_by_interval(m, "lt", low))
+                   for m in members)
+    simple = {"check_callable": CallableC, "check_engine": EngineLike, "check_target": TargetLike}
+    if fn in simple:
+        return all(isinstance(m, simple[fn]) for m in members)
+    if fn in ("check_type", "check_sequence_of") and len(call.args) >= 3:
+        types = value(call.args[2])
+        if fn == "check_type":
+            return all(_instances_of(m, types) for m in members)
+        return all(isinstance(m, SequenceOf) and all(_instances_of(i, types)
+                                                     for i in _members(m.item)) for m in members)
+    if fn == "check_real_vector":
+        return all(_finite_real_array(m, 1, kw.get("min_length", 1)) for m in members)
+    if fn == "check_finite_array" and len(call.args) == 2 and kw.get("shape") is None:
+        return all(_finite_real_array(m) for m in members)
+    return False
 
 
 def _argument(node, names: set[str], post_init: bool) -> str | None:
@@ -154,13 +238,28 @@ def _raises_value_or_type_error(body) -> bool:
     return False
 
 
-def _walk_own(node):
-    """The nodes of a function body, nested functions and classes left out."""
+def _walk_own(node, guarded: frozenset = frozenset()):
+    """``(node, guarded)`` for the nodes of a function body (nested functions and classes left
+    out); ``guarded`` holds the sources of the expressions an enclosing ``if x is not None:``
+    keeps from being None."""
     for child in ast.iter_child_nodes(node):
         if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Lambda)):
             continue
-        yield child
-        yield from _walk_own(child)
+        yield child, guarded
+        if (isinstance(child, ast.If) and isinstance(child.test, ast.Compare)
+                and isinstance(child.test.ops[0], ast.IsNot)
+                and isinstance(child.test.comparators[0], ast.Constant)
+                and child.test.comparators[0].value is None):
+            inner = guarded | {ast.unparse(child.test.left)}
+            yield child.test, guarded
+            for stmt in child.body:
+                yield stmt, inner
+                yield from _walk_own(stmt, inner)
+            for stmt in child.orelse:
+                yield stmt, guarded
+                yield from _walk_own(stmt, guarded)
+        else:
+            yield from _walk_own(child, guarded)
 
 
 def redundant_checks(source: str, scope: dict) -> list[tuple[str, str, int]]:
@@ -183,9 +282,19 @@ def redundant_checks(source: str, scope: dict) -> list[tuple[str, str, int]]:
             (f, f.name == "__post_init__") for f in node.body
             if isinstance(f, ast.FunctionDef) and f.name in ("__init__", "__post_init__")]
         for body, post_init in bodies:
-            for stmt in _walk_own(body):
+            for stmt, guarded in _walk_own(body):
                 if isinstance(stmt, ast.If) and _raises_value_or_type_error(stmt.body):
                     for arg in _rechecks(stmt.test, set(declared), post_init, declared, scope):
+                        out.append((node.name, arg, stmt.lineno))
+                fn = getattr(getattr(stmt, "func", None), "id", None) or getattr(
+                    getattr(stmt, "func", None), "attr", "")
+                if isinstance(stmt, ast.Call) and fn.startswith("check_") and stmt.args:
+                    arg = _argument(stmt.args[0], set(declared), post_init)
+                    if arg is None:
+                        continue
+                    allows_none = (declared[arg].is_satisfied_by(None)
+                                   and ast.unparse(stmt.args[0]) not in guarded)
+                    if _helper_implied(fn, stmt, _members(declared[arg]), allows_none, scope):
                         out.append((node.name, arg, stmt.lineno))
     return out
 
@@ -209,7 +318,9 @@ def test_no_body_repeats_a_declaration(module):
 # ------------------------------------------------------------------ the checker, on oracles
 
 _SCOPE = {"validates": None, "Interval": Interval, "Options": Options, "Instance": Instance,
-          "Unchecked": Unchecked, "MAX": 10, "MODES": ("a", "b", "c"), "np": np}
+          "Unchecked": Unchecked, "MAX": 10, "MODES": ("a", "b", "c"), "np": np,
+          "Circuit": Circuit, "Seed": Seed, "CallableC": CallableC, "SequenceOf": SequenceOf,
+          "Array": Array}
 
 
 def _found(source: str) -> list[tuple[str, int]]:
@@ -267,6 +378,59 @@ def test_the_checker_reads_post_init_through_self():
                 raise ValueError("p")
     """
     assert _found(src) == [("p", 5)]
+
+
+def test_the_checker_reports_helper_calls_the_declaration_implies():
+    src = """
+    @validates(c=Circuit(), n=Interval(int, 2, 8), m=[Interval(int, 1, MAX), None],
+               s=Seed(), f=CallableC(), t=Instance(str), q=SequenceOf(Instance(str)),
+               v=Array(ndim=1, min_size=2), r=Interval(float, 0))
+    def f(c, n, m, s, f, t, q, v, r):
+        check_circuit(c)
+        n = check_positive_int(n, "n", maximum=MAX)
+        if m is not None:
+            check_positive_int(m, "m")
+        check_seed(s)
+        check_callable(f, "f", "a callable")
+        check_type(t, "t", str, "a str")
+        check_sequence_of(q, "q", str, "str")
+        check_real_vector(v, "v", min_length=2)
+        check_nonnegative_float(r, "r")
+    """
+    assert [arg for arg, _ in _found(src)] == ["c", "n", "m", "s", "f", "t", "q", "v", "r"]
+
+
+def test_the_checker_reads_a_seed_as_the_ints_it_allows():
+    src = """
+    @validates(seed=Seed(), other=Seed(10))
+    def f(seed, other):
+        if seed is not None and not isinstance(seed, np.random.Generator):
+            if seed < 0:
+                raise ValueError("seed")
+        if other >= 5:                         # stricter than Seed(10)
+            raise ValueError("other")
+    """
+    assert _found(src) == [("seed", 5)]
+
+
+def test_the_checker_leaves_stricter_and_cross_argument_helper_calls():
+    src = """
+    @validates(c=[Circuit(), None], n=Interval(int, 0), k=Interval(int, 1, MAX),
+               a=Array(ndim=1), t=Instance(object), v=Array(ndim=(1, 2)),
+               u=Unchecked("checked here"), x=Interval(float))
+    def f(c, n, k, a, t, v, u, x):
+        check_circuit(c)                          # None is declared, the helper refuses it
+        check_positive_int(n, "n")                # n = 0 is declared
+        check_positive_int(k, "k", maximum=n)     # a bound from another argument
+        check_positive_int(k, "k", maximum=5)     # stricter than k <= MAX
+        check_distribution(a, "a")                # sums to one: more than any declaration
+        check_type(t, "t", str, "a str")          # stricter type
+        check_real_vector(v, "v")                 # 2-d arrays are declared
+        check_positive_int(u, "u")                # undeclared (Unchecked)
+        check_nonnegative_float(x, "x")           # negative numbers are declared
+        y = as_rng(n)                             # a conversion, not a check
+    """
+    assert _found(src) == []
 
 
 def test_the_allow_list_names_only_rechecks_that_remain():

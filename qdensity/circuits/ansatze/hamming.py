@@ -23,7 +23,7 @@ from collections.abc import Iterable
 
 from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 
-from qdensity.circuits._copying import append_owned, fresh_gate
+from qdensity.circuits._copying import append_owned, fresh_gate, gc_paused
 from qdensity.circuits.gates import FBSGate, RBSGate
 from qdensity.validation import (
     MAX_LAYERS,
@@ -81,9 +81,18 @@ def pairs_circuit(
     count = sum(len(layer) for layer in ordered)
     theta = ParameterVector(parameter_prefix, count)
     qc = QuantumCircuit(num_qubits, name=name)
+    # copied per pair (fresh_gate): a new gate without the checked constructor
+    template = RBSGate(theta[0]) if count else None
+    with gc_paused():  # one new gate per pair: no garbage cycles
+        _append_layers(qc, ordered, num_qubits, gate, template, theta, insert_barriers)
+    return qc
+
+
+def _append_layers(qc: QuantumCircuit, ordered: list, num_qubits: int, gate: str, template,
+                   theta, insert_barriers: bool) -> None:
+    """The body of :func:`pairs_circuit`: its gates appended to ``qc``."""
     bits = qc.qubits
-    template = RBSGate(theta[0]) if count else None  # copied per pair (fresh_gate): a new
-    k = 0                                            # gate without the checked constructor
+    k = 0
     for li, layer in enumerate(ordered):
         for i, j in layer:
             if i == j or not (0 <= i < num_qubits and 0 <= j < num_qubits):
@@ -96,7 +105,6 @@ def pairs_circuit(
             k += 1
         if insert_barriers and li < len(ordered) - 1:
             qc.barrier()
-    return qc
 
 
 @validates(num_qubits=Qubits(2))

@@ -294,7 +294,7 @@ class SamplerEngine:
                           if target is not None else AerTranspiler(optimization_level, seed))
         self._cache = TranspileCache(MarkedTranspiler(transpiler))
         self.ledger = ledger if ledger is not None else ShotLedger()
-        self.default_shots = check_positive_int(default_shots, "default_shots")
+        self.default_shots = int(default_shots)
         self.progress = bool(progress)
         self.hamming_weight = hamming_weight
         self._seed = seed

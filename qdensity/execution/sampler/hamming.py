@@ -197,16 +197,12 @@ class HammingWeightSampler(BaseSamplerV2):
 
     def __init__(self, *, default_shots: int = 1024, seed: SeedLike = None,
                  readout_error=None, max_dimension: int = MAX_DIMENSION):
-        self._default_shots = check_positive_int(default_shots, "default_shots")
+        self._default_shots = int(default_shots)
         if seed is not None and not isinstance(seed, np.random.Generator):
-            if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-                raise TypeError(f"seed must be an int, a numpy Generator or None, got {seed!r}")
-            if seed < 0:
-                raise ValueError(f"seed must be >= 0, got {seed}")
             seed = int(seed)
         self._seed = seed
         self._readout: ReadoutChannel | None = readout_channel(readout_error)
-        self.max_dimension = check_positive_int(max_dimension, "max_dimension")
+        self.max_dimension = int(max_dimension)
         self._compiled: dict[int, tuple[QuantumCircuit, _Compiled]] = {}
 
     @property

@@ -29,12 +29,11 @@ DTYPES = ("complex128", "complex64")
 
 
 def resolve(device, dtype):
-    """``(torch.device, complex dtype)`` of ``AdjointEngine(backend="torch", ...)``."""
+    """``(torch.device, complex dtype)`` of ``AdjointEngine(backend="torch", ...)``, whose
+    declaration already holds ``dtype`` to None or one of :data:`DTYPES`."""
     t = torch()
     dev = resolve_device(device)
     name = str(dtype).removeprefix("torch.") if dtype is not None else "complex128"
-    if name not in DTYPES:
-        raise ValueError(f"dtype must be one of {DTYPES} for backend='torch', got {dtype!r}")
     return dev, getattr(t, name)
 
 

@@ -109,7 +109,7 @@ class _Observable:
     backend=Options(BACKENDS),
     device=Unchecked("None or a torch device ('cpu', 'cuda', 'cuda:1', a torch.device), with "
                      "backend='torch'; checked against the devices torch sees"),
-    dtype=[Options(("complex128", "complex64")), None],
+    dtype=[Options(_on_torch.DTYPES), None],
 )
 class AdjointEngine:
     """Exact statevector values and adjoint gradients, batched over parameter rows.
