@@ -270,6 +270,8 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
     pcol = {p: k for k, p in enumerate(params)}
     stack = _terms_of(trainables)
     ab = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
+    if ab.shape[0] != len(trainables):  # two gates on one pair: no pair per gate, general path
+        return None
     tid, strings = _templates_of(trainables, stack, ab)
     if strings is None:
         return None
