@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.experiments._accounting import breakdown_metrics, circuit_breakdown
-from qdensity.experiments._common import plot_curves, require_torch
+from qdensity.experiments._common import figure_name, plot_curves, require_torch
 from qdensity.experiments._moe_models import (
     DECOMPOSITIONS,
     VARIANTS,
@@ -221,13 +221,14 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     fig.suptitle(f"moe ({result.mode}): {result.config['trials']} trials x {n} seed"
                  f"{'s' * (n != 1)} per model; mean, 95% bootstrap CI, best (star)", fontsize=10)
     fig.tight_layout()
-    violin = directory / "moe-violins.png"
+    violin = directory / figure_name(result, "moe-violins.png")
     fig.savefig(violin, dpi=110)
     plt.close(fig)
     labels = {f"{dec}/{v}": _LABELS[v] for dec in (*DECOMPOSITIONS, "pyramid") for v in VARIANTS}
     curves = plot_curves(result, [(t, [f"{nm}/test_vs_epoch" for nm in names])
                                   for t, names in panels],
-                         directory / "moe-epochs.png", title="moe: mean over trials",
+                         directory / figure_name(result, "moe-epochs.png"),
+                         title="moe: mean over trials",
                          labels={f"{k}/test_vs_epoch": v for k, v in labels.items()})
     return [violin, curves]
 

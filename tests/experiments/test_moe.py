@@ -54,7 +54,9 @@ def test_tiny_run_shape_and_invariants(tmp_path):
     assert (tmp_path / "moe-sweeps.db").is_file()
     doc = json.loads((tmp_path / "moe-quick.json").read_text())
     assert doc["seeds"] == [0, 3]
-    assert {p.rsplit("/", 1)[-1] for p in res.figures} == {"moe-violins.png", "moe-epochs.png"}
+    # a quick (or paper) run beside the committed full run keeps its own figure names
+    assert {p.rsplit("/", 1)[-1] for p in res.figures} == {"moe-quick-violins.png",
+                                                           "moe-quick-epochs.png"}
     assert all((tmp_path / p.rsplit("/", 1)[-1]).stat().st_size > 0 for p in res.figures)
 
 
