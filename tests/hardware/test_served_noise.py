@@ -103,16 +103,21 @@ def test_one_serialisation_per_model_shared_by_simulators_and_pickles():
     assert copy.run(circuit, shots=200).result().get_counts() == before
 
 
-def test_mps_line_relabelling_keeps_the_channel():
-    # a GHZ chain laid out on fake_kolkata's scattered qubits, relabelled onto Aer's line with
-    # its noise renumbered: the same density-matrix probabilities as the device's whole model
+def _ghz_chain_on_kolkata():
+    """fake_kolkata's target and a 5-qubit GHZ chain transpiled for it (scattered qubits)."""
     tgt = get_target("fake_kolkata", seed=1)
     qc = QuantumCircuit(5, 5)
     qc.h(0)
     for q in range(4):
         qc.cx(q, q + 1)
     qc.measure(range(5), range(5))
-    circuit = tgt.transpile(qc)
+    return tgt, tgt.transpile(qc)
+
+
+def test_mps_line_relabelling_keeps_the_channel():
+    # a GHZ chain laid out on fake_kolkata's scattered qubits, relabelled onto Aer's line with
+    # its noise renumbered: the same density-matrix probabilities as the device's whole model
+    tgt, circuit = _ghz_chain_on_kolkata()
     qubits = frozenset(circuit.find_bit(q).index for i in circuit.data
                        if i.operation.name != "barrier" for q in i.qubits)
     position = line_order([circuit], qubits)
@@ -257,13 +262,7 @@ def test_matrix_product_state_counts_follow_the_whole_models_law():
     # counts against the exact density-matrix probabilities of the device's whole model (its
     # readout errors applied), chi-square over outcomes (expected counts under 5 pooled),
     # false-failure rate 1e-4
-    tgt = get_target("fake_kolkata", seed=1)
-    qc = QuantumCircuit(5, 5)
-    qc.h(0)
-    for q in range(4):
-        qc.cx(q, q + 1)
-    qc.measure(range(5), range(5))
-    circuit = tgt.transpile(qc)
+    tgt, circuit = _ghz_chain_on_kolkata()
     full = AerSimulator.from_backend(tgt.backend, method="density_matrix",
                                      noise_model=tgt.noise_model)
     measured = [circuit.find_bit(i.qubits[0]).index for i in circuit.data
