@@ -253,9 +253,14 @@ class DensityQNN:
         return any(v > 1 for v in counts.values())
 
     def subunitary_parameter_indices(self, k: int) -> np.ndarray:
-        """Indices into :attr:`theta` of sub-unitary ``k``'s parameters, in its order."""
-        return np.array([self._index[p] for p in trainable_parameters(self.sub_unitaries[k])],
-                        dtype=int)
+        """Indices into :attr:`theta` of sub-unitary ``k``'s parameters, in its order (derived
+        once per structure; each call returns its own copy)."""
+        known = self.derived("parameter_indices")
+        if k not in known:
+            idx = np.array([self._index[p] for p in trainable_parameters(self.sub_unitaries[k])],
+                           dtype=int)
+            known[k] = idx
+        return known[k].copy()
 
     def train(self) -> DensityQNN:
         """Training mode: randomised preparation (sample sub-unitaries, Fig. 1c, Supp. I)."""

@@ -31,13 +31,14 @@ from qdensity.execution.sampler.postselection import PostselectedUnary, postsele
 from qdensity.execution.unary import vjp
 from qdensity.models.density import DensityQNN, bind_rows
 from qdensity.models.encoding import Encoding
-from qdensity.models.exact import uses_unary_engine
+from qdensity.models.exact import unary_circuits, uses_unary_engine
 from qdensity.models.mixtures import Mixture
 from qdensity.validation import (
     MAX_SUBUNITARIES,
     Array,
     Circuit,
     Instance,
+    Options,
     Seed,
     SequenceOf,
     validates,
@@ -284,7 +285,8 @@ class LCUQNN:
             engine = SamplerEngine(seed=seed, progress=False)
         return self.sampling_plan(X, shots).run(engine)
 
-    def vjp(self, X, grad_P) -> tuple[np.ndarray, np.ndarray]:
+    @validates(wrt=Options(("all", "theta", "mixture")))
+    def vjp(self, X, grad_P, *, wrt: str = "all") -> tuple[np.ndarray, np.ndarray]:
         """Gradient of ``sum_bj grad_P[b, j] p_bj`` w.r.t. the angles and the mixture parameters.
 
         With ``s = ||v||^2``: ``dL/dv_i = (2 v_i / s) (g_i - <g, p>)``; then
@@ -295,6 +297,10 @@ class LCUQNN:
         ----------
         X : array_like, shape (B, n)
         grad_P : array_like, shape (B, n)
+        wrt : {"all", "theta", "mixture"}
+            Which gradients to compute; the other is returned as zeros (Supp. C trains the
+            sub-unitaries first, then the mixture alone: the angles' reverse passes, K of
+            them per batch, are skipped).
 
         Returns
         -------
@@ -312,10 +318,13 @@ class LCUQNN:
         Xn = np.asarray(X, dtype=float)
         Xn = Xn / np.linalg.norm(Xn, axis=1, keepdims=True)
         grad_theta = np.zeros_like(self.theta)
-        for k, circ in enumerate(self.density.sub_unitaries):
-            idx = self.density.subunitary_parameter_indices(k)
-            gk, _ = vjp(circ, Xn, self.theta[idx], alpha[:, k, None] * gv, reduce="sum")
-            np.add.at(grad_theta, idx, gk)
+        if wrt != "mixture":
+            for k, circ in enumerate(unary_circuits(self.density)):  # compiled once per model
+                idx = self.density.subunitary_parameter_indices(k)
+                gk, _ = vjp(circ, Xn, self.theta[idx], alpha[:, k, None] * gv, reduce="sum")
+                np.add.at(grad_theta, idx, gk)
+        if wrt == "theta":
+            return grad_theta, np.zeros_like(np.asarray(self.mixture.params, dtype=float))
         grad_alpha = np.einsum("bn,bkn->bk", gv, Y)
         grad_mixture = self.mixture.vjp(X, grad_alpha)
         return grad_theta, np.asarray(grad_mixture, dtype=float)

@@ -73,8 +73,9 @@ def test_from_density_shares_structure_and_copies_angles():
         LCUQNN.from_density("model")
 
 
+@pytest.mark.parametrize("wrt", ["all", "theta", "mixture"])
 @pytest.mark.parametrize("mixture", ["softmax", "gated"])
-def test_vjp_matches_finite_differences(mixture):
+def test_vjp_matches_finite_differences(mixture, wrt):
     n = 4
     dec = by_moments(round_robin(n))
     K = dec.num_subunitaries
@@ -83,7 +84,7 @@ def test_vjp_matches_finite_differences(mixture):
     model = LCUQNN(dec.sub_unitaries, mix, seed=6)
     X = RNG.normal(size=(3, n))
     G = RNG.normal(size=(3, n))
-    gt, gm = model.vjp(X, G)
+    gt, gm = model.vjp(X, G, wrt=wrt)
 
     def loss():
         return float(np.sum(G * model.predict(X)))
@@ -98,7 +99,8 @@ def test_vjp_matches_finite_differences(mixture):
             model.theta = t
             fd[i] += sign * loss() / (2 * eps)
     model.theta = theta0
-    np.testing.assert_allclose(gt, fd, atol=1e-7)
+    # the gradient not asked for is returned as zeros, the other one exact
+    np.testing.assert_allclose(gt, 0.0 * fd if wrt == "mixture" else fd, atol=1e-7)
     p0 = model.mixture.params.copy()
     fdm = np.zeros_like(p0)
     for i in range(p0.size):
@@ -108,7 +110,8 @@ def test_vjp_matches_finite_differences(mixture):
             model.mixture.params = p
             fdm[i] += sign * loss() / (2 * eps)
     model.mixture.params = p0
-    np.testing.assert_allclose(gm, fdm, atol=1e-7)
+    np.testing.assert_allclose(gm, 0.0 * fdm if wrt == "theta" else fdm, atol=1e-7)
+    assert gm.shape == fdm.shape
 
 
 def test_shared_parameters_accumulate():
