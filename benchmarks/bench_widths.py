@@ -8,7 +8,8 @@ states from 14 qubits). Each case runs in its own process. CPU seconds (user + s
 threads): ``total`` is the whole process (interpreter, imports, work and the exact check that
 follows it), ``result`` the process until the gradient is in hand (= ``import`` + ``work``),
 ``import`` the interpreter start and imports, ``work`` = ``build`` (the gradient plan) +
-``sample`` (``engine.run``) + ``post`` (``plan.postprocess``); then peak resident memory; max |z|
+``sample`` (``engine.run``) + ``post`` (``plan.postprocess``); then peak resident memory up
+to the gradient (``res MB``) and of the whole process, exact check included (``peak MB``); max |z|
 compares the sampled outputs with the exact unary probabilities (binomial errors of the exact
 values, floor ``1 / shots``). A readout-noisy case runs on the ``ideal`` target with a
 symmetric readout error (``--readout``), which the sampler applies to the drawn bits.
@@ -94,6 +95,7 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
     t2 = time.process_time()
     grad = plan.postprocess(results)
     t3 = time.process_time()
+    result_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # before the check
     exact = model.expert_outputs(X, method="unary")  # (rows, K, n) exact unary probabilities
     if readout:  # outcome e_j read as itself, or e_i (i != j) with both bits flipped
         q = readout
@@ -104,7 +106,7 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
     return {"import_s": t0, "build_s": t1 - t0, "sample_s": t2 - t1, "post_s": t3 - t2,
             "result_s": t3, "circuits": engine.ledger.total_circuits,
             "shots": engine.ledger.total_shots,
-            "max_z": err, "samplers": samplers, "sub": len(subs)}
+            "max_z": err, "samplers": samplers, "sub": len(subs), "result_mb": result_mb}
 
 
 def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
@@ -142,7 +144,8 @@ def _sampler_case(n: int, readout: float, sub: int, rows: int, shots: int,
     return {"import_s": t0, "build_s": t1 - t0, "sample_s": t2 - t1, "post_s": float("nan"),
             "result_s": t2,
             "circuits": engine.ledger.total_circuits, "shots": engine.ledger.total_shots,
-            "max_z": float("nan"), "samplers": samplers, "sub": len(subs)}
+            "max_z": float("nan"), "samplers": samplers, "sub": len(subs),
+            "result_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
 def _run_child(args: list[str], timeout: float) -> dict:
@@ -202,7 +205,7 @@ def main() -> None:
           + ("; sampler only (no gradient plan)" if a.sampler_only else ""))
     print(f"{'case':<22}{'K':>5}{'total':>8}{'result':>8}{'import':>8}{'work':>8}{'build':>8}"
           f"{'sample':>8}{'post':>8}{'wall s':>8}"
-          f"{'peak MB':>9}{'circuits':>9}{'shots':>10}{'max |z|':>8}  sampler")
+          f"{'res MB':>8}{'peak MB':>9}{'circuits':>9}{'shots':>10}{'max |z|':>8}  sampler")
     cases = [(n, 0.0) for n in a.widths] + [(n, a.readout) for n in a.noisy_widths]
     for n, readout in cases:
         res = _run_child([str(n), str(readout), "--sub", str(a.sub), "--rows", str(a.rows),
@@ -218,7 +221,8 @@ def main() -> None:
         print(f"{name:<22}{res['sub']:>5}{res['cpu_s']:>8.1f}{res['result_s']:>8.1f}"
               f"{res['import_s']:>8.1f}{work:>8.1f}{res['build_s']:>8.1f}"
               f"{res['sample_s']:>8.1f}{res['post_s']:>8.1f}{res['wall_s']:>8.1f}"
-              f"{res['peak_mb']:>9.0f}{res['circuits']:>9}{res['shots']:>10}"
+              f"{res['result_mb']:>8.0f}{res['peak_mb']:>9.0f}{res['circuits']:>9}"
+              f"{res['shots']:>10}"
               f"{res['max_z']:>8.2f}  {','.join(res['samplers'])}")
 
 

@@ -16,8 +16,10 @@ __all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
     probabilities=[Array(ndim=(1, 2), min_size=0), None],
     shots=[Interval(int, 1, MAX_SHOTS), None],
     job=[Instance('qdensity.execution.plans:CircuitJob'), None],
-    # a BitArray: the packed shots a PackedJobResult (the sampler engine's) unpacks on read
-    bits=[Array(ndim=3, dtype='bool', min_size=0), Instance('qiskit.primitives:BitArray'), None],
+    # a BitArray or DeferredSamples: the packed (or not yet drawn) shots a PackedJobResult
+    # (the sampler engine's) unpacks on read
+    bits=[Array(ndim=3, dtype='bool', min_size=0), Instance('qiskit.primitives:BitArray'),
+          Instance('qdensity.execution.sampler._hamming_draw:DeferredSamples'), None],
     weights=[Array(ndim=2, min_size=0), None], effective_shots=[Array(ndim=1, min_size=0), None],
     readout=[Instance(list), None],
 )

@@ -9,6 +9,7 @@ outcome probabilities and its standard error. Both
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,7 +75,7 @@ class _GradientCircuits:
 
     circuits: list[QuantumCircuit]
     parameters: list[Parameter]
-    _values: list[ZStringTable] = field(repr=False)
+    _values: Sequence[ZStringTable] = field(repr=False)  # a list, or tables built on read
 
     @property
     def num_gradient_circuits(self) -> int:
@@ -252,28 +253,62 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
         Or, with ``support_only``, ``(support, mean, se)``: the ascending column indices
         ``t * P + p`` (S of them) and the estimates, each ``(rows, S)``.
     """
-    from scipy import sparse
-
     T, P = len(tables), tables[0].num_columns
-    width = tables[0].num_qubits
     z = np.concatenate([t.z for t in tables], axis=0)  # (M, width)
-    M, TP = z.shape[0], T * P
-    # C: (M, T * P) each string's coefficients in its table's block of columns
     coeffs = np.concatenate([t.coefficients for t in tables], axis=0)  # (M, P)
     table_of = np.repeat(np.arange(T), [t.z.shape[0] for t in tables])
     rr, cc = np.nonzero(coeffs)
-    # the columns some string weighs on (the others are 0 with error 0): S of the T * P
-    support, col = np.unique(cc + table_of[rr] * P, return_inverse=True)
+    z_row, z_col = np.nonzero(z)
+    strings = (z_row, z_col, z.shape[0], tables[0].num_qubits)
+    support, mean_s, se_s = _string_means(strings, (rr, cc + table_of[rr] * P, coeffs[rr, cc]),
+                                          shot, clbit, rows, shots)
+    if support_only:
+        return support, mean_s, se_s
+    mean = np.zeros((rows, T * P))
+    se = np.zeros((rows, T * P))
+    mean[:, support] = mean_s
+    se[:, support] = se_s
+    return mean.reshape(rows, T, P), se.reshape(rows, T, P)
+
+
+def _string_means(strings: tuple, entries: tuple, shot: np.ndarray, clbit: np.ndarray,
+                  rows: int, shots: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The work of :func:`_raw_means` on strings and coefficients given by their nonzeros.
+
+    Parameters
+    ----------
+    strings : (z_row, z_col, M, width)
+        The set ``Z`` bits of the ``M`` strings (string ``z_row[i]`` has a ``Z`` on qubit
+        ``z_col[i]``) over outcomes of ``width`` bits.
+    entries : (row, column, value)
+        Coefficient ``value`` of string ``row`` in estimator ``column`` (repeats add).
+    shot, clbit, rows, shots
+        As :func:`_raw_means`.
+
+    Returns
+    -------
+    (support, mean, se)
+        The ascending estimator columns some string weighs on (S) and their estimates,
+        each ``(rows, S)``.
+    """
+    from scipy import sparse
+
+    z_row, z_col, M, width = strings
+    rr, cols, vals = entries
+    # the columns some string weighs on (the others are 0 with error 0): S of them
+    support, col = np.unique(cols, return_inverse=True)
     col = col.ravel()
     S = support.size
-    C = sparse.csr_matrix((coeffs[rr, cc], (rr, col)), shape=(M, S))
+    C = sparse.csr_matrix((vals, (rr, col)), shape=(M, S))
     # R per column: 2 sum |c_r| over the strings that vary (ZStringTable.value_range)
-    varying = np.asarray(z.any(axis=1), dtype=float)
-    R = 2.0 * np.bincount(col, weights=np.abs(coeffs[rr, cc]) * varying[rr], minlength=S)
+    varying = np.zeros(M)
+    varying[z_row] = 1.0
+    R = 2.0 * np.bincount(col, weights=np.abs(vals) * varying[rr], minlength=S)
     a = np.asarray(C.sum(axis=0)).ravel()  # (S,) every column's value with even parities
     B = sparse.csr_matrix((np.ones(shot.size, np.int32), (shot, clbit)),
                           shape=(rows * shots, width))
-    parity = (B @ sparse.csr_matrix(z.T.astype(np.int32))).tocoo()
+    Zt = sparse.csr_matrix((np.ones(z_row.size, np.int32), (z_col, z_row)), shape=(width, M))
+    parity = (B @ Zt).tocoo()
     odd = (parity.data & 1).astype(bool)
     Odd = sparse.csr_matrix((np.ones(int(odd.sum())), (parity.row[odd], parity.col[odd])),
                             shape=(rows * shots, M))
@@ -286,13 +321,7 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
           + (shots - held) * ybar**2)
     mean_s = a[None, :] - 2.0 * ybar.reshape(rows, S)
     se_s = wilson_standard_error(4.0 * sq.reshape(rows, S) / (shots - 1), shots, R)
-    if support_only:
-        return support, mean_s, se_s
-    mean = np.zeros((rows, TP))
-    se = np.zeros((rows, TP))
-    mean[:, support] = mean_s
-    se[:, support] = se_s
-    return mean.reshape(rows, T, P), se.reshape(rows, T, P)
+    return support, mean_s, se_s
 
 
 def gradients_from_results(grads, results, *, sparse: bool = False) -> tuple:
@@ -308,7 +337,9 @@ def gradients_from_results(grads, results, *, sparse: bool = False) -> tuple:
     :meth:`_GradientCircuits.gradient_from_bits` per output.
     """
     raw = all(r.weights is None and r.readout is None for r in results)
-    if not raw or len({t.num_columns for g in grads for t in g._values}) != 1:
+    stacked = getattr(grads, "tables", None)  # an OutputGradients: one compact stack
+    if not raw or (stacked is None
+                   and len({t.num_columns for g in grads for t in g._values}) != 1):
         parts = [g.gradient_from_bits([r.bits for r in results],
                                       [r.weights for r in results],
                                       [r.effective_shots for r in results],
@@ -323,6 +354,20 @@ def gradients_from_results(grads, results, *, sparse: bool = False) -> tuple:
         if shots < 2:
             raise ValueError(f"results[{c}] needs >= 2 shots to estimate a variance")
         shot, clbit = r.set_clbits()
+        if stacked is not None and len(results) == 1:
+            # every output's strings by their nonzeros, never a table per output
+            support, mean, se = _string_means(stacked.strings(), stacked.entries(), shot,
+                                              clbit, rows, shots)
+            if sparse:
+                parts.append(support_to_sparse(mean, se, support, len(grads),
+                                               stacked.num_columns))
+                continue
+            full_mean = np.zeros((rows, len(grads) * stacked.num_columns))
+            full_se = np.zeros_like(full_mean)
+            full_mean[:, support], full_se[:, support] = mean, se
+            shape = (rows, len(grads), stacked.num_columns)
+            parts.append((full_mean.reshape(shape), full_se.reshape(shape)))
+            continue
         tables = [g._values[c] for g in grads]
         if sparse:
             support, mean, se = _raw_means(tables, shot, clbit, rows, shots, support_only=True)

@@ -35,7 +35,7 @@ from qdensity.gradients._circuits import _GradientCircuits
 from qdensity.gradients._direct import _gradient_strings, _packed
 from qdensity.gradients.diagonalising import _measured_rbs, _rbs_pairs
 
-__all__ = ["rbs_output_tables", "rbs_output_gradients"]
+__all__ = ["rbs_output_tables", "rbs_output_gradients", "OutputTables", "OutputGradients"]
 
 
 def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: PauliList,
@@ -62,10 +62,118 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
     if tables is None:
         return None
     circuits = [_measured_rbs(circuit, pairs)]
-    total = _whole(tables)
     names = list(params)  # one list for the block's outputs (read only), not one each
+    if isinstance(tables, OutputTables):
+        return (_GradientCircuits(circuits, list(params), _Whole(tables)),
+                OutputGradients(circuits, names, tables))
+    total = _whole(tables)
     return (_GradientCircuits(circuits, list(params), [total]),
             [_GradientCircuits(circuits, names, [t]) for t in tables])
+
+
+class OutputTables(Sequence):
+    """The per-output tables of one block of RBS gates on pairs, held as one compact stack.
+
+    Output ``o``'s strings are rows ``bounds[o]:bounds[o + 1]``; a string has ``Z`` on at
+    most two qubits (``support[r]``, ``-1`` for none) and its coefficients are given by their
+    nonzeros (``entry_string``, ``entry_column``, ``entry_value``). A unary output of a
+    round-robin moment weighs on one or two of the ``P`` columns, so the dense ``(strings,
+    n)`` bits and ``(strings, P)`` coefficients would be almost all zeros: 167 MB over the
+    round-robin model at ``n = 256``, about 10 GB at ``n = 1024``. Indexing gives output
+    ``o``'s :class:`~qdensity.analysis.pauli.ZStringTable`, built on read;
+    :meth:`strings` and :meth:`entries` give every output's at once, by their nonzeros
+    (:func:`qdensity.gradients._circuits.gradients_from_results` reads those).
+    """
+
+    def __init__(self, num_qubits: int, num_columns: int, bounds: np.ndarray,
+                 support: np.ndarray, entry_string: np.ndarray, entry_column: np.ndarray,
+                 entry_value: np.ndarray) -> None:
+        self.num_qubits, self.num_columns = int(num_qubits), int(num_columns)
+        self.bounds = np.asarray(bounds, dtype=np.int64)
+        small = np.int32 if max(self.num_qubits, self.num_columns) < 2**31 else np.int64
+        self.support = np.asarray(support).astype(small)
+        self.entry_string = np.asarray(entry_string).astype(np.int64)
+        self.entry_column = np.asarray(entry_column).astype(small)
+        self.entry_value = np.asarray(entry_value, dtype=float)
+
+    def __len__(self) -> int:
+        return self.bounds.size - 1
+
+    @property
+    def num_strings(self) -> int:
+        """Strings of every output together."""
+        return int(self.bounds[-1])
+
+    def __getitem__(self, o):
+        if isinstance(o, slice):
+            return [self[i] for i in range(*o.indices(len(self)))]
+        o = range(len(self))[o]  # negative indices; IndexError past the end
+        lo, hi = int(self.bounds[o]), int(self.bounds[o + 1])
+        return self._table(lo, hi)
+
+    def whole(self) -> ZStringTable:
+        """Every output's strings in one table (the sum's estimator), built on read."""
+        return self._table(0, self.num_strings)
+
+    def _table(self, lo: int, hi: int) -> ZStringTable:
+        z = np.zeros((hi - lo, self.num_qubits), dtype=bool)
+        for j in (0, 1):
+            q = self.support[lo:hi, j]
+            on = np.flatnonzero(q >= 0)
+            z[on, q[on]] = True
+        a, b = np.searchsorted(self.entry_string, (lo, hi))
+        coeffs = np.zeros((hi - lo, self.num_columns))
+        np.add.at(coeffs, (self.entry_string[a:b] - lo, self.entry_column[a:b]),
+                  self.entry_value[a:b])
+        return ZStringTable(z, coeffs)
+
+    def strings(self) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """``(z_row, z_col, num_strings, num_qubits)``: the set ``Z`` bits of every string."""
+        rows, j = np.nonzero(self.support >= 0)
+        return rows, self.support[rows, j].astype(np.int64), self.num_strings, self.num_qubits
+
+    def entries(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(string, column, value)`` with ``column = o * num_columns + p`` for output ``o``'s
+        estimator of parameter ``p`` (the layout of ``len(self)`` stacked outputs)."""
+        output = np.searchsorted(self.bounds, self.entry_string, side="right") - 1
+        return (self.entry_string,
+                output * self.num_columns + self.entry_column.astype(np.int64),
+                self.entry_value)
+
+
+
+class _Whole(Sequence):
+    """One table, the sum's (:meth:`OutputTables.whole`), built on read: a
+    ``_GradientCircuits``'s ``_values``."""
+
+    def __init__(self, tables: OutputTables) -> None:
+        self.tables = tables
+
+    def __len__(self) -> int:
+        return 1
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(1))]
+        range(1)[i]  # IndexError past the end
+        return self.tables.whole()
+
+
+class OutputGradients(Sequence):
+    """Per output, the block's shared measured circuits with that output's table (a
+    ``_GradientCircuits`` built on read from :class:`OutputTables`): ``n`` objects a block
+    are never held (about a million over the round-robin model at ``n = 1024``)."""
+
+    def __init__(self, circuits: list, parameters: list, tables: OutputTables) -> None:
+        self.circuits, self.parameters, self.tables = circuits, parameters, tables
+
+    def __len__(self) -> int:
+        return len(self.tables)
+
+    def __getitem__(self, o):
+        if isinstance(o, slice):
+            return [self[i] for i in range(*o.indices(len(self)))]
+        return _GradientCircuits(self.circuits, self.parameters, [self.tables[o]])
 
 
 def _whole(tables: Sequence[ZStringTable]) -> ZStringTable:
@@ -122,12 +230,13 @@ def rbs_output_tables(trainables: Sequence[_Trainable], terms: PauliList, weight
     pairs = _rbs_pairs(trainables)
     if pairs is None:
         return None
-    return _tables_on(trainables, terms, weights, params, pairs)
+    tables = _tables_on(trainables, terms, weights, params, pairs)
+    return None if tables is None else list(tables)
 
 
 def _tables_on(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
                params: Sequence[Parameter],
-               pairs: list[tuple[int, int]]) -> list[ZStringTable] | None:
+               pairs: list[tuple[int, int]]) -> Sequence[ZStringTable] | None:
     """:func:`rbs_output_tables` on the block's pairs (``_rbs_pairs(trainables)``, not None)."""
     weights = np.asarray(weights, dtype=float)
     local = _pairwise_tables(trainables, terms, weights, params, pairs)
@@ -253,7 +362,7 @@ def _templates_of(trainables: Sequence[_Trainable], stack, ab: np.ndarray):
 
 def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights: np.ndarray,
                      params: Sequence[Parameter],
-                     pairs: Sequence[tuple[int, int]]) -> list[ZStringTable] | None:
+                     pairs: Sequence[tuple[int, int]]) -> OutputTables | None:
     """:func:`rbs_output_tables` for outputs of single-qubit ``Z`` terms (on distinct qubits),
     gate by gate on its pair (``pairs[g]``, ``a < b``, from ``_rbs_pairs``) from
     :func:`_pair_template`; None when the terms are not of that kind or a template fails (the
@@ -312,16 +421,16 @@ def _pairwise_tables(trainables: Sequence[_Trainable], terms: PauliList, weights
     flat_key = (eo.astype(np.int64) * base + (support[entry, 0] + 1)) * base \
         + (support[entry, 1] + 1)
     ukey, inv = np.unique(flat_key, return_inverse=True)
-    uniq = np.stack([ukey // (base * base), ukey // base % base - 1, ukey % base - 1], axis=1)
-    coeffs = np.zeros((len(uniq), P))
-    np.add.at(coeffs, (inv.ravel(), ecol), ev)
-    coeffs[np.abs(coeffs) <= _ATOL] = 0.0
-    keep = coeffs.any(axis=1)
-    uniq, coeffs = uniq[keep], coeffs[keep]
-    zbits = np.zeros((len(uniq), n), dtype=bool)
-    for j in (1, 2):
-        on_q = uniq[:, j] >= 0
-        zbits[np.flatnonzero(on_q), uniq[on_q, j]] = True
+    # the coefficients by their nonzeros (string, column): never a dense (strings, P) table
+    entry_key = inv.ravel().astype(np.int64) * P + ecol
+    ekey, einv = np.unique(entry_key, return_inverse=True)
+    value = np.bincount(einv.ravel(), weights=ev, minlength=ekey.size)
+    big = np.abs(value) > _ATOL
+    ekey, value = ekey[big], value[big]
+    string, column = ekey // P, ekey % P
+    kept = np.unique(string)  # strings with a coefficient left
+    uniq = np.stack([ukey // (base * base), ukey // base % base - 1, ukey % base - 1],
+                    axis=1)[kept]
     bounds = np.searchsorted(uniq[:, 0], np.arange(O + 1))
-    return [ZStringTable(zbits[bounds[o]:bounds[o + 1]], coeffs[bounds[o]:bounds[o + 1]])
-            for o in range(O)]
+    return OutputTables(n, P, bounds, uniq[:, 1:], np.searchsorted(kept, string), column,
+                        value)

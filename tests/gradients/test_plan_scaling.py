@@ -158,3 +158,41 @@ def test_raw_shot_estimates_on_distinct_outcomes_equal_the_per_shot_mean_and_var
     var = per_shot.var(axis=1, ddof=1)
     R = table.value_range()
     np.testing.assert_allclose(se, np.sqrt(var / 200 + R**2 / (4 * 200**2)), atol=1e-12)
+
+
+def test_compact_output_stack_estimates_equal_the_per_shot_mean_and_variance():
+    """The round-robin moment's outputs kept as one compact stack (no table per output): the
+    sampled estimates read off the stack by its nonzeros equal, for every output and
+    parameter, the mean and unbiased variance of the per-shot values of the output's own
+    table (materialised from the stack), computed shot by shot."""
+    from qdensity.execution.job_results import JobResult
+    from qdensity.gradients._circuits import gradients_from_results
+    from qdensity.gradients._outputs import OutputGradients
+    from qdensity.gradients.density import _circuit_of, _commuting_analysis
+
+    n, rows, shots = 6, 2, 150
+    subs = by_moments(round_robin(n)).sub_unitaries
+    model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=1)
+    circ, params = _circuit_of(model, 2)
+    _, grads = _commuting_analysis(model, circ, params, 2)
+    assert isinstance(grads, OutputGradients) and len(grads) == n
+    rng = np.random.default_rng(5)
+    # weight-1 shots plus a few readout-like flips: parities of one and two set bits
+    bits = np.zeros((rows, shots, n), dtype=bool)
+    bits[np.arange(rows)[:, None], np.arange(shots)[None, :],
+         rng.integers(0, n, size=(rows, shots))] = True
+    bits ^= rng.random((rows, shots, n)) < 0.05
+    mean, se = gradients_from_results(grads, [JobResult(None, shots, None, bits=bits)])
+    P = len(params)
+    assert mean.shape == se.shape == (rows, n, P)
+    for o in range(n):
+        (table,) = grads[o]._values
+        per_shot = np.array([[[sum(table.coefficients[t, p]
+                                   * (-1) ** int(np.sum(b & table.z[t]))
+                                   for t in range(table.z.shape[0])) for p in range(P)]
+                               for b in row] for row in bits])
+        np.testing.assert_allclose(mean[:, o], per_shot.mean(axis=1), atol=1e-12)
+        R = table.value_range()
+        var = per_shot.var(axis=1, ddof=1)
+        np.testing.assert_allclose(se[:, o], np.sqrt(var / shots + R**2 / (4 * shots**2)),
+                                   atol=1e-12)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import NoReturn
 
 import numpy as np
@@ -31,7 +32,7 @@ _ALTERNATIVE = ("sample it with qiskit-aer instead (SamplerEngine(hamming_weight
                 "or qiskit_aer.primitives.SamplerV2)")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Angle:
     """One gate angle as a function of a parameter row.
 
@@ -62,7 +63,7 @@ class Angle:
         return out
 
 
-@dataclass
+@dataclass(slots=True)
 class GateOp:
     """One weight-preserving gate: ``name``, circuit ``qubits`` (gate order), its angles, or a
     fixed local matrix (``matrix``, little-endian on ``qubits``), or a parameterised gate
@@ -134,7 +135,7 @@ class HammingTemplate:
 
 def _angle(value, position: dict, inst_name: str) -> Angle:
     if isinstance(value, Parameter):  # the common case: the angle is a parameter itself
-        return Angle("linear", offset=0.0, index=position[value], coefficient=1.0)
+        return _parameter_angle(position[value])
     if not isinstance(value, ParameterExpression) or not value.parameters:
         return Angle("const", offset=float(value))
     if len(value.parameters) == 1:
@@ -145,6 +146,13 @@ def _angle(value, position: dict, inst_name: str) -> Angle:
             return Angle("linear", offset=float(value.bind({param: 0.0})),
                          index=position[param], coefficient=a)
     return Angle("expr", expr=value, indices=tuple(position[p] for p in value.parameters))
+
+
+@lru_cache(maxsize=2**16)
+def _parameter_angle(index: int) -> Angle:
+    """The angle that is parameter ``index`` itself: one frozen object shared by every gate
+    and template (a template at n = 256 holds about 800 of them)."""
+    return Angle("linear", offset=0.0, index=index, coefficient=1.0)
 
 
 def _matrix_preserves(mat: np.ndarray) -> bool:

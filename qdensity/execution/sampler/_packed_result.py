@@ -15,6 +15,7 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
+from qiskit.primitives import BitArray
 
 from qdensity.execution.job_results import JobResult
 from qdensity.validation import MAX_ROWS, MAX_SHOTS, Instance, Interval, validates
@@ -42,10 +43,15 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
         Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
     """
     shots = bitarray.num_shots if shots is None else int(shots)
-    arr = np.asarray(bitarray.array).reshape(rows, shots, -1)
+    return _unpacked(np.asarray(bitarray.array), rows, shots, bitarray.num_bits)
+
+
+def _unpacked(packed: np.ndarray, rows: int, shots: int, num_bits: int) -> np.ndarray:
+    """``BitArray`` bytes (``rows * shots`` shots) as bool (rows, shots, num_bits)."""
+    arr = packed.reshape(rows, shots, -1)
     # BitArray bytes are big-endian: the last byte holds clbits 0..7, its lowest bit clbit 0
     bits = np.unpackbits(arr[..., ::-1], axis=-1, bitorder="little")
-    return bits[..., : bitarray.num_bits].astype(bool)
+    return bits[..., :num_bits].astype(bool)
 
 
 def packed_set_bits(packed: np.ndarray, num_bits: int) -> tuple[np.ndarray, np.ndarray]:
@@ -88,8 +94,10 @@ class PackedJobResult(JobResult):
 
     Parameters
     ----------
-    packed : qiskit.primitives.BitArray
-        ``rows * shots`` samples (shape ``(rows,)`` or ``()``, see :func:`bitarray_to_bits`).
+    packed : qiskit.primitives.BitArray or DeferredSamples
+        ``rows * shots`` samples (shape ``(rows,)`` or ``()``, see :func:`bitarray_to_bits`),
+        or a :class:`~qdensity.execution.sampler.hamming.DeferredSamples` that draws them
+        when read (the same shots on every read).
     rows, shots : int
     job : CircuitJob
     """
@@ -99,12 +107,20 @@ class PackedJobResult(JobResult):
         self._unpacked: weakref.ReferenceType[np.ndarray] | None = None
         super().__init__(None, shots, job, bits=packed, **kwargs)
 
+    def _bytes(self) -> np.ndarray:
+        """The shots' ``BitArray`` bytes, (rows * shots, nbytes); drawn now if deferred."""
+        source, rows, shots = self._packed
+        if isinstance(source, BitArray):
+            return np.asarray(source.array).reshape(rows * shots, -1)
+        return source.packed()
+
     @property
     def bits(self) -> np.ndarray:
         """numpy.ndarray of bool, shape (rows, shots, num_clbits), unpacked on read."""
         held = self._unpacked() if self._unpacked is not None else None
         if held is None:
-            held = bitarray_to_bits(*self._packed)
+            source, rows, shots = self._packed
+            held = _unpacked(self._bytes(), rows, shots, source.num_bits)
             self._unpacked = weakref.ref(held)
         return held
 
@@ -127,9 +143,7 @@ class PackedJobResult(JobResult):
     def set_clbits(self) -> tuple[np.ndarray, np.ndarray]:
         """The set clbits of every shot read off the packed bytes (:func:`packed_set_bits`;
         see :meth:`JobResult.set_clbits`), never unpacked to ``num_clbits`` per shot."""
-        bitarray, rows, shots = self._packed
-        return packed_set_bits(np.asarray(bitarray.array).reshape(rows * shots, -1),
-                               bitarray.num_bits)
+        return packed_set_bits(self._bytes(), self._packed[0].num_bits)
 
     def __getstate__(self):
         state = dict(self.__dict__)

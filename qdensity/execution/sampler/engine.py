@@ -26,6 +26,7 @@ from qdensity.execution._compile import (
 )
 from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
 from qdensity.execution.sampler._correction import ReadoutCorrection
+from qdensity.execution.sampler._hamming_draw import DeferredSamples
 from qdensity.execution.sampler._hamming_readout import readout_channel
 from qdensity.execution.sampler._independent import run_independent
 from qdensity.execution.sampler._packed_result import PackedJobResult, bitarray_to_bits
@@ -445,7 +446,9 @@ class SamplerEngine:
             raw: list = [None] * len(pubs)
             if hw_pubs:
                 assert self._hamming_sampler is not None  # hw_pubs were compiled by it
-                hw_res = self._hamming_sampler.run([pubs[i] for i in hw_pubs]).result()
+                # drawn when read (each PUB from its own stream): without a correction to
+                # weigh them now, when the post-processing reads them, one job at a time
+                hw_res = self._hamming_sampler.defer([pubs[i] for i in hw_pubs])
                 for i, res in zip(hw_pubs, hw_res, strict=True):
                     raw[i] = res
             if aer_idx:
@@ -457,8 +460,16 @@ class SamplerEngine:
         results: list[JobResult] = []
         aer_name = type(self.sampler).__name__
         for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
-            data = pub_result.data
-            packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()
+            if isinstance(pub_result, DeferredSamples):
+                if self._correction is None:
+                    self.ledger.record(job.label or job.circuit.name, job.rows,
+                                       job.rows * shots, "hamming_weight")
+                    results.append(PackedJobResult(pub_result, job.rows, shots, job))
+                    continue
+                packed = pub_result.bitarray()  # drawn now: the correction weighs them
+            else:
+                data = pub_result.data
+                packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()
             bits = bitarray_to_bits(packed, job.rows, shots) if i not in hw else None
             weights = n_eff = lins = None
             if self._correction is not None:

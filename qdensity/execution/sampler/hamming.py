@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -31,12 +32,8 @@ from qiskit.primitives import (
 from qiskit.primitives.containers.sampler_pub import SamplerPub
 from qiskit.providers import JobStatus
 
-from qdensity.execution.sampler._hamming_bits import (
-    clbits_of_qubits,
-    flip_readout,
-    pack_outcomes,
-)
 from qdensity.execution.sampler._hamming_compile import HammingTemplate, compile_template
+from qdensity.execution.sampler._hamming_draw import DeferredSamples, Draw
 from qdensity.execution.sampler._hamming_readout import ReadoutChannel, readout_channel
 from qdensity.execution.sampler._hamming_subspace import SubspaceProgram
 from qdensity.validation import (
@@ -49,14 +46,12 @@ from qdensity.validation import (
     validates,
 )
 
-__all__ = ["HammingWeightSampler", "MAX_DIMENSION"]
+__all__ = ["HammingWeightSampler", "DeferredSamples", "MAX_DIMENSION"]
 
 #: Largest subspace (amplitudes per row) the sampler computes: ``2**26`` (1 GiB complex).
 MAX_DIMENSION = 2**26
 #: Compiled templates kept (oldest dropped first).
 _CACHE_TEMPLATES = 4096
-#: Amplitudes (rows x dimension) computed at once; rows go in chunks of this size.
-_CHUNK_AMPLITUDES = 2**23
 
 
 class _DoneJob(BasePrimitiveJob):
@@ -106,24 +101,24 @@ class _Compiled:
                 [g.angles[0].index if g.angles[0].kind == "linear" else -1 for g in gates],
                 [g.angles[0].coefficient for g in gates],
                 [g.angles[0].offset for g in gates],
-                num_parameters=len(template.parameters),
+                parameters=template.parameters,  # the circuit's own: no new Parameters
             )
         else:
             self.program = SubspaceProgram(template)
 
     def probabilities(self, values: np.ndarray) -> np.ndarray:
         """(B, D) outcome probabilities for rows (B, P)."""
-        if self.unary is not None:
-            from qdensity.execution.unary import forward
+        return self.probabilities_function()(values)
 
+    def probabilities_function(self):
+        """:meth:`probabilities` as a function that holds the program alone (not the
+        template's gate list): what a deferred drawing keeps."""
+        if self.unary is not None:
             x = np.zeros(self.template.num_qubits)
             x[self.template.occupied[0]] = 1.0
-            if self.unary.num_gates == 0:
-                return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
-            amp = forward(self.unary, np.broadcast_to(x, (values.shape[0], x.size)), values)
-            return amp**2
+            return partial(_unary_probabilities, self.unary, x)
         assert self.program is not None  # the subspace path
-        return self.program.probabilities(values)
+        return self.program.probabilities
 
     def outcome_qubits(self) -> np.ndarray:
         """(D, k) the qubits set in each outcome."""
@@ -133,10 +128,24 @@ class _Compiled:
         return self.program.space.states
 
 
+def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """(B, n) outcome probabilities of a weight-1 template: the unary engine on ``x``."""
+    from qdensity.execution.unary import forward
+
+    if unary.num_gates == 0:
+        return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
+    return forward(unary, np.broadcast_to(x, (values.shape[0], x.size)), values) ** 2
+
+
+def _stream_for(seed: int, index: int) -> np.random.SeedSequence:
+    """PUB ``index``'s stream under an integer ``seed``."""
+    return np.random.SeedSequence([int(seed) % 2**63, 0x4A3, index])
+
+
 def _rng_for(seed, index: int) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
-    return np.random.default_rng(np.random.SeedSequence([int(seed) % 2**63, 0x4A3, index]))
+    return np.random.default_rng(_stream_for(seed, index))
 
 
 @validates(
@@ -261,6 +270,59 @@ class HammingWeightSampler(BaseSamplerV2):
         TypeError
             Shots not an int.
         """
+        coerced, compiled = self._checked(pubs, shots)
+        seed = self._seed
+        if seed is None:
+            seed = np.random.default_rng()
+        results = [self._run_pub(pub, comp, _rng_for(seed, i))
+                   for i, (pub, comp) in enumerate(zip(coerced, compiled, strict=True))]
+        return _DoneJob(PrimitiveResult(results, metadata={"version": 2}))
+
+    def defer(self, pubs: Iterable, *, shots: int | None = None) -> list[DeferredSamples]:
+        """Check and compile PUBs as :meth:`run` does, and draw each one's shots when read.
+
+        Each PUB gets a random stream of its own (for an integer seed the one :meth:`run`
+        gives PUB ``i``, so the shots are :meth:`run`'s; else a seed drawn in turn from the
+        sampler's Generator or from fresh entropy), so its shots do not depend on the order or
+        the number of reads: every read of a :class:`DeferredSamples` gives the same shots,
+        drawn by the code that draws :meth:`run`'s, with the same law. Nothing but each
+        PUB's parameter rows and compiled program is held until then (at ``n = 256`` a
+        density gradient's 510 jobs of 16 rows x 1,000 shots would hold 0.26 GB of packed
+        shots).
+
+        Parameters
+        ----------
+        pubs : iterable of PUBs
+            As :meth:`run`.
+        shots : int, optional
+            As :meth:`run`.
+
+        Returns
+        -------
+        list of DeferredSamples
+            One per PUB, in order.
+
+        Raises
+        ------
+        ValueError, TypeError
+            As :meth:`run`, before anything is drawn.
+        """
+        coerced, compiled = self._checked(pubs, shots)
+        seed = self._seed
+        if seed is None:
+            seed = np.random.default_rng()
+        out = []
+        for i, (pub, comp) in enumerate(zip(coerced, compiled, strict=True)):
+            # an integer seed: run's stream for PUB i itself (the same shots as run's)
+            stream = (np.random.SeedSequence(int(seed.integers(2**63)))
+                      if isinstance(seed, np.random.Generator) else _stream_for(seed, i))
+            shape = pub.parameter_values.shape
+            out.append(DeferredSamples(Draw(comp, self._values(pub, comp), pub.shots,
+                                            self._readout), stream, shape))
+        return out
+
+    def _checked(self, pubs, shots) -> tuple[list[SamplerPub], list[_Compiled]]:
+        """The PUBs coerced and compiled, every one checked (see :meth:`run`)."""
         if shots is None:
             shots = self._default_shots
         else:
@@ -286,56 +348,35 @@ class HammingWeightSampler(BaseSamplerV2):
             if held != p:
                 raise ValueError(f"pub {i}: parameter values hold {held} parameters per row, "
                                  f"the circuit has {p}")
-        seed = self._seed
-        if seed is None:
-            seed = np.random.default_rng()
-        results = [self._run_pub(pub, comp, _rng_for(seed, i))
-                   for i, (pub, comp) in enumerate(zip(coerced, compiled, strict=True))]
-        return _DoneJob(PrimitiveResult(results, metadata={"version": 2}))
+        return coerced, compiled
+
+    @staticmethod
+    def _values(pub: SamplerPub, comp: _Compiled) -> np.ndarray:
+        """The PUB's parameter rows (rows, P) in the template's parameter order."""
+        rows = int(np.prod(pub.parameter_values.shape, dtype=int))
+        params = comp.template.parameters  # circuit.parameters, read once at compile time
+        if not params:
+            return np.zeros((rows, 0))
+        return pub.parameter_values.as_array(list(params)).reshape(rows, len(params))
 
     def _run_pub(self, pub: SamplerPub, comp: _Compiled, rng: np.random.Generator
                  ) -> SamplerPubResult:
         circuit, shots, shape = pub.circuit, pub.shots, pub.parameter_values.shape
-        rows = int(np.prod(shape, dtype=int))
         template = comp.template
-        params = template.parameters  # circuit.parameters, read once at compile time
-        p = len(params)
-        values = (pub.parameter_values.as_array(list(params)).reshape(rows, p)
-                  if p else np.zeros((rows, 0)))
-        nclbits = circuit.num_clbits
-        nbytes = (nclbits + 7) // 8
-        packed = np.zeros((rows * shots, nbytes), dtype=np.uint8)
-        cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
-                        dtype=np.int64)
-        if cols.size:
-            outcome_qubits = comp.outcome_qubits()  # (D, k)
-            dim = outcome_qubits.shape[0]
-            table = clbits_of_qubits(template.measured, template.num_qubits)
-            if self._readout is not None:
-                p01, p10 = self._readout.for_qubits(
-                    np.array([template.measured[c] for c in cols], dtype=np.int64))
-            step = max(1, _CHUNK_AMPLITUDES // max(dim, shots * nbytes))
-            for start in range(0, rows, step):
-                probs = comp.probabilities(values[start:start + step])
-                probs = np.clip(probs, 0.0, None)
-                probs /= probs.sum(axis=1, keepdims=True)
-                counts = rng.multinomial(shots, probs)  # one multinomial per row
-                draws = np.repeat(np.tile(np.arange(dim), counts.shape[0]), counts.ravel())
-                draws = rng.permuted(draws.reshape(counts.shape[0], shots), axis=1)
-                chunk = pack_outcomes(outcome_qubits, draws.ravel(), table, nclbits)
-                if self._readout is not None:
-                    flip_readout(chunk, cols, p01, p10, rng)
-                packed[start * shots:start * shots + chunk.shape[0]] = chunk
+        draw = Draw(comp, self._values(pub, comp), shots, self._readout)
+        packed, nclbits, nbytes = draw.packed(rng), draw.num_clbits, draw.num_bytes
         data = {}
         cregs = circuit.cregs  # a list built on each read of the property
-        whole = [circuit.find_bit(b).index for b in cregs[0]] if len(cregs) == 1 else None
+        # clbit indices from a dict of our own: find_bit would keep one per circuit
+        index = {b: i for i, b in enumerate(circuit.clbits)}
+        whole = [index[b] for b in cregs[0]] if len(cregs) == 1 else None
         if whole == list(range(nclbits)):  # one register of every clbit, in order
             arr = packed[:, ::-1].reshape(shape + (shots, nbytes))
             data[cregs[0].name] = BitArray(np.ascontiguousarray(arr), nclbits)
         else:
             bits = np.unpackbits(packed, axis=-1, bitorder="little")[:, :nclbits].astype(bool)
             for creg in cregs:
-                idx = [circuit.find_bit(b).index for b in creg]
+                idx = [index[b] for b in creg]
                 arr = bits[:, idx].reshape(shape + (shots, len(idx)))
                 # BitArray bytes are big-endian: clbit 0 is the lowest bit of the last byte
                 out = np.packbits(arr, axis=-1, bitorder="little")[..., ::-1]

@@ -84,6 +84,7 @@ class UnaryCircuit:
         coefficient=None,
         offset=None,
         num_parameters: int | None = None,
+        parameters: Sequence[Parameter] | None = None,
     ) -> UnaryCircuit:
         """A unary circuit straight from a gate list, without building a ``QuantumCircuit``.
 
@@ -100,12 +101,14 @@ class UnaryCircuit:
         coefficient, offset : array_like of float, shape (G,), optional
             Angle ``= coefficient * value + offset``; default 1 and 0.
         num_parameters : int, optional
-            ``P``; default ``max(parameter_index) + 1``.
+            ``P``; default ``max(parameter_index) + 1`` (or ``len(parameters)``).
+        parameters : sequence of Parameter, optional
+            The circuit's ``P`` parameters (a compiled template passes its own: no new
+            objects); default a new ``ParameterVector("theta", P)``.
 
         Returns
         -------
         UnaryCircuit
-            Its ``parameters`` is a ``ParameterVector("theta", P)`` (created lazily).
 
         Examples
         --------
@@ -116,9 +119,17 @@ class UnaryCircuit:
         >>> forward(c, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]).tolist()
         [1.0, 0.0, 0.0, 0.0]
         """
+        if parameters is not None:
+            parameters = tuple(parameters)
+            if num_parameters is None:
+                num_parameters = len(parameters)
+            elif num_parameters != len(parameters):
+                raise ValueError(f"num_parameters = {num_parameters} but {len(parameters)} "
+                                 "parameters were given")
         n, first, second, pidx, coef, off, p = check_gate_list(
             num_qubits, pairs, parameter_index, coefficient, offset, num_parameters)
-        return cls(n, ParameterVector("theta", p), first, second, pidx, coef, off)
+        return cls(n, ParameterVector("theta", p) if parameters is None else parameters,
+                   first, second, pidx, coef, off)
 
     def angles(self, values: np.ndarray) -> np.ndarray:
         """Gate angles for parameter rows.
