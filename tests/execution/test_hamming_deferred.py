@@ -115,3 +115,22 @@ def test_the_engine_keeps_shots_undrawn_until_read_and_counts_them_at_run():
     held = [getattr(draw, name) for name in type(draw).__slots__
             if isinstance(getattr(draw, name), np.ndarray)]
     assert sum(a.nbytes for a in held) < first.size  # far below one shot per bit
+
+
+def test_compiled_templates_live_as_long_as_their_circuits():
+    """The sampler keeps a circuit's compiled template while the circuit lives (a second
+    compile is the same object) and lets both go with it: plans rebuilt every training step
+    leave nothing behind."""
+    import gc
+    import weakref
+
+    sampler = HammingWeightSampler(seed=0)
+    qc = _unary_template(5)
+    first = sampler.compile(qc)
+    assert sampler.compile(qc) is first
+    gone = weakref.ref(qc)
+    kept = [sampler.compile(_unary_template(4)) for _ in range(3)]  # circuits dropped at once
+    del qc, first
+    gc.collect()
+    assert gone() is None
+    assert len(sampler._compiled) == 0 and len(kept) == 3

@@ -16,6 +16,7 @@ weight-preserving template is compiled once into index tables of its subspace
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Iterable
 from functools import partial
 
@@ -137,6 +138,13 @@ def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray) -> np.ndarray
     return forward(unary, np.broadcast_to(x, (values.shape[0], x.size)), values) ** 2
 
 
+def _forget(cache: dict, key: int, ref: weakref.ref) -> None:
+    """Drop a compiled template once its circuit is gone (not a newer entry of the same id)."""
+    hit = cache.get(key)
+    if hit is not None and hit[0] is ref:
+        del cache[key]
+
+
 def _stream_for(seed: int, index: int) -> np.random.SeedSequence:
     """PUB ``index``'s stream under an integer ``seed``."""
     return np.random.SeedSequence([int(seed) % 2**63, 0x4A3, index])
@@ -212,7 +220,9 @@ class HammingWeightSampler(BaseSamplerV2):
         self._seed = seed
         self._readout: ReadoutChannel | None = readout_channel(readout_error)
         self.max_dimension = int(max_dimension)
-        self._compiled: dict[int, tuple[QuantumCircuit, _Compiled]] = {}
+        # compiled templates by circuit, each kept while its circuit lives (a weak reference:
+        # plans rebuilt every training step would otherwise keep every old circuit alive)
+        self._compiled: dict[int, tuple[weakref.ref, _Compiled]] = {}
 
     @property
     def default_shots(self) -> int:
@@ -242,7 +252,7 @@ class HammingWeightSampler(BaseSamplerV2):
 
     def _compile(self, circuit: QuantumCircuit, label: str | None = None) -> _Compiled:
         hit = self._compiled.get(id(circuit))
-        if hit is not None and hit[0] is circuit:
+        if hit is not None and hit[0]() is circuit:
             return hit[1]
         template = compile_template(circuit, label)
         n, k = template.num_qubits, template.weight
@@ -255,7 +265,8 @@ class HammingWeightSampler(BaseSamplerV2):
         compiled = _Compiled(template)
         if len(self._compiled) >= _CACHE_TEMPLATES:  # bounded: plans rebuilt per step
             self._compiled.pop(next(iter(self._compiled)))
-        self._compiled[id(circuit)] = (circuit, compiled)
+        self._compiled[id(circuit)] = (weakref.ref(circuit, partial(_forget, self._compiled,
+                                                                    id(circuit))), compiled)
         return compiled
 
     def run(self, pubs: Iterable, *, shots: int | None = None) -> BasePrimitiveJob:
