@@ -37,8 +37,11 @@ class Draw:
     ----------
     compiled : hamming._Compiled
         The template's program (only its program and outcome table are kept).
-    values : numpy.ndarray, shape (rows, P)
-        Parameter rows in the template's parameter order.
+    values : numpy.ndarray, shape (rows, P), or a function giving it
+        Parameter rows in the template's parameter order (a function is called on each
+        draw: a deferred drawing then holds the PUB's own rows, not a reordered copy).
+    rows : int
+        ``values``'s rows.
     shots : int
         Shots per row.
     readout : ReadoutChannel or None
@@ -47,11 +50,11 @@ class Draw:
     __slots__ = ("probabilities", "outcome_qubits", "table", "cols", "p01", "p10", "values",
                  "rows", "shots", "num_clbits")
 
-    def __init__(self, compiled, values: np.ndarray, shots: int, readout) -> None:
+    def __init__(self, compiled, values, rows: int, shots: int, readout) -> None:
         template = compiled.template
         self.probabilities = compiled.probabilities_function()
         self.values = values
-        self.rows, self.shots = int(values.shape[0]), int(shots)
+        self.rows, self.shots = int(rows), int(shots)
         self.num_clbits = len(template.measured)
         self.cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
                              dtype=np.int64)
@@ -75,9 +78,10 @@ class Draw:
         if self.outcome_qubits is None:
             return packed
         dim = self.outcome_qubits.shape[0]
+        values = self.values() if callable(self.values) else self.values
         step = max(1, CHUNK_AMPLITUDES // max(dim, shots * nbytes))
         for start in range(0, rows, step):
-            probs = np.clip(self.probabilities(self.values[start:start + step]), 0.0, None)
+            probs = np.clip(self.probabilities(values[start:start + step]), 0.0, None)
             probs /= probs.sum(axis=1, keepdims=True)
             counts = rng.multinomial(shots, probs)  # one multinomial per row
             draws = np.repeat(np.tile(np.arange(dim), counts.shape[0]), counts.ravel())

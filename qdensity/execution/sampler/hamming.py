@@ -328,8 +328,9 @@ class HammingWeightSampler(BaseSamplerV2):
             stream = (np.random.SeedSequence(int(seed.integers(2**63)))
                       if isinstance(seed, np.random.Generator) else _stream_for(seed, i))
             shape = pub.parameter_values.shape
-            out.append(DeferredSamples(Draw(comp, self._values(pub, comp), pub.shots,
-                                            self._readout), stream, shape))
+            rows = int(np.prod(shape, dtype=int))
+            out.append(DeferredSamples(Draw(comp, partial(self._values, pub, comp), rows,
+                                            pub.shots, self._readout), stream, shape))
         return out
 
     def _checked(self, pubs, shots) -> tuple[list[SamplerPub], list[_Compiled]]:
@@ -374,7 +375,8 @@ class HammingWeightSampler(BaseSamplerV2):
                  ) -> SamplerPubResult:
         circuit, shots, shape = pub.circuit, pub.shots, pub.parameter_values.shape
         template = comp.template
-        draw = Draw(comp, self._values(pub, comp), shots, self._readout)
+        values = self._values(pub, comp)
+        draw = Draw(comp, values, values.shape[0], shots, self._readout)
         packed, nclbits, nbytes = draw.packed(rng), draw.num_clbits, draw.num_bytes
         data = {}
         cregs = circuit.cregs  # a list built on each read of the property
