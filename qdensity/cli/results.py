@@ -137,6 +137,7 @@ def _judged(paths: list[Path], rows: list[dict]) -> list[dict]:
 def _print_report(paths: list[Path], rows: list[dict]) -> None:
     """The verdicts as wrapped text, one block per results file, within :data:`WIDTH`."""
     from qdensity.experiments.results import ExperimentResult
+    from qdensity.experiments.verdicts import format_estimate
 
     for path in paths:
         mine = [r for r in rows if r["file"] == path.name]
@@ -148,8 +149,7 @@ def _print_report(paths: list[Path], rows: list[dict]) -> None:
             if row["verdict"] == QUICK:
                 print(f"  {QUICK}")
                 continue
-            ci = (f"{row['mean']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}], {row['n']} "
-                  "seeds" if "mean" in row else "")
+            ci = format_estimate(row)
             print(textwrap.fill(f"{row['verdict']}: {row['claim']}", WIDTH, initial_indent="  ",
                                 subsequent_indent="    "))
             caveat = f"caveat: {row['caveat']}" if row.get("caveat") else ""

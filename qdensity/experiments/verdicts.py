@@ -41,7 +41,7 @@ from qdensity.experiments.claims import CLAIMS, Claim, claims_of
 from qdensity.experiments.results import ExperimentResult, runs_above
 
 __all__ = ["Claim", "VERDICTS", "DECIDED", "claims_for", "verdict", "seeds_for_power",
-           "departures_for", "evaluate", "report", "MARKERS", "splice"]
+           "departures_for", "evaluate", "report", "MARKERS", "splice", "format_estimate"]
 
 #: The verdicts.
 VERDICTS = ("reproduced", "non-inferior", "equivalent", "not reproduced", "inconclusive",
@@ -190,7 +190,9 @@ def evaluate(paths: Sequence[str | Path]) -> list[dict]:
     return rows
 
 
-def _fmt(row: dict) -> str:
+def format_estimate(row: dict) -> str:
+    """A verdict row's estimate as text: the mean with its interval (and level), or for a
+    bound or an exact count the mean and the smallest margin; "" when nothing was computed."""
     if "mean" not in row:
         return ""
     if row["kind"] in ("bound", "exact"):
@@ -270,7 +272,7 @@ def report(directory: str | Path) -> dict[str, str]:
              "verdict | why / what would resolve it |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| `{r['file']}` | {r['claim']} | {r['kind']} | `{r['quantity']}` | "
-                     f"{_fmt(r)} | **{r['verdict']}** | {_detail(r)} |")
+                     f"{format_estimate(r)} | **{r['verdict']}** | {_detail(r)} |")
     judged = {r["key"] for r in rows}
     lines += ["", "Every claim, with the paper's line and margins (claims no results file "
               "answers yet are marked *no run*):", "",

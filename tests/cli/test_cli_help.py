@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import re
 import shlex
+from pathlib import Path
 
 import pytest
 from qiskit import QuantumCircuit
@@ -153,3 +154,14 @@ def test_results_report_in_any_folder_never_judges_a_quick_run(tmp_path, capsys,
     assert "noise-full.json (full)\n  no claim of the paper" in capsys.readouterr().out
     assert main(["results", "report", "--dir", str(tmp_path / "absent")]) == 2
     assert "is not a folder" in capsys.readouterr().err
+
+
+def test_results_report_prints_every_kind_of_estimate(capsys):
+    """The text report of the committed results: superiority (95% interval), non-inferiority
+    (90%), bounds and exact counts (mean and smallest margin), and estimates without an
+    interval, each on lines of at most 100 characters."""
+    folder = Path(__file__).resolve().parents[2] / "results"
+    assert main(["results", "report", "--dir", str(folder)]) == 0
+    out = capsys.readouterr().out
+    assert "(95%)" in out and "(90%)" in out and "smallest margin" in out
+    assert max(len(line) for line in out.splitlines()) <= 100
