@@ -385,12 +385,13 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
               "mean sub-unitary (pretraining)", "lcu/test_vs_epoch": "LCU, MoE alpha(x)",
               "lcu/success_vs_epoch": "mean over test", "lcu/success_min_vs_epoch":
               "minimum over test", "single/test_vs_shots": "single circuit",
-              "lcu/test_vs_shots": "LCU (pretraining + gate)"}
+              "lcu/test_vs_shots": "LCU, MoE alpha(x)"}  # one label (one colour) a model
     path = Path(directory) / f"{result.name}-{result.mode}.png"
     return [plot_curves(result, [
         ("test accuracy (Supp. C)", ["single/test_vs_epoch", "sub_best/test_vs_epoch",
                                      "sub_mean/test_vs_epoch", "lcu/test_vs_epoch"]),
-        ("against hardware shots", ["single/test_vs_shots", "lcu/test_vs_shots"]),
+        ("against hardware shots (LCU: pretraining + gate)",
+         ["single/test_vs_shots", "lcu/test_vs_shots"]),
         ("LCU post-selection success", ["lcu/success_vs_epoch", "lcu/success_min_vs_epoch"]),
     ], path, title="LCU QNN vs single circuit", labels=labels, log_x=(False, True, False))]
 

@@ -85,3 +85,27 @@ def test_noise_figures_keep_one_colour_per_method(tmp_path, monkeypatch):
             by_label.setdefault(label.removeprefix("device, "), set()).add(colour)
     assert len(by_label) >= 5
     assert all(len(c) == 1 for c in by_label.values()), by_label
+
+
+def test_the_lcu_figure_draws_each_model_under_one_label_and_colour(tmp_path, monkeypatch):
+    """The committed lcu-vs-single paper run, redrawn: the LCU model is one label and one
+    colour in the accuracy-vs-epochs and the accuracy-vs-shots panels (it was orange in one
+    and green in the other)."""
+    from pathlib import Path
+
+    from matplotlib.axes import Axes
+
+    from qdensity.experiments.registry import get_experiment
+
+    lines = []
+    real_plot = Axes.plot
+    monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
+        lines.append((kw.get("label"), kw.get("color"))), real_plot(self, *a, **kw))[1])
+    path = Path(__file__).resolve().parents[2] / "results" / "lcu-vs-single-paper.json"
+    get_experiment("lcu-vs-single").plot(ExperimentResult.load(path), tmp_path)
+    drawn = [(label, colour) for label, colour in lines if label is not None]
+    lcu = {label for label, _ in drawn if "LCU" in label}
+    assert len(lcu) == 1
+    for model in (*lcu, "single circuit"):
+        assert sum(label == model for label, _ in drawn) == 2  # both accuracy panels
+        assert len({colour for label, colour in drawn if label == model}) == 1
