@@ -25,8 +25,8 @@ run equivariant results --seeds 5
 run equivariant results/angle-pi-over-2 --seeds 5 --set angle_scale=1.5708
 # pyramid-shots: seeds 3 and 4 beside the committed 0-2 (merge with `qdensity results merge`)
 run pyramid-shots results/pyramid-seeds-3-4 --seeds 3,4
-# the LCU / single sweep (6 units of 32 trials)
-run lcu-vs-single results --seeds 3
+# the LCU / single sweep (10 units of 32 trials, 5 seeds)
+run lcu-vs-single results --seeds 5
 # moe: 3 seeds of one 32-trial study per model (33 units)
 run moe results --seeds 3
 echo "=== $(date -u +%FT%TZ) all done"
