@@ -109,7 +109,7 @@ def fit_epochs(model: LCUQNN, X: np.ndarray, y: np.ndarray, *, epochs: int, batc
         for start in range(0, len(X), batch_size):
             idx = order[start:start + batch_size]
             _, dP = nll_grad(model.predict(X[idx]), y[idx])
-            g_theta, g_mix = model.vjp(X[idx], dP, wrt="theta" if train == "theta" else "mixture")
+            g_theta, g_mix = model.vjp(X[idx], dP, wrt=train)
             w = model.theta if train == "theta" else model.mixture.params
             g = g_theta if train == "theta" else g_mix
             if l2:

@@ -264,11 +264,18 @@ def _raw_means(tables, shot: np.ndarray, clbit: np.ndarray, rows: int,
                                           shot, clbit, rows, shots)
     if support_only:
         return support, mean_s, se_s
-    mean = np.zeros((rows, T * P))
-    se = np.zeros((rows, T * P))
-    mean[:, support] = mean_s
-    se[:, support] = se_s
-    return mean.reshape(rows, T, P), se.reshape(rows, T, P)
+    return _spread(support, mean_s, se_s, rows, T, P)
+
+
+def _spread(support: np.ndarray, mean: np.ndarray, se: np.ndarray, rows: int, T: int,
+            P: int) -> tuple[np.ndarray, np.ndarray]:
+    """The estimates of the ``support`` columns (``t * P + p``) in dense ``(rows, T, P)``
+    arrays, zero (with zero error) elsewhere."""
+    full_mean = np.zeros((rows, T * P))
+    full_se = np.zeros((rows, T * P))
+    full_mean[:, support] = mean
+    full_se[:, support] = se
+    return full_mean.reshape(rows, T, P), full_se.reshape(rows, T, P)
 
 
 def _string_means(strings: tuple, entries: tuple, shot: np.ndarray, clbit: np.ndarray,
@@ -354,27 +361,16 @@ def gradients_from_results(grads, results, *, sparse: bool = False) -> tuple:
         if shots < 2:
             raise ValueError(f"results[{c}] needs >= 2 shots to estimate a variance")
         shot, clbit = r.set_clbits()
-        if stacked is not None and len(results) == 1:
-            # every output's strings by their nonzeros, never a table per output
+        if stacked is not None:  # one circuit: every output's strings by their nonzeros
             support, mean, se = _string_means(stacked.strings(), stacked.entries(), shot,
                                               clbit, rows, shots)
-            if sparse:
-                parts.append(support_to_sparse(mean, se, support, len(grads),
-                                               stacked.num_columns))
-                continue
-            full_mean = np.zeros((rows, len(grads) * stacked.num_columns))
-            full_se = np.zeros_like(full_mean)
-            full_mean[:, support], full_se[:, support] = mean, se
-            shape = (rows, len(grads), stacked.num_columns)
-            parts.append((full_mean.reshape(shape), full_se.reshape(shape)))
-            continue
-        tables = [g._values[c] for g in grads]
-        if sparse:
+            P = stacked.num_columns
+        else:
+            tables = [g._values[c] for g in grads]
             support, mean, se = _raw_means(tables, shot, clbit, rows, shots, support_only=True)
-            parts.append(support_to_sparse(mean, se, support, len(grads),
-                                           tables[0].num_columns))
-            continue
-        parts.append(_raw_means(tables, shot, clbit, rows, shots))
+            P = tables[0].num_columns
+        parts.append(support_to_sparse(mean, se, support, len(grads), P) if sparse
+                     else _spread(support, mean, se, rows, len(grads), P))
     if sparse:
         return parts[0] if len(parts) == 1 else add_sparse(parts)
     if len(parts) == 1:

@@ -141,7 +141,6 @@ class OutputTables(Sequence):
                 self.entry_value)
 
 
-
 class _Whole(Sequence):
     """One table, the sum's (:meth:`OutputTables.whole`), built on read: a
     ``_GradientCircuits``'s ``_values``."""

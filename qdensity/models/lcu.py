@@ -315,10 +315,10 @@ class LCUQNN:
         s = np.einsum("bn,bn->b", v, v)[:, None]
         P = v**2 / s
         gv = 2.0 * v / s * (g - np.einsum("bn,bn->b", g, P)[:, None])
-        Xn = np.asarray(X, dtype=float)
-        Xn = Xn / np.linalg.norm(Xn, axis=1, keepdims=True)
         grad_theta = np.zeros_like(self.theta)
         if wrt != "mixture":
+            Xn = np.asarray(X, dtype=float)
+            Xn = Xn / np.linalg.norm(Xn, axis=1, keepdims=True)
             for k, circ in enumerate(unary_circuits(self.density)):  # compiled once per model
                 idx = self.density.subunitary_parameter_indices(k)
                 gk, _ = vjp(circ, Xn, self.theta[idx], alpha[:, k, None] * gv, reduce="sum")

@@ -461,12 +461,8 @@ class SamplerEngine:
         aer_name = type(self.sampler).__name__
         for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
             if isinstance(pub_result, DeferredSamples):
-                if self._correction is None:
-                    self.ledger.record(job.label or job.circuit.name, job.rows,
-                                       job.rows * shots, "hamming_weight")
-                    results.append(PackedJobResult(pub_result, job.rows, shots, job))
-                    continue
-                packed = pub_result.bitarray()  # drawn now: the correction weighs them
+                # drawn when read; with a correction to weigh them, drawn now
+                packed = pub_result if self._correction is None else pub_result.bitarray()
             else:
                 data = pub_result.data
                 packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()

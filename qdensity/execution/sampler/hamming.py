@@ -138,6 +138,15 @@ def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray) -> np.ndarray
     return forward(unary, np.broadcast_to(x, (values.shape[0], x.size)), values) ** 2
 
 
+def _values_of(bindings, params: tuple) -> np.ndarray:
+    """A PUB's parameter rows (rows, P) in the template's parameter order (``params``:
+    ``circuit.parameters``, read once at compile time)."""
+    rows = int(np.prod(bindings.shape, dtype=int))
+    if not params:
+        return np.zeros((rows, 0))
+    return bindings.as_array(list(params)).reshape(rows, len(params))
+
+
 def _forget(cache: dict, key: int, ref: weakref.ref) -> None:
     """Drop a compiled template once its circuit is gone (not a newer entry of the same id)."""
     hit = cache.get(key)
@@ -329,8 +338,10 @@ class HammingWeightSampler(BaseSamplerV2):
                       if isinstance(seed, np.random.Generator) else _stream_for(seed, i))
             shape = pub.parameter_values.shape
             rows = int(np.prod(shape, dtype=int))
-            out.append(DeferredSamples(Draw(comp, partial(self._values, pub, comp), rows,
-                                            pub.shots, self._readout), stream, shape))
+            # the rows read on each draw from the PUB's own bindings (no reordered copy held)
+            values = partial(_values_of, pub.parameter_values, comp.template.parameters)
+            out.append(DeferredSamples(Draw(comp, values, rows, pub.shots, self._readout),
+                                       stream, shape))
         return out
 
     def _checked(self, pubs, shots) -> tuple[list[SamplerPub], list[_Compiled]]:
@@ -362,20 +373,11 @@ class HammingWeightSampler(BaseSamplerV2):
                                  f"the circuit has {p}")
         return coerced, compiled
 
-    @staticmethod
-    def _values(pub: SamplerPub, comp: _Compiled) -> np.ndarray:
-        """The PUB's parameter rows (rows, P) in the template's parameter order."""
-        rows = int(np.prod(pub.parameter_values.shape, dtype=int))
-        params = comp.template.parameters  # circuit.parameters, read once at compile time
-        if not params:
-            return np.zeros((rows, 0))
-        return pub.parameter_values.as_array(list(params)).reshape(rows, len(params))
-
     def _run_pub(self, pub: SamplerPub, comp: _Compiled, rng: np.random.Generator
                  ) -> SamplerPubResult:
         circuit, shots, shape = pub.circuit, pub.shots, pub.parameter_values.shape
         template = comp.template
-        values = self._values(pub, comp)
+        values = _values_of(pub.parameter_values, template.parameters)
         draw = Draw(comp, values, values.shape[0], shots, self._readout)
         packed, nclbits, nbytes = draw.packed(rng), draw.num_clbits, draw.num_bytes
         data = {}
