@@ -2,6 +2,7 @@
 they say."""
 
 import doctest
+import gc
 import importlib
 import pkgutil
 import re
@@ -29,7 +30,17 @@ def test_docstring_examples(name):
     if name in OPTIONAL:
         pytest.importorskip(OPTIONAL[name])
     module = importlib.import_module(name)
-    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    # doctest's debugger reset walks linecache.checkcache(): a garbage collection inside that
+    # walk can run SQLAlchemy's finalizers (optuna's storages, earlier tests), which delete
+    # their generated-code entries mid-walk (KeyError in linecache). Collect first, and keep
+    # the collector off while the examples run.
+    gc.collect()
+    gc.disable()
+    try:
+        result = doctest.testmod(module,
+                                 optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    finally:
+        gc.enable()
     assert result.failed == 0, f"{result.failed} doctest example(s) failed in {name}"
 
 
