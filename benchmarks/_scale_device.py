@@ -37,7 +37,7 @@ from qiskit.transpiler import PassManager
 from qiskit.transpiler.passes import CheckMap, GatesInBasis
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.execution._compile import circuit_fingerprint
 from qdensity.gradients import density_gradient_plan
 from qdensity.hardware.resources import resource_report

@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.hardware.targets import get_target
 
 _KINDS = {"plain": {"method": "automatic", "fast": False},

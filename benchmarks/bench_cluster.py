@@ -2,7 +2,7 @@
 two-worker ``dask scheduler`` on loopback (issue 24).
 
 Every configuration runs the same experiment, mode and seeds
-(:func:`qdensity.experiments.run`), in a fresh temporary ``--out`` (no resumed units), and
+(:func:`qdensity_paper.run`), in a fresh temporary ``--out`` (no resumed units), and
 reports:
 
 * wall time of the whole run (cluster start-up included);
@@ -35,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from qdensity.experiments import registry
+from qdensity_paper import registry
 
 
 def _free_port() -> int:

@@ -14,9 +14,9 @@ from qiskit import transpile
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.ansatze import pyramid
-from qdensity.loaders import unary_loader_template
-from qdensity.plans import measured
+from qdensity.circuits.ansatze import pyramid
+from qdensity.circuits.loaders import unary_loader_template
+from qdensity.execution.plans import measured
 
 
 def main(rows: int = 500, n: int = 6, shots: int = 256, seed: int = 0) -> dict:

@@ -45,7 +45,7 @@ CUTS = {
 
 
 def main(names: list[str]) -> None:
-    from qdensity.experiments.registry import get_experiment
+    from qdensity_paper.registry import get_experiment
 
     print(f"{'experiment':<16}{'cut':<44}{'wall s':>8}{'cpu s':>8}{'x':>7}"
           f"{'cpu s / seed':>13}{'load':>7}")
@@ -67,8 +67,8 @@ def lcu_units(batches=(32, 256)) -> None:
     import numpy as np
     from sklearn.model_selection import train_test_split
 
-    from qdensity.experiments import lcu_vs_single as lv
-    from qdensity.experiments.registry import get_experiment
+    from qdensity_paper import lcu_vs_single as lv
+    from qdensity_paper.registry import get_experiment
 
     cfg = {**get_experiment("lcu-vs-single").protocol.settings, "pretrain_epochs": 1,
            "lcu_epochs": 1}
@@ -102,7 +102,7 @@ def lcu_units(batches=(32, 256)) -> None:
 def noise_full(budgets=(30_000, 90_000)) -> None:
     """One seed of ``noise --full`` at two training budgets; the full budget's CPU seconds from
     the line through them (cost = fixed + per shot x budget)."""
-    from qdensity.experiments.registry import get_experiment
+    from qdensity_paper.registry import get_experiment
 
     exp = get_experiment("noise")
     full, cpus = int(exp.full["budget"]), []

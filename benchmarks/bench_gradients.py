@@ -28,7 +28,7 @@ import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity import DensityQNN, Encoding, ExactEngine, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.gradients import density_gradient_plan
 
 

@@ -21,7 +21,7 @@ from qiskit import QuantumCircuit, transpile
 from qiskit.circuit.library import StatePreparation
 from qiskit_aer import AerSimulator
 
-from qdensity.loaders import LAYOUTS, unary_loader
+from qdensity.circuits.loaders import LAYOUTS, unary_loader
 
 BASIS = ["cz", "rz", "sx", "x"]
 LENGTHS = (4, 8, 16)

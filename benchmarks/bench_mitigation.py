@@ -16,11 +16,11 @@ import time
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
+from qdensity.circuits.loaders import unary_loader
 from qdensity.execution.plans import expectation_plan
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.targets import get_target
-from qdensity.loaders import unary_loader
 
 VARIANTS = {"raw": {}, "post-selected": {"postselect": "hamming_weight"},
             "M3": {"mitigation": "m3"},

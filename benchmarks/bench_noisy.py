@@ -41,11 +41,11 @@ import numpy as np
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
+from qdensity.circuits.loaders import unary_loader_template
+from qdensity.execution.plans import measured
 from qdensity.hardware.aer_sampling import DENSITY_MATRIX_MAX_QUBITS, active_qubits
 from qdensity.hardware.targets import get_target
-from qdensity.loaders import unary_loader_template
-from qdensity.plans import measured
 
 FIXED = ("statevector", "density_matrix", "matrix_product_state")
 _PILOT_SHOTS = 32

@@ -36,7 +36,7 @@ def _classifier(n: int, rows: int, shots: int) -> dict:
     import numpy as np
 
     from qdensity import DensityQNN, Encoding, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity.circuits.ansatze import round_robin
     from qdensity.gradients import density_gradient_plan
 
     t0 = time.process_time()
@@ -60,7 +60,7 @@ def _equivariant(n: int, rows: int, shots: int) -> dict:
     import numpy as np
 
     from qdensity import DensityQNN, Encoding
-    from qdensity.ansatze import (
+    from qdensity.circuits.ansatze import (
         equivariant_commuting,
         equivariant_noncommuting,
         equivariant_observable,

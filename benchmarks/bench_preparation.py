@@ -34,9 +34,9 @@ import numpy as np
 from qiskit import QuantumCircuit, QuantumRegister, transpile
 from qiskit.circuit import ParameterVector
 
-from qdensity.ansatze import pairs_circuit, round_robin_pairs
-from qdensity.loaders import distribution_loader, unary_loader_template
-from qdensity.preparation import deterministic_circuit, lcu_circuit, randomised_circuits
+from qdensity.circuits.ansatze import pairs_circuit, round_robin_pairs
+from qdensity.circuits.loaders import distribution_loader, unary_loader_template
+from qdensity.circuits.preparation import deterministic_circuit, lcu_circuit, randomised_circuits
 
 BASIS = ["cz", "rz", "sx", "x"]
 

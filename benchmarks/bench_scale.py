@@ -39,7 +39,7 @@ sys.path.insert(0, HERE)
 
 _TABLE1 = r"""
 import sys, time, json
-from qdensity.experiments.table1 import ANSATZE, table1
+from qdensity.gradients.table1 import ANSATZE, table1
 which = ANSATZE if sys.argv[1] == "all" else [a for a in ANSATZE if a != "equivariant_xx"]
 sizes = [int(a) for a in sys.argv[2:]]
 t = time.perf_counter(); rows = table1(sizes, which); dt = time.perf_counter() - t
@@ -52,7 +52,7 @@ warnings.filterwarnings("ignore")
 import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.gradients import density_gradient_plan
 n, rows, shots, sample = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] != "0"
 # Z_0, not sum_i Z_i: on a unary input sum_i Z_i = n - 2 whatever theta, so its gradient is 0

@@ -29,8 +29,8 @@ import numpy as np
 from qiskit import transpile
 from qiskit.quantum_info import SparsePauliOp, Statevector
 
-from qdensity.ansatze.hamming import round_robin
-from qdensity.schedulers import (
+from qdensity.circuits.ansatze.hamming import round_robin
+from qdensity.execution.schedulers import (
     allocate_neyman,
     allocate_proportional,
     discrete_source,

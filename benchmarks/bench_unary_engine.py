@@ -3,7 +3,8 @@
 For each n, a batch of random unit inputs goes through the pyramid ansatz (paper Fig. 9a) with
 shared random angles:
 
-* unary engine: ``qdensity.unary.forward`` on a compiled circuit (the n x n orthogonal matrix,
+* unary engine: ``qdensity.execution.unary.forward`` on a compiled circuit (the n x n orthogonal
+matrix,
   paper Methods), inputs given directly as amplitudes;
 * Aer: ``AerSimulator(method="statevector")`` runs ONE job of a transpiled template (a gate-level
   unary loader -- X then a chain of RBS gates -- followed by the pyramid and a
@@ -31,9 +32,9 @@ from qiskit import QuantumCircuit, transpile
 from qiskit.circuit import ParameterVector
 from qiskit_aer import AerSimulator
 
-from qdensity.ansatze import pyramid
-from qdensity.gates import RBSGate
-from qdensity.unary import compile_unary, forward
+from qdensity.circuits.ansatze import pyramid
+from qdensity.circuits.gates import RBSGate
+from qdensity.execution.unary import compile_unary, forward
 
 SIZES = (8, 12, 16, 20)
 

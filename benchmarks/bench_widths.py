@@ -68,8 +68,8 @@ def _subs(n: int, sub: int, direct: bool) -> list:
     does not build the ``n (n - 1) / 2``-gate circuit first (at n = 1024 that circuit and its
     decomposition take more memory than the benchmark machine has)."""
     from qdensity import by_moments
-    from qdensity.ansatze import round_robin
-    from qdensity.ansatze.hamming import pairs_circuit, round_robin_pairs
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.circuits.ansatze.hamming import pairs_circuit, round_robin_pairs
 
     if direct:
         rounds = round_robin_pairs(n)

@@ -27,7 +27,7 @@ from qiskit_aer.primitives import SamplerV2
 from scipy import stats
 
 from qdensity import SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.loaders import unary_loader
 from qdensity.execution.plans import measured
 from qdensity.execution.sampler.engine import bitarray_to_bits

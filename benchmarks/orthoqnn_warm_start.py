@@ -43,14 +43,14 @@ import sys
 import numpy as np
 
 from qdensity.circuits.ansatze import round_robin
-from qdensity.experiments import orthoqnn_depth as od
-from qdensity.experiments._ortho_data import load_data
 from qdensity.learning.nn import Linear
 from qdensity.models.decompositions import cyclic_moments
 from qdensity.models.density import DensityQNN
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import GatedMixture
 from qdensity.models.warm_start import warm_start
+from qdensity_paper import orthoqnn_depth as od
+from qdensity_paper._ortho_data import load_data
 
 
 def _cpu() -> float:

@@ -91,7 +91,7 @@ print(unary_loader(x[:4]).draw('text'))
 # counts trainable parameters and gates before any compilation.
 
 # %%
-from qdensity.ansatze import (
+from qdensity.circuits.ansatze import (
     butterfly,
     equivariant_commuting,
     equivariant_noncommuting,
@@ -153,7 +153,11 @@ assert dec.num_subunitaries == n - 1 == len(moments(rr))
 # We check each against the definition with exact statevectors (7 qubits here).
 
 # %%
-from qdensity.preparation import lcu_postselected_state, lcu_success_probability, prepare_all
+from qdensity.circuits.preparation import (
+    lcu_postselected_state,
+    lcu_success_probability,
+    prepare_all,
+)
 
 subs = [c.assign_parameters(rng.uniform(-np.pi, np.pi, c.num_parameters))
         for c in dec.sub_unitaries]
@@ -248,7 +252,7 @@ plt.show()
 # %%
 from qiskit import qasm3
 
-from qdensity.export import reference_qasm3, symbolic_circuit
+from qdensity.cli.export import reference_qasm3, symbolic_circuit
 
 compiled = targets['heavy_hex'].transpile(pyramid(n).assign_parameters(rng.uniform(-1, 1, 6)))
 text = qasm3.dumps(compiled)

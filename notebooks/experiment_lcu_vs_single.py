@@ -26,7 +26,7 @@ from pathlib import Path
 
 from IPython.display import Image, display
 
-from qdensity.experiments import run
+from qdensity_paper import run
 
 out = tempfile.mkdtemp()
 try:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from IPython.display import Image, display
 
-from qdensity.experiments import run
+from qdensity_paper import run
 
 out = Path(tempfile.mkdtemp())
 try:

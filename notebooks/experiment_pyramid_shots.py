@@ -34,7 +34,7 @@ import tempfile
 
 from IPython.display import Image, display
 
-from qdensity.experiments import run
+from qdensity_paper import run
 
 out = tempfile.mkdtemp()
 try:

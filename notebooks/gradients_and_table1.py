@@ -30,9 +30,9 @@
 import numpy as np
 
 from qdensity import DensityQNN, Encoding, ExactEngine, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.gradients import chain_rule, density_gradient_plan
-from qdensity.mixtures import SoftmaxMixture
+from qdensity.models.mixtures import SoftmaxMixture
 
 n = 4
 dec = by_moments(round_robin(n))                     # K = 3 layers, 2 RBS gates each
@@ -110,7 +110,7 @@ assert ledgers['shift'].total_shots > 4 * ledgers['commuting'].total_shots
 # %% [markdown]
 # ## Table 1, rebuilt
 #
-# `qdensity.experiments.table1` builds each ansatz and its density version (hardware-efficient
+# `qdensity.gradients.table1` builds each ansatz and its density version (hardware-efficient
 # cut into its `D` layers, `K` copies of the equivariant XX circuit, the odd-even pyramid of
 # Supp. H.1, butterfly and round-robin cut into layers), makes their gradient plans without running
 # them, and reads the circuit count off each plan. The paper's Table 1 gives the orders; the
@@ -125,7 +125,7 @@ assert ledgers['shift'].total_shots > 4 * ledgers['commuting'].total_shots
 # | round-robin | `4 n(n-1)/2`: O(n^2) | `n - 1`: O(n) |
 
 # %%
-from qdensity.table1 import format_table1, table1
+from qdensity.gradients.table1 import format_table1, table1
 
 D, K = 3, 2
 rows = table1((4, 8), layers=D, copies_k=K, verbose=False)

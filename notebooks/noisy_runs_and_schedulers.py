@@ -36,7 +36,7 @@
 import numpy as np
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments, get_target
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 
 n = 4
 dec = by_moments(round_robin(n))                      # K = n - 1 = 3 sub-unitaries
@@ -88,7 +88,7 @@ for s, results in runs.items():
 # `sum_k alpha_k (f_k - f)^2 / S`, largest when the `f_k` differ.
 
 # %%
-from qdensity.schedulers import (
+from qdensity.execution.schedulers import (
     allocate_neyman,
     allocate_proportional,
     per_shot_variance,

@@ -24,8 +24,8 @@
 import numpy as np
 
 from qdensity import DensityQNN, Encoding, ExactEngine, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
-from qdensity.mixtures import SoftmaxMixture
+from qdensity.circuits.ansatze import round_robin
+from qdensity.models.mixtures import SoftmaxMixture
 
 n = 4
 decomposition = by_moments(round_robin(n))
@@ -59,7 +59,7 @@ print(np.abs(sampled.jacobians[0] - exact.jacobians[0]).max())
 
 # %%
 from qdensity import compare_reports, resource_report, unary_loader
-from qdensity.preparation import deterministic_circuit, randomised_circuits
+from qdensity.circuits.preparation import deterministic_circuit, randomised_circuits
 
 bound = [c.assign_parameters(model._sub_theta(k, None)) for k, c in enumerate(model.sub_unitaries)]
 loader = unary_loader(X[0])
@@ -73,7 +73,7 @@ print(compare_reports({'randomised (k=0)': resource_report(randomised_circuits(b
 
 # %%
 from qdensity import QNNClassifier
-from qdensity.nn import Linear
+from qdensity.learning.nn import Linear
 
 rng = np.random.default_rng(0)
 y = rng.integers(0, 2, 40)

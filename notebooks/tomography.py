@@ -26,7 +26,8 @@
 #    relative sign of neighbouring amplitudes.
 #
 # `O(log(n) / delta^2)` shots per circuit give `||y_hat - y||_inf <= delta` (up to the global
-# sign). `qdensity.tomography` builds the circuits, reconstructs from counts with an error bound,
+# sign). `qdensity.circuits.tomography` builds the circuits, reconstructs from counts with an error
+# bound,
 # and says how many shots a target error needs. Below: a pure unary state, the error against
 # shots, Hamming-weight post-selection on a noisy device, and the density state
 # `rho = sum_k alpha_k |y_k><y_k|` of a density QNN (eq. 1) rebuilt from its sub-unitaries.
@@ -36,8 +37,8 @@ import numpy as np
 from qiskit.quantum_info import Statevector
 
 from qdensity import get_target, unary_loader
-from qdensity.ansatze import round_robin
-from qdensity.tomography import (
+from qdensity.circuits.ansatze import round_robin
+from qdensity.circuits.tomography import (
     bridge_circuit,
     bridge_pairs,
     reconstruct,
@@ -147,7 +148,7 @@ from scipy.linalg import sqrtm
 
 from qdensity import by_moments
 from qdensity.analysis.mixing import trace_distance
-from qdensity.preparation import randomised_circuits
+from qdensity.circuits.preparation import randomised_circuits
 
 dec = by_moments(round_robin(n))                              # K = n = 5 layers (n odd)
 subs = [c.assign_parameters(rng.uniform(-np.pi, np.pi, c.num_parameters))

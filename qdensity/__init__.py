@@ -3,7 +3,8 @@
 ``circuits`` (gates, loaders, ansatze, preparations, tomography) make ``models`` (DensityQNN,
 mixtures, decompositions), which compile questions to plans that ``execution`` runs (engines,
 schedulers) on the devices of ``hardware`` (targets, noise, transpilation, mitigation);
-``gradients``, ``learning``, ``experiments`` and ``cli`` build on them,
+``gradients``, ``learning``, ``demo`` and ``cli`` build on them (the paper's experiments live
+in the separate ``qdensity_paper`` package, which uses only this public API),
 ``analysis`` and ``datasets`` lie underneath. Imports only go down this list (CONTRIBUTING.md).
 
 The names below are loaded on first use (PEP 562), so ``import qdensity`` and the command line
@@ -15,10 +16,6 @@ from __future__ import annotations
 
 import importlib
 from typing import TYPE_CHECKING
-
-from qdensity import _aliases
-
-_aliases.install()
 
 __version__ = "0.1.0"
 
@@ -94,7 +91,7 @@ __all__ = [
     "__version__",
 ]  # the names of _EXPORTS, spelled out for linters
 
-_SUBMODULES = frozenset({"analysis", "circuits", "cli", "datasets", "execution", "experiments",
+_SUBMODULES = frozenset({"analysis", "circuits", "cli", "cluster", "datasets", "demo", "execution",
                          "gradients", "hardware", "learning", "models", "progress", "validation"})
 
 if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
@@ -126,14 +123,14 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
 
 
 def __getattr__(name: str):
-    """Public names load their module on first use; ``qdensity.ansatze`` and the other short
-    module paths (``qdensity._aliases``) and the subpackages resolve without an explicit import."""
+    """Public names load their module on first use; the subpackages resolve without an explicit
+    import (``qdensity.circuits.ansatze``)."""
     module = _EXPORTS.get(name)
     if module is not None:
         value = getattr(importlib.import_module(module), name)
         globals()[name] = value  # later lookups skip this function
         return value
-    if name not in _SUBMODULES and _aliases.resolve(f"qdensity.{name}") is None:
+    if name not in _SUBMODULES:
         raise AttributeError(f"module 'qdensity' has no attribute {name!r}")
     return importlib.import_module(f"qdensity.{name}")
 

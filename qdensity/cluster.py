@@ -1,7 +1,7 @@
 """The execution layer beyond one process: Dask ``distributed``.
 
-Experiments (:func:`qdensity.experiments.run`) and sweeps
-(:func:`qdensity.learning.sweep.run_sweep`) hand their units of work (one setting of one seed,
+Sweeps (:func:`qdensity.learning.sweep.run_sweep`) and the paper's experiments (the separate
+``qdensity_paper`` package) hand their units of work (one setting of one seed,
 one sweep trial) to a Dask cluster named by an *address*:
 
 * ``"local"`` or ``"local:N"``: a ``LocalCluster`` embedded in this process, ``N`` worker
@@ -12,6 +12,9 @@ one sweep trial) to a Dask cluster named by an *address*:
 
 Everything a unit needs travels by pickle: the experiment's module-level functions by
 reference (the workers import qdensity), settings and data by value.
+
+Dask is an extra of the library: ``pip install 'qdensity[cluster]'``. Without it everything
+else runs; a cluster address then raises an ``ImportError`` that says what to install.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from typing import Any
 from qdensity.validation import CallableC, Instance, Interval, SequenceOf, validates
 
 __all__ = ["CLUSTER_FORMS", "parse_cluster", "open_client", "run_units", "worker_name",
-           "CONNECT_TIMEOUT", "idle_core"]
+           "CONNECT_TIMEOUT", "IN_PROCESS", "idle_core"]
 
 #: The forms a cluster address takes (error messages quote this).
 #: Most worker processes ``local:N`` starts on one machine.
@@ -105,9 +108,9 @@ def parse_cluster(cluster: str) -> tuple[str, Any]:
 def _distributed():
     try:
         import distributed
-    except ImportError as exc:  # pragma: no cover - a core dependency
-        raise ImportError("the cluster layer needs Dask's distributed: pip install "
-                          "distributed") from exc
+    except ImportError as exc:
+        raise ImportError("running on a Dask cluster needs the cluster extra: pip install "
+                          "'qdensity[cluster]' (Dask's distributed)") from exc
     return distributed
 
 

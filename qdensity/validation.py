@@ -21,7 +21,7 @@ __all__ = [
     "as_parameter_rows", "check_positive_int", "check_circuit", "check_entries",
     "check_real_scalar", "check_finite_array", "check_callable", "check_type",
     "check_sequence_of", "check_engine", "check_target", "check_magnitude", "check_width",
-    "MAX_DENSE_QUBITS", "MAX_DENSE_ENTRIES", "check_num_qubits", "check_layers",
+    "MAX_DENSE_QUBITS", "MAX_DENSE_ENTRIES", "check_num_qubits", "check_layers", "SeedLike",
 ]
 __all__ += _constraints.__all__  # the declared vocabulary (qdensity._constraints)
 
@@ -404,7 +404,8 @@ def check_target(target, name: str = "target"):
     if isinstance(target, (BackendV2, Target)):
         return target
     raise TypeError(f"{name} must be a HardwareTarget, a target name or snapshot path, a "
-                    f"BackendV2 or a qiskit.transpiler.Target (qdensity.targets.get_target), "
+                    f"BackendV2 or a qiskit.transpiler.Target "
+                    f"(qdensity.hardware.targets.get_target), "
                     f"or None; got {type(target).__name__} {target!r:.80}")
 
 

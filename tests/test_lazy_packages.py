@@ -41,7 +41,7 @@ def test_table1_command_imports_no_training_stack():
 
 def test_demo_help_still_reads_the_demo_defaults(capsys):
     from qdensity.cli.main import main
-    from qdensity.experiments.demo import DemoConfig
+    from qdensity.demo import DemoConfig
 
     with pytest.raises(SystemExit):
         main(["demo", "--help"])

@@ -45,8 +45,8 @@ def test_wait_for_polls_until_done_and_returns_the_result():
 
 
 def _plan():
-    from qdensity.ansatze import round_robin
-    from qdensity.plans import expectation_plan
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.execution.plans import expectation_plan
 
     qc = round_robin(3)
     qc.x(0)
@@ -72,7 +72,7 @@ def test_sampler_engine_shows_one_bar_per_phase(monkeypatch, progress):
 
 
 def test_table1_bar_counts_rows(monkeypatch):
-    from qdensity.experiments.table1 import table1
+    from qdensity.gradients.table1 import table1
 
     stream = FakeTerminal()
     monkeypatch.setattr("sys.stderr", stream)

@@ -270,7 +270,7 @@ class TargetLike(Constraint):
 
     def __str__(self) -> str:
         return ("a HardwareTarget, a target name or snapshot path, a BackendV2 or a "
-                "qiskit.transpiler.Target (qdensity.targets.get_target)")
+                "qiskit.transpiler.Target (qdensity.hardware.targets.get_target)")
 
     def example(self):
         return "all_to_all"

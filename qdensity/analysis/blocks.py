@@ -385,7 +385,7 @@ def commuting_blocks(
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.circuits.ansatze import round_robin
     >>> len(commuting_blocks(round_robin(4)))
     3
     """

@@ -97,7 +97,7 @@ def moments(
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.circuits.ansatze import round_robin
     >>> len(moments(round_robin(6)))
     5
     """

@@ -8,7 +8,8 @@ description and worked examples, kept in one table so that they read alike.
 from __future__ import annotations
 
 import argparse
-from typing import TypedDict
+
+from qdensity.cli.plugins import CommandTexts, command_texts
 
 __all__ = ["Formatter", "texts", "HELP"]
 
@@ -66,49 +67,10 @@ HELP: dict[str, tuple[str, str]] = {
         "qdensity sweep --dataset digits --n-trials 16\n"
         "qdensity sweep --storage sqlite:///shared.db --study digits-rr --export trials.csv",
     ),
-    "experiment": (
-        "Run one of the paper's experiments (a figure or a section of the paper, see\n"
-        "--list) over seeds; print the metrics with 95% confidence intervals and, with --out,\n"
-        "write NAME-MODE.json and the figures.",
-        "qdensity experiment --list\n"
-        "qdensity experiment mixing-lemma --quick\n"
-        "qdensity experiment orthoqnn-depth --full --seeds 5 --out my-results",
-    ),
-    "results": (
-        "Read, merge and judge experiment results files in any folder.",
-        "qdensity results show my-results/mixing-lemma-quick.json --metric accuracy\n"
-        "qdensity results merge a.json b.json -o merged.json\n"
-        "qdensity results report --dir my-results",
-    ),
-    "results show": (
-        "Print a results file's summary: the headline metrics (accuracies, losses, errors)\n"
-        "first, then the rest (circuit and shot counts); mean and 95% CI per metric.",
-        "qdensity results show results/orthoqnn-depth-full.json\n"
-        "qdensity results show my-results/noise-quick.json --metric 'test_*' --json",
-    ),
-    "results merge": (
-        "Merge runs of one experiment, mode and settings (e.g. seeds run on other machines)\n"
-        "into one results file.",
-        "qdensity results merge run-a/moe-full.json run-b/moe-full.json -o moe-full.json",
-    ),
-    "results report": (
-        "Judge the paper's claims by a written rule from the results files of a folder and\n"
-        "print the verdicts. Quick runs are not judged. Only --write and --check read\n"
-        "README.md and EXPERIMENTS.md (in --docs), between their markers.",
-        "qdensity results report --dir my-results\n"
-        "qdensity results report --dir results --write   # in the qdensity repository",
-    ),
 }
 
 
-class _Texts(TypedDict):
-    description: str
-    epilog: str
-
-
-def texts(command: str) -> _Texts:
+def texts(command: str) -> CommandTexts:
     """``description=`` and ``epilog=`` (``examples:`` and the example lines) for
     ``add_parser``."""
-    description, examples = HELP[command]
-    lines = "\n".join(f"  {line}" for line in examples.splitlines())
-    return {"description": description, "epilog": f"examples:\n{lines}"}
+    return command_texts(*HELP[command])

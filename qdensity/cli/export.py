@@ -7,9 +7,9 @@ circuit of
 Fig. 1 and Fig. 13b, a gradient circuit of Methods eq. 9, the tomography circuits of Supp. F)
 and a ``README.md`` index (:func:`index_markdown`); :func:`check_circuits` lists the files that
 are missing or out of date. Regenerate the directory with ``qdensity export`` or
-``python -m qdensity.export [DIR]`` (:func:`main`).
+``python -m qdensity.cli.export [DIR]`` (:func:`main`).
 
-The catalogue's names are re-exported here, so ``from qdensity.export import reference_qasm``
+The catalogue's names are re-exported here, so ``from qdensity.cli.export import reference_qasm``
 keeps working.
 """
 
@@ -111,8 +111,8 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
         "qdensity export            # both formats; --qasm3 writes only the OpenQASM 3 files",
         "```",
         "",
-        "or `python -m qdensity.export [DIRECTORY]` (default `./circuits`). The test suite",
-        "checks that the files are current (`qdensity.export.check_circuits`) and that each",
+        "or `python -m qdensity.cli.export [DIRECTORY]` (default `./circuits`). The test suite",
+        "checks that the files are current (`qdensity.cli.export.check_circuits`) and that each",
         "reloads to its builder's operator.",
         "",
     ]
@@ -258,8 +258,8 @@ def check_circuits(directory: str | Path) -> list[str]:
     return stale
 
 
-def main(argv: Sequence[str] | None = None, *, prog: str = "python -m qdensity.export") -> int:
-    """Command line: ``python -m qdensity.export [DIRECTORY] [--check]``.
+def main(argv: Sequence[str] | None = None, *, prog: str = "python -m qdensity.cli.export") -> int:
+    """Command line: ``python -m qdensity.cli.export [DIRECTORY] [--check]``.
 
     Parameters
     ----------

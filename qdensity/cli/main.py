@@ -194,7 +194,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_table1(args) -> int:
-    from qdensity.experiments.table1 import ANSATZE, format_table1, table1
+    from qdensity.gradients.table1 import ANSATZE, format_table1, table1
 
     unknown = [a for a in args.ansatz if a not in ANSATZE]
     if unknown:
@@ -237,7 +237,7 @@ def _cmd_export(args) -> int:
 def _cmd_demo(args) -> int:
     from pathlib import Path
 
-    from qdensity.experiments.demo import DemoConfig, run_demo
+    from qdensity.demo import DemoConfig, run_demo
 
     if not args.no_plot and not Path(args.output).is_dir():
         raise ValueError(f"--output {args.output!r} is not an existing directory")
@@ -256,7 +256,8 @@ def _parser(demo: bool = True) -> argparse.ArgumentParser:
     """The command's parser; ``demo=False`` leaves out the ``demo`` command's options, whose
     help reads the demo's defaults (importing the training stack: scikit-learn, numba, about
     1.5 s of CPU) -- :func:`main` builds them only when ``demo`` is on the command line."""
-    from qdensity.cli import experiment, results, sweep
+    from qdensity.cli import sweep
+    from qdensity.cli.plugins import add_plugin_parsers
     from qdensity.hardware.targets import target_help
 
     any_size = _int_in(-(2**31), 2**31)  # build / transpile: checked with the builder's name
@@ -363,13 +364,12 @@ def _parser(demo: bool = True) -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_demo)
 
     sweep.add_parser(sub, _int_in, _SEED, MAX_CLI_QUBITS)
-    experiment.add_parser(sub)
-    results.add_parser(sub)
+    add_plugin_parsers(sub)  # experiment, results: the paper's package (qdensity_paper)
     return p
 
 
 def _demo_options(d: argparse.ArgumentParser, shots) -> None:
-    from qdensity.experiments.demo import DemoConfig
+    from qdensity.demo import DemoConfig
     from qdensity.hardware.targets import target_help
 
     d.add_argument("--output", default=".", help="directory for qdensity-demo.png "

@@ -22,7 +22,8 @@ measurements are kept where the builder has them.
 Every reference circuit is also exported as OpenQASM 3 (:func:`reference_qasm3`, files
 ``<name>.qasm3``) with its parameters kept *symbolic*, so that a provider binds them: the
 trainable angles of the ansätze (``θ``, ...) and the data angles of the unary loaders (``x``,
-:func:`qdensity.loaders.unary_loader_template`) are ``input float[64]`` declarations, in the
+:func:`qdensity.circuits.loaders.unary_loader_template`) are ``input float[64]`` declarations, in
+the
 order of the circuit's parameters. The catalogue is the same: :func:`bind_reference` binds
 nothing and :func:`_data_loader` builds template loaders while :func:`symbolic_circuit` builds.
 The matrix loader, ``Load(sqrt(alpha))``, the mixtures alpha and the loader of the gradient
@@ -32,8 +33,9 @@ is unrolled into the gates of ``stdgates.inc`` (:data:`QASM3_BASIS`) at optimisa
 This module holds the catalogue (:data:`REFERENCE_BUILDERS`, their descriptions, seeds and
 parameter binding) and the exported form of one circuit (:func:`reference_circuit`,
 :func:`reference_qasm`). Writing and checking the ``circuits/`` directory, and the command
-line, live in :mod:`qdensity.export`: regenerate the directory with ``qdensity export`` or
-``python -m qdensity.export [DIR]``; :func:`qdensity.export.check_circuits` lists the files that
+line, live in :mod:`qdensity.cli.export`: regenerate the directory with ``qdensity export`` or
+``python -m qdensity.cli.export [DIR]``; :func:`qdensity.cli.export.check_circuits` lists the files
+that
 are missing or out of date.
 
 Examples

@@ -52,7 +52,7 @@ def bars_and_dots(
     -------
     X : numpy.ndarray, shape (N, d)
         Features, one row per sample (feed to
-        :func:`qdensity.ansatze.angle_encoding`).
+        :func:`qdensity.circuits.ansatze.angle_encoding`).
     y : numpy.ndarray, shape (N,)
         Labels in ``{+1, -1}`` (int).
 

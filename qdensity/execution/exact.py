@@ -48,8 +48,8 @@ class ExactEngine:
     Examples
     --------
     >>> from qiskit.quantum_info import SparsePauliOp
-    >>> from qdensity.ansatze import round_robin
-    >>> from qdensity.plans import expectation_plan
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.execution.plans import expectation_plan
     >>> qc = round_robin(4)
     >>> qc.x(0)  # doctest: +ELLIPSIS
     <...>

@@ -290,7 +290,7 @@ def commuting_block_gradient(
     Examples
     --------
     >>> from qiskit.quantum_info import SparsePauliOp
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> z0 = SparsePauliOp.from_sparse_list([("Z", [0], 1)], 3)
     >>> g = commuting_block_gradient(pyramid(3), z0)
     >>> len(g.blocks), g.num_gradient_circuits

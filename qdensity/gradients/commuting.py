@@ -97,7 +97,7 @@ def commuting_gradient(
     diagonaliser : {"auto", "rbs", "clifford"}
         ``"rbs"``: the ``RBS(pi/4)`` layer of Supp. F.3 (RBS gates on disjoint pairs, e.g. one
         round-robin moment with ``H`` a sum of ``Z_i``); ``"clifford"``: symplectic
-        elimination (:func:`qdensity.pauli.diagonalising_clifford`); ``"auto"`` prefers
+        elimination (:func:`qdensity.analysis.pauli.diagonalising_clifford`); ``"auto"`` prefers
         ``"rbs"`` when it applies.
 
     Returns
@@ -118,7 +118,7 @@ def commuting_gradient(
     Examples
     --------
     >>> from qiskit.quantum_info import SparsePauliOp
-    >>> from qdensity.ansatze import pairs_circuit
+    >>> from qdensity.circuits.ansatze import pairs_circuit
     >>> qc = pairs_circuit(4, [[(0, 1), (2, 3)]])
     >>> grad = commuting_gradient(qc, SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4))
     >>> grad.num_gradient_circuits, grad.diagonaliser
@@ -183,7 +183,7 @@ def commuting_gradient_count(
     Examples
     --------
     >>> from qiskit.quantum_info import SparsePauliOp
-    >>> from qdensity.ansatze import pairs_circuit
+    >>> from qdensity.circuits.ansatze import pairs_circuit
     >>> commuting_gradient_count(pairs_circuit(4, [[(0, 1), (2, 3)]]),
     ...                          SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], 4))
     1

@@ -7,7 +7,7 @@ For ``f(x) = sum_k alpha_k(x) f_k(x)``:
   each parameter has one contributing k; shared parameters (Prop. 1) are summed over every k
   that uses them. The circuits are the sum over k of each sub-unitary's gradient circuits.
 * ``d f / d alpha_k = f_k`` (forward values), chained through the mixture (softmax logits or
-  the mixture-of-experts gate) by :meth:`qdensity.mixtures.Mixture.vjp`.
+  the mixture-of-experts gate) by :meth:`qdensity.models.mixtures.Mixture.vjp`.
 
 Each sub-unitary's Jacobian is a plan: ``"shift"`` (parameter shift, Supp. E), ``"commuting"``
 or ``"auto"``. ``"commuting"`` measures a sub-unitary made of one commuting block with one
@@ -155,7 +155,7 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     Returns
     -------
     Plan
-        Post-processing returns an :class:`~qdensity.plans.Estimate` of shape (B, m, P_k).
+        Post-processing returns an :class:`~qdensity.execution.plans.Estimate` of shape (B, m, P_k).
         ``plan.meta["method"]`` says which method was used.
     """
     _check_method(model, method)

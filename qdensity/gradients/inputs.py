@@ -193,7 +193,7 @@ def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
     Returns
     -------
     Plan
-        Post-processing returns a list of K :class:`~qdensity.plans.Estimate` of shape
+        Post-processing returns a list of K :class:`~qdensity.execution.plans.Estimate` of shape
         (B, m, d), ``m = 1`` for an observable and ``n`` for unary probabilities (standard
         errors propagated through the chain rule, shifted circuits being independent).
         ``plan.meta["input_circuits"]`` is the number of circuits per data point, summed over

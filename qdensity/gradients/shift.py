@@ -53,7 +53,8 @@ from qdensity.validation import (
     validates,
 )
 
-__all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "expand_occurrences"]
+__all__ = ["ShiftRule", "shift_rules", "parameter_shift_plan", "shift_circuit_count",
+           "expand_occurrences"]
 
 _FOUR_TERM = (
     (math.pi / 4, 1.0),
@@ -238,7 +239,8 @@ def parameter_shift_plan(
     -------
     Plan
         ``num_circuits = B * (sum of rule terms over occurrences) * (measurement groups)``.
-        Post-processing returns an :class:`~qdensity.plans.Estimate` whose ``value`` has shape
+        Post-processing returns an :class:`~qdensity.execution.plans.Estimate` whose ``value`` has
+        shape
         (B, len(parameters)) for an observable, (B, 2**n, len(parameters)) for probabilities,
         (B, n, len(parameters)) with ``unary``.
     """

@@ -1,4 +1,4 @@
-"""Gate-name sets of the hardware targets in :mod:`qdensity.targets`.
+"""Gate-name sets of the hardware targets in :mod:`qdensity.hardware.targets`.
 
 The instructions that are not gates (measure, reset, delay, barrier), the basis of the
 ``ideal`` target (every standard gate Aer simulates natively) and the checks of a user's

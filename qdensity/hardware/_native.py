@@ -3,9 +3,11 @@
 A trapped-ion-like all-to-all device whose native two-qubit gate is the beam splitter
 ``xx_plus_yy``: ``RBSGate(theta)`` *equals* ``XXPlusYYGate(2 theta, pi/2)``, so a circuit of
 ``m`` RBS gates (paper eq. 8) compiles to exactly ``m`` native two-qubit gates. This module
-holds the pieces :func:`qdensity.targets.get_target` and :class:`qdensity.targets.HardwareTarget`
+holds the pieces :func:`qdensity.hardware.targets.get_target` and
+:class:`qdensity.hardware.targets.HardwareTarget`
 assemble for it: the basis :data:`RBS_NATIVE_BASIS` and noise :data:`RBS_NATIVE_NOISE` (both
-re-exported by :mod:`qdensity.targets`), the transpiler ``Target``, the exact rewriting of RBS
+re-exported by :mod:`qdensity.hardware.targets`), the transpiler ``Target``, the exact rewriting of
+RBS
 gates as native gates, and the Aer simulator that lowers native gates at run time:
 
 Aer has no ``xx_plus_yy`` instruction. The ``rbs_native`` simulator therefore lowers each native

@@ -68,14 +68,14 @@ class ReadoutMitigator:
 
     Parameters
     ----------
-    system : qiskit.providers.BackendV2 or qdensity.targets.HardwareTarget
+    system : qiskit.providers.BackendV2 or qdensity.hardware.targets.HardwareTarget
         Where calibration circuits run: a backend with ``run`` (an ``AerSimulator`` carrying
         a device's noise, a real device), or a target, whose noisy :meth:`simulator` is used.
     shots : int
         Shots per calibration circuit.
     seed : int or numpy.random.Generator, optional
         Seeds the target's simulator (ignored for a backend).
-    ledger : qdensity.engines.ShotLedger, optional
+    ledger : qdensity.execution.engines.ShotLedger, optional
         Calibration shots are recorded here (label ``"readout calibration"``, through its
         ``record(label, circuits, shots)``); pass the engine's ledger so the account of a
         mitigated run is complete. Without one they are counted in
@@ -296,7 +296,7 @@ def fixed_hamming_weight(circuit: QuantumCircuit, label: str | None = None) -> i
 
     Examples
     --------
-    >>> from qdensity.loaders import unary_loader
+    >>> from qdensity.circuits.loaders import unary_loader
     >>> fixed_hamming_weight(unary_loader([0.6, 0.8, 0.0]))
     1
     """

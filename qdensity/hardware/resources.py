@@ -2,7 +2,8 @@
 
 The paper argues in gate counts and depths (Sec. 3 and Table 1: loaders, pyramids and butterflies
 of RBS gates, each RBS two native two-qubit gates). :func:`resource_report` compiles a circuit
-once for a :class:`~qdensity.targets.HardwareTarget` and reads off the numbers that matter on
+once for a :class:`~qdensity.hardware.targets.HardwareTarget` and reads off the numbers that matter
+on
 hardware: active qubits, depth, the two-qubit gate count and the two-qubit depth.
 :func:`compare_reports` prints several reports side by side with ratios to the first.
 """
@@ -132,7 +133,8 @@ def resource_report(
     circuit : QuantumCircuit
         Any circuit (parameters may stay free).
     target : HardwareTarget, str, os.PathLike, BackendV2, qiskit.transpiler.Target or None
-        A target, or anything :func:`~qdensity.targets.get_target` accepts: a name (sized to
+        A target, or anything :func:`~qdensity.hardware.targets.get_target` accepts: a name (sized
+        to
         the circuit), a snapshot file, a backend or a ``Target`` (seeded with ``seed``, built
         without its noise model, which does not change counts). A device narrower than the
         circuit is refused before transpiling, naming both widths.
@@ -152,7 +154,7 @@ def resource_report(
     Examples
     --------
     >>> from qiskit import QuantumCircuit
-    >>> from qdensity.gates import RBSGate
+    >>> from qdensity.circuits.gates import RBSGate
     >>> qc = QuantumCircuit(3, name="chain")
     >>> _ = qc.append(RBSGate(0.3), [0, 1])
     >>> _ = qc.append(RBSGate(0.5), [1, 2])

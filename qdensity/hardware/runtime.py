@@ -1,4 +1,4 @@
-"""A hardware provider's runtime client behind :class:`qdensity.engines.SamplerEngine`.
+"""A hardware provider's runtime client behind :class:`qdensity.execution.engines.SamplerEngine`.
 
 qdensity talks to hardware through the ``BaseSamplerV2`` interface only (docs/design.md,
 "The spine", step 5), so a provider's primitive plugs into

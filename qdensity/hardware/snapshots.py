@@ -4,7 +4,7 @@
 a real calibration: the coupling map, the native gates, per-qubit T1/T2, per-gate errors and
 durations, and per-qubit readout errors (``FakeManilaV2``: 5 qubits on a line-like graph;
 ``FakeTorino``: 133 qubits, heavy-hex, ``cz``). Each of its V2 backends is a named target of
-:func:`qdensity.targets.get_target` under the backend's own name (``"fake_manila"``,
+:func:`qdensity.hardware.targets.get_target` under the backend's own name (``"fake_manila"``,
 ``"fake_torino"``, ...), with a noisy ``AerSimulator`` built from its calibration through
 ``NoiseModel.from_backend``.
 
@@ -165,7 +165,8 @@ def snapshot_noise_model(name: str) -> NoiseModel:
 
 def snapshot_fields(name: str, num_qubits: int | None = None, *, noise: bool = True,
                     basis_gates=None) -> dict:
-    """The fields of a snapshot's :class:`qdensity.targets.HardwareTarget` (all but ``seed``).
+    """The fields of a snapshot's :class:`qdensity.hardware.targets.HardwareTarget` (all but
+    ``seed``).
 
     Parameters
     ----------

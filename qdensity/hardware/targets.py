@@ -281,7 +281,7 @@ class HardwareTarget:
         Examples
         --------
         >>> from qiskit import QuantumCircuit
-        >>> from qdensity.gates import RBSGate
+        >>> from qdensity.circuits.gates import RBSGate
         >>> qc = QuantumCircuit(3)
         >>> _ = qc.append(RBSGate(0.4), [0, 2])
         >>> dict(get_target("rbs_native", 3).transpile(qc).count_ops())

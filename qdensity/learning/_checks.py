@@ -1,4 +1,4 @@
-"""Input checks shared by the classical layers of :mod:`qdensity.nn` (Fig. 11).
+"""Input checks shared by the classical layers of :mod:`qdensity.learning.nn` (Fig. 11).
 
 Every layer's ``forward`` takes a batch through :func:`_check_batch` and every ``backward``
 takes the incoming gradient through :func:`_check_grad`, so the error messages are the same

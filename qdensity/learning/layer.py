@@ -9,7 +9,7 @@ training run. Gradients:
   works, Fig. 11); every other model uses the adjoint statevector engine
   (:mod:`~qdensity.execution.statevector`): one forward and one backward sweep per data row, with
   gradients w.r.t. the inputs too when the data enter as angles. Both engines, and the compiled
-  circuits, live as long as the model. An :class:`~qdensity.engines.ExactEngine` passed as
+  circuits, live as long as the model. An :class:`~qdensity.execution.engines.ExactEngine` passed as
   ``engine`` runs the exact gradient plans on Aer instead (each template transpiled once).
 * ``engine=SamplerEngine(...)`` with ``shots``: every step runs the model's gradient plan
   (forward circuits plus parameter-shift or commuting-generator circuits) on the sampler with

@@ -6,11 +6,9 @@ probabilities and the true labels, optionally plus an ``l2`` penalty (Supp.
 :func:`cross_entropy_with_logits` (stable for any finite logits), :func:`mse`,
 :func:`l2_penalty` and :func:`accuracy`. Each loss returns ``(mean loss, gradient with respect
 to its first argument)`` so that a training loop can feed the gradient straight into
-:meth:`qdensity.nn.Layer.backward`.
+:meth:`qdensity.learning.nn.Layer.backward`.
 
-The first release's ``binary_cross_entropy``, ``binary_cross_entropy_with_logits`` and
-``cross_entropy`` (on probabilities) were removed in favour of PyTorch's (hybrid models train
-with :mod:`qdensity.learning.torch`); their names remain and say where to go.
+Other losses of hybrid models are PyTorch's (:mod:`qdensity.learning.torch`).
 """
 
 from __future__ import annotations
@@ -21,9 +19,6 @@ import numpy as np
 
 __all__ = [
     "mse",
-    "binary_cross_entropy",
-    "binary_cross_entropy_with_logits",
-    "cross_entropy",
     "cross_entropy_with_logits",
     "l2_penalty",
     "accuracy",
@@ -95,7 +90,7 @@ def mse(pred, target) -> tuple[float, np.ndarray]:
 
     Examples
     --------
-    >>> from qdensity.losses import mse
+    >>> from qdensity.learning.losses import mse
     >>> mse([1.0, 2.0], [0.0, 0.0])
     (2.5, array([1., 2.]))
     """
@@ -141,7 +136,7 @@ def l2_penalty(params, strength: float) -> tuple[float, np.ndarray]:
     Parameters
     ----------
     params : array_like, shape (P,)
-        Flat parameter vector (:func:`qdensity.nn.get_flat`).
+        Flat parameter vector (:func:`qdensity.learning.nn.get_flat`).
     strength : float
         Non-negative coefficient.
 
@@ -188,7 +183,7 @@ def accuracy(pred, labels, *, threshold: float | None = None) -> float:
 
     Examples
     --------
-    >>> from qdensity.losses import accuracy
+    >>> from qdensity.learning.losses import accuracy
     >>> accuracy([[0.9, 0.1], [0.2, 0.8], [0.6, 0.4]], [0, 1, 1])
     0.6666666666666666
     >>> accuracy([0.3, 0.7], [0, 1], threshold=0.5)
@@ -229,27 +224,3 @@ def accuracy(pred, labels, *, threshold: float | None = None) -> float:
     if y.size == 0:
         raise ValueError("labels must not be empty")
     return float(np.mean(predicted == y))
-
-
-# --------------------------------------------------------------------------------------------
-# removed in favour of PyTorch
-
-
-def _removed(name: str, torch_name: str):
-    message = (f"qdensity.losses.{name} was removed: losses of hybrid models come from "
-               f"PyTorch. Use {torch_name} with qdensity.learning.torch.DensityQNNLayer "
-               f"(pip install \"qdensity[torch]\").")
-
-    def removed(*args, **kwargs):
-        raise NotImplementedError(message)
-
-    removed.__name__ = removed.__qualname__ = name
-    removed.__doc__ = f"Removed; calling it raises ``NotImplementedError``: use ``{torch_name}``."
-    return removed
-
-
-binary_cross_entropy = _removed("binary_cross_entropy", "torch.nn.functional.binary_cross_entropy")
-binary_cross_entropy_with_logits = _removed(
-    "binary_cross_entropy_with_logits", "torch.nn.functional.binary_cross_entropy_with_logits")
-cross_entropy = _removed("cross_entropy", "torch.nn.functional.nll_loss on log-probabilities "
-                         "(or cross_entropy_with_logits here)")

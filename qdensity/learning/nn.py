@@ -14,8 +14,7 @@ stays here, with an explicit ``forward`` / ``backward``:
 Everything else of a hybrid model (the ``784 -> 8`` pre-processing, ReLU, GELU, softmax,
 containers) is PyTorch's: put :class:`qdensity.learning.torch.DensityQNNLayer` in a
 ``torch.nn.Sequential`` (``pip install "qdensity[torch]"``, ``examples/hybrid_mnist.py``).
-The numpy ``ReLU``, ``GELU``, ``Softmax``, ``Normalize`` and ``Sequential`` of the first
-release were removed; their names remain and say where to go. The mixture-of-experts gate
+The mixture-of-experts gate
 (Supp. H) is :class:`qdensity.models.mixtures.GatedMixture`.
 
 Shapes: ``(B, d_in) -> (B, d_out)``; all arithmetic is float64.
@@ -35,11 +34,6 @@ from qdensity.validation import SeedLike, as_rng, check_entries, check_positive_
 __all__ = [
     "Layer",
     "Linear",
-    "ReLU",
-    "GELU",
-    "Softmax",
-    "Normalize",
-    "Sequential",
     "get_flat",
     "set_flat",
     "save_parameters",
@@ -153,7 +147,7 @@ class Linear(Layer):
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.nn import Linear
+    >>> from qdensity.learning.nn import Linear
     >>> layer = Linear(3, 2, seed=0)
     >>> Y = layer.forward(np.ones((4, 3)))
     >>> Y.shape
@@ -204,27 +198,3 @@ class Linear(Layer):
 
     def __repr__(self) -> str:
         return f"Linear({self.in_features}, {self.out_features}, bias={self.bias})"
-
-
-# --------------------------------------------------------------------------------------------
-# removed in favour of PyTorch
-
-
-def _removed(name: str, torch_name: str) -> type:
-    message = (f"qdensity.nn.{name} was removed: classical layers of hybrid models come from "
-               f"PyTorch. Use {torch_name} with qdensity.learning.torch.DensityQNNLayer "
-               f"(pip install \"qdensity[torch]\"; see examples/hybrid_mnist.py).")
-
-    def __init__(self, *args, **kwargs):
-        raise NotImplementedError(message)
-
-    doc = f"Removed; constructing it raises ``NotImplementedError``: use ``{torch_name}``."
-    return type(name, (), {"__init__": __init__, "__doc__": doc, "__module__": __name__})
-
-
-ReLU = _removed("ReLU", "torch.nn.ReLU")
-GELU = _removed("GELU", "torch.nn.GELU")
-Softmax = _removed("Softmax", "torch.nn.Softmax (or a cross-entropy loss on logits)")
-Normalize = _removed("Normalize", "torch.nn.functional.normalize (DensityQNNLayer normalises "
-                     "its input itself)")
-Sequential = _removed("Sequential", "torch.nn.Sequential")

@@ -3,11 +3,11 @@
 The paper tunes the OrthoQNN experiments over ``optimiser in {Adam, SGD, RMSProp}`` with a
 learning rate in ``[1e-4, 1e-2]`` (Supp. "Hyperparameters") and trains the equivariant and
 re-uploading models with Adam at ``lr = 0.001``. The optimisers here work on one flat vector
-(:func:`qdensity.nn.get_flat`), so quantum angles, mixture logits and classical weights are
+(:func:`qdensity.learning.nn.get_flat`), so quantum angles, mixture logits and classical weights are
 updated together:
 
 >>> import numpy as np
->>> from qdensity.optim import Adam
+>>> from qdensity.learning.optim import Adam
 >>> opt = Adam(lr=0.1)
 >>> x = np.array([1.0, -2.0])
 >>> for _ in range(200):
@@ -18,7 +18,7 @@ True
 ``step(params, grads)`` is pure with respect to its arguments (it returns a new array and never
 writes into ``params`` or ``grads``); the optimiser's own moment estimates live inside it and
 are exported by ``state_dict()`` as plain floats and arrays, ready for
-:func:`qdensity.nn.save_parameters` (``.npz`` or JSON).
+:func:`qdensity.learning.nn.save_parameters` (``.npz`` or JSON).
 """
 
 from __future__ import annotations
@@ -159,7 +159,7 @@ class Optimizer(abc.ABC):
 
         Before the first step the buffers are empty arrays of shape ``(0,)``. Every value is a
         float, an int or a float64 array, so the dict can go to
-        :func:`qdensity.nn.save_parameters`.
+        :func:`qdensity.learning.nn.save_parameters`.
         """
         state: dict[str, Any] = {name: float(getattr(self, name)) for name in self._hyper}
         state["t"] = int(self.t)
@@ -314,7 +314,7 @@ class Adam(Optimizer):
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.optim import Adam
+    >>> from qdensity.learning.optim import Adam
     >>> Adam(lr=0.1).step(np.array([1.0, -2.0]), np.array([0.5, -1.0]))  # first step ~ lr*sign
     array([ 0.9, -1.9])
     """

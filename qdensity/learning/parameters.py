@@ -1,13 +1,13 @@
 """Flat parameter vectors and parameter files for hybrid models (the "dressed" OrthoQNN, Fig. 11).
 
 * :func:`get_flat` / :func:`set_flat` move every parameter of a layer (anything with a
-  ``params`` dict, see :class:`qdensity.nn.Layer`) or of a plain dict to and from one 1-d
-  vector (the form the optimisers of :mod:`qdensity.optim` work on).
+  ``params`` dict, see :class:`qdensity.learning.nn.Layer`) or of a plain dict to and from one 1-d
+  vector (the form the optimisers of :mod:`qdensity.learning.optim` work on).
 * :func:`save_parameters` / :func:`load_parameters` store named arrays as plain ``.npz``
   (never pickle) or as JSON.
 
 These functions only rely on a ``params`` mapping (duck typing), so this module does not
-import the layers; :mod:`qdensity.nn` re-exports all four names.
+import the layers; :mod:`qdensity.learning.nn` re-exports all four names.
 """
 
 from __future__ import annotations
@@ -159,7 +159,7 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
     Examples
     --------
     >>> import tempfile, os, numpy as np
-    >>> from qdensity.nn import save_parameters, load_parameters
+    >>> from qdensity.learning.nn import save_parameters, load_parameters
     >>> d = tempfile.mkdtemp()
     >>> save_parameters(os.path.join(d, "p.json"), W=np.eye(2), t=3)
     >>> load_parameters(os.path.join(d, "p.json"))["W"]

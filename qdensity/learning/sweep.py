@@ -51,13 +51,20 @@ from sklearn.base import clone, is_classifier
 from sklearn.model_selection import train_test_split
 
 from qdensity.cluster import IN_PROCESS, worker_name
-from qdensity.learning._study import DEFAULT_GRACE_PERIOD, MEMORY, _optuna, startup_trials
+from qdensity.learning._study import (
+    DEFAULT_GRACE_PERIOD,
+    MEMORY,
+    _optuna,
+    retried_from,
+    settings_hash,
+    startup_trials,
+)
 from qdensity.progress import progress_bar
 from qdensity.validation import check_positive_int, check_seed
 
 __all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "DEFAULT_GRACE_PERIOD", "MEMORY", "run_sweep",
            "run_trials", "open_study", "sweep_settings", "suggest_params", "startup_trials",
-           "export_trials", "trial_rows"]
+           "export_trials", "trial_rows", "settings_hash", "retried_from"]
 
 #: The paper's search space: name -> ("int", low, high, step) | ("log", low, high) |
 #: ("categorical", choices).

@@ -181,9 +181,9 @@ class DensityQNNLayer(nn.Module):
     Examples
     --------
     >>> import torch
-    >>> from qdensity.ansatze import round_robin
-    >>> from qdensity.decompositions import by_moments
-    >>> from qdensity.mixtures import SoftmaxMixture
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import by_moments
+    >>> from qdensity.models.mixtures import SoftmaxMixture
     >>> from qdensity.models import DensityQNN, Encoding
     >>> dec = by_moments(round_robin(4))
     >>> model = DensityQNN(dec.sub_unitaries, SoftmaxMixture(dec.num_subunitaries),

@@ -45,7 +45,7 @@ def merge_rbs_runs(circuit: QuantumCircuit, parameter_prefix: str = "θ"
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> from qdensity.models.decompositions import odd_even
     >>> even = odd_even(pyramid(4)).sub_unitaries[0]
     >>> merged, groups = merge_rbs_runs(even)
@@ -90,7 +90,7 @@ def compressed_odd_even(circuit: QuantumCircuit) -> Decomposition:
     Parameters
     ----------
     circuit : QuantumCircuit
-        Typically :func:`qdensity.ansatze.pyramid` (``n (n - 1) / 2`` RBS gates).
+        Typically :func:`qdensity.circuits.ansatze.pyramid` (``n (n - 1) / 2`` RBS gates).
 
     Returns
     -------
@@ -101,7 +101,7 @@ def compressed_odd_even(circuit: QuantumCircuit) -> Decomposition:
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> compressed_odd_even(pyramid(8)).parameter_counts()
     [4, 3]
     """

@@ -147,7 +147,7 @@ def by_moments(circuit: QuantumCircuit, depth: int = 1, *,
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.circuits.ansatze import round_robin
     >>> by_moments(round_robin(6)).num_subunitaries
     5
     """
@@ -222,7 +222,7 @@ def odd_even(circuit: QuantumCircuit) -> Decomposition:
     Parameters
     ----------
     circuit : QuantumCircuit
-        Typically :func:`qdensity.ansatze.pyramid`.
+        Typically :func:`qdensity.circuits.ansatze.pyramid`.
 
     Returns
     -------

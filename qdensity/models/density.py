@@ -64,9 +64,9 @@ class DensityQNN:
         (Prop. 1) or independent (Cor. 1). Parameters in a vector named ``"x"`` are data
         (re-uploading): ``x[i]`` is set to feature ``i``.
     mixture : Mixture or array_like, optional
-        :class:`~qdensity.mixtures.FixedMixture` (or an alpha vector),
-        :class:`~qdensity.mixtures.SoftmaxMixture` or
-        :class:`~qdensity.mixtures.GatedMixture`. Default: uniform, fixed.
+        :class:`~qdensity.models.mixtures.FixedMixture` (or an alpha vector),
+        :class:`~qdensity.models.mixtures.SoftmaxMixture` or
+        :class:`~qdensity.models.mixtures.GatedMixture`. Default: uniform, fixed.
     encoding : Encoding, optional
         ``V(x)``. Default: none (sub-unitaries act on ``|0...0>`` or upload data themselves).
     observable : SparsePauliOp, optional
@@ -87,8 +87,8 @@ class DensityQNN:
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
-    >>> from qdensity.decompositions import by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import by_moments
     >>> dec = by_moments(round_robin(4))
     >>> model = DensityQNN(dec.sub_unitaries, encoding=Encoding.unary(4),
     ...                    readout="unary_probabilities", seed=0)
@@ -439,7 +439,7 @@ class DensityQNN:
 
         Returns
         -------
-        qdensity.schedulers.ScheduleResult
+        qdensity.execution.schedulers.ScheduleResult
             Estimate, standard error, allocation and shots used (``allocation`` is ``[budget]``
             in eval mode). For ``readout="unary_probabilities"`` ``estimate`` and
             ``standard_error`` are arrays of shape (n,) (the unary probabilities ``p_j`` of

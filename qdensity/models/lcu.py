@@ -60,8 +60,9 @@ class LCUQNN:
         Hamming-weight-preserving RBS/FBS circuits on ``n`` qubits (trainable parameters by
         name, shared names share a value, as in :class:`~qdensity.models.DensityQNN`).
     mixture : Mixture, array_like or None
-        ``alpha``: a fixed distribution, :class:`~qdensity.mixtures.SoftmaxMixture` (trainable)
-        or :class:`~qdensity.mixtures.GatedMixture` (data-dependent, the paper's MoE gate).
+        ``alpha``: a fixed distribution, :class:`~qdensity.models.mixtures.SoftmaxMixture`
+        (trainable)
+        or :class:`~qdensity.models.mixtures.GatedMixture` (data-dependent, the paper's MoE gate).
     seed : int, numpy.random.Generator or None
         Initial angles uniform in ``[-pi, pi)`` (zeros when None).
 
@@ -73,9 +74,9 @@ class LCUQNN:
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
-    >>> from qdensity.decompositions import by_moments
-    >>> from qdensity.mixtures import SoftmaxMixture
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import by_moments
+    >>> from qdensity.models.mixtures import SoftmaxMixture
     >>> dec = by_moments(round_robin(4))
     >>> lcu = LCUQNN(dec.sub_unitaries, SoftmaxMixture(dec.num_subunitaries), seed=0)
     >>> X = np.eye(4)[:2] + 0.5

@@ -66,7 +66,7 @@ def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softm
     Examples
     --------
     >>> from qiskit.quantum_info import SparsePauliOp
-    >>> from qdensity.ansatze import reuploading
+    >>> from qdensity.circuits.ansatze import reuploading
     >>> a = DensityQNN([reuploading(2, parameter_prefix="a")], seed=0)
     >>> b = DensityQNN([reuploading(2, parameter_prefix="b")], seed=1)
     >>> model = warm_start([a, b], [0.99, 0.01])

@@ -1,4 +1,4 @@
-"""Tests of qdensity.pauli against dense operator oracles."""
+"""Tests of qdensity.analysis.pauli against dense operator oracles."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Oracle tests for the RBS and FBS gates (paper eq. 8, Supp. E eq. 24-25).
 
-Every expected matrix is built here, independently of ``qdensity.gates``: the paper's 4 x 4
+Every expected matrix is built here, independently of ``qdensity.circuits.gates``: the paper's 4 x 4
 matrix, ``expm(-i theta Q)`` with ``Q`` assembled from dense Pauli matrices, Qiskit's
 ``XXPlusYYGate``, parity projectors for FBS, and for circuits of FBS gates the k-th compound
 matrix (all k x k minors by numpy determinants) of the unary matrix of the same circuit with RBS

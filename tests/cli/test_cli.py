@@ -164,7 +164,7 @@ def test_export_json_lists_the_written_files(tmp_path, capsys):
 
 def test_demo_quick_json(tmp_path, capsys):
     """``qdensity demo --quick --json``: the demo's code path at 4 qubits (seconds)."""
-    from qdensity.experiments.demo import DemoConfig
+    from qdensity.demo import DemoConfig
 
     assert main(["demo", "--quick", "--json", "--output", str(tmp_path)]) == 0
     res = json.loads(capsys.readouterr().out)

@@ -16,9 +16,9 @@ import pytest
 from qiskit import QuantumCircuit
 
 from qdensity.cli.main import _parser, main
-from qdensity.cli.results import is_headline
-from qdensity.experiments.results import ExperimentResult
 from qdensity.hardware.resources import compare_reports, resource_report
+from qdensity_paper.cli.results import is_headline
+from qdensity_paper.results import ExperimentResult
 
 
 def _help(argv, capsys) -> str:

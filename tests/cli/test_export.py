@@ -59,7 +59,7 @@ def _index_rows() -> dict[str, list[str]]:
 
 
 def test_repository_circuits_are_current():
-    assert CIRCUITS.is_dir(), f"{CIRCUITS} missing: run `python -m qdensity.export`"
+    assert CIRCUITS.is_dir(), f"{CIRCUITS} missing: run `python -m qdensity.cli.export`"
     assert check_circuits(CIRCUITS) == []
 
 
@@ -107,7 +107,7 @@ def test_index_lists_every_file_with_its_width():
         assert int(depth) >= 1 and description
         assert qasm3.startswith(f"[`{name}.qasm3`]({name}.qasm3) (")
     text = (CIRCUITS / INDEX_NAME).read_text(encoding="utf-8")
-    assert "python -m qdensity.export" in text and "qdensity export" in text
+    assert "python -m qdensity.cli.export" in text and "qdensity export" in text
 
 
 @pytest.mark.parametrize(

@@ -14,10 +14,10 @@ from qdensity.circuits.ansatze import hardware_efficient, round_robin
 from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import expectation_plan
 from qdensity.execution.sampler.engine import SamplerEngine
-from qdensity.experiments.results import ExperimentResult
 from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
+from qdensity_paper.results import ExperimentResult
 
 
 def _again(obj):

@@ -10,7 +10,7 @@ from qiskit.quantum_info import SparsePauliOp, Statevector
 
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.analysis.pauli import MAX_DENSE_QUBITS
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import (
     CircuitJob,

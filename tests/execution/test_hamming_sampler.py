@@ -413,7 +413,7 @@ def test_bad_seed_refused(seed):
 
 def _classifier(n: int, rows: int, shots: int):
     from qdensity import DensityQNN, Encoding, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity.circuits.ansatze import round_robin
     from qdensity.gradients import density_gradient_plan
 
     subs = by_moments(round_robin(n)).sub_unitaries
@@ -549,7 +549,7 @@ def test_density_qnn_sample_uses_the_hamming_sampler():
     from qiskit.quantum_info import SparsePauliOp
 
     from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-    from qdensity.ansatze import round_robin
+    from qdensity.circuits.ansatze import round_robin
 
     n = 4
     subs = by_moments(round_robin(n)).sub_unitaries

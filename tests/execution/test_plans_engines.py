@@ -1,4 +1,5 @@
-"""Oracle tests for plans (``qdensity.plans``) and engines (``qdensity.engines``).
+"""Oracle tests for plans (``qdensity.execution.plans``) and engines
+(``qdensity.execution.engines``).
 
 Oracles: ``Statevector.expectation_value`` / ``Statevector.probabilities`` of the unmeasured
 circuit, brute-force parities and eigenvalues over all outcomes, ``Operator`` conjugation of

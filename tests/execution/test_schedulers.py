@@ -2,7 +2,7 @@
 
 Oracles: hand-computed allocations, brute-force integer optima, exact sub-unitary means
 (closed forms and cosines of RY rotations), and statistical bounds over many fixed seeds.
-The synthetic shot sources here are written independently of ``qdensity.schedulers``.
+The synthetic shot sources here are written independently of ``qdensity.execution.schedulers``.
 """
 
 from __future__ import annotations

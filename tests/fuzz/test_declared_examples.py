@@ -16,7 +16,7 @@ from qdensity.circuits.ansatze.hamming import pyramid
 from qdensity.cluster import parse_cluster
 from qdensity.execution.intervals import binomial_standard_error
 from qdensity.execution.plans import CircuitJob
-from qdensity.experiments import run
+from qdensity_paper import run
 
 
 @pytest.mark.parametrize("name", ["all_to_all", "rbs_native"])

@@ -35,7 +35,6 @@ from qdensity.datasets.chebyshev import chebyshev_dataset
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.exact import ExactEngine
 from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
-from qdensity.experiments.results import bootstrap_ci
 from qdensity.learning.estimators import QNNClassifier, QNNRegressor
 from qdensity.learning.layer import QuantumLayer
 from qdensity.learning.nn import Linear
@@ -44,6 +43,7 @@ from qdensity.models.lcu import LCUQNN
 from qdensity.models.mixtures import FixedMixture, GatedMixture, SoftmaxMixture
 from qdensity.models.single_qubit import SingleQubitReuploading
 from qdensity.validation import as_rng, seed_int
+from qdensity_paper.results import bootstrap_ci
 
 # ----------------------------------------------------------------------------- bad values
 OBJ = st.sampled_from(["notanengine", "", 3, 2.5, object(), ("a", 1)])

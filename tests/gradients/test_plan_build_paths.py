@@ -14,7 +14,7 @@ from qiskit.quantum_info import Operator, SparsePauliOp
 
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.analysis.blocks import _first_noncommuting, _trainable_of
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.gates import RBSGate
 from qdensity.circuits.measure import measured
 from qdensity.gradients import density_gradient_plan

@@ -15,7 +15,7 @@ from qiskit.quantum_info import Operator, PauliList, SparsePauliOp, Statevector
 from qdensity import DensityQNN, Encoding, by_moments
 from qdensity.analysis._conjugate import conjugate_by_layer
 from qdensity.analysis._gf2 import anticommutation
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.gates import RBSGate, rbs_matrix
 from qdensity.execution.statevector.adjoint import AdjointEngine
 from qdensity.gradients import density_gradient_plan

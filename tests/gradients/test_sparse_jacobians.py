@@ -13,7 +13,7 @@ from qiskit_aer.noise import NoiseModel, ReadoutError
 from scipy import sparse
 
 from qdensity import DensityQNN, Encoding, ExactEngine, SamplerEngine, by_moments, get_target
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.gradients import chain_rule, density_gradient_plan
 
 N = 6
@@ -136,7 +136,7 @@ def test_jacobian_layout_is_checked_before_any_work():
 def test_sparse_sums_the_circuits_of_several_commuting_blocks():
     """A pyramid sub-unitary has several commuting blocks (2B - 1 circuits, Cor. 2): the
     sparse layout adds the circuits' estimates and variances as the dense one does."""
-    from qdensity.ansatze import pyramid
+    from qdensity.circuits.ansatze import pyramid
 
     n = 4
     obs = SparsePauliOp.from_sparse_list([("Z", [0], 1.0)], n)

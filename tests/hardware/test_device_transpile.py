@@ -21,7 +21,7 @@ from qiskit_aer.noise import NoiseModel
 import qdensity.hardware._lazy_noise as lazy_mod
 import qdensity.hardware._passmanagers as pm_mod
 from qdensity import DensityQNN, Encoding, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.gates import RBSGate
 from qdensity.gradients import density_gradient_plan
 from qdensity.hardware.resources import _IGNORED, DEFAULT_BASIS, _count, resource_report

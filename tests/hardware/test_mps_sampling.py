@@ -14,7 +14,7 @@ from qiskit_aer.primitives import SamplerV2
 from scipy.stats import binom
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
-from qdensity.ansatze import round_robin
+from qdensity.circuits.ansatze import round_robin
 from qdensity.gradients import density_gradient_plan
 
 N, SHOTS = 30, 2000

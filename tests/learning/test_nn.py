@@ -1,4 +1,5 @@
-"""The linear read-out, losses, optimisers and parameter files (qdensity.nn / losses / optim).
+"""The linear read-out, losses, optimisers and parameter files (qdensity.learning.nn / losses /
+optim).
 
 Oracles: central finite differences (float64, h = 1e-6) for every backward pass and every
 loss gradient; scipy's softmax / log-softmax / normal CDF for values; the textbook update
@@ -191,23 +192,6 @@ def test_get_and_set_flat():
     with pytest.raises(TypeError, match="target must be a layer"):
         get_flat(3.0)
     assert get_flat({}).shape == (0,)
-
-
-@pytest.mark.parametrize("name", ["ReLU", "GELU", "Softmax", "Normalize", "Sequential"])
-def test_removed_layers_point_to_torch(name):
-    import qdensity.nn
-
-    with pytest.raises(NotImplementedError, match=f"qdensity.nn.{name} was removed.*torch"):
-        getattr(qdensity.nn, name)()
-
-
-@pytest.mark.parametrize("name", ["binary_cross_entropy", "binary_cross_entropy_with_logits",
-                                  "cross_entropy"])
-def test_removed_losses_point_to_torch(name):
-    import qdensity.losses
-
-    with pytest.raises(NotImplementedError, match=f"qdensity.losses.{name} was removed.*torch"):
-        getattr(qdensity.losses, name)([0.5], [1])
 
 
 # ---------------------------------------------------------------------------------------------

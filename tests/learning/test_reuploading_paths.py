@@ -92,7 +92,7 @@ def test_torch_layer_gradient_matches_finite_differences():
 def test_experiment_model_is_the_circuit_model_and_trains():
     """The ``reuploading`` experiment trains :class:`SingleQubitReuploading`; it computes the
     same function as the DensityQNN of :func:`reuploading` circuits, and Adam lowers its MSE."""
-    from qdensity.experiments.reuploading import _train
+    from qdensity_paper.reuploading import _train
 
     sq = SingleQubitReuploading(2, 2, seed=0)
     model = _model()

@@ -1,4 +1,4 @@
-"""Oracle tests for decompositions into sub-unitaries (``qdensity.decompositions``).
+"""Oracle tests for decompositions into sub-unitaries (``qdensity.models.decompositions``).
 
 Oracles: the ``Operator`` of the source circuit equals the ordered product of its layer-wise
 sub-unitaries (paper Fig. 3 left, Fig. 6); commutators of generators assembled from dense Pauli

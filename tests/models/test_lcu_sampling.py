@@ -6,15 +6,15 @@ import pytest
 from _stats import stat_seed as _stat_seed
 from qiskit.quantum_info import Operator, Statevector
 
-from qdensity.ansatze import pyramid, round_robin
+from qdensity.circuits.ansatze import pyramid, round_robin
 from qdensity.circuits.loaders import loader_angles
 from qdensity.circuits.preparation import lcu_circuit, lcu_template
-from qdensity.decompositions import by_moments
 from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import JobResult
 from qdensity.execution.sampler.postselection import postselected_unary
-from qdensity.mixtures import GatedMixture, SoftmaxMixture
+from qdensity.models.decompositions import by_moments
 from qdensity.models.lcu import LCUQNN
+from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
 
 
 def _bound_subs(subs, rng):

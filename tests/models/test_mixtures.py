@@ -1,4 +1,4 @@
-"""Oracle tests for mixtures (``qdensity.mixtures``; paper eq. 1, eq. 2, Supp. H eq. 26).
+"""Oracle tests for mixtures (``qdensity.models.mixtures``; paper eq. 1, eq. 2, Supp. H eq. 26).
 
 Oracles: the softmax written out with ``math.exp``, GELU with ``math.erf``, and central finite
 differences of the scalar ``sum(grad_alpha * alpha(X))`` with respect to the flat parameters

@@ -285,7 +285,7 @@ def controlled_subunitary(circuit: QuantumCircuit) -> QuantumCircuit:
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> cu = controlled_subunitary(pyramid(3))
     >>> cu.num_qubits, cu.num_parameters
     (4, 3)

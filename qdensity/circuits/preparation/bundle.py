@@ -46,7 +46,7 @@ class PreparationCircuits:
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> prep = PreparationCircuits([pyramid(3, parameter_prefix="a"),
     ...                             pyramid(3, parameter_prefix="b")], [0.5, 0.5])
     >>> sorted(prep.prepare_all())
@@ -134,7 +134,7 @@ def prepare_all(
 
     Examples
     --------
-    >>> from qdensity.ansatze import round_robin
+    >>> from qdensity.circuits.ansatze import round_robin
     >>> out = prepare_all([round_robin(4, parameter_prefix="a")], [1.0])
     >>> len(out["randomised"]), out["lcu"].num_qubits
     (1, 5)

@@ -67,7 +67,7 @@ def deterministic_circuit(
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid, round_robin
+    >>> from qdensity.circuits.ansatze import pyramid, round_robin
     >>> qc = deterministic_circuit([pyramid(4, parameter_prefix="a"),
     ...                             round_robin(4, parameter_prefix="b")], [0.25, 0.75])
     >>> [r.name for r in qc.qregs], qc.num_parameters

@@ -71,7 +71,7 @@ def hw_generative_circuit(
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> qc = hw_generative_circuit([pyramid(4, parameter_prefix="a"),
     ...                             pyramid(4, parameter_prefix="b")], [0.5, 0.5])
     >>> qc.count_ops()["cx"]

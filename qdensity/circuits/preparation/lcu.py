@@ -66,7 +66,7 @@ def lcu_circuit(
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> qc = lcu_circuit([pyramid(3, parameter_prefix="a"), pyramid(3, parameter_prefix="b")],
     ...                  [0.5, 0.5])
     >>> qc.num_qubits
@@ -120,7 +120,7 @@ def lcu_template(
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> from qdensity.circuits.loaders import loader_angles
     >>> subs = [pyramid(3, parameter_prefix="a"), pyramid(3, parameter_prefix="b")]
     >>> tpl = lcu_template(subs)

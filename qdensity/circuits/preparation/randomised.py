@@ -58,7 +58,7 @@ def randomised_circuits(
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> circuits = randomised_circuits([pyramid(4, parameter_prefix="a"),
     ...                                 pyramid(4, parameter_prefix="b")])
     >>> [c.num_parameters for c in circuits]

@@ -66,7 +66,7 @@ def tomography_circuits(circuit: QuantumCircuit) -> list[QuantumCircuit]:
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> circuits = tomography_circuits(pyramid(4))
     >>> [c.count_ops().get("rbs", 0) for c in circuits]
     [6, 8, 7]
@@ -109,7 +109,7 @@ def bridge_circuit(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]) ->
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> bridge_circuit(pyramid(5), [(0, 3), (1, 4)]).count_ops()["rbs"]
     12
     """

@@ -211,7 +211,7 @@ class HammingWeightSampler(BaseSamplerV2):
     Examples
     --------
     >>> from qiskit import QuantumCircuit
-    >>> from qdensity.gates import RBSGate
+    >>> from qdensity.circuits.gates import RBSGate
     >>> qc = QuantumCircuit(3)
     >>> _ = qc.x(0)
     >>> _ = qc.append(RBSGate(0.4), [0, 1])

@@ -22,8 +22,10 @@ and state); a wider one is refused before anything is allocated.
 
 ``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
 
-:class:`AdjointEngine` also runs :class:`~qdensity.plans.Plan` s (exact probabilities of the
-measured templates), so it can stand in for :class:`~qdensity.engines.ExactEngine` without Aer.
+:class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities of
+the
+measured templates), so it can stand in for :class:`~qdensity.execution.engines.ExactEngine`
+without Aer.
 """
 
 from __future__ import annotations
@@ -119,7 +121,7 @@ class AdjointEngine:
     max_qubits : int
         Widest circuit accepted (default 20; at most 30). Wider circuits are refused before
         allocating: use the unary engine for RBS/FBS circuits on unary inputs, or a
-        :class:`~qdensity.engines.SamplerEngine` (hardware or an Aer method that scales
+        :class:`~qdensity.execution.engines.SamplerEngine` (hardware or an Aer method that scales
         differently) for anything else.
     memory_budget : int
         Bytes of working state per chunk of rows (default 256 MiB).

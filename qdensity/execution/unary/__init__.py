@@ -1,6 +1,7 @@
 """Unary engine: RBS / FBS circuits as n x n orthogonal matrices (paper Methods, Supp. D-F).
 
-A circuit made only of :class:`~qdensity.gates.RBSGate` and :class:`~qdensity.gates.FBSGate`
+A circuit made only of :class:`~qdensity.circuits.gates.RBSGate` and
+:class:`~qdensity.circuits.gates.FBSGate`
 preserves Hamming weight. On the Hamming-weight-1 ("unary") subspace, spanned by the basis
 states ``e_j`` (statevector entry ``2**j``, qubit ``j`` carries component ``j``), it acts as an
 ``n x n`` real orthogonal matrix ``O(theta)`` (paper Methods, "Hamming weight preserving QNNs";
@@ -97,7 +98,7 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
 
     Examples
     --------
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> compiled = compile_unary(pyramid(4))
     >>> compiled.num_gates, compiled.num_parameters
     (6, 6)
@@ -180,7 +181,7 @@ def orthogonal_matrix(circuit: QuantumCircuit | UnaryCircuit, values=None) -> np
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> O = orthogonal_matrix(pyramid(3), [0.1, 0.2, 0.3])
     >>> bool(np.allclose(O @ O.T, np.eye(3)))
     True
@@ -223,7 +224,7 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> y = forward(pyramid(4), np.eye(4)[0], np.zeros(6))
     >>> y.tolist()
     [1.0, 0.0, 0.0, 0.0]
@@ -293,7 +294,7 @@ def vjp(
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> gv, gx = vjp(pyramid(2), [1.0, 0.0], [0.0], [0.0, 1.0])
     >>> gv.round(12).tolist(), gx.round(12).tolist()
     ([1.0], [0.0, 1.0])
@@ -350,7 +351,7 @@ def jacobian(circuit: QuantumCircuit | UnaryCircuit, x, values=None) -> np.ndarr
     Examples
     --------
     >>> import numpy as np
-    >>> from qdensity.ansatze import pyramid
+    >>> from qdensity.circuits.ansatze import pyramid
     >>> jacobian(pyramid(2), [1.0, 0.0], [0.0]).round(12).tolist()
     [[0.0], [1.0]]
     """
