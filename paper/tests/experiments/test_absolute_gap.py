@@ -78,3 +78,13 @@ def test_the_reader_checks_the_splits(tmp_path):
         mnist_offline.read_wheel(tmp_path / "absent.whl")
     assert mnist_offline.main([str(tmp_path / "absent.whl"), str(tmp_path / "x.npz")]) == 2
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_the_orthogonal_stand_in_is_orthogonal_and_keeps_the_norm():
+    """``orthogonal`` maps a unit vector to probabilities that sum to one, like the OrthoQNN."""
+    net = absolute_gap._network("orthogonal", 5, seed=3, angle_seed=4)
+    middle = net[3]
+    M = middle.M.weight.detach().numpy()
+    np.testing.assert_allclose(M @ M.T, np.eye(5), atol=1e-12)
+    h = torch.rand(7, 5, dtype=torch.float64) + 0.1
+    np.testing.assert_allclose(middle(h).sum(dim=1).detach().numpy(), 1.0, atol=1e-12)
