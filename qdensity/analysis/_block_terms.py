@@ -25,13 +25,14 @@ from qiskit.circuit import (
 )
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.analysis.gate_registry import GATES
 from qdensity.analysis.structure import instruction_generator, parameter_of
 
 _ATOL = 1e-12
 
-# Gates whose generator depends only on (name, number of qubits) (instruction_generator).
-_FIXED_FORM = frozenset({"rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "crx", "cry", "crz", "p",
-                         "u1", "cp", "cu1", "rbs", "fbs"})
+# Gates whose generator depends only on (name, number of qubits) (the gate registry).
+_FIXED_FORM = frozenset(name for name, kind in GATES.items()
+                        if kind.generator is not None and kind.fixed_generator)
 _TEMPLATES: dict[tuple, SparsePauliOp] = {}  # never mutated, only replaced
 _LOCAL: dict[int, QuantumCircuit] = {}
 

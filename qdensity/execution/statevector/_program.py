@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
+from qdensity.analysis.gate_registry import GIVENS_GATES
+
 __all__ = ["Rotation", "Fixed", "Program", "LinearMap", "compile_program", "SUPPORTED", "cdot",
            "real_dot"]
 
@@ -357,7 +359,7 @@ class _Builder:
             self.rotation({}, -1.0, params[0], (qubits[0],), name)
         elif name in ("cp", "cu1"):
             self.rotation({}, -1.0, params[0], tuple(qubits), name)
-        elif name in ("rbs", "fbs"):
+        elif name in GIVENS_GATES:
             i, j, inner = qubits[0], qubits[-1], qubits[1:-1]
             zs = {q: "Z" for q in inner}
             self.rotation({i: "X", j: "Y", **zs}, 0.5, params[0], (), name)
