@@ -59,7 +59,7 @@ class AnsatzFamily:
         ``num_parameters(num_qubits) -> int``, known before building (saved files refuse a
         spec too large to build from it); None reads it off the built circuit.
     gradient : str
-        The gradient method of :func:`~qdensity.gradients.density.density_jacobian_plan` the
+        The ``method=`` of :func:`~qdensity.gradients.density.density_gradient_plan` the
         family is differentiated with (``"shift"`` or ``"commuting"``; paper Table 1).
     readouts : sequence of str
         The ``DensityQNN`` readouts its circuits support.
