@@ -3,7 +3,7 @@
 Each :class:`GateKind` states, for one instruction name, its matrix and decomposition (for the
 gates qdensity defines; Qiskit's standard gates keep their own), its Pauli generator
 ``G`` with ``gate(angle) = exp(-i angle G)``, its parameter-shift rule, whether it preserves
-Hamming weight, whether it keeps real amplitudes real, and how it acts on unary amplitudes.
+Hamming weight, whether it is real or diagonal, and how it acts on unary amplitudes.
 Every layer reads these entries (structure analysis, shift rules, the unary, statevector and
 sampler engines, controlled preparations); no other module compares gate names to the names
 defined here (``tests/analysis/test_gate_registry.py`` greps the package for it).
@@ -41,7 +41,7 @@ SHIFT_RULES = ("four_term", "generator")
 @validates(
     name=Instance(str), generator=[CallableC("f(operation, qubits, num_qubits)"), None],
     shift_rule=[Options(SHIFT_RULES), None], preserves_hamming_weight=Instance(bool),
-    real=Instance(bool), unary=[Options(UNARY_ACTIONS), None],
+    real=Instance(bool), diagonal=Instance(bool), unary=[Options(UNARY_ACTIONS), None],
     fixed_generator=Instance(bool),
     matrix=[CallableC("f(params, num_qubits) -> ndarray"), None],
     decomposition=[CallableC("f(params, num_qubits) -> QuantumCircuit"), None],
@@ -65,6 +65,8 @@ class GateKind:
         Whether the instruction maps every Hamming-weight-k subspace to itself.
     real : bool
         Whether its matrix is real for every angle.
+    diagonal : bool
+        Whether its matrix is diagonal for every angle (it keeps a basis state a basis state).
     unary : {"givens"} or None
         How it acts on unary amplitudes (see :data:`UNARY_ACTIONS`); None if not a two-mode
         rotation.
@@ -84,6 +86,7 @@ class GateKind:
     shift_rule: str | None = None
     preserves_hamming_weight: bool = False
     real: bool = False
+    diagonal: bool = False
     unary: str | None = None
     fixed_generator: bool = True
     matrix: Callable | None = None
@@ -237,18 +240,21 @@ def _fbs_decomposition(params: Sequence, num_qubits: int, core: Callable | None 
 
 for _p in "xyz":
     register_gate(GateKind("r" + _p, _single(_p.upper(), 0.5), "generator",
-                           preserves_hamming_weight=_p == "z", real=_p == "y"))
+                           preserves_hamming_weight=_p == "z", real=_p == "y",
+                           diagonal=_p == "z"))
 for _p in "xyz":
     register_gate(GateKind("r" + _p * 2, _single(_p.upper() * 2, 0.5), "generator",
-                           preserves_hamming_weight=_p == "z"))
+                           preserves_hamming_weight=_p == "z", diagonal=_p == "z"))
 register_gate(GateKind("rzx", _single("ZX", 0.5), "generator"))
 for _p in "xyz":
     register_gate(GateKind("cr" + _p, _controlled(_p.upper()), "generator",
-                           preserves_hamming_weight=_p == "z"))
+                           preserves_hamming_weight=_p == "z", diagonal=_p == "z"))
 for _name in ("p", "u1"):
-    register_gate(GateKind(_name, _phase, "generator", preserves_hamming_weight=True))
+    register_gate(GateKind(_name, _phase, "generator", preserves_hamming_weight=True,
+                           diagonal=True))
 for _name in ("cp", "cu1"):
-    register_gate(GateKind(_name, _controlled_phase, "generator", preserves_hamming_weight=True))
+    register_gate(GateKind(_name, _controlled_phase, "generator", preserves_hamming_weight=True,
+                           diagonal=True))
 RBS = register_gate(GateKind(
     "rbs", _rbs_generator, "four_term", preserves_hamming_weight=True, real=True,
     unary="givens", matrix=_rbs_matrix, decomposition=_rbs_decomposition))
@@ -258,9 +264,11 @@ FBS = register_gate(GateKind(
 register_gate(GateKind("PauliEvolution", _evolution_generator, "generator",
                        fixed_generator=False))
 for _name in ("z", "cz", "swap", "id"):  # fixed, real and weight-preserving
-    register_gate(GateKind(_name, preserves_hamming_weight=True, real=True))
+    register_gate(GateKind(_name, preserves_hamming_weight=True, real=True,
+                           diagonal=_name != "swap"))
 for _name in ("s", "sdg", "t", "tdg", "iswap", "xx_plus_yy"):
-    register_gate(GateKind(_name, preserves_hamming_weight=True))
+    register_gate(GateKind(_name, preserves_hamming_weight=True,
+                           diagonal=_name in ("s", "sdg", "t", "tdg")))
 for _name in ("barrier", "measure", "delay"):  # not gates: they pass any weight through
     register_gate(GateKind(_name, preserves_hamming_weight=True))
 

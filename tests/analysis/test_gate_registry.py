@@ -129,7 +129,7 @@ def _matrix_cases():
 
 @pytest.mark.parametrize(("name", "kind", "gate"), list(_matrix_cases()),
                          ids=lambda v: v if isinstance(v, str) else "")
-def test_hamming_weight_and_realness_are_read_off_the_matrix(name, kind, gate):
+def test_hamming_weight_realness_and_diagonality_are_read_off_the_matrix(name, kind, gate):
     weights = [[bin(i).count("1") for i in range(2**gate.num_qubits)]]
     for theta in ANGLES:
         mat = Operator(_instance(name, theta, gate.num_qubits)).data
@@ -139,8 +139,13 @@ def test_hamming_weight_and_realness_are_read_off_the_matrix(name, kind, gate):
             assert preserves, (name, theta)
         if kind.real:
             assert np.all(np.abs(mat.imag) < 1e-12), (name, theta)
+        if kind.diagonal:
+            assert np.allclose(mat, np.diag(np.diag(mat)), atol=1e-12), (name, theta)
     if not kind.preserves_hamming_weight:  # a listed non-preserving gate leaves the subspace
         assert not preserves, name
+    if not kind.diagonal:  # nor is a gate listed as not diagonal
+        mat = Operator(gate).data
+        assert not np.allclose(mat, np.diag(np.diag(mat)), atol=1e-12), name
 
 
 @pytest.mark.parametrize("m", [2, 3, 5])
