@@ -25,7 +25,7 @@ from qiskit.circuit import (
 )
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.analysis.gate_registry import GATES
+from qdensity.analysis.gate_registry import EVOLUTION, GATES
 from qdensity.analysis.structure import instruction_generator, parameter_of
 
 _ATOL = 1e-12
@@ -93,7 +93,8 @@ def _template(op) -> SparsePauliOp:
     key: tuple | None = None
     if op.name in _FIXED_FORM:
         key = (op.name, w)
-    elif (op.name == "PauliEvolution" and isinstance(getattr(op, "operator", None), SparsePauliOp)
+    elif (GATES.get(op.name) is EVOLUTION
+          and isinstance(getattr(op, "operator", None), SparsePauliOp)
           and op.operator.coeffs.dtype != object):
         o = op.operator  # keyed by its content: equal operators, one generator
         key = (op.name, w, o.paulis.x.tobytes(), o.paulis.z.tobytes(), o.paulis.phase.tobytes(),
@@ -135,7 +136,7 @@ class _Reader:
         return parameter_of(inst)
 
     def template(self, op) -> SparsePauliOp:
-        if op.name == "PauliEvolution":
+        if GATES.get(op.name) is EVOLUTION:
             o = getattr(op, "operator", None)
             hit = self._by_operator.get(id(o))
             if hit is not None and hit[0] is o:

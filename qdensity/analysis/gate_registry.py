@@ -27,8 +27,9 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.validation import CallableC, Instance, Options, validates
 
-__all__ = ["GateKind", "GATES", "gate_kind", "register_gate", "RBS", "FBS", "GIVENS_GATES",
-           "UNARY_ACTIONS", "SHIFT_RULES"]
+__all__ = ["GateKind", "GATES", "gate_kind", "register_gate", "RBS", "FBS", "EVOLUTION",
+           "GIVENS_GATES", "PHASE_GATES", "CONTROLLED_PHASE_GATES", "UNARY_ACTIONS",
+           "SHIFT_RULES"]
 
 #: How a gate acts on unary amplitudes (Hamming weight 1): ``"givens"`` rotates the plane of
 #: its first and last qubit by ``+theta`` (``y_i -> c y_i - s y_j``, ``y_j -> s y_i + c y_j``).
@@ -261,8 +262,8 @@ RBS = register_gate(GateKind(
 FBS = register_gate(GateKind(
     "fbs", _fbs_generator, "four_term", preserves_hamming_weight=True, real=True,
     unary="givens", matrix=_fbs_matrix, decomposition=_fbs_decomposition))
-register_gate(GateKind("PauliEvolution", _evolution_generator, "generator",
-                       fixed_generator=False))
+EVOLUTION = register_gate(GateKind("PauliEvolution", _evolution_generator, "generator",
+                                   fixed_generator=False))
 for _name in ("z", "cz", "swap", "id"):  # fixed, real and weight-preserving
     register_gate(GateKind(_name, preserves_hamming_weight=True, real=True,
                            diagonal=_name != "swap"))
@@ -275,3 +276,8 @@ for _name in ("barrier", "measure", "delay"):  # not gates: they pass any weight
 #: Names of the gates that act on unary amplitudes as Givens rotations (``unary="givens"``):
 #: the gates of the unary engine and of the Hamming-weight-preserving ansatze.
 GIVENS_GATES = tuple(name for name, kind in GATES.items() if kind.unary == "givens")
+#: Names of the phase gates ``diag(1, e^{i lambda})`` (generator ``-|1><1|``; Qiskit's alias pair).
+PHASE_GATES = tuple(name for name, kind in GATES.items() if kind.generator is _phase)
+#: Names of the controlled phase gates (generator ``-|11><11|``).
+CONTROLLED_PHASE_GATES = tuple(name for name, kind in GATES.items()
+                               if kind.generator is _controlled_phase)

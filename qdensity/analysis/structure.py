@@ -180,7 +180,8 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
     (``G = -|1><1|``) and ``cp``/``cu1`` (``G = -|11><11|``), ``rbs`` (``G = Q = (X_i Y_j -
     Y_i X_j)/2`` in qubit-indexed notation, eigenvalues ``{-1, 0, 0, 1}``; paper eq. 8),
     ``fbs`` on ``[i, ..., j]`` (``G = Q Z_{i+1} ... Z_{j-1}``, Supp. E eq. 24) and
-    ``PauliEvolutionGate`` (``G = H``).
+    ``PauliEvolutionGate`` (``G = H``): the generators of the gate registry
+    (:mod:`qdensity.analysis.gate_registry`).
 
     Parameters
     ----------
