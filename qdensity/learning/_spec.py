@@ -111,9 +111,10 @@ def build_model(est, num_qubits: int, rng: np.random.Generator) -> DensityQNN:
             raise ValueError("model has no trainable parameters (no angles, fixed mixture)")
         return model
     family = FAMILIES[est.ansatz]
-    if est.readout not in family.readouts:
-        raise ValueError(f"readout must be one of {family.readouts} for ansatz "
-                         f"{est.ansatz!r}, got {est.readout!r}")
+    allowed = READOUTS if family.readouts is None else tuple(family.readouts)
+    if est.readout not in allowed:
+        raise ValueError(f"readout must be one of {allowed} for ansatz {est.ansatz!r}, got "
+                         f"{est.readout!r}")
     subs = DECOMPOSITIONS[est.decomposition].split(family.builder(num_qubits), est.depth)
     mixture = MIXTURES[est.mixture].build(num_qubits, len(subs), rng)
     return DensityQNN(subs, mixture, encoding=Encoding.unary(num_qubits), readout=est.readout,

@@ -32,17 +32,13 @@ from qdensity.circuits.ansatze.qcnn import qcnn
 from qdensity.circuits.ansatze.reuploading import reuploading
 from qdensity.validation import CallableC, Instance, Interval, SequenceOf, validates
 
-__all__ = ["AnsatzFamily", "FAMILIES", "register_family", "estimator_ansatze",
-           "UNARY_READOUTS"]
-
-#: Readouts of a Hamming-weight-preserving family on unary inputs (``DensityQNN(readout=)``).
-UNARY_READOUTS = ("unary_probabilities", "unary_amplitudes", "observable")
+__all__ = ["AnsatzFamily", "FAMILIES", "register_family", "estimator_ansatze"]
 
 
 @validates(
     name=Instance(str), builder=CallableC("f(num_qubits) -> QuantumCircuit"),
     num_parameters=[CallableC("f(num_qubits) -> int"), None], gradient=Instance(str),
-    readouts=SequenceOf(Instance(str)), min_qubits=Interval(int, 1),
+    readouts=[SequenceOf(Instance(str)), None], min_qubits=Interval(int, 1),
     power_of_two=Instance(bool), estimator=Instance(bool), cli_name=[Instance(str), None],
 )
 @dataclass(frozen=True)
@@ -61,8 +57,9 @@ class AnsatzFamily:
     gradient : str
         The ``method=`` of :func:`~qdensity.gradients.density.density_gradient_plan` the
         family is differentiated with (``"shift"`` or ``"commuting"``; paper Table 1).
-    readouts : sequence of str
-        The ``DensityQNN`` readouts its circuits support.
+    readouts : sequence of str or None
+        The ``DensityQNN`` readouts its circuits support; None: every one of
+        :data:`qdensity.models.density.READOUTS` (a weight-preserving family on unary inputs).
     min_qubits : int
         Smallest size it builds.
     power_of_two : bool
@@ -77,7 +74,7 @@ class AnsatzFamily:
     builder: Callable[[int], QuantumCircuit]
     num_parameters: Callable[[int], int] | None = None
     gradient: str = "shift"
-    readouts: tuple[str, ...] = ("observable",)
+    readouts: tuple[str, ...] | None = ("observable",)
     min_qubits: int = 2
     power_of_two: bool = False
     estimator: bool = False
@@ -143,13 +140,13 @@ def _butterfly_count(n: int) -> int:
     return (n // 2) * max(n.bit_length() - 1, 0)
 
 
-register_family(AnsatzFamily("pyramid", pyramid, _pairs, readouts=UNARY_READOUTS,
+register_family(AnsatzFamily("pyramid", pyramid, _pairs, readouts=None,
                              estimator=True))
-register_family(AnsatzFamily("x", x_circuit, _x_count, readouts=UNARY_READOUTS, estimator=True,
+register_family(AnsatzFamily("x", x_circuit, _x_count, readouts=None, estimator=True,
                              cli_name="x_circuit"))
-register_family(AnsatzFamily("butterfly", butterfly, _butterfly_count, readouts=UNARY_READOUTS,
+register_family(AnsatzFamily("butterfly", butterfly, _butterfly_count, readouts=None,
                              power_of_two=True, estimator=True))
-register_family(AnsatzFamily("round_robin", round_robin, _pairs, readouts=UNARY_READOUTS,
+register_family(AnsatzFamily("round_robin", round_robin, _pairs, readouts=None,
                              estimator=True))
 register_family(AnsatzFamily("hardware_efficient", partial(hardware_efficient, reps=2)))
 register_family(AnsatzFamily("equivariant_xx", partial(equivariant_commuting, pauli="X"),
