@@ -156,7 +156,7 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
     progress (see :mod:`qdensity.progress`); False: silent.
     """
     todo = [(name, n) for name in ansatze for n in sizes
-            if not (name == "butterfly" and n & (n - 1))]
+            if not (name in FAMILIES and FAMILIES[name].power_of_two and n & (n - 1))]
     rows = []
     with progress_bar(len(todo), desc="table1", unit="row", verbose=verbose,
                       leave=True) as bar:

@@ -191,3 +191,12 @@ def test_without_the_toy_family_its_name_is_refused():
         build_circuit(TOY, 3)
     with pytest.raises(ValueError, match="ansatz"):
         QNNClassifier(ansatz=TOY, verbose=False).fit(np.ones((4, 2)), [0, 1, 0, 1])
+
+
+def test_table1_rows_are_registered_families_differentiated_as_the_paper_says():
+    from qdensity.gradients.table1 import ANSATZE
+
+    # paper Table 1: the equivariant circuit by commuting blocks, the others by shifts
+    assert {name: FAMILIES[name].gradient for name in ANSATZE} == {
+        "hardware_efficient": "shift", "equivariant_xx": "commuting", "pyramid": "shift",
+        "butterfly": "shift", "round_robin": "shift"}
