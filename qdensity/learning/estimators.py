@@ -295,11 +295,14 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
     ----------
     model : DensityQNN, optional
         A template that ``fit`` deep-copies (never mutated); overrides the spec below.
-    ansatz : {"round_robin", "pyramid", "x", "butterfly"}
-        Hamming-weight-preserving RBS circuit on ``n`` qubits (butterfly: ``n`` a power of 2).
+    ansatz : {"round_robin", "pyramid", "x", "butterfly"} or another registered family
+        Hamming-weight-preserving RBS circuit on ``n`` qubits (butterfly: ``n`` a power of 2):
+        a family of :data:`~qdensity.circuits.ansatze.registry.FAMILIES` registered with
+        ``estimator=True``.
     decomposition : {"layers", "cyclic", "odd_even", "none"}
         Sub-unitaries: ``depth`` moments each ("layers", Fig. 3), ``depth`` cyclic moments
-        ("cyclic", Fig. 6), odd/even gates, or the pure model ("none", K = 1).
+        ("cyclic", Fig. 6), odd/even gates, or the pure model ("none", K = 1); the entries of
+        :data:`~qdensity.models.registry.DECOMPOSITIONS`.
     depth : int
         Moments per sub-unitary.
     mixture : {"softmax", "fixed", "moe", "moe_gelu"}

@@ -19,6 +19,8 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
 from qiskit.quantum_info import Operator
 
+from qdensity.analysis.gate_registry import FBS, GATES, GIVENS_GATES
+
 #: Gates with a vectorised block (angles evaluated for all rows at once).
 KNOWN_GATES = frozenset({"rbs", "fbs", "xx_plus_yy", "rz", "p", "u1", "rzz", "cp", "cu1",
                          "crz", "z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap", "id"})
@@ -79,7 +81,7 @@ class GateOp:
     @property
     def real(self) -> bool:
         """Whether the gate's block is real for every angle."""
-        if self.name in ("rbs", "fbs", "cz", "swap", "z", "id"):
+        if getattr(GATES.get(self.name), "real", False):
             return True
         if self.matrix is not None:
             return bool(np.all(np.abs(self.matrix.imag) < _TOL))
@@ -125,7 +127,7 @@ class HammingTemplate:
         """Weight 1 and only RBS / FBS gates with angles linear in one parameter: the unary
         engine's circuits."""
         return self.weight == 1 and all(
-            g.name in ("rbs", "fbs") and g.angles[0].kind != "expr" for g in self.gates)
+            g.name in GIVENS_GATES and g.angles[0].kind != "expr" for g in self.gates)
 
     @property
     def real(self) -> bool:
@@ -235,7 +237,7 @@ class _Walker:
         if op.name in ("z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap"):
             self._fixed(op, qs)
             return
-        if op.name == "fbs":
+        if GATES.get(op.name) is FBS:
             self._touch(qs)
             self.gates.append(GateOp("fbs", tuple(qs), angles, position=self.top_index))
             return
