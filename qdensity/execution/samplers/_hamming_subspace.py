@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from qdensity.execution.sampler._hamming_compile import GateOp, HammingTemplate
+from qdensity.execution.samplers._hamming_compile import GateOp, HammingTemplate
 
 
 def subsets(n: int, k: int) -> np.ndarray:
