@@ -30,8 +30,12 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from qdensity.hardware.aer_samplers import derived_seed
+from qdensity.validation import CallableC, Instance, Interval, SequenceOf, Unchecked, validates
 
 __all__ = ["reseeded", "check_reseedable", "run_independent"]
+
+#: A sampler: a ``BaseSamplerV2`` or any object with its ``run(pubs, shots=None)``.
+_SAMPLER = Unchecked("a BaseSamplerV2, or any object with run(pubs, shots=None) -> job")
 
 
 def _rebuilt(sampler, seed: int):
@@ -65,6 +69,7 @@ def _integer_seed(sampler):
     return int(seed)
 
 
+@validates(sampler=_SAMPLER, name=Instance(str))
 def check_reseedable(sampler, name: str = "sampler") -> None:
     """Refuse a seeded sampler that cannot give an independent copy of itself.
 
@@ -97,6 +102,7 @@ def check_reseedable(sampler, name: str = "sampler") -> None:
         f"seed, or pass the sampler unseeded")
 
 
+@validates(sampler=_SAMPLER, seed=Interval(int, 0, None))
 def reseeded(sampler, seed: int):
     """A copy of ``sampler`` that draws from ``seed``, or None when it is not seeded.
 
@@ -104,6 +110,7 @@ def reseeded(sampler, seed: int):
     ----------
     sampler : qiskit.primitives.BaseSamplerV2
     seed : int
+        ``>= 0``.
 
     Returns
     -------
@@ -134,6 +141,9 @@ def _group_sampler(sampler, group: int):
     return reseeded(sampler, derived_seed(base, group))
 
 
+@validates(sampler=_SAMPLER,
+           pubs=SequenceOf(Instance(tuple), min_len=0),
+           wait=[CallableC('a callable job -> PrimitiveResult'), None])
 def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None) -> list:
     """``sampler.run(pubs)``'s PUB results, one job per shot count (independent shots on a
     seeded Aer sampler).
