@@ -243,12 +243,16 @@ class HammingWeightSampler(BaseSamplerV2):
     gates that commute with the number operator on their qubits (RBS, FBS, ``XXPlusYY``, P,
     RZ, RZZ, CZ, CP, CRZ, SWAP, iSWAP, S, T, Z, and any other gate judged by its matrix;
     composite gates such as loaders are followed through their definitions) and measure in the
-    Z basis at the end. The state after the gates lies in the weight-``k`` subspace
+    Z basis at the end; a final bit flip (X, Y, or any fixed one-qubit gate whose matrix is X
+    up to phases) with nothing but its measurement after it is a relabelling, applied to that
+    clbit of the drawn shots. The state after the gates lies in the weight-``k`` subspace
     (dimension ``D = C(n, k)``); the sampler computes it exactly for every parameter row, draws
     each row's shots from its ``D`` probabilities with one multinomial draw (then shuffles them
     into shot order), and flips the drawn bits with the readout channel. Results have
     qiskit-aer ``SamplerV2``'s shapes: one ``BitArray`` per classical register, of the PUB's
-    parameter-array shape, ``num_shots`` shots each.
+    parameter-array shape, ``num_shots`` shots each. As qiskit's samplers, :meth:`run` takes an
+    iterable of PUBs (``run([circuit])``; a bare circuit is refused by qiskit's own coercion)
+    and warns for a circuit without classical registers (whose result holds no data).
 
     Parameters
     ----------
@@ -361,10 +365,13 @@ class HammingWeightSampler(BaseSamplerV2):
 
         Raises
         ------
+        UnsupportedInstructionError
+            A circuit outside the sampler's scope, naming the instruction (a ``QiskitError``,
+            as qiskit's samplers raise, and a ``ValueError``).
         ValueError
             Shots not a positive int, a parameter array of the wrong shape (naming the PUB), a
-            circuit outside the sampler's scope or a subspace beyond ``max_dimension``:
-            all before anything is computed.
+            subspace beyond ``max_dimension``, or a bare circuit for ``pubs``: all before
+            anything is computed.
         TypeError
             Shots not an int.
         """
