@@ -333,12 +333,16 @@ class SamplerEngine:
             sampler = reseeded(self.sampler, seed)
             if sampler is None:
                 return self
+        hamming = (None if self._hamming_sampler is None  # its compiled templates are kept
+                   else self._hamming_sampler.with_seed(_hamming_stream(seed)))
         out = object.__new__(type(self))
         out.__dict__.update(self.__dict__)  # shares the ledger, the cache and the correction
-        out.sampler, out._seed = sampler, seed
-        if self._hamming_sampler is not None:  # its compiled templates are kept
-            out._hamming_sampler = self._hamming_sampler.with_seed(_hamming_stream(seed))
+        out._adopt(sampler, seed, hamming)
         return out
+
+    def _adopt(self, sampler, seed: int, hamming: HammingWeightSampler | None) -> None:
+        """Take ``sampler``, ``seed`` and the Hamming-weight sampler (:meth:`with_seed`)."""
+        self.sampler, self._seed, self._hamming_sampler = sampler, seed, hamming
 
     @property
     def seed(self) -> int | None:
