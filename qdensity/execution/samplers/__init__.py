@@ -13,6 +13,6 @@ they follow the same protocol. :class:`~qdensity.execution.sampler.SamplerEngine
 """
 
 from qdensity.execution.samplers.hamming import HammingWeightSampler
-from qdensity.execution.samplers.reseed import reseeded, run_independent
+from qdensity.execution.samplers.reseed import check_reseedable, reseeded, run_independent
 
-__all__ = ["HammingWeightSampler", "reseeded", "run_independent"]
+__all__ = ["HammingWeightSampler", "check_reseedable", "reseeded", "run_independent"]
