@@ -190,6 +190,10 @@ def test_engine_with_postselection_sends_a_flipped_template_to_aer():
     engine = SamplerEngine(seed=1, progress=False, postselect="hamming_weight")
     with pytest.raises(ValueError, match="Hamming"):
         engine.run([CircuitJob(qc, None, 50)])
+    engine = SamplerEngine(seed=1, progress=False, postselect="hamming_weight",
+                           hamming_weight="always")
+    with pytest.raises(ValueError, match="bit flip before a measurement"):
+        engine.run([CircuitJob(qc, None, 50)])
 
 
 # -- reseeding -----------------------------------------------------------------------------

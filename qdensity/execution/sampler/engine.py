@@ -417,6 +417,11 @@ class SamplerEngine:
             return None
         if template.flipped and self.postselect is not None:
             # a final bit flip moves outcomes off weight k: post-selection reads the circuit
+            if self.hamming_weight == "always":
+                raise ValueError(f"job {label!r} ends with a bit flip before a measurement: "
+                                 f"its outcomes leave Hamming weight {template.weight}, which "
+                                 f"postselect='hamming_weight' keeps; drop the flip or the "
+                                 f"post-selection")
             return None
         return template
 
