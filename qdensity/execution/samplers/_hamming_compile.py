@@ -3,9 +3,10 @@
 :func:`compile_template` walks a circuit's instructions (composite gates through their
 definitions) and returns a :class:`HammingTemplate`: the qubits that X gates set on
 ``|0...0>`` (the weight-``k`` input), the list of weight-preserving gates with their angles as
-columns of the parameter array (:class:`Angle`), and the qubit each clbit measures. Anything
-else is refused with a ``ValueError`` naming the first offending instruction and the
-alternative (qiskit-aer's sampler).
+columns of the parameter array (:class:`Angle`), the qubit each clbit measures, and the clbits
+read through a final bit flip (a relabelling). Anything else is refused with an
+:class:`UnsupportedInstructionError` (a ``QiskitError`` and a ``ValueError``) naming the first
+offending instruction and the alternative (qiskit-aer's sampler).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ class UnsupportedInstructionError(QiskitError, ValueError):
 
     def __str__(self) -> str:  # the message itself (QiskitError shows its repr)
         return str(self.message)
+
 
 #: Gates with a vectorised block (angles evaluated for all rows at once).
 KNOWN_GATES = frozenset({"rbs", "fbs", "xx_plus_yy", "rz", "p", "u1", "rzz", "cp", "cu1",
@@ -133,7 +135,8 @@ class HammingTemplate:
 
     @property
     def weight(self) -> int:
-        """The Hamming weight ``k`` every outcome keeps."""
+        """The Hamming weight ``k`` of the state before any final bit flip (every outcome's
+        when :attr:`flipped` is empty)."""
         return len(self.occupied)
 
     @property
