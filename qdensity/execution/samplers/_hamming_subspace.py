@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from qdensity.analysis.gate_registry import FBS, GATES, RBS
-from qdensity.execution.sampler._hamming_compile import GateOp, HammingTemplate
+from qdensity.execution.samplers._hamming_compile import GateOp, HammingTemplate
 
 
 def subsets(n: int, k: int) -> np.ndarray:
