@@ -95,7 +95,13 @@ def _outcomes(pub_result, rows: int) -> tuple[np.ndarray, int]:
     return ints, bits.num_shots
 
 
-@validates(sampler=Instance(BaseSamplerV2, "a qiskit BaseSamplerV2"),
+def _example_sampler() -> BaseSamplerV2:
+    from qdensity.execution.sampler.hamming import HammingWeightSampler
+
+    return HammingWeightSampler(seed=0)
+
+
+@validates(sampler=Instance(BaseSamplerV2, "a qiskit BaseSamplerV2", example=_example_sampler),
            options=[Instance(dict), None])
 class HammingShiftSamplerGradient(BaseSamplerGradient):
     """Gradients of a sampler's outcome probabilities by qdensity's shift rules (Supp. E).
