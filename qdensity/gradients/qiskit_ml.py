@@ -211,9 +211,10 @@ def _combine(pub_result, B: int, T: int, template: _Template) -> list[list[dict[
     ints, shots = _outcomes(pub_result, B * T)
     keys, inverse = np.unique(ints, return_inverse=True)
     inverse = inverse.reshape(B * T, shots)
-    counts = np.zeros((B * T, len(keys)))
-    np.add.at(counts, (np.repeat(np.arange(B * T), shots), inverse.ravel()), 1.0)
-    freqs = counts.reshape(B, T, len(keys)) / shots
+    K = len(keys)
+    flat = (np.arange(B * T)[:, None] * K + inverse).ravel()
+    counts = np.bincount(flat, minlength=B * T * K).reshape(B * T, K)
+    freqs = counts.reshape(B, T, K) / shots
     # (B, T, K) -> (B, P, K): each term's weight onto its parameter's column
     mix = np.zeros((T, P))
     mix[np.arange(T), template.outs] = template.weights

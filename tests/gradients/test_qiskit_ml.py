@@ -100,6 +100,7 @@ def test_gradient_matches_finite_differences_of_exact_probabilities(seed):
 def test_selected_parameters_and_many_samples_in_one_pub():
     qc, x, weights = _model(4)
     qc.measure_all()
+    shots = 20_000
     rng = np.random.default_rng(3)
     values = rng.uniform(-np.pi, np.pi, (5, qc.num_parameters))
     pubs_seen = []
@@ -114,12 +115,12 @@ def test_selected_parameters_and_many_samples_in_one_pub():
             pubs_seen.append([np.asarray(p[1]).shape for p in pubs])
             return self.inner.run(pubs, shots=shots)
 
-    grad = HammingShiftSamplerGradient(Recording(), {"shots": SHOTS})
+    grad = HammingShiftSamplerGradient(Recording(), {"shots": shots})
     result = grad.run([qc] * 5, values, parameters=[weights] * 5).result()
     # one sampler call, one PUB: 5 samples x 6 RBS weights x 4 terms rows
     assert pubs_seen == [[(5 * 6 * 4, qc.num_parameters)]]
     columns = [list(qc.parameters).index(w) for w in weights]
-    sd = np.sqrt((RBS_TERMS**2).sum() / (4 * SHOTS))
+    sd = np.sqrt((RBS_TERMS**2).sum() / (4 * shots))
     for b in range(5):
         got = _dense(result.gradients[b], 16)
         want = _finite_differences(qc, values[b], columns)
