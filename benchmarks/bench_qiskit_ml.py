@@ -19,6 +19,10 @@ Reported per route: CPU seconds of ``fit`` (``time.process_time``, this process 
 routes run interleaved, one after the other, ``--repeats`` times), circuits (parameter rows
 submitted) and PUBs, train and test accuracy, final loss, and the CPU ratio to ``hamming``.
 
+Measured (defaults, one repeat, a shared 2-core machine): hamming 1.23 s CPU in 6 PUBs,
+qiskit 77.9 s (63x) and aer 90.7 s (74x) in 2,691 PUBs; 2,712 circuits each; train/test
+accuracy 0.75/0.375 on every route.
+
 Run::
 
     python benchmarks/bench_qiskit_ml.py [--qubits 8] [--samples 8] [--iterations 3]
