@@ -22,7 +22,8 @@ def test_every_module_is_collected():
 
 
 #: Modules of optional extras and the package each needs (CI installs the extras).
-OPTIONAL = {"qdensity.learning.torch": "torch"}
+OPTIONAL = {"qdensity.learning.torch": "torch", "qdensity.circuits.interop": "pennylane",
+            "qdensity.gradients.qiskit_ml": "qiskit_machine_learning"}
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -1,4 +1,4 @@
-"""CI installs the optional extras (torch, sweep, ibm, fast) so that their tests run there,
+"""CI installs the optional extras (torch, sweep, ibm, fast, interop) so that their tests run there,
 never skip: ``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then fails if one is
 missing. The core package imports without them."""
 
@@ -10,7 +10,8 @@ import sys
 
 def test_extras_are_installed_where_required():
     if os.environ.get("QDENSITY_REQUIRE_EXTRAS") == "1":
-        for name in ("torch", "optuna", "qiskit_ibm_runtime", "mthree", "numba"):
+        for name in ("torch", "optuna", "qiskit_ibm_runtime", "mthree", "numba", "pennylane",
+                     "qiskit_machine_learning"):
             importlib.import_module(name)
 
 

@@ -34,7 +34,7 @@ KNOWN_BROKEN: dict[str, str] = {}
 
 #: Top-level module an example may import -> the extra that brings it.
 EXTRAS = {"torch": "torch", "optuna": "sweep", "qiskit_ibm_runtime": "ibm", "mthree": "ibm",
-          "pennylane": "bench"}
+          "pennylane": "interop", "qiskit_machine_learning": "interop"}
 
 #: Top-level module an example may import that no extra brings (documented for clusters only).
 OTHER_PACKAGES = {"dask_jobqueue": "dask-jobqueue"}
