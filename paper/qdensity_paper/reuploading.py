@@ -39,7 +39,7 @@ from qdensity.models.single_qubit import SingleQubitReuploading
 from qdensity.progress import progress_bar
 from qdensity_paper._accounting import breakdown_metrics
 from qdensity_paper._common import curve, figure_name, plot_curves
-from qdensity_paper.protocol import PaperProtocol
+from qdensity_paper.protocol import Departure, PaperProtocol
 from qdensity_paper.registry import Experiment
 from qdensity_paper.results import ExperimentResult
 
@@ -259,6 +259,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     return paths
 
 
+#: The claims read on Supp. J's model (T_2 and T_3), which the gate-order departure touches.
+_SUPP_J = ("reuploading/supp-j", "reuploading/supp-j-experts", "reuploading/t3")
+
 PAPER = PaperProtocol(
     settings={"setting": "both", "layers": [5, 10, 20, 30, 40, 50], "experts": 5,
               "experts_at_max": [2, 7], "epochs": 300, "batch_size": 5, "learning_rate": 0.001,
@@ -270,7 +273,12 @@ PAPER = PaperProtocol(
               "epochs": "not stated; 300",
               "layers": "the grid is not stated (L = 50 is the largest in Supp. J)",
               "experts_at_max": "Supp. J: K in {2, 7} at L = 50"},
-    departures=(),
+    departures=(Departure(
+        "gate order: each upload applies the data rotations and then R_z R_y R_z, where Supp. "
+        "J's equation, U_l = R_y(x) R_x(x) R_z(phi) R_y(delta) R_z(omega), applies the "
+        "trainable rotations first (the model starts with a trainable rotation and ends with a "
+        "data rotation before Z): the T_2 and T_3 runs are another model than Supp. J's (the "
+        "Methods, T_4, state no order)", touches=_SUPP_J),),
     source="Methods 'Data reuploading density QNN'; Supp. J (batch 5, Adam 1e-3, K = 5)")
 
 EXPERIMENT = Experiment(

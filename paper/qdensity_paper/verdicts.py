@@ -233,7 +233,7 @@ def verdict(result: ExperimentResult, claim: Claim, *, alpha: float = _ALPHA,
                       if m not in row})
     if missing:
         return {**out, "verdict": "not comparable", "reason": f"the run lacks {missing}"}
-    keys = {claim.key, *claim.parts}
+    keys = {claim.key, *claim.parts, claim.part_of} - {""}  # a part shares its sentence's
     touched = [text for text, touches in departures_for(result)
                if "*" in touches or keys & set(touches)]
     if claim.kind in ("bound", "exact"):
