@@ -15,8 +15,8 @@ The paper describes two settings that do not agree; ``setting`` picks one (or bo
   Hamiltonian encoding). This is the setting of the main-text claim about ``T_4``-like data.
 * ``"supp_j"`` -- Supp. J: ``h = T_2`` (the target Fig. 6's caption and Fig. 17 name), noise std
   0.2, the encoding ``R_y(x) R_x(x)`` of eq. 37 (two data rotations per upload).
-* ``"t3"`` -- Supp. J's higher-degree panel (Fig. 18): ``h = T_3`` with Supp. J's noise and
-  encoding (``"both"`` runs the first two; ``t3`` runs on its own).
+* ``"t3"``, ``"t4"`` -- Supp. J's higher-degree panels (Fig. 18): ``h = T_3`` or ``T_4`` with
+  Supp. J's noise and encoding (``"both"`` runs the first two; each panel runs on its own).
 
 Both use 25 noisy training points uniform on ``[-1, 1]`` and 110 clean test points on an even
 grid (Supp. J), batch 5, Adam with learning rate 0.001, trainable ``R_z R_y R_z`` per upload,
@@ -50,6 +50,7 @@ SETTINGS: dict[str, tuple[int, float, str]] = {
     "methods": (4, 0.5, "rx"),
     "supp_j": (2, 0.2, "rx_ry"),
     "t3": (3, 0.2, "rx_ry"),
+    "t4": (4, 0.2, "rx_ry"),
 }
 
 #: What ``setting="both"`` runs: the two readings of Fig. 6b (``"t3"``, Supp. J's T_3 panel of
@@ -260,7 +261,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
 
 
 #: The claims read on Supp. J's model (T_2 and T_3), which the gate-order departure touches.
-_SUPP_J = ("reuploading/supp-j", "reuploading/supp-j-experts", "reuploading/t3")
+_SUPP_J = ("reuploading/supp-j", "reuploading/supp-j-experts", "reuploading/t3",
+           "reuploading/t4")
 
 PAPER = PaperProtocol(
     settings={"setting": "both", "layers": [5, 10, 20, 30, 40, 50], "experts": 5,
@@ -269,7 +271,8 @@ PAPER = PaperProtocol(
     fixed=("experts", "batch_size", "learning_rate"),
     readings={"setting": "the Methods say T_4 with noise variance 0.25 and one R_x(x) per "
                          "upload; Supp. J says T_2 with noise std 0.2 and R_y(x) R_x(x); both "
-                         "run ('both'); Supp. J's T_3 panel (Fig. 18) runs as setting='t3'",
+                         "run ('both'); Supp. J's T_3 and T_4 panels (Fig. 18) run as "
+                         "setting='t3' and 't4'",
               "epochs": "not stated; 300",
               "layers": "the grid is not stated (L = 50 is the largest in Supp. J)",
               "experts_at_max": "Supp. J: K in {2, 7} at L = 50"},
