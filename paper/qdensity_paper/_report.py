@@ -14,9 +14,9 @@ from qdensity_paper.verdicts import (
     DECIDED,
     VERDICTS,
     _detail,
-    _looks_text,
     evaluate,
     format_estimate,
+    looks_text,
     results_paths,
 )
 
@@ -137,7 +137,7 @@ def report(directory: str | Path) -> dict[str, str]:
                 f" (beside `{r['beside']}`)" if r.get("beside") else "")
         lines.append(f"| `{r['file']}` | {r['claim']}{role} | {r['category']} | {r['kind']} | "
                      f"`{r['quantity']}` | {format_estimate(r)} | **{r['verdict']}** | "
-                     f"{_looks_text(r)} | {_detail(r)} |")
+                     f"{looks_text(r)} | {_detail(r)} |")
     judged = {r["key"] for r in rows}
     lines += ["", "Every claim, with the paper's words and margins (claims no results file "
               "answers yet are marked *no run*):", "",

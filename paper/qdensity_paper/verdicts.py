@@ -42,7 +42,7 @@ from qdensity_paper.results import ExperimentResult
 
 __all__ = ["Claim", "VERDICTS", "DECIDED", "SPENDING", "claims_for", "verdict",
            "seeds_for_power", "departures_for", "evaluate", "report", "MARKERS", "splice",
-           "format_estimate", "looks_of", "results_paths", "headline"]
+           "format_estimate", "looks_of", "looks_text", "results_paths", "headline"]
 
 #: The verdicts.
 VERDICTS = ("reproduced", "non-inferior", "equivalent", "not reproduced", "inconclusive",
@@ -318,7 +318,7 @@ def _coverage(row: dict) -> str:
     return f"{100 * width:.4g}%"
 
 
-def _looks_text(row: dict) -> str:
+def looks_text(row: dict) -> str:
     """The looks of a judged row: seed counts, the deciding look and the alpha spent."""
     if "looks" not in row:
         return ""

@@ -142,7 +142,7 @@ def _judged(paths: list[Path], rows: list[dict], root: Path) -> list[dict]:
 def _print_report(paths: list[Path], rows: list[dict], root: Path) -> None:
     """The verdicts as wrapped text, one block per results file, within :data:`WIDTH`."""
     from qdensity_paper.results import ExperimentResult
-    from qdensity_paper.verdicts import format_estimate
+    from qdensity_paper.verdicts import format_estimate, looks_text
 
     for path in paths:
         mine = [r for r in rows if r["file"] == _label(path, root)]
@@ -159,7 +159,7 @@ def _print_report(paths: list[Path], rows: list[dict], root: Path) -> None:
                                 subsequent_indent="    "))
             caveat = f"caveat: {row['caveat']}" if row.get("caveat") else ""
             detail = "; ".join(t for t in (f"{row['quantity']} = {ci}" if ci else row["quantity"],
-                                           row.get("reason", ""), caveat) if t)
+                                           looks_text(row), row.get("reason", ""), caveat) if t)
             print(textwrap.fill(detail, WIDTH, initial_indent="    ",
                                 subsequent_indent="    "))
 

@@ -110,6 +110,10 @@ def test_looks_are_recorded_by_merges_and_checked():
     assert merged.looks == [[0, 1, 2], [0, 1, 2, 3, 4]]
     assert looks_of(merged) == merged.looks
     assert looks_of(early) == [[0, 1, 2]]
+    from qdensity_paper.merge import merge_results
+
+    assert merge_results([early, later]).looks == [[0, 1, 2], [0, 1, 2, 3, 4]]
+    assert merge_results([early]).looks == [[0, 1, 2]]
     with pytest.raises(ValueError, match="looks"):
         ExperimentResult("x", "paper", {}, [0, 1], rows[:2], looks=[[0, 1], [0]])
     with pytest.raises(ValueError, match="looks"):
