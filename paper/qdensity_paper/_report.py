@@ -119,9 +119,13 @@ def report(directory: str | Path) -> dict[str, str]:
     readme = "\n".join(["Verdicts by a written rule (EXPERIMENTS.md, 'Verdicts by rule'), "
                          f"computed from the files in `results/`: {summary}.", "", *table])
     lines = [_RULE, "", f"**{summary}.**", "",
-             "| the paper's claim | verdict over its runs |", "|---|---|"]
+             "| the paper's claim | verdict over its runs | looks, the deciding look and the "
+             "alpha spent (each judged run) |", "|---|---|---|"]
     by_key = {c.key: c for c in CLAIMS}
-    lines += [f"| {by_key[k].text} (`{k}`) | **{v}** |" for k, v in heads.items()]
+    for k, v in heads.items():
+        judged = [f"`{r['file']}`: {looks_text(r)}" for r in rows
+                  if r["key"] == k and r["verdict"] != "not comparable" and "looks" in r]
+        lines.append(f"| {by_key[k].text} (`{k}`) | **{v}** | {'; '.join(judged)} |")
     pocock = {(r["file"], r["key"]): r["verdict"] for r in evaluate(paths, root,
                                                                     spending="pocock")}
     moved = [f"`{r['key']}` in `{r['file']}` ({r['verdict']} -> "
