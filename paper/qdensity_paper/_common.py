@@ -115,7 +115,8 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                 colours: Mapping[str, str] | None = None,
                 split: Mapping[str, float] | None = None,
                 gaps: Mapping[str, tuple[float, str]] | None = None,
-                points: Mapping[str, Sequence[str]] | None = None) -> Path:
+                points: Mapping[str, Sequence[str]] | None = None,
+                breaks: Mapping[str, int] | None = None, mode: str | None = None) -> Path:
     """One figure, one panel per ``(panel title, curve names)``: each curve's mean over seeds
     with its 95% confidence band (``result.curves``). Missing curves are skipped.
 
@@ -145,6 +146,12 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     points : mapping, optional
         Curve name -> names of curves drawn as open markers of its colour, no line (single
         points such as the accuracy of a warm start before its first step).
+    breaks : mapping, optional
+        Curve name -> number of points before a restart: no line (and no band) joins the
+        points before it to those after (the mean sub-model of Fig. 7's pretraining epochs
+        and the warm-started density model after them).
+    mode : str, optional
+        What the title says the run is (default: ``result.mode``).
 
     Returns
     -------
@@ -158,7 +165,7 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
 
     labels = labels or {}
     thin = thin or {}
-    split, gaps, points = split or {}, gaps or {}, points or {}
+    split, gaps, points, breaks = split or {}, gaps or {}, points or {}, breaks or {}
     names_in_order = [name for _, names in panels for name in names if name in result.curves]
     colours = {**curve_colours([labels.get(n, n.split("/")[0]) for n in names_in_order]),
                **(colours or {})}
@@ -176,7 +183,14 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                     ax.plot(t["x"], t["mean"], color=colour, lw=0.6, alpha=0.6)
             x = np.asarray(c["x"], dtype=float)
             mean = np.asarray(c["mean"], dtype=float)
-            cut = x <= split.get(name, np.inf)
+            c = dict(c)
+            if name in breaks and 0 < breaks[name] < x.size:  # a gap in the line and band
+                at = int(breaks[name])
+                x = np.insert(x, at, np.nan)
+                mean = np.insert(mean, at, np.nan)
+                c["low"] = np.insert(np.asarray(c["low"], dtype=float), at, np.nan)
+                c["high"] = np.insert(np.asarray(c["high"], dtype=float), at, np.nan)
+            cut = np.isnan(x) | (x <= split.get(name, np.inf))
             after = ~cut  # the part past the split, drawn from the split point on
             if after.any():
                 after[max(int(np.argmax(after)) - 1, 0)] = True
@@ -194,7 +208,7 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
                     ax.plot(t["x"], t["mean"], ls="none", marker="o", ms=6, mfc="none",
                             color=colour, label=labels.get(sub, sub))
             lo_b, hi_b = metric_bounds(str(c.get("y_label", "")))
-            if mean.size and (mean.min() < lo_b or mean.max() > hi_b):
+            if mean.size and (np.nanmin(mean) < lo_b or np.nanmax(mean) > hi_b):
                 lo_b, hi_b = -np.inf, np.inf  # the label's range does not hold: no clipping
             low = np.clip(np.asarray(c["low"], dtype=float), lo_b, hi_b)
             high = np.clip(np.asarray(c["high"], dtype=float), lo_b, hi_b)
@@ -212,7 +226,7 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
         if ax.lines:
             ax.legend(fontsize=8)
     n = len(result.seeds)
-    fig.suptitle(f"{title or result.name} ({result.mode}, {n} seed{'s' * (n != 1)}, "
+    fig.suptitle(f"{title or result.name} ({mode or result.mode}, {n} seed{'s' * (n != 1)}, "
                  "mean and 95% CI)", fontsize=10)
     fig.tight_layout()
     path = Path(path)

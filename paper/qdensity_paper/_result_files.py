@@ -71,6 +71,7 @@ def _is_seed(value) -> bool:
 #: Field -> (allowed types, what the message calls them).
 _FIELDS = {"name": (str, "a str"), "mode": (str, "a str"), "config": (dict, "a dict"),
            "seeds": (list, "a list of non-negative ints"),
+           "looks": (list, "a list of seed lists"),
            "per_seed": (list, "a list of dicts (one per seed)"),
            "summary": (dict, "a dict"), "curves": (dict, "a dict"),
            "figures": (list, "a list of file names"), "versions": (dict, "a dict"),
@@ -101,6 +102,9 @@ def check_fields(fields: Mapping, where: str) -> None:
         raise ValueError(f"{where}: seeds must be non-negative ints, got {bad[0]!r}")
     if len(set(map(int, seeds))) != len(seeds):
         raise ValueError(f"{where}: seeds must not repeat, got {list(seeds)}")
+    for look in fields.get("looks", []):
+        if not isinstance(look, list) or not all(_is_seed(s) for s in look):
+            raise TypeError(f"{where}: looks must be a list of seed lists, got {look!r}")
     rows = fields.get("per_seed", [])
     for i, row in enumerate(rows):
         if not isinstance(row, dict):

@@ -13,6 +13,14 @@ numbers; :mod:`qdensity_paper.verdicts` turns them into verdicts. Tests at level
 * trend: the per-seed least-squares slope over the grid, judged as a superiority claim on the
   slopes (Page's rank test for ordered alternatives is reported beside it);
 * bound: a theorem's margin, non-negative in every seed.
+
+Sequential looks (:func:`spent`, :func:`look_levels`): a claim judged at several seed counts
+(seeds added after an inconclusive look) spends its ``alpha`` over the looks by a Lan-DeMets
+spending function of the information fraction ``t = n / n_max`` (O'Brien-Fleming by default,
+Pocock beside it), and each look is judged at the alpha it spends (the increment of the
+spending function). By the Bonferroni inequality over the looks the chance of any false
+decision stays at or under ``alpha`` whatever the looks' correlation; the exact group-sequential
+boundaries would be a little less strict.
 """
 
 from __future__ import annotations
@@ -23,7 +31,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 __all__ = ["interval", "non_inferiority", "equivalence", "slopes", "page_p",
-           "seeds_for_power", "seeds_for_non_inferiority", "seeds_for_equivalence"]
+           "seeds_for_power", "seeds_for_non_inferiority", "seeds_for_equivalence",
+           "SPENDING", "spent", "look_levels"]
+
+#: Lan-DeMets alpha-spending functions by name.
+SPENDING = ("obrien-fleming", "pocock")
 
 
 def _check_level(name: str, value: float) -> None:
@@ -237,3 +249,51 @@ def seeds_for_equivalence(effect: float, std: float, margin: float, power: float
                      - nct.sf(-c, df, (effect - margin) * r))
 
     return _smallest(achieved, power, limit)
+
+
+def spent(t: float, alpha: float = 0.05, spending: str = "obrien-fleming") -> float:
+    """Alpha spent by information fraction ``t`` in ``(0, 1]`` (Lan and DeMets 1983).
+
+    ``"obrien-fleming"``: ``2 (1 - Phi(z_{1 - alpha/2} / sqrt(t)))``; ``"pocock"``:
+    ``alpha ln(1 + (e - 1) t)``. Both spend exactly ``alpha`` at ``t = 1``.
+    """
+    from scipy.stats import norm
+
+    _check_level("alpha", alpha)
+    if spending not in SPENDING:
+        raise ValueError(f"spending must be one of {SPENDING}, got {spending!r}")
+    if not 0.0 < float(t) <= 1.0:
+        raise ValueError(f"t must lie in (0, 1], got {t!r}")
+    if spending == "pocock":
+        return float(alpha * math.log(1.0 + (math.e - 1.0) * t))
+    return float(2.0 * norm.sf(norm.isf(alpha / 2) / math.sqrt(t)))
+
+
+def look_levels(counts: Sequence[int], n_max: int, alpha: float = 0.05,
+                spending: str = "obrien-fleming") -> list[tuple[float, float]]:
+    """``(spent so far, level of this look)`` for looks at ``counts`` seeds of at most ``n_max``.
+
+    Parameters
+    ----------
+    counts : sequence of int
+        Seeds at each look, strictly increasing, the last at most ``n_max``.
+    n_max : int
+        The declared largest seed count.
+
+    Returns
+    -------
+    list of (float, float)
+        Per look: the cumulative alpha spent ``spent(n_k / n_max)`` and the look's level,
+        ``spent(n_k / n_max) - spent(n_{k-1} / n_max)``.
+    """
+    c = [int(n) for n in counts]
+    if not c or any(b <= a for a, b in zip(c, c[1:], strict=False)) or c[0] < 1 \
+            or c[-1] > int(n_max):
+        raise ValueError(f"counts must increase strictly from >= 1 up to n_max={n_max}, "
+                         f"got {list(counts)}")
+    out, before = [], 0.0
+    for n in c:
+        now = spent(n / n_max, alpha, spending)
+        out.append((now, now - before))
+        before = now
+    return out

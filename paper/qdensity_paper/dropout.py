@@ -132,7 +132,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     path = plot_curves(result, [("test MSE", [f"{m}/test_vs_epoch" for m in MODELS]),
                                 ("train MSE", [f"{m}/train_vs_epoch" for m in MODELS])],
                        Path(directory) / figure_name(result, "dropout.png"),
-                       title=f"Dropout protocol on Supp. J's T_2 task (mean over {n} seeds)",
+                       title="Dropout protocol (our extension) on Supp. J's T_2 task",
+                       mode="the paper's settings" if result.mode == "full" else None,
                        labels=labels,
                        y_labels=[f"test MSE, mean of {n} seeds",
                                  f"train MSE, mean of {n} seeds"])

@@ -314,7 +314,10 @@ PAPER = PaperProtocol(
                   "too, the same question over a wider population",
                   applies=lambda r: not r.config.get("same_initialisation", False)),
         Departure("one encoding angle per run: the adapted code's 0.5 x by default, the "
-                  "Methods' pi x / 2 only with --set angle_scale=1.5708 (a second run)")),
+                  "Methods' pi x / 2 only with --set angle_scale=1.5708 (a second run)"),
+        Departure("each model's accuracy is the mean of its last `tail` evaluations (3: the "
+                  "last 30 steps), where Fig. 5 plots the curves: a smoothed final value, the "
+                  "same for base and density models")),
     source="Methods 'Equivariant density QNN' (10 qubits, sigma = 1.8, 1000 / 100 points, "
            "batch 20, Adam 1e-3, alpha = (0.99, 0.01) trainable)")
 

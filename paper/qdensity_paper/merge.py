@@ -63,7 +63,8 @@ def merge_results(results: Sequence[ExperimentResult]) -> ExperimentResult:
     -------
     ExperimentResult
         Seeds sorted, per-seed metrics of each seed once, summary and curves recomputed,
-        ``seconds`` the sum of the runs' wall times, versions of the first run.
+        ``seconds`` the sum of the runs' wall times, versions of the first run; ``looks`` the
+        first run's (or its seeds) and, when the merge adds seeds, the merged seeds after them.
 
     Raises
     ------
@@ -109,8 +110,12 @@ def merge_results(results: Sequence[ExperimentResult]) -> ExperimentResult:
     seeds = sorted(by_seed)
     per_seed = [by_seed[s] for s in seeds]
     seconds = [r.seconds for r in results if r.seconds is not None]
+    looks = [list(look) for look in first.looks] or [sorted(first.seeds)][:len(first.seeds)]
+    if not looks or set(seeds) != set(looks[-1]):  # the merged seeds are one more look
+        looks.append(seeds)
     merged = ExperimentResult(name=first.name, mode=first.mode, config=dict(first.config),
-                              seeds=seeds, per_seed=per_seed, summary=summarise(per_seed),
+                              seeds=seeds, per_seed=per_seed, looks=looks,
+                              summary=summarise(per_seed),
                               curves=curve_summary(per_seed),
                               figures=[], seconds=sum(seconds) if seconds else None,
                               versions=dict(first.versions))

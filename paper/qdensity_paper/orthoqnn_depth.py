@@ -242,6 +242,9 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
         labels[f"{first}/warm_start/test_vs_{kind}"] = "warm start, before its first step"
     n = len(result.seeds)
     y = [f"test accuracy, mean of {n} seeds"] * 2
+    # the pretraining epochs (mean sub-model) and the warm-started density model: two lines
+    restart = int(result.config.get("pretrain_epochs", 0))
+    breaks = {f"D{d}/test_vs_{kind}": restart for d in depths for kind in ("epoch", "shots")}
     top = plot_curves(result, [("test accuracy vs epochs", ["pure/test_vs_epoch",
                                                             f"{first}/test_vs_epoch"]),
                                ("test accuracy vs shots", ["pure/test_vs_shots",
@@ -249,7 +252,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                       Path(directory) / figure_name(result, "orthoqnn-depth-shallow.png"),
                       title=f"round-robin OrthoQNN vs shallow density QNN (Fig. 7 top{note})",
                       labels=labels, log_x=(False, True), thin=thin, y_labels=y,
-                      points=points)
+                      points=points, breaks=breaks)
     names = ["pure"] + [f"D{d}" for d in depths]
     bottom = plot_curves(result, [("test accuracy vs epochs", [f"{m}/test_vs_epoch"
                                                                for m in names]),
@@ -258,7 +261,7 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                          Path(directory) / figure_name(result, "orthoqnn-depth-depths.png"),
                          title=f"density QNN sub-unitary depth D (Fig. 7 bottom{note})",
                          labels=labels, log_x=(False, True), thin=thin, y_labels=y,
-                         points=points)
+                         points=points, breaks=breaks)
     return [top, bottom]
 
 

@@ -374,6 +374,9 @@ class ExperimentResult:
         Every setting the run used (sizes, epochs, learning rates, shot budgets).
     seeds : list of int
         One seed per run, in order.
+    looks : list of list of int
+        The seed sets the run's claims were judged at, in order (each holding the one
+        before); a merge that adds seeds adds a look. Empty: one look, at all the seeds.
     per_seed : list of dict
         Metrics of each seed (scalars and curves).
     summary : dict
@@ -397,6 +400,7 @@ class ExperimentResult:
     config: dict
     seeds: list[int]
     per_seed: list[dict]
+    looks: list[list[int]] = field(default_factory=list)
     summary: dict = field(default_factory=dict)
     curves: dict = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
@@ -412,6 +416,11 @@ class ExperimentResult:
         if len(self.seeds) != len(self.per_seed):
             raise ValueError(f"seeds has {len(self.seeds)} entries but per_seed "
                              f"{len(self.per_seed)}: one metrics row per seed")
+        looks = [[int(s) for s in look] for look in self.looks]
+        if any(not set(a) < set(b) for a, b in zip(looks, looks[1:], strict=False)) or any(
+                not set(look) <= set(map(int, self.seeds)) for look in looks):
+            raise ValueError(f"looks must be growing sets of this run's seeds, each holding the "
+                             f"one before, got {self.looks!r} for seeds {self.seeds!r}")
         if not self.summary and self.per_seed:
             self.summary = summarise(self.per_seed)
 
@@ -468,8 +477,13 @@ class ExperimentResult:
         if kept and earlier.seconds is not None and seconds is not None:
             seconds = seconds + earlier.seconds
         figures = list(dict.fromkeys([*self.figures, *earlier.figures]))
+        looks = ([list(look) for look in earlier.looks]
+                 or [sorted(earlier.seeds)][:len(earlier.seeds)])
+        if not looks or set(seeds) != set(looks[-1]):
+            looks.append(seeds)
         return ExperimentResult(name=self.name, mode=self.mode, config=dict(self.config),
-                                seeds=seeds, per_seed=per_seed, summary=summarise(per_seed),
+                                seeds=seeds, per_seed=per_seed, looks=looks,
+                                summary=summarise(per_seed),
                                 curves=curve_summary(per_seed), figures=figures,
                                 seconds=seconds, versions=dict(self.versions),
                                 created=self.created)

@@ -15,8 +15,8 @@ The paper describes two settings that do not agree; ``setting`` picks one (or bo
   Hamiltonian encoding). This is the setting of the main-text claim about ``T_4``-like data.
 * ``"supp_j"`` -- Supp. J: ``h = T_2`` (the target Fig. 6's caption and Fig. 17 name), noise std
   0.2, the encoding ``R_y(x) R_x(x)`` of eq. 37 (two data rotations per upload).
-* ``"t3"`` -- Supp. J's higher-degree panel (Fig. 18): ``h = T_3`` with Supp. J's noise and
-  encoding (``"both"`` runs the first two; ``t3`` runs on its own).
+* ``"t3"``, ``"t4"`` -- Supp. J's higher-degree panels (Fig. 18): ``h = T_3`` or ``T_4`` with
+  Supp. J's noise and encoding (``"both"`` runs the first two; each panel runs on its own).
 
 Both use 25 noisy training points uniform on ``[-1, 1]`` and 110 clean test points on an even
 grid (Supp. J), batch 5, Adam with learning rate 0.001, trainable ``R_z R_y R_z`` per upload,
@@ -39,7 +39,7 @@ from qdensity.models.single_qubit import SingleQubitReuploading
 from qdensity.progress import progress_bar
 from qdensity_paper._accounting import breakdown_metrics
 from qdensity_paper._common import curve, figure_name, plot_curves
-from qdensity_paper.protocol import PaperProtocol
+from qdensity_paper.protocol import Departure, PaperProtocol
 from qdensity_paper.registry import Experiment
 from qdensity_paper.results import ExperimentResult
 
@@ -50,6 +50,7 @@ SETTINGS: dict[str, tuple[int, float, str]] = {
     "methods": (4, 0.5, "rx"),
     "supp_j": (2, 0.2, "rx_ry"),
     "t3": (3, 0.2, "rx_ry"),
+    "t4": (4, 0.2, "rx_ry"),
 }
 
 #: What ``setting="both"`` runs: the two readings of Fig. 6b (``"t3"``, Supp. J's T_3 panel of
@@ -259,6 +260,10 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
     return paths
 
 
+#: The claims read on Supp. J's model (T_2 and T_3), which the gate-order departure touches.
+_SUPP_J = ("reuploading/supp-j", "reuploading/supp-j-experts", "reuploading/t3",
+           "reuploading/t4")
+
 PAPER = PaperProtocol(
     settings={"setting": "both", "layers": [5, 10, 20, 30, 40, 50], "experts": 5,
               "experts_at_max": [2, 7], "epochs": 300, "batch_size": 5, "learning_rate": 0.001,
@@ -266,11 +271,17 @@ PAPER = PaperProtocol(
     fixed=("experts", "batch_size", "learning_rate"),
     readings={"setting": "the Methods say T_4 with noise variance 0.25 and one R_x(x) per "
                          "upload; Supp. J says T_2 with noise std 0.2 and R_y(x) R_x(x); both "
-                         "run ('both'); Supp. J's T_3 panel (Fig. 18) runs as setting='t3'",
+                         "run ('both'); Supp. J's T_3 and T_4 panels (Fig. 18) run as "
+                         "setting='t3' and 't4'",
               "epochs": "not stated; 300",
               "layers": "the grid is not stated (L = 50 is the largest in Supp. J)",
               "experts_at_max": "Supp. J: K in {2, 7} at L = 50"},
-    departures=(),
+    departures=(Departure(
+        "gate order: each upload applies the data rotations and then R_z R_y R_z, where Supp. "
+        "J's equation, U_l = R_y(x) R_x(x) R_z(phi) R_y(delta) R_z(omega), applies the "
+        "trainable rotations first (the model starts with a trainable rotation and ends with a "
+        "data rotation before Z): the T_2 and T_3 runs are another model than Supp. J's (the "
+        "Methods, T_4, state no order)", touches=_SUPP_J),),
     source="Methods 'Data reuploading density QNN'; Supp. J (batch 5, Adam 1e-3, K = 5)")
 
 EXPERIMENT = Experiment(

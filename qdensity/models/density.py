@@ -21,6 +21,7 @@ from qdensity.execution.plans import Plan, check_observable, expectation_plan
 from qdensity.models._derived import DerivedStore, structure_key
 from qdensity.models._rows import bind_rows, model_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters
+from qdensity.models.dropout import randomised_loss_and_grad as _randomised_loss_and_grad
 from qdensity.models.encoding import Encoding
 from qdensity.models.mixtures import Mixture, as_mixture
 from qdensity.validation import (
@@ -465,6 +466,7 @@ class DensityQNN:
         return sample(self, x, budget, scheduler=scheduler, engine=engine, target=target,
                       seed=seed, mitigation=mitigation, postselect=postselect, ledger=ledger)
 
+    randomised_loss_and_grad = _randomised_loss_and_grad  # dropout's train phase (a method)
     # ------------------------------------------------------------------ parameters I/O
     def get_params(self) -> dict[str, np.ndarray]:
         """``{"theta": ..., "mixture": ...}`` as plain arrays."""

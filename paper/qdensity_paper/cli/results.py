@@ -123,26 +123,31 @@ def _cmd_merge(args) -> int:
 QUICK = "quick run: not judged"
 
 
-def _judged(paths: list[Path], rows: list[dict]) -> list[dict]:
+def _label(path: Path, root: Path) -> str:
+    """A results file's name in the report: its path under the results folder."""
+    return path.relative_to(root).as_posix()
+
+
+def _judged(paths: list[Path], rows: list[dict], root: Path) -> list[dict]:
     """The rule's verdict rows, plus one row saying :data:`QUICK` for each quick run (the rule
     judges none: a quick run's few seeds and small settings are not the paper's protocol)."""
     from qdensity_paper.results import ExperimentResult
 
     judged = {r["file"] for r in rows}
-    quick = [{"file": p.name, "mode": "quick", "verdict": QUICK} for p in paths
-             if p.name not in judged and ExperimentResult.load(p).mode == "quick"]
+    quick = [{"file": _label(p, root), "mode": "quick", "verdict": QUICK} for p in paths
+             if _label(p, root) not in judged and ExperimentResult.load(p).mode == "quick"]
     return [r for r in rows if r.get("mode") != "quick"] + quick
 
 
-def _print_report(paths: list[Path], rows: list[dict]) -> None:
+def _print_report(paths: list[Path], rows: list[dict], root: Path) -> None:
     """The verdicts as wrapped text, one block per results file, within :data:`WIDTH`."""
     from qdensity_paper.results import ExperimentResult
-    from qdensity_paper.verdicts import format_estimate
+    from qdensity_paper.verdicts import format_estimate, looks_text
 
     for path in paths:
-        mine = [r for r in rows if r["file"] == path.name]
+        mine = [r for r in rows if r["file"] == _label(path, root)]
         mode = mine[0]["mode"] if mine else ExperimentResult.load(path).mode
-        print(f"{path.name} ({mode})")
+        print(f"{_label(path, root)} ({mode})")
         if not mine:
             print("  no claim of the paper to judge in this file")
         for row in mine:
@@ -154,28 +159,28 @@ def _print_report(paths: list[Path], rows: list[dict]) -> None:
                                 subsequent_indent="    "))
             caveat = f"caveat: {row['caveat']}" if row.get("caveat") else ""
             detail = "; ".join(t for t in (f"{row['quantity']} = {ci}" if ci else row["quantity"],
-                                           row.get("reason", ""), caveat) if t)
+                                           looks_text(row), row.get("reason", ""), caveat) if t)
             print(textwrap.fill(detail, WIDTH, initial_indent="    ",
                                 subsequent_indent="    "))
 
 
 def _cmd_report(args) -> int:
     from qdensity_paper.results import ExperimentResult
-    from qdensity_paper.verdicts import evaluate, report, splice
+    from qdensity_paper.verdicts import evaluate, report, results_paths, splice
 
     directory = Path(args.dir)
     if not directory.is_dir():
         raise ValueError(f"--dir {args.dir!r} is not a folder (it holds the results files, "
                          "NAME-MODE.json, that qdensity experiment --out writes)")
-    paths = sorted(directory.glob("*.json"))
+    paths = results_paths(directory)
     if not (args.write or args.check):
-        rows = _judged(paths, evaluate(paths))
+        rows = _judged(paths, evaluate(paths, directory), directory)
         if _json(args):
             print(json.dumps(rows, indent=2))
         elif not paths:
             print(f"no results files (*.json) in {str(directory)!r}")
         else:
-            _print_report(paths, rows)
+            _print_report(paths, rows, directory)
         return 0
     docs = Path(args.docs)
     missing = [n for n in ("README.md", "EXPERIMENTS.md") if not (docs / n).is_file()]
@@ -190,7 +195,7 @@ def _cmd_report(args) -> int:
                          "not judged against the paper; move them out before --write/--check")
     generated = report(directory)
     if _json(args):
-        print(json.dumps(evaluate(paths), indent=2))
+        print(json.dumps(evaluate(paths, directory), indent=2))
     drift = []
     for name, text in generated.items():
         path = docs / name

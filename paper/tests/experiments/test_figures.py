@@ -76,7 +76,7 @@ def test_noise_figures_keep_one_colour_per_method(tmp_path, monkeypatch):
     real_plot = Axes.plot
     monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
         lines.append((kw.get("label"), kw.get("color"))), real_plot(self, *a, **kw))[1])
-    path = Path(__file__).resolve().parents[2] / "results" / "noise-full.json"
+    path = Path(__file__).resolve().parents[3] / "results" / "noise-full.json"
     result = ExperimentResult.load(path)
     assert len(get_experiment("noise").plot(result, tmp_path)) == 4
     by_label: dict = {}
@@ -101,7 +101,7 @@ def test_the_lcu_figure_draws_each_model_under_one_label_and_colour(tmp_path, mo
     real_plot = Axes.plot
     monkeypatch.setattr(Axes, "plot", lambda self, *a, **kw: (
         lines.append((kw.get("label"), kw.get("color"))), real_plot(self, *a, **kw))[1])
-    path = Path(__file__).resolve().parents[2] / "results" / "lcu-vs-single-paper.json"
+    path = Path(__file__).resolve().parents[3] / "results" / "lcu-vs-single-paper.json"
     get_experiment("lcu-vs-single").plot(ExperimentResult.load(path), tmp_path)
     drawn = [(label, colour) for label, colour in lines if label is not None]
     lcu = {label for label, _ in drawn if "LCU" in label}

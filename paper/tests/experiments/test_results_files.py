@@ -10,7 +10,7 @@ from scipy import stats
 from qdensity_paper.registry import EXPERIMENTS, get_experiment
 from qdensity_paper.results import ExperimentResult, metric_bounds
 
-RESULTS = Path(__file__).resolve().parents[2] / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "results"
 FILES = sorted(RESULTS.glob("*-full.json"))
 PAPER_FILES = sorted(RESULTS.glob("*-paper.json"))
 

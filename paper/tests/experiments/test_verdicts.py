@@ -25,7 +25,7 @@ from qdensity_paper.verdicts import (
     verdict,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _result(diffs, mode="full", config=None, seeds=None):
