@@ -172,6 +172,14 @@ class AdjointEngine:
         self._by_print: dict[tuple, Program] = {}
         self.compile_count = 0
 
+    #: Caches a copy or an unpickled engine rebuilds on use instead of carrying.
+    _CACHES = ("_by_id", "_by_print", "_last_observables", "_bare_cache")
+
+    def __getstate__(self) -> dict:
+        """The settings without the compiled programs (rebuilt on first use)."""
+        state = {k: v for k, v in list(self.__dict__.items()) if k not in self._CACHES}
+        return {**state, "_by_id": {}, "_by_print": {}, "compile_count": 0}
+
     # ------------------------------------------------------------------ compiling
     def _check_width(self, circuit: QuantumCircuit) -> None:
         if circuit.num_qubits > self.max_qubits:
