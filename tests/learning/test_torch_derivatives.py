@@ -216,3 +216,20 @@ def test_torch_compile_gives_the_eager_values_and_gradients(engine):
     ref[:, 0].sum().backward()
     torch.testing.assert_close(out, ref, rtol=0, atol=1e-13)
     torch.testing.assert_close(g, layer.theta.grad, rtol=0, atol=1e-13)
+
+
+def test_the_adjoint_engine_refuses_values_that_require_a_gradient():
+    """The adjoint engine's tensor results are plain tensors: values that require a gradient
+    are refused rather than left without one; detached (or no_grad) values still run, and
+    give the numpy rows' values."""
+    from qdensity.execution.statevector.adjoint import AdjointEngine
+
+    circ = hardware_efficient(2, 1)
+    engine = AdjointEngine(backend="torch", device="cpu")
+    v = torch.linspace(0.1, 0.9, circ.num_parameters, dtype=torch.float64)
+    with pytest.raises(ValueError, match="values require a gradient"):
+        engine.probabilities(circ, v.clone().requires_grad_())
+    with torch.no_grad():
+        p = engine.probabilities(circ, v.clone().requires_grad_())
+    ref = AdjointEngine().probabilities(circ, v.numpy())
+    np.testing.assert_allclose(np.asarray(p), ref, atol=1e-12)

@@ -300,6 +300,14 @@ class AdjointEngine:
     def _rows(self, circuit: QuantumCircuit, values) -> tuple[Program, np.ndarray]:
         prog = self.compile(circuit)
         if is_tensor(values):  # parameter rows are small: checked on the host
+            import torch
+
+            if values.requires_grad and torch.is_grad_enabled():
+                raise ValueError("values require a gradient, but the adjoint engine returns "
+                                 "plain tensors that autograd cannot differentiate (the "
+                                 "gradient would silently be missing): take derivatives from "
+                                 "the engine's gradient methods or DensityQNNLayer, or pass "
+                                 "values.detach() (or call under torch.no_grad())")
             values = values.detach().cpu().numpy()
         vals = as_parameter_rows(values, circuit.num_parameters)
         if not np.all(np.isfinite(vals)):
