@@ -46,7 +46,7 @@ _EXPORTS: dict[str, str] = {
     "ExactEngine": "qdensity.execution.exact",
     "SamplerEngine": "qdensity.execution.sampler.engine",
     "ShotLedger": "qdensity.execution.sampler.engine",
-    "HammingWeightSampler": "qdensity.execution.sampler.hamming",
+    "HammingWeightSampler": "qdensity.execution.samplers.hamming",
     "get_target": "qdensity.hardware.targets",
     "known_targets": "qdensity.hardware.targets",
     "resource_report": "qdensity.hardware.resources",
@@ -107,7 +107,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.execution.exact import ExactEngine
     from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.hamming import HammingWeightSampler
     from qdensity.hardware.resources import compare_reports, resource_report
     from qdensity.hardware.targets import get_target, known_targets
     from qdensity.learning.estimators import QNNClassifier, QNNRegressor

@@ -64,6 +64,7 @@ EXPERIMENTS: dict[str, str] = {
     "mixing-lemma": "mixing_lemma",
     "dropout": "dropout",
     "noise": "noise",
+    "absolute-gap": "absolute_gap",
 }
 
 #: Sizes every experiment offers.

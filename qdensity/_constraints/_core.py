@@ -222,10 +222,17 @@ class Interval(Constraint):
 
 
 class Options(Constraint):
-    """One of a fixed set of values (strings, usually)."""
+    """One of a fixed set of values (strings, usually); given as a callable returning them,
+    the set is read at each check (a registry that grows after the declaration)."""
 
-    def __init__(self, options: Iterable):
-        self.options = tuple(options)
+    def __init__(self, options: Iterable | Callable[[], Iterable]):
+        self._source = options if callable(options) else tuple(options)
+
+    @property
+    def options(self) -> tuple:
+        """The allowed values, now."""
+        source = self._source
+        return tuple(source()) if callable(source) else source
 
     def type_ok(self, value) -> bool:
         return any(type(value) is type(o) for o in self.options)

@@ -1,9 +1,20 @@
 """Structure read off circuits: moments (parallel layers), Pauli generators, Hamming-weight
 preservation (:mod:`~qdensity.analysis.structure`), the Pauli / Clifford algebra behind the
 commuting-generator gradients (:mod:`~qdensity.analysis.pauli`; paper Prop. 1, Supp. F.3), and
-the commuting blocks of a circuit (:mod:`~qdensity.analysis.blocks`; paper eq. 9, Cor. 2)."""
+the commuting blocks of a circuit (:mod:`~qdensity.analysis.blocks`; paper eq. 9, Cor. 2), and
+the gate registry that all of them read (:mod:`~qdensity.analysis.gate_registry`: matrix,
+generator, shift rule, Hamming-weight behaviour per gate name)."""
 
 from qdensity.analysis.blocks import commuting_blocks
+from qdensity.analysis.gate_registry import (
+    FBS,
+    GATES,
+    GIVENS_GATES,
+    RBS,
+    GateKind,
+    gate_kind,
+    register_gate,
+)
 from qdensity.analysis.pauli import (
     as_pauli_list,
     commutation_matrix,
@@ -39,4 +50,11 @@ __all__ = [
     "z_string_values",
     "conjugate_two_qubit",
     "commuting_blocks",
+    "GateKind",
+    "GATES",
+    "gate_kind",
+    "register_gate",
+    "RBS",
+    "FBS",
+    "GIVENS_GATES",
 ]

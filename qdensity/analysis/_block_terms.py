@@ -25,13 +25,14 @@ from qiskit.circuit import (
 )
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.analysis.gate_registry import EVOLUTION, GATES
 from qdensity.analysis.structure import instruction_generator, parameter_of
 
 _ATOL = 1e-12
 
-# Gates whose generator depends only on (name, number of qubits) (instruction_generator).
-_FIXED_FORM = frozenset({"rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "crx", "cry", "crz", "p",
-                         "u1", "cp", "cu1", "rbs", "fbs"})
+# Gates whose generator depends only on (name, number of qubits) (the gate registry).
+_FIXED_FORM = frozenset(name for name, kind in GATES.items()
+                        if kind.generator is not None and kind.fixed_generator)
 _TEMPLATES: dict[tuple, SparsePauliOp] = {}  # never mutated, only replaced
 _LOCAL: dict[int, QuantumCircuit] = {}
 
@@ -92,7 +93,8 @@ def _template(op) -> SparsePauliOp:
     key: tuple | None = None
     if op.name in _FIXED_FORM:
         key = (op.name, w)
-    elif (op.name == "PauliEvolution" and isinstance(getattr(op, "operator", None), SparsePauliOp)
+    elif (GATES.get(op.name) is EVOLUTION
+          and isinstance(getattr(op, "operator", None), SparsePauliOp)
           and op.operator.coeffs.dtype != object):
         o = op.operator  # keyed by its content: equal operators, one generator
         key = (op.name, w, o.paulis.x.tobytes(), o.paulis.z.tobytes(), o.paulis.phase.tobytes(),
@@ -134,7 +136,7 @@ class _Reader:
         return parameter_of(inst)
 
     def template(self, op) -> SparsePauliOp:
-        if op.name == "PauliEvolution":
+        if GATES.get(op.name) is EVOLUTION:
             o = getattr(op, "operator", None)
             hit = self._by_operator.get(id(o))
             if hit is not None and hit[0] is o:

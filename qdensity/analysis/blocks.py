@@ -33,6 +33,7 @@ from qdensity.analysis._block_terms import (
     _Terms,
 )
 from qdensity.analysis._gf2 import all_commute
+from qdensity.analysis.gate_registry import EVOLUTION, GATES
 from qdensity.analysis.parameters import trainable_parameters
 from qdensity.analysis.pauli import anticommutation, first_noncommuting_pair
 from qdensity.validation import Circuit, Instance, SequenceOf, validates
@@ -241,7 +242,7 @@ def _analyse_block(
     for idx, inst in enumerate(circuit.data[start:stop], start):
         op = inst.operation
         name = op.name
-        if (name == "PauliEvolution" and type(op) is PauliEvolutionGate
+        if (GATES.get(name) is EVOLUTION and type(op) is PauliEvolutionGate
                 and len(ps := op.params) == 1):
             # what _read gives a Pauli evolution whose time is a trainable Parameter (angle
             # 1 p + 0) and whose operator's template the reader holds, without its dispatch;

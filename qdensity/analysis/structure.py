@@ -10,8 +10,9 @@ from collections.abc import Sequence
 
 import numpy as np
 from qiskit.circuit import CircuitInstruction, Parameter, ParameterExpression, QuantumCircuit
-from qiskit.quantum_info import PauliList, SparsePauliOp
+from qiskit.quantum_info import SparsePauliOp
 
+from qdensity.analysis.gate_registry import GATES, _placed  # noqa: F401 - _placed: tests read it here
 from qdensity.validation import Circuit, Instance, SequenceOf, validates
 
 __all__ = [
@@ -25,15 +26,14 @@ __all__ = [
     "GENERATOR_GATES",
 ]
 
-#: Gates whose generator :func:`instruction_generator` knows (the families with a gradient).
-GENERATOR_GATES = ("rx", "ry", "rz", "rxx", "ryy", "rzz", "rzx", "crx", "cry", "crz", "p",
-                   "u1", "cp", "cu1", "rbs", "fbs", "PauliEvolution")
+#: Gates whose generator :func:`instruction_generator` knows (the families with a gradient),
+#: read off the gate registry (:mod:`qdensity.analysis.gate_registry`).
+GENERATOR_GATES = tuple(name for name, kind in GATES.items() if kind.generator is not None)
 
-#: Names of gates that preserve Hamming weight (used by :func:`is_hamming_weight_preserving`).
+#: Names of gates that preserve Hamming weight (used by :func:`is_hamming_weight_preserving`),
+#: read off the gate registry.
 HW_PRESERVING_GATES = frozenset(
-    {"rbs", "fbs", "rz", "z", "s", "sdg", "t", "tdg", "p", "cz", "cp", "rzz", "swap",
-     "iswap", "xx_plus_yy", "id", "barrier", "measure", "delay"}
-)
+    name for name, kind in GATES.items() if kind.preserves_hamming_weight)
 
 _SKIP = frozenset({"barrier", "measure", "delay"})
 
@@ -180,7 +180,8 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
     (``G = -|1><1|``) and ``cp``/``cu1`` (``G = -|11><11|``), ``rbs`` (``G = Q = (X_i Y_j -
     Y_i X_j)/2`` in qubit-indexed notation, eigenvalues ``{-1, 0, 0, 1}``; paper eq. 8),
     ``fbs`` on ``[i, ..., j]`` (``G = Q Z_{i+1} ... Z_{j-1}``, Supp. E eq. 24) and
-    ``PauliEvolutionGate`` (``G = H``).
+    ``PauliEvolutionGate`` (``G = H``): the generators of the gate registry
+    (:mod:`qdensity.analysis.gate_registry`).
 
     Parameters
     ----------
@@ -199,56 +200,14 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
     ValueError
         For a gate whose generator is not a known Pauli form.
     """
-    n = circuit.num_qubits
-    q = [circuit.find_bit(b).index for b in inst.qubits]
     name = inst.operation.name
-    if name in ("rx", "ry", "rz"):
-        return SparsePauliOp.from_sparse_list([(name[1].upper(), q, 0.5)], n)
-    if name in ("rxx", "ryy", "rzz"):
-        p = name[1].upper()
-        return SparsePauliOp.from_sparse_list([(p + p, q, 0.5)], n)
-    if name == "rzx":
-        return SparsePauliOp.from_sparse_list([("ZX", q, 0.5)], n)
-    if name == "rbs":  # ("XY", [i, j]): X on i, Y on j; built from bits directly
-        x = np.zeros((2, n), dtype=bool)
-        z = np.zeros((2, n), dtype=bool)
-        x[:, q] = True
-        z[0, q[1]] = z[1, q[0]] = True
-        return SparsePauliOp(PauliList.from_symplectic(z, x), np.array([0.5, -0.5]))
-    if name in ("crx", "cry", "crz"):
-        p = name[2].upper()
-        return SparsePauliOp.from_sparse_list([(p, q[1:], 0.25), ("Z" + p, q, -0.25)], n)
-    if name in ("p", "u1"):
-        return SparsePauliOp.from_sparse_list([("Z", q, 0.5), ("", [], -0.5)], n)
-    if name in ("cp", "cu1"):
-        return SparsePauliOp.from_sparse_list(
-            [("", [], -0.25), ("Z", q[:1], 0.25), ("Z", q[1:], 0.25), ("ZZ", q, -0.25)], n)
-    if name in ("rbs", "fbs"):
-        i, j, inner = q[0], q[-1], q[1:-1]
-        zs = "Z" * len(inner)
-        return SparsePauliOp.from_sparse_list(
-            [("X" + zs + "Y", [i, *inner, j], 0.5), ("Y" + zs + "X", [i, *inner, j], -0.5)], n
+    kind = GATES.get(name)
+    if kind is None or kind.generator is None:
+        raise ValueError(
+            f"no Pauli generator known for gate {name!r}; supported: {', '.join(GENERATOR_GATES)}"
         )
-    if name == "PauliEvolution":
-        op = inst.operation.operator
-        if isinstance(op, list):
-            raise ValueError("PauliEvolutionGate with a list of operators is not supported")
-        return _placed(op if isinstance(op, SparsePauliOp) else SparsePauliOp(op), q, n)
-    raise ValueError(
-        f"no Pauli generator known for gate {name!r}; supported: {', '.join(GENERATOR_GATES)}"
-    )
-
-
-def _placed(op: SparsePauliOp, qubits: list[int], n: int) -> SparsePauliOp:
-    """``op.apply_layout(qubits, n)`` from the symplectic bits directly (no compose)."""
-    if op.num_qubits != len(qubits):
-        return op.apply_layout(qubits, n)  # raises Qiskit's own error
-    pl = op.paulis
-    x = np.zeros((op.size, n), dtype=bool)
-    z = np.zeros((op.size, n), dtype=bool)
-    x[:, qubits] = pl.x
-    z[:, qubits] = pl.z
-    return SparsePauliOp(PauliList.from_symplectic(z, x, pl.phase), op.coeffs.copy())
+    q = [circuit.find_bit(b).index for b in inst.qubits]
+    return kind.generator(inst.operation, q, circuit.num_qubits)
 
 
 @validates(circuit=Circuit())

@@ -1,7 +1,9 @@
 """Hamming-weight-preserving two-mode gates: RBS and FBS (paper eq. 8, Supp. E eq. 24-25).
 
 Both are real ``Gate`` subclasses with an exact matrix, a gate-level ``_define`` in standard
-gates, and an ``inverse``; any transpiler unrolls them.
+gates, and an ``inverse``; any transpiler unrolls them. Their matrix, decomposition, generator,
+shift rule and Hamming-weight behaviour are the entries ``rbs`` and ``fbs`` of the gate registry
+(:mod:`qdensity.analysis.gate_registry`), which every layer reads.
 
 Conventions (docs/design.md, "Conventions"):
 
@@ -16,12 +18,11 @@ Conventions (docs/design.md, "Conventions"):
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from qiskit.circuit import Gate, QuantumCircuit, QuantumRegister
+from qiskit.circuit import Gate
 from qiskit.circuit.parameterexpression import ParameterExpression, ParameterValueType
 
+from qdensity.analysis.gate_registry import FBS, RBS
 from qdensity.validation import (
     Instance,
     Interval,
@@ -47,11 +48,7 @@ def rbs_matrix(theta: float) -> np.ndarray:
         ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]`` with ``c = cos(theta)``,
         ``s = sin(theta)``, basis index ``q_0 + 2 q_1``.
     """
-    theta = float(theta)
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array(
-        [[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], dtype=complex
-    )
+    return RBS.matrix([float(theta)], 2)
 
 
 @validates(theta=Interval(float), num_qubits=Interval(
@@ -72,22 +69,7 @@ def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
         Acts as ``RBS((-1)^p theta)`` on qubits ``(0, m-1)``, ``p`` the parity of qubits
         ``1 .. m-2``; basis index ``sum_q b_q 2^q``.
     """
-    theta, m = float(theta), int(num_qubits)
-    dim = 2**m
-    out = np.eye(dim, dtype=complex)
-    last = m - 1
-    for b in range(dim):
-        lo, hi = b & 1, (b >> last) & 1
-        if lo == 1 and hi == 0:  # |1 on first, 0 on last>  -> pair (b, partner)
-            partner = b ^ 1 ^ (1 << last)
-            inner = (b >> 1) & ((1 << (m - 2)) - 1) if m > 2 else 0
-            sign = -1.0 if bin(inner).count("1") % 2 else 1.0
-            c, s = math.cos(sign * theta), math.sin(sign * theta)
-            out[b, b] = c
-            out[partner, partner] = c
-            out[partner, b] = s
-            out[b, partner] = -s
-    return out
+    return FBS.matrix([float(theta)], int(num_qubits))
 
 
 def _angle(theta):
@@ -119,19 +101,10 @@ class RBSGate(Gate):
     """
 
     def __init__(self, theta: ParameterValueType, label: str | None = None):
-        super().__init__("rbs", 2, [_angle(theta)], label=label)
+        super().__init__(RBS.name, 2, [_angle(theta)], label=label)
 
     def _define(self) -> None:
-        (theta,) = self.params
-        q = QuantumRegister(2, "q")
-        qc = QuantumCircuit(q, name=self.name)
-        qc.h([0, 1])
-        qc.cz(0, 1)
-        qc.ry(theta, 0)
-        qc.ry(-theta, 1)
-        qc.cz(0, 1)
-        qc.h([0, 1])
-        self.definition = qc
+        self.definition = RBS.decomposition(self.params, 2)
 
     def inverse(self, annotated: bool = False) -> RBSGate:
         """Return ``RBS(-theta)``."""
@@ -184,25 +157,10 @@ class FBSGate(Gate):
     """
 
     def __init__(self, theta: ParameterValueType, num_qubits: int, label: str | None = None):
-        super().__init__("fbs", int(num_qubits), [_angle(theta)], label=label)
+        super().__init__(FBS.name, int(num_qubits), [_angle(theta)], label=label)
 
     def _define(self) -> None:
-        (theta,) = self.params
-        m = self.num_qubits
-        qc = QuantumCircuit(QuantumRegister(m, "q"), name=self.name)
-        last = m - 1
-        if m == 2:
-            qc.append(RBSGate(theta), [0, last])
-        else:
-            parity = 1
-            for k in range(2, last):
-                qc.cx(k, parity)
-            qc.cz(parity, 0)
-            qc.append(RBSGate(theta), [0, last])
-            qc.cz(parity, 0)
-            for k in reversed(range(2, last)):
-                qc.cx(k, parity)
-        self.definition = qc
+        self.definition = FBS.decomposition(self.params, self.num_qubits, core=RBSGate)
 
     def inverse(self, annotated: bool = False) -> FBSGate:
         """Return ``FBS(-theta)`` on the same block."""

@@ -6,11 +6,12 @@ seeded, so a name and a size always give the same circuit.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 
 import numpy as np
 from qiskit import QuantumCircuit
 
+from qdensity.circuits.ansatze.registry import FAMILIES, AnsatzFamily
 from qdensity.validation import Instance, Qubits, Seed, validates
 
 __all__ = ["BUILDERS", "build_circuit"]
@@ -25,24 +26,6 @@ def _loader(layout: str) -> Callable[[int], QuantumCircuit]:
         from qdensity.circuits.loaders import unary_loader
 
         return unary_loader(_vector(n), layout=layout)
-    return make
-
-
-def _ansatz(name: str) -> Callable[[int], QuantumCircuit]:
-    def make(n: int) -> QuantumCircuit:
-        from qdensity.circuits import ansatze
-
-        if name == "hardware_efficient":
-            return ansatze.hardware_efficient(n, 2)
-        if name == "equivariant_xx":
-            return ansatze.equivariant_commuting(n, "X")
-        if name == "equivariant_yy":
-            return ansatze.equivariant_commuting(n, "Y")
-        if name == "equivariant_noncommuting":
-            return ansatze.equivariant_noncommuting(n, 2)
-        if name == "reuploading":
-            return ansatze.reuploading(n)
-        return getattr(ansatze, name)(n)
     return make
 
 
@@ -84,46 +67,66 @@ def _tomography(index: int) -> Callable[[int], QuantumCircuit]:
     return make
 
 
+class _Builders(Mapping):
+    """Name -> f(num_qubits): the loaders, every ansatz family of the registry
+    (:data:`~qdensity.circuits.ansatze.registry.FAMILIES`, read at each use, under its
+    command-line name), then the density, gradient and tomography circuits."""
+
+    def __init__(self, before: dict, after: dict):
+        self._before, self._after = before, after
+
+    def _families(self) -> dict[str, Callable[[int], QuantumCircuit]]:
+        return {f.command_name: f.builder for f in FAMILIES.values()}
+
+    def _all(self) -> dict[str, Callable[[int], QuantumCircuit]]:
+        return {**self._before, **self._families(), **self._after}
+
+    def __getitem__(self, name: str) -> Callable[[int], QuantumCircuit]:
+        return self._all()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._all())
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+    def __repr__(self) -> str:
+        return f"BUILDERS({', '.join(self)})"
+
+
 #: Named circuit builders for ``build`` and ``transpile``: name -> f(num_qubits).
-BUILDERS: dict[str, Callable[[int], QuantumCircuit]] = {
-    "loader_parallel": _loader("parallel"),
-    "loader_diagonal": _loader("diagonal"),
-    "loader_semi_diagonal": _loader("semi_diagonal"),
-    "pyramid": _ansatz("pyramid"),
-    "x_circuit": _ansatz("x_circuit"),
-    "butterfly": _ansatz("butterfly"),
-    "round_robin": _ansatz("round_robin"),
-    "hardware_efficient": _ansatz("hardware_efficient"),
-    "equivariant_xx": _ansatz("equivariant_xx"),
-    "equivariant_yy": _ansatz("equivariant_yy"),
-    "equivariant_noncommuting": _ansatz("equivariant_noncommuting"),
-    "qcnn": _ansatz("qcnn"),
-    "reuploading": _ansatz("reuploading"),
-    "deterministic": _density("deterministic"),
-    "lcu": _density("lcu"),
-    "commuting_gradient": _gradient,
-    "tomography_0": _tomography(0),
-    "tomography_1": _tomography(1),
-    "tomography_2": _tomography(2),
-}
+BUILDERS: Mapping[str, Callable[[int], QuantumCircuit]] = _Builders(
+    {"loader_parallel": _loader("parallel"),
+     "loader_diagonal": _loader("diagonal"),
+     "loader_semi_diagonal": _loader("semi_diagonal")},
+    {"deterministic": _density("deterministic"),
+     "lcu": _density("lcu"),
+     "commuting_gradient": _gradient,
+     "tomography_0": _tomography(0),
+     "tomography_1": _tomography(1),
+     "tomography_2": _tomography(2)},
+)
 
 
-#: Smallest size each builder accepts (2 unless listed; butterfly also needs a power of two).
-MIN_SIZE = {"reuploading": 1, "equivariant_xx": 3, "equivariant_yy": 3}
+def _family(name: str) -> AnsatzFamily | None:
+    return next((f for f in FAMILIES.values() if f.command_name == name), None)
 
 
 def size_range(name: str, largest: int) -> str:
     """The sizes ``name`` accepts up to ``largest``, in words (for the CLI's messages)."""
-    low = MIN_SIZE.get(name, 2)
-    extra = " and a power of two" if name == "butterfly" else ""
+    family = _family(name)
+    low = family.min_qubits if family is not None else 2
+    extra = " and a power of two" if family is not None and family.power_of_two else ""
     return f"an int in [{low}, {largest}]{extra} for {name}"
 
 
 def check_size(name: str, size: int, largest: int) -> None:
     """Refuse a ``--size`` that ``name`` cannot build, stating its real range."""
-    low = MIN_SIZE.get(name, 2)
-    if name in BUILDERS and not (low <= size <= largest and (name != "butterfly"
-                                                             or size & (size - 1) == 0)):
+    family = _family(name)
+    if name not in BUILDERS:
+        return
+    ok = family.accepts(size) if family is not None else size >= 2
+    if not (ok and size <= largest):
         raise ValueError(f"--size must be {size_range(name, largest)}, got {size}")
 
 

@@ -194,6 +194,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_table1(args) -> int:
+    from qdensity.circuits.ansatze.registry import FAMILIES
     from qdensity.gradients.table1 import ANSATZE, format_table1, table1
 
     unknown = [a for a in args.ansatz if a not in ANSATZE]
@@ -201,10 +202,11 @@ def _cmd_table1(args) -> int:
         raise ValueError(f"unknown ansatz {unknown}; known: {', '.join(ANSATZE)}")
     names = args.ansatz or ANSATZE
     odd = [n for n in args.n if n & (n - 1)]
-    if "butterfly" in names and odd:
-        print(f"qdensity table1: note: the butterfly row is dropped for n = "
-              f"{', '.join(map(str, odd))} (a butterfly needs a power-of-two number of qubits)",
-              file=sys.stderr)
+    powers = [name for name in names if FAMILIES[name].power_of_two]  # the family registry's
+    if powers and odd:
+        print(f"qdensity table1: note: the {' and '.join(powers)} row is dropped for n = "
+              f"{', '.join(map(str, odd))} (a {' or '.join(powers)} needs a power-of-two "
+              "number of qubits)", file=sys.stderr)
     rows = table1(args.n, names, layers=args.layers, copies_k=args.copies)
     if args.json:
         _print_json(rows)

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 
+from qdensity.circuits.ansatze.registry import estimator_ansatze
 from qdensity.cli._help import texts
+from qdensity.models.registry import DECOMPOSITIONS, MIXTURES
 
 __all__ = ["add_parser"]
 
@@ -50,14 +52,6 @@ def _cmd_sweep(args) -> int:
     return 0
 
 
-#: argparse choices of the model options, refused before optuna starts (the names
-#: QNNClassifier declares; written out here so the command line starts without scikit-learn,
-#: and kept equal to the estimator's by a test).
-ANSATZ_CHOICES = ("round_robin", "pyramid", "x", "butterfly")
-DECOMPOSITION_CHOICES = ("layers", "cyclic", "odd_even", "none")
-MIXTURE_CHOICES = ("softmax", "fixed", "moe", "moe_gelu")
-
-
 def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
     """Add the ``sweep`` sub-command to ``qdensity``'s sub-parsers (``int_in(low, high)`` and
     ``seed_type`` are the command's argparse types)."""
@@ -69,11 +63,12 @@ def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
                     help="use only the first SAMPLES rows (at least 2, at most the dataset's)")
     sw.add_argument("--num-qubits", type=int_in(2, max_qubits), default=8,
                     help="PCA to this many qubits")
-    sw.add_argument("--ansatz", default="round_robin", choices=ANSATZ_CHOICES,
+    # choices: the estimator's own registries, read when the parser is made
+    sw.add_argument("--ansatz", default="round_robin", choices=estimator_ansatze(),
                     help="QNNClassifier's ansatz")
-    sw.add_argument("--decomposition", default="layers", choices=DECOMPOSITION_CHOICES,
+    sw.add_argument("--decomposition", default="layers", choices=tuple(DECOMPOSITIONS),
                     help="how it is cut into sub-unitaries")
-    sw.add_argument("--mixture", default="softmax", choices=MIXTURE_CHOICES,
+    sw.add_argument("--mixture", default="softmax", choices=tuple(MIXTURES),
                     help="distribution over the sub-unitaries")
     sw.add_argument("--epochs", type=int_in(1, 10**6), default=10,
                     help="training epochs per trial")

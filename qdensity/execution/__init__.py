@@ -35,7 +35,7 @@ _EXPORTS: dict[str, str] = {
     "probabilities_plan": "qdensity.execution.plans",
     "SamplerEngine": "qdensity.execution.sampler.engine",
     "ShotLedger": "qdensity.execution.sampler.engine",
-    "HammingWeightSampler": "qdensity.execution.sampler.hamming",
+    "HammingWeightSampler": "qdensity.execution.samplers.hamming",
     "AdjointEngine": "qdensity.execution.statevector.adjoint",
 }
 
@@ -50,7 +50,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
         probabilities_plan,
     )
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.hamming import HammingWeightSampler
     from qdensity.execution.statevector.adjoint import AdjointEngine
 
 

@@ -19,7 +19,7 @@ __all__ = ["JobResult", "bits_to_probabilities", "unary_frequencies"]
     # a BitArray or DeferredSamples: the packed (or not yet drawn) shots a PackedJobResult
     # (the sampler engine's) unpacks on read
     bits=[Array(ndim=3, dtype='bool', min_size=0), Instance('qiskit.primitives:BitArray'),
-          Instance('qdensity.execution.sampler._hamming_draw:DeferredSamples'), None],
+          Instance('qdensity.execution.samplers._hamming_draw:DeferredSamples'), None],
     weights=[Array(ndim=2, min_size=0), None], effective_shots=[Array(ndim=1, min_size=0), None],
     readout=[Instance(list), None],
 )

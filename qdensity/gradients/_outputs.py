@@ -29,6 +29,7 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis._conjugate import conjugate_by_layer
 from qdensity.analysis.blocks import _ATOL, _terms_of, _Trainable
+from qdensity.analysis.gate_registry import RBS
 from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits.gates import rbs_matrix
 from qdensity.gradients._circuits import _GradientCircuits
@@ -289,7 +290,7 @@ def _pair_template(x: np.ndarray, z: np.ndarray, phase: np.ndarray, coeffs: np.n
     ``Z_0`` and ``Z_1`` with weight 1, after ``RBS(pi/4)`` on ``(0, 1)``: ``(term, z bits,
     coefficient)`` per distinct string, or None when one stays off the diagonal or complex."""
     gen = SparsePauliOp(PauliList.from_symplectic(z, x, phase), coeffs)
-    gate = _Trainable(0, "rbs", Parameter("_pair"), coeff, generator=gen)
+    gate = _Trainable(0, RBS.name, Parameter("_pair"), coeff, generator=gen)
     sx, sz, c, term, _, _ = _gradient_strings([gate], _PAIR_TERMS, np.ones(2), [gate.parameter])
     sx, sz, c, src = conjugate_by_layer(sx, sz, c, rbs_matrix(np.pi / 4), np.array([(0, 1)]))
     term = term[src]

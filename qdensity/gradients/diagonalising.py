@@ -18,6 +18,7 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.analysis._conjugate import conjugate_by_layer
 from qdensity.analysis.blocks import _ATOL, _terms_of, _Trainable
+from qdensity.analysis.gate_registry import GATES, RBS
 from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits._copying import append_owned, extend
 from qdensity.circuits.gates import RBSGate, rbs_matrix
@@ -104,7 +105,7 @@ def _measured_rbs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]) -> 
 
 def _rbs_pairs(trainables: Sequence[_Trainable]) -> list[tuple[int, int]] | None:
     """The qubit pairs of a block of RBS gates on disjoint pairs (in gate order), else None."""
-    if not trainables or any(t.name != "rbs" for t in trainables):
+    if not trainables or any(GATES.get(t.name) is not RBS for t in trainables):
         return None
     stack = _terms_of(trainables)  # each gate's support: OR of its terms' bits, at once
     support = np.logical_or.reduceat(stack.x | stack.z, stack.starts[:-1], axis=0)

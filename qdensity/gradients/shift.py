@@ -29,6 +29,7 @@ import numpy as np
 from qiskit.circuit import Parameter, ParameterVector, QuantumCircuit
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
+from qdensity.analysis.gate_registry import GATES
 from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.execution.intervals import binomial_standard_error
 from qdensity.execution.plans import (
@@ -78,7 +79,8 @@ class ShiftRule:
 
 def _rule_for(inst, circuit: QuantumCircuit, rbs_rule: str) -> ShiftRule:
     name = inst.operation.name
-    if name in ("rbs", "fbs"):
+    kind = GATES.get(name)
+    if kind is not None and kind.shift_rule == "four_term":
         if rbs_rule == "four_term":
             return ShiftRule(*zip(*_FOUR_TERM, strict=True))
         if rbs_rule == "two_term":

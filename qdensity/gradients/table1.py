@@ -39,6 +39,7 @@ from qdensity.circuits.ansatze import (
     pyramid,
     round_robin,
 )
+from qdensity.circuits.ansatze.registry import FAMILIES
 from qdensity.gradients.density import gradient_circuit_count
 from qdensity.models.compression import compressed_odd_even
 from qdensity.models.decompositions import by_moments, copies, odd_even
@@ -48,6 +49,8 @@ from qdensity.validation import check_positive_int
 
 __all__ = ["ANSATZE", "table1_row", "table1", "format_table1"]
 
+#: The rows of the paper's Table 1: ansatz families of the registry
+#: (:data:`~qdensity.circuits.ansatze.registry.FAMILIES`).
 ANSATZE = ("hardware_efficient", "equivariant_xx", "pyramid", "butterfly", "round_robin")
 
 
@@ -114,19 +117,20 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
 def _row(ansatz: str, n: int, layers: int, copies_k: int) -> dict:
     if ansatz == "hardware_efficient":
         circ, obs, obs_name = hardware_efficient(n, layers), _z(n, [0]), "Z0"
-        dec, method = by_moments(circ), "shift"
+        dec = by_moments(circ)
     elif ansatz == "equivariant_xx":
         circ, obs, obs_name = equivariant_commuting(n, "X"), _z(n, [0]), "Z0"
-        dec, method = copies(circ, copies_k), "commuting"
+        dec = copies(circ, copies_k)
     elif ansatz == "pyramid":
         circ, obs, obs_name = pyramid(n), _z(n, range(n)), "sum Z"
-        dec, method = odd_even(circ), "shift"
+        dec = odd_even(circ)
     elif ansatz == "butterfly":
         circ, obs, obs_name = butterfly(n), _z(n, range(n)), "sum Z"
-        dec, method = by_moments(circ), "shift"
+        dec = by_moments(circ)
     else:  # round_robin (table1_row checked the name)
         circ, obs, obs_name = round_robin(n), _z(n, range(n)), "sum Z"
-        dec, method = by_moments(circ), "shift"
+        dec = by_moments(circ)
+    method = FAMILIES[ansatz].gradient  # the family's own gradient method (its registry entry)
     p0, g0, _ = _count([circ], obs, method)
     p1, g1, k = _count(dec.sub_unitaries, obs, "commuting")
     compressed = None
@@ -152,7 +156,7 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
     progress (see :mod:`qdensity.progress`); False: silent.
     """
     todo = [(name, n) for name in ansatze for n in sizes
-            if not (name == "butterfly" and n & (n - 1))]
+            if not (name in FAMILIES and FAMILIES[name].power_of_two and n & (n - 1))]
     rows = []
     with progress_bar(len(todo), desc="table1", unit="row", verbose=verbose,
                       leave=True) as bar:

@@ -114,11 +114,11 @@ def _holds_rbs(op) -> bool:
 
 def _lower_native_xy(circuit: QuantumCircuit) -> QuantumCircuit:
     """XXPlusYY(theta, beta) -> rz(beta) ryy(theta/2) rxx(theta/2)[label] rz(-beta), exactly."""
-    if "xx_plus_yy" not in circuit.count_ops():
+    if not any(isinstance(inst.operation, XXPlusYYGate) for inst in circuit.data):
         return circuit
     out = circuit.copy_empty_like()
     for inst in circuit.data:
-        if inst.operation.name == "xx_plus_yy":
+        if isinstance(inst.operation, XXPlusYYGate):
             theta, beta = inst.operation.params
             q0, q1 = inst.qubits
             out.rz(beta, q0)

@@ -6,7 +6,7 @@ simulator. Both submit to qiskit-aer's public ``SamplerV2.from_backend(simulator
 and configure simulators with ``AerSimulator.set_options``; neither reads or writes a private
 attribute of a qiskit or qiskit-aer object, so a qiskit-aer release that renames its internals
 changes nothing here. Both offer ``with_seed``, through which PUBs of different shot counts get
-independent seeds (:mod:`qdensity.execution.sampler._independent`).
+independent seeds (:mod:`qdensity.execution.samplers.reseed`).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ class AerSampler(BaseSamplerV2):
 
     Each ``run`` submits to qiskit-aer's ``SamplerV2.from_backend(simulator, seed=seed)``: the
     same counts as that sampler, and :meth:`with_seed` gives a copy with another seed (what
-    :func:`qdensity.execution.sampler._independent.run_independent` needs to give PUBs of
+    :func:`qdensity.execution.samplers.reseed.run_independent` needs to give PUBs of
     different shot counts independent shots).
 
     Parameters
@@ -138,6 +138,11 @@ class AdaptiveSampler(BaseSamplerV2):
         self._default_shots = int(default_shots)
         self._overrides = dict(options or {})
         self._simulators: dict = {}
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_simulators"] = {}  # a cache of built simulators: rebuilt, not pickled
+        return state
 
     @property
     def seed(self) -> int | None:

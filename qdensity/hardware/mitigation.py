@@ -28,6 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
+from qdensity.analysis.gate_registry import GATES
 from qdensity.analysis.structure import HW_PRESERVING_GATES, is_hamming_weight_preserving
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
@@ -227,7 +228,7 @@ def _measured_qubits(compiled: QuantumCircuit, num_clbits: int) -> list[int]:
 
 
 _FLIPS = frozenset({"x", "y"})  # on a definite bit: flip it (a phase does not matter)
-_DIAGONAL = frozenset({"rz", "z", "s", "sdg", "t", "tdg", "p", "cz", "cp", "rzz", "id"})
+_DIAGONAL = frozenset(name for name, kind in GATES.items() if kind.diagonal)  # the registry's
 _IGNORED = frozenset({"measure", "barrier", "delay"})
 
 

@@ -30,7 +30,7 @@ from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.models.mixtures import softmax
 from qdensity.validation import MAX_DENSE_ENTRIES, check_positive_int, check_type
 
-__all__ = ["sampled_estimate", "EstimateMixin"]
+__all__ = ["sampled_estimate", "EstimateMixin", "fit_engine"]
 
 
 def _per_shot(model, bits: np.ndarray) -> np.ndarray:
@@ -93,6 +93,29 @@ def _share(res, x: np.ndarray, width: np.ndarray, alpha_k: np.ndarray, calibrati
                 acc[0] = acc[0] + alpha_k[r] * np.asarray(dv)
             var[r] = np.maximum(total, 0.0) + width[r]**2 / (4.0 * lin.kept_shots**2)
     return alpha_k[:, None] ** 2 * var
+
+
+def fit_engine(engine, seed):
+    """The engine one ``fit`` draws from: for a seeded :class:`SamplerEngine` and an integer
+    estimator ``seed``, ``engine.with_seed(s)`` with ``s`` derived from both seeds (the same
+    shots on every refit; the engine's ledger still records them); else ``engine`` itself.
+
+    Parameters
+    ----------
+    engine : "exact", an exact engine or SamplerEngine
+    seed : int, numpy.random.Generator or None
+        The estimator's seed.
+
+    Returns
+    -------
+    the engine to train with
+    """
+    if not isinstance(engine, SamplerEngine) or engine.seed is None:
+        return engine
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        return engine  # a Generator or None: fits draw afresh, as the estimator does
+    stream = np.random.SeedSequence([engine.seed % 2**63, int(seed) % 2**63, 0xF17])
+    return engine.with_seed(int(stream.generate_state(1, dtype=np.uint32)[0]))
 
 
 def sampled_estimate(est, Z: np.ndarray, engine, shots: int, classifier: bool) -> Estimate:

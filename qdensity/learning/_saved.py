@@ -18,10 +18,12 @@ from sklearn.decomposition import PCA
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
+from qdensity.circuits.ansatze.registry import FAMILIES
 from qdensity.learning._spec import check_hyperparameters, encoded_width
 from qdensity.learning.layer import History, QuantumLayer
 from qdensity.learning.parameters import get_flat, load_parameters, save_parameters
 from qdensity.models.density import DensityQNN
+from qdensity.models.registry import DECOMPOSITIONS
 from qdensity.validation import MAX_CIRCUIT_QUBITS, as_rng
 
 FORMAT = "qdensity-estimator"
@@ -42,17 +44,12 @@ MAX_LOADED_ANGLES = 2**14
 #: Most bytes the arrays of an estimator file may inflate to (read from the zip headers).
 MAX_ESTIMATOR_BYTES = 64 * 2**20
 
-#: Angles of each spec ansatz on n qubits (one per RBS gate), known before it is built.
-_ANGLES = {"round_robin": lambda n: n * (n - 1) // 2, "pyramid": lambda n: n * (n - 1) // 2,
-           "x": lambda n: 2 * n - 3 + n % 2,
-           "butterfly": lambda n: (n // 2) * max(n.bit_length() - 1, 0)}
-
-
 def spec_angles(spec: dict, num_qubits: int) -> int:
     """Circuit angles of the model a spec builds on ``num_qubits`` qubits (an upper bound
-    with the cyclic decomposition, whose ``depth`` shifted copies carry their own angles)."""
-    base = _ANGLES[spec["ansatz"]](num_qubits)
-    return base * int(spec["depth"]) if spec["decomposition"] == "cyclic" else base
+    with the cyclic decomposition, whose ``depth`` shifted copies carry their own angles),
+    read off the family and decomposition registries before anything is built."""
+    base = FAMILIES[spec["ansatz"]].parameter_count(num_qubits)
+    return DECOMPOSITIONS[spec["decomposition"]].num_angles(base, spec["depth"])
 
 
 def read_meta(data: dict, path) -> dict:

@@ -12,13 +12,13 @@ import copy
 
 import numpy as np
 
-from qdensity.circuits.ansatze.hamming import butterfly, pyramid, round_robin, x_circuit
+from qdensity.circuits.ansatze.registry import FAMILIES, estimator_ansatze
 from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.gradients.density import METHODS as GRADIENTS
 from qdensity.learning.optim import SGD, Adam, RMSprop
-from qdensity.models.decompositions import by_moments, cyclic_moments, odd_even
-from qdensity.models.density import DensityQNN
+from qdensity.models.density import READOUTS, DensityQNN
 from qdensity.models.encoding import Encoding
-from qdensity.models.mixtures import GatedMixture, SoftmaxMixture
+from qdensity.models.registry import DECOMPOSITIONS, MIXTURES
 from qdensity.validation import (
     MAX_ROWS,
     MAX_SHOTS,
@@ -34,13 +34,10 @@ from qdensity.validation import (
     check_declared,
 )
 
-ANSATZE = {"round_robin": round_robin, "pyramid": pyramid, "x": x_circuit,
-           "butterfly": butterfly}
-DECOMPOSITIONS = ("layers", "cyclic", "odd_even", "none")
-MIXTURES = ("softmax", "fixed", "moe", "moe_gelu")
-READOUTS = ("unary_probabilities", "unary_amplitudes", "observable")
+# The ansatz families, decompositions, mixtures, readouts and gradient methods are the
+# registries' (circuits.ansatze.registry, models.registry, models.density, gradients.density),
+# read at each check: a family registered there is an ``ansatz=`` value here.
 OPTIMIZERS = {"adam": Adam, "sgd": SGD, "rmsprop": RMSprop}
-GRADIENTS = ("auto", "shift", "commuting")
 
 
 _LAYER = ("None or a layer with forward, backward, params and grads ('linear' for post); "
@@ -50,8 +47,8 @@ _LAYER = ("None or a layer with forward, backward, params and grads ('linear' fo
 #: checked by ``fit`` through :func:`check_hyperparameters`, never by the constructor.
 PARAMETER_CONSTRAINTS = {
     "model": [Instance(DensityQNN, "DensityQNN template"), None],
-    "ansatz": Options(tuple(ANSATZE)), "decomposition": Options(DECOMPOSITIONS),
-    "depth": Layers(), "mixture": Options(MIXTURES), "readout": Options(READOUTS),
+    "ansatz": Options(estimator_ansatze), "decomposition": Options(lambda: DECOMPOSITIONS),
+    "depth": Layers(), "mixture": Options(lambda: MIXTURES), "readout": Options(READOUTS),
     "num_qubits": [Qubits(2), None],
     "scale": Instance((bool, np.bool_), "bool (standardise the features before PCA and the "
                       "encoding)"),
@@ -113,32 +110,15 @@ def build_model(est, num_qubits: int, rng: np.random.Generator) -> DensityQNN:
         if model.num_parameters == 0 and model.mixture.num_params == 0:
             raise ValueError("model has no trainable parameters (no angles, fixed mixture)")
         return model
-    circuit = ANSATZE[est.ansatz](num_qubits)
-    if est.decomposition == "none":
-        subs = [circuit]
-    elif est.decomposition == "layers":
-        subs = by_moments(circuit, min(est.depth, _num_moments(circuit))).sub_unitaries
-    elif est.decomposition == "cyclic":
-        subs = cyclic_moments(circuit, min(est.depth, _num_moments(circuit))).sub_unitaries
-    else:
-        subs = odd_even(circuit).sub_unitaries
-    K = len(subs)
-    mixture: SoftmaxMixture | GatedMixture | None
-    if est.mixture == "fixed":
-        mixture = None
-    elif est.mixture == "softmax":
-        mixture = SoftmaxMixture(K)
-    else:
-        mixture = GatedMixture(num_qubits, K, activation="gelu" if est.mixture == "moe_gelu"
-                               else None, seed=rng)
+    family = FAMILIES[est.ansatz]
+    allowed = READOUTS if family.readouts is None else tuple(family.readouts)
+    if est.readout not in allowed:
+        raise ValueError(f"readout must be one of {allowed} for ansatz {est.ansatz!r}, got "
+                         f"{est.readout!r}")
+    subs = DECOMPOSITIONS[est.decomposition].split(family.builder(num_qubits), est.depth)
+    mixture = MIXTURES[est.mixture].build(num_qubits, len(subs), rng)
     return DensityQNN(subs, mixture, encoding=Encoding.unary(num_qubits), readout=est.readout,
                       seed=rng)
-
-
-def _num_moments(circuit) -> int:
-    from qdensity.analysis.structure import moments
-
-    return max(len(moments(circuit)), 1)
 
 
 def make_optimizer(est):

@@ -51,7 +51,7 @@ from qdensity.learning._encoding import (
     _naming,
     warn_if_unscaled,
 )
-from qdensity.learning._estimate import EstimateMixin
+from qdensity.learning._estimate import EstimateMixin, fit_engine
 from qdensity.learning._saved import FORMAT_VERSION, SavedMixin
 from qdensity.learning._spec import (
     PARAMETER_CONSTRAINTS,
@@ -212,8 +212,8 @@ class _QNNEstimator(EncodingMixin, EstimateMixin, SavedMixin, BaseEstimator):
         self._prepare(X, rng)
         _LOG.info("%s: %s", type(self).__name__, self.encoding_description())
         Z = self._encode(X)
-        self.layer_ = QuantumLayer(self.model_, self.engine, self.shots, self.gradient,
-                                   input_gradients=self.pre_ is not None)
+        self.layer_ = QuantumLayer(self.model_, fit_engine(self.engine, self.seed), self.shots,
+                                   self.gradient, input_gradients=self.pre_ is not None)
         self.layer_.max_shots = self.max_shots
         self.stopped_by_budget_ = False
         opt = make_optimizer(self)
@@ -295,11 +295,14 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
     ----------
     model : DensityQNN, optional
         A template that ``fit`` deep-copies (never mutated); overrides the spec below.
-    ansatz : {"round_robin", "pyramid", "x", "butterfly"}
-        Hamming-weight-preserving RBS circuit on ``n`` qubits (butterfly: ``n`` a power of 2).
+    ansatz : {"round_robin", "pyramid", "x", "butterfly"} or another registered family
+        Hamming-weight-preserving RBS circuit on ``n`` qubits (butterfly: ``n`` a power of 2):
+        a family of :data:`~qdensity.circuits.ansatze.registry.FAMILIES` registered with
+        ``estimator=True``.
     decomposition : {"layers", "cyclic", "odd_even", "none"}
         Sub-unitaries: ``depth`` moments each ("layers", Fig. 3), ``depth`` cyclic moments
-        ("cyclic", Fig. 6), odd/even gates, or the pure model ("none", K = 1).
+        ("cyclic", Fig. 6), odd/even gates, or the pure model ("none", K = 1); the entries of
+        :data:`~qdensity.models.registry.DECOMPOSITIONS`.
     depth : int
         Moments per sub-unitary.
     mixture : {"softmax", "fixed", "moe", "moe_gelu"}
@@ -329,7 +332,13 @@ class QNNClassifier(ClassifierMixin, _QNNEstimator):
         ``>= 0``; adds ``l2 * ||params||^2`` to the loss.
     epochs, batch_size : int
     engine : "exact" or SamplerEngine
-        A sampler engine spends ``shots`` per circuit; its ledger records them.
+        A sampler engine spends ``shots`` per circuit; its ledger records them. A seeded
+        engine is not advanced by ``fit``: each fit draws from ``engine.with_seed(...)``,
+        seeded by the engine's seed and ``seed``, so a refit gives the same model. A clone
+        (``sklearn.base.clone``, ``GridSearchCV``, ``cross_val_score``) gets a copy of the
+        engine and its ledger: the shots of a search are on each fitted clone's
+        ``engine.ledger`` (``search.best_estimator_.engine.ledger`` for the refit), not on
+        the ledger of the engine passed in.
     shots : int, optional
         Needed with a sampler engine.
     gradient : {"auto", "shift", "commuting"}

@@ -3,8 +3,9 @@
 (:mod:`~.mixtures`, Supp. H), and the paper's decompositions of one circuit into
 sub-unitaries (:mod:`~.decompositions`, Fig. 6, Supp. H.1), the LCU model that mixes
 amplitudes instead of outputs (:mod:`~.lcu`, Fig. 1a, Supp. C), exact evaluation on the
-engines a model keeps (:mod:`~.exact`) and the warm start from trained sub-unitaries
-(:mod:`~.warm_start`)."""
+engines a model keeps (:mod:`~.exact`), the warm start from trained sub-unitaries
+(:mod:`~.warm_start`), and the registries of decompositions and mixtures by name
+(:mod:`~.registry`)."""
 
 from __future__ import annotations
 
@@ -34,6 +35,10 @@ __all__ = [
     "independent",
     "trainable_parameters",
     "warm_start",
+    "DecompositionKind",
+    "MixtureKind",
+    "DECOMPOSITIONS",
+    "MIXTURES",
     "exact_outputs",
     "exact_gradients",
     "ExactGradients",
@@ -63,6 +68,10 @@ _EXPORTS: dict[str, str] = {
     "as_mixture": "qdensity.models.mixtures",
     "softmax": "qdensity.models.mixtures",
     "warm_start": "qdensity.models.warm_start",
+    "DecompositionKind": "qdensity.models.registry",
+    "MixtureKind": "qdensity.models.registry",
+    "DECOMPOSITIONS": "qdensity.models.registry",
+    "MIXTURES": "qdensity.models.registry",
 }
 
 if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
@@ -87,6 +96,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
         as_mixture,
         softmax,
     )
+    from qdensity.models.registry import DECOMPOSITIONS, MIXTURES, DecompositionKind, MixtureKind
     from qdensity.models.warm_start import warm_start
 
 

@@ -78,16 +78,73 @@ def _calibration_variance(parts: dict, alpha: np.ndarray) -> float:
     return float(sum(d**2 * e * (1 - e) / n for d, e, n in total.values()))
 
 
+@dataclasses.dataclass
+class _Call:
+    """One :func:`sample` call, prepared: its checked arguments, the observable's values on
+    the outcomes (None for unary readout) and range, and where its engines come from."""
+
+    x: np.ndarray
+    budget: int
+    scheduler: str
+    rng: np.random.Generator
+    unary: bool
+    values: np.ndarray | None
+    lo: float
+    hi: float
+    engines: _CallEngines
+    corrected: bool
+
+
+class _CallEngines:
+    """The engine of every phase of one call: the caller's, or one fresh engine (one readout
+    calibration, its shots on the ledger once) whose sampler is reseeded from the call's
+    stream for every later phase (independent shots), through the sampler's ``with_seed``."""
+
+    def __init__(self, engine, target, rng, ledger, mitigation, postselect):
+        self.engine, self.target, self.rng = engine, target, rng
+        self.ledger = engine.ledger if engine is not None else ledger
+        self.mitigation, self.postselect = mitigation, postselect
+        self.fresh = None
+
+    def __call__(self):
+        from qdensity.execution.sampler.engine import SamplerEngine
+        from qdensity.hardware.aer_sampling import aer_seed
+        from qdensity.validation import seed_int
+
+        if self.engine is not None:
+            return self.engine
+        if self.fresh is None:
+            self.fresh = SamplerEngine(target=self.target, seed=self.rng, ledger=self.ledger,
+                                       mitigation=self.mitigation, postselect=self.postselect)
+        else:
+            self.fresh.sampler = self.fresh.sampler.with_seed(aer_seed(seed_int(self.rng)))
+        return self.fresh
+
+
 def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, target=None,
            seed=None, mitigation: str | None = None, postselect: str | None = None,
            ledger=None):
-    """Estimate ``f(x)`` from shots; see :meth:`DensityQNN.sample` (parameters and returns)."""
-    from qdensity.execution.intervals import wilson_standard_error
-    from qdensity.execution.plans import CircuitJob, diagonal_values, measured
+    """Estimate ``f(x)`` from shots; see :meth:`DensityQNN.sample` (parameters and returns).
+
+    Preparation (:func:`_prepare`: every check before any shot), then running and assembly
+    by mode: the deterministic state (eval) or the randomised preparation (train).
+    """
+    call = _prepare(model, x, budget, scheduler, engine, target, seed, mitigation, postselect,
+                    ledger)
+    if not model.training:
+        return _deterministic(model, call)
+    if call.unary:
+        return _randomised_unary(model, call.x, call.budget, call.scheduler, call.engines,
+                                 call.rng, call.corrected)
+    return _randomised(model, call)
+
+
+def _prepare(model, x, budget, scheduler, engine, target, seed, mitigation, postselect,
+             ledger) -> _Call:
+    """Check every argument (before any shot) and read the observable's values."""
+    from qdensity.execution.plans import diagonal_values
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
-    from qdensity.execution.schedulers import ScheduleResult, neyman, per_shot, proportional
-    from qdensity.hardware.aer_sampling import aer_seed
-    from qdensity.validation import check_positive_int, seed_int
+    from qdensity.validation import check_positive_int
 
     budget = check_positive_int(budget, "budget", maximum=MAX_DENSE_ENTRIES,
                                 why="every shot's measured bits are held in memory")
@@ -125,70 +182,69 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
     x = model._check_X(x, "x")
     if x.shape[0] != 1:
         raise ValueError(f"x must be one data point, got {x.shape[0]} rows")
-    n = model.num_qubits
     if unary:
         values, lo, hi = None, 0.0, 1.0
     else:
-        values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
+        values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs),
+                                 model.num_qubits)
         lo, hi = float(values.min()), float(values.max())
-    if engine is not None:
-        ledger = engine.ledger
-    elif ledger is None:
-        ledger = ShotLedger()
-    fresh = None
-
-    def engine_for_call():
-        # one engine per call (one readout calibration, its shots on the ledger once), its
-        # sampler reseeded from rng for every later phase (independent shots), through the
-        # public sampler attribute and the sampler's public with_seed
-        nonlocal fresh
-        if engine is not None:
-            return engine
-        if fresh is None:
-            fresh = SamplerEngine(target=target, seed=rng, ledger=ledger, mitigation=mitigation,
-                                  postselect=postselect)
-        else:
-            fresh.sampler = fresh.sampler.with_seed(aer_seed(seed_int(rng)))
-        return fresh
-
-    if not model.training:
-        from qdensity.circuits.preparation import deterministic_circuit
-
-        alpha = model.alpha(x)[0]
-        subs = [c.assign_parameters(dict(zip(trainable_parameters(c), model._sub_theta(k, None),
-                                             strict=True)))
-                for k, c in enumerate(model.sub_unitaries)]
-        loader = (model.encoding.circuit.assign_parameters(model.encoding.values(x)[0])
-                  if model.encoding is not None else None)
-        circ = measured(deterministic_circuit(subs, alpha, loader=loader))
-        res = engine_for_call().run([CircuitJob(circ, np.zeros((1, 0)), budget,
-                                                "deterministic")])[0]
-        K = model.num_subunitaries
-        if unary:
-            return _deterministic_unary(res, K, n, budget)
-        assert values is not None  # set whenever the readout is not unary
-        probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
-        mean = float(probs @ values)
-        var = float(probs @ values**2) - mean**2
-        return ScheduleResult(name="deterministic", estimate=mean,
-                              standard_error=float(wilson_standard_error(var, budget,
-                                                                         hi - lo)),
-                              allocation=np.array([budget]), per_subunitary=np.array([mean]),
-                              shots_used=budget, pilot_allocation=None, info={})
     corrected = (mitigation is not None or postselect is not None
                  or (engine is not None
                      and (engine.mitigation is not None or engine.postselect is not None)))
-    if unary:
-        return _randomised_unary(model, x, budget, scheduler, engine_for_call, rng, corrected)
+    if engine is None and ledger is None:
+        ledger = ShotLedger()
+    engines = _CallEngines(engine, target, rng, ledger, mitigation, postselect)
+    return _Call(x, budget, scheduler, rng, unary, values, lo, hi, engines, corrected)
+
+
+def _deterministic(model, call: _Call):
+    """Eval mode: the deterministic state (Fig. 1b) measured with every shot."""
+    from qdensity.circuits.preparation import deterministic_circuit
+    from qdensity.execution.intervals import wilson_standard_error
+    from qdensity.execution.plans import CircuitJob, measured
+    from qdensity.execution.schedulers import ScheduleResult
+
+    x, budget, n = call.x, call.budget, model.num_qubits
+    alpha = model.alpha(x)[0]
+    subs = [c.assign_parameters(dict(zip(trainable_parameters(c), model._sub_theta(k, None),
+                                         strict=True)))
+            for k, c in enumerate(model.sub_unitaries)]
+    loader = (model.encoding.circuit.assign_parameters(model.encoding.values(x)[0])
+              if model.encoding is not None else None)
+    circ = measured(deterministic_circuit(subs, alpha, loader=loader))
+    res = call.engines().run([CircuitJob(circ, np.zeros((1, 0)), budget,
+                                         "deterministic")])[0]
+    K = model.num_subunitaries
+    if call.unary:
+        return _deterministic_unary(res, K, n, budget)
+    assert call.values is not None  # set whenever the readout is not unary
+    probs = res.probabilities[0].reshape(2**n, 2**K).sum(axis=1)  # trace out mix
+    mean = float(probs @ call.values)
+    var = float(probs @ call.values**2) - mean**2
+    return ScheduleResult(name="deterministic", estimate=mean,
+                          standard_error=float(wilson_standard_error(var, budget,
+                                                                     call.hi - call.lo)),
+                          allocation=np.array([budget]), per_subunitary=np.array([mean]),
+                          shots_used=budget, pilot_allocation=None, info={})
+
+
+def _randomised(model, call: _Call):
+    """Train mode of an observable: the randomised preparation (Fig. 1c), the budget split
+    over the sub-unitaries by the scheduler, each phase's jobs run as the scheduler asks."""
+    from qdensity.execution.plans import CircuitJob, measured
+    from qdensity.execution.schedulers import neyman, per_shot, proportional
+
+    values, x = call.values, call.x
     assert values is not None  # set whenever the readout is not unary
     circuits = [measured(model.circuit(k)) for k in range(model.num_subunitaries)]
     rows = [model.rows(k, x) for k in range(model.num_subunitaries)]
+    calibration: dict = {}
 
     def source(shots_per_k, rng_inner, phase: str = "main"):
         label = "pilot" if phase == "pilot" else "randomised"
         jobs = [CircuitJob(circuits[k], rows[k], int(s), f"{label}_k{k}")
                 for k, s in enumerate(shots_per_k) if s > 0]
-        results = iter(engine_for_call().run(jobs))
+        results = iter(call.engines().run(jobs))
         out = []
         for s in shots_per_k:
             if s == 0:
@@ -202,13 +258,12 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
                 calibration[len(out) - 1] = (lin, f, float(np.mean(f * res.weights[0])))
         return out
 
-    if corrected:
-        lo, hi = corrected_range(lo, hi)
+    lo, hi = corrected_range(call.lo, call.hi) if call.corrected else (call.lo, call.hi)
     runners = {"per_shot": per_shot, "proportional": proportional, "neyman": neyman}
     alpha = model.alpha(x)[0]
-    calibration: dict = {}
-    res = runners[scheduler](alpha, budget, source, seed=rng, value_range=(lo, hi))
-    if calibration:
+    res = runners[call.scheduler](alpha, call.budget, source, seed=call.rng,
+                                  value_range=(lo, hi))
+    if calibration:  # assembly: the calibration's share of the error, common to every k
         se = float(np.sqrt(res.standard_error**2 + _calibration_variance(calibration, alpha)))
         res = dataclasses.replace(res, standard_error=se)
     return res

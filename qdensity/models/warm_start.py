@@ -14,7 +14,7 @@ import numpy as np
 
 from qdensity.models.decompositions import independent, trainable_parameters
 from qdensity.models.density import DensityQNN
-from qdensity.models.mixtures import FixedMixture, SoftmaxMixture
+from qdensity.models.registry import MIXTURES as MIXTURE_KINDS
 from qdensity.validation import (
     MAX_SUBUNITARIES,
     Array,
@@ -27,8 +27,9 @@ from qdensity.validation import (
 
 __all__ = ["warm_start", "MIXTURES"]
 
-#: Mixtures a warm-started model may start with.
-MIXTURES = ("softmax", "fixed")
+#: Mixtures a warm-started model may start with: those of the mixture registry that can start
+#: from a given alpha.
+MIXTURES = tuple(name for name, kind in MIXTURE_KINDS.items() if kind.from_alpha is not None)
 
 
 @validates(
@@ -103,7 +104,10 @@ def warm_start(sub_models: Sequence[DensityQNN], alpha, *, mixture: str = "softm
         seen |= params
     if shared:
         circuits = independent(circuits).sub_unitaries
-    mix = SoftmaxMixture(alpha=alpha) if mixture == "softmax" else FixedMixture(alpha)
+    from_alpha = MIXTURE_KINDS[mixture].from_alpha
+    if from_alpha is None:  # declared away: MIXTURES lists only mixtures with one
+        raise ValueError(f"mixture must be one of {MIXTURES}, got {mixture!r}")
+    mix = from_alpha(alpha)
     model = DensityQNN(circuits, mix, encoding=first.encoding, observable=first.observable,
                        readout=first.readout)
     theta = np.zeros(model.num_parameters)

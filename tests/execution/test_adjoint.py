@@ -238,7 +238,7 @@ def test_chunk_sizes_follow_both_budgets():
 def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypatch):
     # the compiled kernels run cache-sized chunks of at least numba's threads; the numpy
     # path keeps the memory budget's one chunk (and never calls the kernels)
-    from qdensity.execution import adjoint as adjoint_module
+    from qdensity.execution.statevector import adjoint as adjoint_module
 
     qc = hardware_efficient(3, 2)
     vals = RNG.uniform(-np.pi, np.pi, (9, qc.num_parameters))

@@ -15,7 +15,7 @@ from qdensity import HammingWeightSampler, SamplerEngine
 from qdensity.circuits.gates import RBSGate
 from qdensity.execution.plans import CircuitJob
 from qdensity.execution.sampler._packed_result import PackedJobResult, bitarray_to_bits
-from qdensity.execution.sampler.hamming import DeferredSamples
+from qdensity.execution.samplers.hamming import DeferredSamples
 from tests.execution.test_hamming_sampler import (
     ALPHA,
     _chi2_pvalue,

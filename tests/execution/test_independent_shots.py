@@ -19,8 +19,8 @@ from qiskit_aer.primitives import SamplerV2
 from scipy.stats import binom, chi2, norm
 
 from qdensity.execution.plans import CircuitJob
-from qdensity.execution.sampler._independent import run_independent
 from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.samplers.reseed import run_independent
 from qdensity.execution.schedulers import proportional, sampler_source
 
 THETA = Parameter("t")

@@ -28,6 +28,8 @@ NO_ARGUMENTS = {
     "subclasses (FixedMixture, ...) declare theirs",
     "qdensity.learning._encoding.UnscaledFeaturesWarning": "a warning category: raised by fit "
     "through warnings.warn, never called by users",
+    "qdensity.circuits.ansatze.registry.estimator_ansatze": "takes no arguments (lists the "
+    "registered families the estimators accept)",
 }
 
 #: Callables kept out of the declared surface on purpose: name -> why.

@@ -91,7 +91,7 @@ def test_checks_left_to_the_declarations_still_refuse_and_numpy_ints_still_work(
 
     from qdensity.analysis.blocks import commuting_blocks
     from qdensity.circuits.gates import RBSGate
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.hamming import HammingWeightSampler
 
     with pytest.raises(ValueError, match="seed must be an int >= 0"):
         HammingWeightSampler(seed=-1)

@@ -36,10 +36,6 @@ try:  # the optional torch extra
 except ImportError:  # pragma: no cover - CI installs it
     torch = None
 
-#: The sampler classes whose pickling is fixed on the samplers branch (their recipes xfail
-#: strictly here; the marks go when that branch is merged).
-SAMPLERS_BRANCH = frozenset({"SamplerEngine", "HammingWeightSampler"})
-
 
 def public_classes() -> dict[str, type]:
     """``"module.qualname" -> class`` for every class in a public module's ``__all__``."""
@@ -264,7 +260,7 @@ def _plans():
 
 def _sampler_side():
     from qdensity.execution.sampler.engine import LedgerEntry, SamplerEngine, ShotLedger
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers import HammingWeightSampler
 
     def engine():
         fresh, used = SamplerEngine(seed=0), SamplerEngine(seed=0)
@@ -310,6 +306,11 @@ def _values():
     def exc(e):
         return (type(e).__name__, e.args, str(e))
 
+    def unsupported():
+        from qdensity.execution.samplers.hamming import UnsupportedInstructionError
+
+        return [("fresh", UnsupportedInstructionError("cannot sample 'h'"), exc)]
+
     return {
         "ZStringTable": lambda: [("fresh", ZStringTable(np.array([[1, 0], [0, 1]], dtype=bool),
                                                         np.array([0.5, -1.0])),
@@ -324,6 +325,7 @@ def _values():
         "History": history,
         "BudgetExhausted": lambda: [("fresh", BudgetExhausted("budget spent"), exc)],
         "UnscaledFeaturesWarning": lambda: [("fresh", UnscaledFeaturesWarning("scale"), exc)],
+        "UnsupportedInstructionError": unsupported,
     }
 
 
@@ -514,7 +516,7 @@ def _target_names():
 
 
 def _deferred():
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers import HammingWeightSampler
 
     def recipe():
         circ, vals = _hw_circuit()
@@ -695,19 +697,69 @@ def _torch_layer():
     return {"DensityQNNLayer": layer, "MoEGate": gate}
 
 
+def _registries():
+    """Registered entries load as the registry's own entry; an unregistered one copies by
+    value."""
+    from qdensity.analysis.gate_registry import GATES, GateKind
+    from qdensity.circuits.ansatze.registry import FAMILIES, AnsatzFamily
+    from qdensity.models.registry import DECOMPOSITIONS, MIXTURES, DecompositionKind, MixtureKind
+
+    def recipe(registry, name, unregistered, behaviour):
+        def make():
+            return [("fresh", registry[name], behaviour), ("fresh", unregistered, behaviour)]
+        return make
+
+    return {
+        "GateKind": recipe(GATES, "rbs", GateKind("my_gate", real=True),
+                           lambda g: (g.name, g.real, g.preserves_hamming_weight,
+                                      None if g.matrix is None else g.matrix([0.3]))),
+        "AnsatzFamily": recipe(FAMILIES, "pyramid", AnsatzFamily("mine", pyramid),
+                               lambda f: (f.name, _unitary(f.builder(4)), f.parameter_count(4))),
+        "DecompositionKind": recipe(DECOMPOSITIONS, "none",
+                                    DecompositionKind("mine", _whole_circuit),
+                                    lambda d: (d.name, [_unitary(c) for c in
+                                                        d.split(round_robin(4), 2)])),
+        "MixtureKind": recipe(MIXTURES, "softmax", MixtureKind("mine", _no_mixture),
+                              lambda m: (m.name, m.data_dependent,
+                                         type(m.build(4, 3, 0)).__name__)),
+    }
+
+
+def _unitary(circuit):
+    """The matrix of ``circuit`` at fixed angles (two builds differ in their parameters' ids,
+    not in what they do)."""
+    from qiskit.quantum_info import Operator
+
+    bound = circuit.assign_parameters(np.linspace(0.1, 0.9, circuit.num_parameters))
+    return Operator(bound).data
+
+
+def _whole_circuit(circuit, depth):
+    return [circuit]
+
+
+def _no_mixture(num_qubits, k, seed):
+    return None
+
+
 def _sampler_states():
     """States of non-sampler classes that hold a sampler engine (the issue's fitted
-    ``QNNClassifier(engine=SamplerEngine(seed=0), shots=64)``): they round-trip once the
-    sampler classes do (:data:`SAMPLER_STATES`)."""
+    ``QNNClassifier(engine=SamplerEngine(seed=0), shots=64)``)."""
     from qdensity.execution.sampler.engine import SamplerEngine
     from qdensity.learning.estimators import QNNClassifier
 
     Xc, yc = np.abs(X4) + 0.1, np.array([0, 1, 0])
 
     def estimator():
-        est = QNNClassifier(engine=SamplerEngine(seed=0), shots=64, epochs=1, verbose=False,
-                            seed=0).fit(Xc, yc)
-        return [("fitted", est, lambda e: e.predict_proba(Xc))]
+        def make():
+            return QNNClassifier(engine=SamplerEngine(seed=0), shots=64, epochs=1,
+                                 verbose=False, seed=0)
+
+        def fit_predict(e):
+            return copy.deepcopy(e).fit(Xc, yc).predict_proba(Xc)
+
+        return [("fresh", make(), fit_predict),
+                ("fitted", make().fit(Xc, yc), lambda e: e.predict_proba(Xc))]
 
     out = {"QNNClassifier[SamplerEngine]": estimator}
     if torch is not None:
@@ -728,13 +780,13 @@ def _sampler_states():
     return out
 
 
-#: Recipes of the states above, each marked like the sampler classes.
+#: Recipes of the states above (run beside the classes' own recipes).
 SAMPLER_STATES = ("QNNClassifier[SamplerEngine]", "DensityQNNLayer[SamplerEngine]")
 
 RECIPES: dict = {}
 for _group in (_constraints, _gates, _preparation, _tomography, _engines, _plans,
                _sampler_side, _values, _schedulers, _gradients, _unary_circuit, _hardware,
-               _deferred, _models, _learning, _torch_layer, _sampler_states):
+               _deferred, _models, _learning, _torch_layer, _registries, _sampler_states):
     RECIPES.update(_group())
 
 
@@ -751,14 +803,11 @@ def test_every_public_class_has_a_recipe():
 def _cases():
     for name in public_classes():
         short = _short(name)
-        marks = [pytest.mark.xfail(strict=True, reason="fixed on the samplers branch")] \
-            if short in SAMPLERS_BRANCH else []
         if short in RECIPES:
-            yield pytest.param(short, id=short, marks=marks)
+            yield pytest.param(short, id=short)
     for name in SAMPLER_STATES:
         if name in RECIPES:
-            yield pytest.param(name, id=name, marks=[pytest.mark.xfail(
-                strict=True, reason="fixed on the samplers branch")])
+            yield pytest.param(name, id=name)
 
 
 @pytest.mark.parametrize("short", list(_cases()))

@@ -131,10 +131,11 @@ def test_too_few_angles_for_the_spec_are_refused(fitted, tmp_path):
 
 @pytest.mark.parametrize("n", list(range(2, 18)))
 def test_spec_angles_are_the_built_circuits(n):
+    from qdensity.circuits.ansatze import FAMILIES, estimator_ansatze
     from qdensity.learning._saved import spec_angles
-    from qdensity.learning._spec import ANSATZE
 
-    for ansatz, build in ANSATZE.items():
+    for ansatz in estimator_ansatze():
+        build = FAMILIES[ansatz].builder
         if ansatz == "butterfly" and n & (n - 1):
             continue  # a butterfly needs a power of two
         spec = {"ansatz": ansatz, "decomposition": "layers", "depth": 2}

@@ -1,4 +1,5 @@
-"""Parameterised sub-unitary families (paper Fig. 3, 4, 9 and Methods)."""
+"""Parameterised sub-unitary families (paper Fig. 3, 4, 9 and Methods), and their registry by
+name (:mod:`~qdensity.circuits.ansatze.registry`) that the estimators and the CLI read."""
 
 from qdensity.circuits.ansatze.equivariant import (
     angle_encoding,
@@ -18,6 +19,12 @@ from qdensity.circuits.ansatze.hamming import (
 )
 from qdensity.circuits.ansatze.hardware_efficient import hardware_efficient
 from qdensity.circuits.ansatze.qcnn import qcnn, qcnn_layers, qcnn_readout_qubit
+from qdensity.circuits.ansatze.registry import (
+    FAMILIES,
+    AnsatzFamily,
+    estimator_ansatze,
+    register_family,
+)
 from qdensity.circuits.ansatze.reuploading import chebyshev_dataset, reuploading
 
 __all__ = [
@@ -39,4 +46,8 @@ __all__ = [
     "qcnn_readout_qubit",
     "reuploading",
     "chebyshev_dataset",
+    "AnsatzFamily",
+    "FAMILIES",
+    "register_family",
+    "estimator_ansatze",
 ]

@@ -23,6 +23,7 @@ from collections.abc import Iterable
 
 from qiskit.circuit import CircuitInstruction, ParameterVector, QuantumCircuit
 
+from qdensity.analysis.gate_registry import GATES, GIVENS_GATES, RBS
 from qdensity.circuits._copying import append_owned, fresh_gate, gc_paused
 from qdensity.circuits.gates import FBSGate, RBSGate
 from qdensity.validation import (
@@ -42,14 +43,14 @@ __all__ = ["pyramid", "x_circuit", "butterfly", "round_robin", "pairs_circuit"]
     num_qubits=Qubits(2),
     layers=SequenceOf(Unchecked('pairs checked against num_qubits in the body'), min_len=0,
                       max_len=MAX_LAYERS),
-    gate=Options(('rbs', 'fbs')), parameter_prefix=Instance(str), name=Instance(str),
+    gate=Options(GIVENS_GATES), parameter_prefix=Instance(str), name=Instance(str),
     insert_barriers=Instance(bool),
 )
 def pairs_circuit(
     num_qubits: int,
     layers: Iterable[Iterable[tuple[int, int]]],
     *,
-    gate: str = "rbs",
+    gate: str = RBS.name,
     parameter_prefix: str = "θ",
     name: str = "hw_circuit",
     insert_barriers: bool = False,
@@ -97,7 +98,7 @@ def _append_layers(qc: QuantumCircuit, ordered: list, num_qubits: int, gate: str
         for i, j in layer:
             if i == j or not (0 <= i < num_qubits and 0 <= j < num_qubits):
                 raise ValueError(f"invalid pair {(i, j)} for {num_qubits} qubits")
-            if gate == "rbs" or j == i + 1:  # a new gate on checked qubits: appended as is
+            if GATES[gate] is RBS or j == i + 1:  # a new gate on checked qubits: appended as is
                 append_owned(qc, [CircuitInstruction(fresh_gate(template, [theta[k]]),
                                                      (bits[i], bits[j]))], new=True)
             else:

@@ -26,6 +26,7 @@ from qiskit.circuit.library import (
 from qiskit.circuit.library.standard_gates import get_standard_gate_name_mapping
 from qiskit.quantum_info import Operator, SparsePauliOp
 
+from qdensity.analysis.gate_registry import EVOLUTION, FBS, GATES, GIVENS_GATES, PHASE_GATES, RBS
 from qdensity.circuits.preparation._common import _NON_UNITARY, _PASS_THROUGH, DATA_REGISTER
 from qdensity.validation import Circuit, validates
 
@@ -169,9 +170,9 @@ def _has_cheap_rule(op: Instruction) -> bool:
     name = op.name
     if name in _CONTROLLED_ROTATION or name in _PAULI_ROTATIONS:
         return True
-    if name in ("rbs", "fbs", "p", "u1", "u", "u3", "global_phase"):
+    if name in GIVENS_GATES or name in PHASE_GATES or name in ("u", "u3", "global_phase"):
         return True
-    return name == "PauliEvolution" and _single_pauli_rotation(op) is not None
+    return GATES.get(name) is EVOLUTION and _single_pauli_rotation(op) is not None
 
 
 def _append_controlled_instruction(
@@ -193,7 +194,7 @@ def _append_controlled_instruction(
     if name in _CONTROLLED_ROTATION:
         out.append(_CONTROLLED_ROTATION[name](params[0]), [ctrl, *qubits])
         return
-    if name in ("p", "u1"):
+    if name in PHASE_GATES:
         out.append(PhaseGate(params[0]).control(1), [ctrl, *qubits])
         return
     if name in ("u", "u3"):
@@ -202,16 +203,16 @@ def _append_controlled_instruction(
     if name == "global_phase":
         _append_controlled_phase(out, ctrl, params[0])
         return
-    if name == "rbs":
+    if GATES.get(name) is RBS:
         _append_controlled_rbs(out, ctrl, qubits[0], qubits[1], params[0])
         return
-    if name == "fbs":
+    if GATES.get(name) is FBS:
         _append_controlled_fbs(out, ctrl, qubits, params[0])
         return
     if name in _PAULI_ROTATIONS:
         _append_controlled_pauli_rotation(out, ctrl, qubits, _PAULI_ROTATIONS[name], params[0])
         return
-    if name == "PauliEvolution":
+    if GATES.get(name) is EVOLUTION:
         single = _single_pauli_rotation(op)
         if single is not None:
             _append_controlled_pauli_rotation(out, ctrl, qubits, single[0], single[1])

@@ -215,46 +215,79 @@ class ReadoutCorrection:
                                  f"{exc}; M3 mitigates circuits whose every clbit is measured "
                                  f"once") from exc
 
+    @classmethod
+    def of_mitigator(cls, mitigator: ReadoutMitigator | None, postselect: bool
+                     ) -> ReadoutCorrection:
+        """The correction that applies an existing ``mitigator`` (None: no mitigation) and,
+        with ``postselect``, keeps the weight the compiled circuit's metadata names."""
+        out = cls(None, "hamming_weight" if postselect else None, None, 1, None)
+        if mitigator is not None:
+            out.mitigation, out.system = "m3", mitigator.system
+            out.calibration_shots = mitigator.shots
+            out._mitigator = mitigator
+        return out
+
     def weights(self, bits: np.ndarray, compiled: QuantumCircuit, ledger
                 ) -> tuple[np.ndarray, np.ndarray, list | None]:
         """Per-shot weights ``(rows, shots)``, effective shots ``(rows,)`` and, with
         mitigation, one :class:`Linearisation` per row (None for a row with more than
         :data:`MAX_LINEARISED_OUTCOMES` observed outcomes) of one job."""
-        rows, shots, m = bits.shape
-        weight = (compiled.metadata or {}).get(HAMMING_WEIGHT_KEY)
-        qubits = (_measured_qubits(compiled, m) if self.mitigation is not None else None)
+        rows, shots, _ = bits.shape
         out = np.ones((rows, shots))
         n_eff = np.full(rows, float(shots))
-        lins: list | None = None
-        if qubits is not None:
-            lins = []
-            mats, state_shots = self.mitigator(ledger).readout_matrices(qubits)
+        lins: list | None = [] if self.mitigation is not None else None
         for r in range(rows):
-            uniq, inverse, counts = np.unique(bits[r], axis=0, return_inverse=True,
-                                              return_counts=True)
-            inverse = inverse.reshape(-1)
-            w = np.ones(len(uniq))
-            overhead = 1.0
-            if qubits is not None:
-                keys = ["".join("1" if b else "0" for b in u[::-1]) for u in uniq]
-                quasi, overhead = self.mitigator(ledger).correct_counts(
-                    dict(zip(keys, counts.tolist(), strict=True)), qubits)
-                w = np.array([quasi.get(k, 0.0) for k in keys]) * shots / counts
-            quasi_row = w * counts / shots
-            keep = np.ones(len(uniq), dtype=bool)
-            kept = 1.0
-            if self.postselect is not None:
-                keep = uniq.sum(axis=1) == weight
-                w = np.where(keep, w, 0.0)
-                kept = float((w * counts).sum()) / shots
-                if kept <= 0:
-                    raise ValueError(f"row {r} kept no shot of Hamming weight {weight} "
-                                     f"({shots} shots); spend more shots")
-                w = w / kept
-            out[r] = w[inverse]
+            out[r], kept, overhead, lin = self.row(bits[r], compiled, ledger, r)
             n_eff[r] = min(kept, 1.0) * shots / overhead
             if lins is not None:
-                lins.append(Linearisation(uniq, inverse, counts, quasi_row, keep, kept, mats,
-                                          state_shots, qubits)
-                            if len(uniq) <= MAX_LINEARISED_OUTCOMES else None)
+                lins.append(lin)
         return out, n_eff, lins
+
+    def row(self, bits: np.ndarray, compiled: QuantumCircuit, ledger, index: int = 0
+            ) -> tuple[np.ndarray, float, float, Linearisation | None]:
+        """One row's correction: per-shot weights ``(shots,)``, the kept (mitigated) fraction
+        ``kappa``, mthree's overhead ``M`` (1 without mitigation) and, with mitigation, its
+        :class:`Linearisation` (None above :data:`MAX_LINEARISED_OUTCOMES` outcomes).
+
+        Parameters
+        ----------
+        bits : numpy.ndarray of bool, shape (shots, m)
+        compiled : QuantumCircuit
+            What was run: its measured physical qubits and the Hamming weight its metadata
+            names (``HAMMING_WEIGHT_KEY``) are read.
+        ledger : ShotLedger or None
+            Where calibration shots go.
+        index : int
+            The row's index, for the message of a row that keeps no shot.
+        """
+        shots, m = bits.shape
+        weight = (compiled.metadata or {}).get(HAMMING_WEIGHT_KEY)
+        uniq, inverse, counts = np.unique(bits, axis=0, return_inverse=True,
+                                          return_counts=True)
+        inverse = inverse.reshape(-1)
+        w = np.ones(len(uniq))
+        overhead = 1.0
+        qubits = None
+        if self.mitigation is not None:
+            qubits = _measured_qubits(compiled, m)
+            keys = ["".join("1" if b else "0" for b in u[::-1]) for u in uniq]
+            quasi, overhead = self.mitigator(ledger).correct_counts(
+                dict(zip(keys, counts.tolist(), strict=True)), qubits)
+            w = np.array([quasi.get(k, 0.0) for k in keys]) * shots / counts
+        quasi_row = w * counts / shots
+        keep = np.ones(len(uniq), dtype=bool)
+        kept = 1.0
+        if self.postselect is not None:
+            keep = uniq.sum(axis=1) == weight
+            w = np.where(keep, w, 0.0)
+            kept = float((w * counts).sum()) / shots
+            if kept <= 0:
+                raise ValueError(f"row {index} kept no shot of Hamming weight {weight} "
+                                 f"({shots} shots); spend more shots")
+            w = w / kept
+        lin = None
+        if qubits is not None and len(uniq) <= MAX_LINEARISED_OUTCOMES:
+            mats, state_shots = self.mitigator(ledger).readout_matrices(qubits)
+            lin = Linearisation(uniq, inverse, counts, quasi_row, keep, kept, mats,
+                                state_shots, qubits)
+        return w[inverse], kept, overhead, lin

@@ -6,8 +6,9 @@ them, one sub-unitary at a time, as sparse set clbits (``set_clbits``, read off 
 bytes by :func:`packed_set_bits`): at ``n = 256`` (510 jobs of 16 rows x 1,000 shots) the
 unpacked booleans would take 2.1 GB, the packed bytes 0.26 GB. The unpacked array is kept
 only while a caller holds it (a weak reference), so reading ``bits`` twice in a row costs one
-unpacking and nothing stays allocated after the caller lets go. :func:`bitarray_to_bits`
-(exported by :mod:`qdensity.execution.sampler.engine`) unpacks any ``BitArray``.
+unpacking and nothing stays allocated after the caller lets go. :func:`bitarray_to_bits` and
+:func:`bitarray_to_probabilities` (exported by :mod:`qdensity.execution.sampler.engine`) read
+any ``BitArray``.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import weakref
 import numpy as np
 from qiskit.primitives import BitArray
 
-from qdensity.execution.job_results import JobResult
+from qdensity.execution.job_results import JobResult, bits_to_probabilities
 from qdensity.validation import MAX_ROWS, MAX_SHOTS, Instance, Interval, validates
 
 
@@ -44,6 +45,34 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
     """
     shots = bitarray.num_shots if shots is None else int(shots)
     return _unpacked(np.asarray(bitarray.array), rows, shots, bitarray.num_bits)
+
+
+@validates(
+    bitarray=Instance('qiskit.primitives:BitArray'), rows=Interval(int, 1, MAX_ROWS),
+    shots=[Interval(int, 1, MAX_SHOTS), None],
+)
+def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
+    """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
+
+    Parameters
+    ----------
+    bitarray : qiskit.primitives.BitArray
+        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
+        (consecutive blocks of ``shots`` form the rows).
+    rows : int
+    shots : int, optional
+        Shots per row (default ``bitarray.num_shots``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows, 2**num_bits)
+
+    Raises
+    ------
+    ValueError
+        Above ``MAX_DENSE_QUBITS`` (24) bits; use :func:`bitarray_to_bits`.
+    """
+    return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 
 
 def _unpacked(packed: np.ndarray, rows: int, shots: int, num_bits: int) -> np.ndarray:
@@ -96,7 +125,7 @@ class PackedJobResult(JobResult):
     ----------
     packed : qiskit.primitives.BitArray or DeferredSamples
         ``rows * shots`` samples (shape ``(rows,)`` or ``()``, see :func:`bitarray_to_bits`),
-        or a :class:`~qdensity.execution.sampler.hamming.DeferredSamples` that draws them
+        or a :class:`~qdensity.execution.samplers.hamming.DeferredSamples` that draws them
         when read (the same shots on every read).
     rows, shots : int
     job : CircuitJob

@@ -24,13 +24,16 @@ from qdensity.execution._compile import (
     TranspileCache,
     _columns_for,
 )
-from qdensity.execution.plans import CircuitJob, JobResult, bits_to_probabilities
+from qdensity.execution.plans import CircuitJob, JobResult
 from qdensity.execution.sampler._correction import ReadoutCorrection
-from qdensity.execution.sampler._hamming_draw import DeferredSamples
-from qdensity.execution.sampler._hamming_readout import readout_channel
-from qdensity.execution.sampler._independent import run_independent
-from qdensity.execution.sampler._packed_result import PackedJobResult, bitarray_to_bits
-from qdensity.execution.sampler.hamming import HammingWeightSampler
+from qdensity.execution.sampler._jobs import PendingJob, assemble, sample_pending
+from qdensity.execution.sampler._packed_result import (
+    bitarray_to_bits,
+    bitarray_to_probabilities,
+)
+from qdensity.execution.samplers._hamming_readout import readout_channel
+from qdensity.execution.samplers.hamming import HammingWeightSampler
+from qdensity.execution.samplers.reseed import check_reseedable, reseeded
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
 from qdensity.hardware.aer_sampling import (
@@ -43,7 +46,6 @@ from qdensity.hardware.mitigation import MITIGATIONS, POSTSELECTIONS
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
 from qdensity.validation import (
-    MAX_ROWS,
     MAX_SHOTS,
     CallableC,
     Instance,
@@ -67,6 +69,15 @@ __all__ = [
     "bitarray_to_probabilities",
     "bitarray_to_bits",
 ]
+
+
+def _hamming_stream(seed: int | None) -> np.random.Generator | None:
+    """The Hamming-weight sampler's stream under the engine's ``seed``: a stream, not an int,
+    so successive runs draw independent shots and an engine built with the same seed repeats
+    the whole sequence."""
+    if seed is None:
+        return None
+    return np.random.default_rng(np.random.SeedSequence([seed % 2**63, 0x4A5]))
 
 
 @validates(label=Instance(str), circuits=Interval(int, 0), shots=Interval(int, 0),
@@ -129,34 +140,6 @@ class ShotLedger:
             lines.append(f"{key:<28}{c:>10}{s:>12}")
         lines.append(f"{'total':<28}{self.total_circuits:>10}{self.total_shots:>12}")
         return "\n".join(lines)
-
-
-@validates(
-    bitarray=Instance('qiskit.primitives:BitArray'), rows=Interval(int, 1, MAX_ROWS),
-    shots=[Interval(int, 1, MAX_SHOTS), None],
-)
-def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> np.ndarray:
-    """Empirical outcome frequencies from a ``BitArray`` holding ``rows * shots`` samples.
-
-    Parameters
-    ----------
-    bitarray : qiskit.primitives.BitArray
-        Shape ``(rows,)`` with ``shots`` each, or shape ``()`` with ``rows * shots`` samples
-        (consecutive blocks of ``shots`` form the rows).
-    rows : int
-    shots : int, optional
-        Shots per row (default ``bitarray.num_shots``).
-
-    Returns
-    -------
-    numpy.ndarray, shape (rows, 2**num_bits)
-
-    Raises
-    ------
-    ValueError
-        Above ``MAX_DENSE_QUBITS`` (24) bits; use :func:`bitarray_to_bits`.
-    """
-    return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 
 
 @validates(
@@ -287,13 +270,16 @@ class SamplerEngine:
             sampler = (target.sampler(seed=seed) if target is not None
                        else AdaptiveSampler(NoiselessSimulators(seed), False,
                                             seed=aer_seed(seed)))
+        else:
+            check_reseedable(sampler)
         self.sampler = sampler
         self.target = target
         self._device = device_of(sampler)  # a provider's backend: circuits are checked against it
         if transpiler is None:
             transpiler = (TargetTranspiler(target, optimization_level, seed)
                           if target is not None else AerTranspiler(optimization_level, seed))
-        self._cache = TranspileCache(MarkedTranspiler(transpiler))
+        self._transpiler = MarkedTranspiler(transpiler)
+        self._cache = TranspileCache(self._transpiler)  # rebuilt, never pickled
         self.ledger = ledger if ledger is not None else ShotLedger()
         self.default_shots = int(default_shots)
         self.progress = bool(progress)
@@ -308,6 +294,60 @@ class SamplerEngine:
             self._correction = ReadoutCorrection(
                 mitigation, postselect, target if target is not None else self._device,
                 calibration_shots, seed)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_cache"]  # a cache: rebuilt on use, not pickled
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._cache = TranspileCache(self._transpiler)
+
+    def with_seed(self, seed: SeedLike) -> SamplerEngine:
+        """The same engine drawing from ``seed``: same sampler settings, target, transpiled
+        templates, readout calibration and ledger (its shots are counted here too), with the
+        sampler and the Hamming-weight stream reseeded (the reseeding protocol of
+        :mod:`qdensity.execution.samplers.reseed`). An estimator fitted with a sampler engine
+        draws from ``engine.with_seed(...)`` seeded by its own ``seed``, so a refit repeats.
+
+        Parameters
+        ----------
+        seed : int or numpy.random.Generator
+
+        Returns
+        -------
+        SamplerEngine
+            The engine itself when its sampler is a provider's without a seed (its shots
+            cannot repeat).
+        """
+        seed = seed_int(seed)
+        if seed is None:
+            raise ValueError("seed must be an int or a numpy.random.Generator, got None")
+        if self._own_sampler:
+            target = self.target
+            sampler = (target.sampler(seed=seed) if target is not None
+                       else AdaptiveSampler(NoiselessSimulators(seed), False,
+                                            seed=aer_seed(seed)))
+        else:
+            sampler = reseeded(self.sampler, seed)
+            if sampler is None:
+                return self
+        hamming = (None if self._hamming_sampler is None  # its compiled templates are kept
+                   else self._hamming_sampler.with_seed(_hamming_stream(seed)))
+        out = object.__new__(type(self))
+        out.__dict__.update(self.__dict__)  # shares the ledger, the cache and the correction
+        out._adopt(sampler, seed, hamming)
+        return out
+
+    def _adopt(self, sampler, seed: int, hamming: HammingWeightSampler | None) -> None:
+        """Take ``sampler``, ``seed`` and the Hamming-weight sampler (:meth:`with_seed`)."""
+        self.sampler, self._seed, self._hamming_sampler = sampler, seed, hamming
+
+    @property
+    def seed(self) -> int | None:
+        """The engine's seed (an int, or None: fresh entropy)."""
+        return self._seed
 
     @property
     def mitigation(self) -> str | None:
@@ -359,11 +399,8 @@ class SamplerEngine:
                         raise
                     readout, why = None, "gate noise"
             if why is None:
-                # a stream, not an int: successive runs draw independent shots, and an engine
-                # built with the same seed repeats the whole sequence
-                seed = (None if self._seed is None else np.random.default_rng(
-                    np.random.SeedSequence([self._seed % 2**63, 0x4A5])))
-                self._hamming_sampler = HammingWeightSampler(seed=seed, readout_error=readout)
+                self._hamming_sampler = HammingWeightSampler(seed=_hamming_stream(self._seed),
+                                                             readout_error=readout)
             self._hamming_why = why
         return self._hamming_sampler
 
@@ -373,18 +410,27 @@ class SamplerEngine:
         if sampler is None:
             return None
         try:
-            return sampler.compile(circuit, label)
+            template = sampler.compile(circuit, label)
         except ValueError:
             if self.hamming_weight == "always":
                 raise
             return None
+        if template.flipped and self.postselect is not None:
+            # a final bit flip moves outcomes off weight k: post-selection reads the circuit
+            if self.hamming_weight == "always":
+                raise ValueError(f"job {label!r} ends with a bit flip before a measurement: "
+                                 f"its outcomes leave Hamming weight {template.weight}, which "
+                                 f"postselect='hamming_weight' keeps; drop the flip or the "
+                                 f"post-selection")
+            return None
+        return template
 
     def run(self, jobs: Sequence[CircuitJob]) -> list[JobResult]:
         """Sample every job: one PUB each, all in one sampler call (progress: see the class).
 
         On a seeded Aer ``SamplerV2`` PUBs of different shot counts go in one call per count,
-        each with its own seed (:mod:`qdensity.execution.sampler._independent`: Aer would give them
-        the same random stream, correlating their shots).
+        each with its own seed (:mod:`qdensity.execution.samplers.reseed`: Aer would give
+        them the same random stream, correlating their shots).
 
         Every template is checked first, before anything is submitted: against the device
         when the sampler names one (a job wider than the device or holding an instruction it
@@ -394,90 +440,58 @@ class SamplerEngine:
         failed job leaves it unchanged (readout calibrations excepted: they are spent).
         """
         jobs = check_sequence_of(jobs, "jobs", CircuitJob, "CircuitJob")
-        pubs: list = []
-        metas: list = []
-        hw_pubs: list[int] = []
-        bar = self._bar(len(jobs), "transpile", "template")
-        for job in jobs:
-            label = job.label or job.circuit.name
-            if self._device is not None:
-                check_width(job.circuit, self._device, label)
-            if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
-                raise ValueError(f"job {label!r} needs {job.circuit.num_qubits} qubits but "
-                                 f"target {self.target.name!r} has {self.target.num_qubits}; "
-                                 f"use a wider device or a smaller model")
-            shots = job.shots if job.shots is not None else self.default_shots
-            template = self._hamming_template(job.circuit, label)
-            if template is not None:
-                # exact in the weight-k subspace: no transpilation, no Aer
-                marker = None  # what the correction reads of a compiled circuit: its weight
-                if self._correction is not None:
-                    marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
-                    self._correction.check(job.circuit, marker, label)
-                hw_pubs.append(len(metas))
-                pubs.append((job.circuit, job.values, shots) if job.circuit.num_parameters
-                            else (job.circuit, None, shots * job.rows))
-                metas.append((job, shots, marker))
-                bar.update()
-                continue
-            compiled = self._cache(job.circuit)
-            if self._device is not None:
-                check_for_device(compiled, self._device, label)
-            self._check_plain_aer(compiled)
-            if self._correction is not None:
-                self._correction.check(job.circuit, compiled, label)
-            cols = _columns_for(job.circuit, compiled)
-            if compiled.num_parameters:
-                pubs.append((compiled, job.values[:, cols], shots))
-            else:
-                # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
-                # sample rows * shots at once and split them into rows below.
-                pubs.append((compiled, None, shots * job.rows))
-            metas.append((job, shots, compiled))
-            bar.update()
-        bar.close()
-        if not pubs:
+        pending = self._prepare(jobs)
+        if not pending:
             return []
-        rows = sum(job.rows for job, _, _ in metas)
+        rows = sum(p.job.rows for p in pending)
         with self._bar(rows, "sample", "circuit") as bar:
-            bar.set_postfix(shots=sum(job.rows * shots for job, shots, _ in metas), refresh=False)
-            hw = set(hw_pubs)
-            aer_idx = [i for i in range(len(pubs)) if i not in hw]
-            raw: list = [None] * len(pubs)
-            if hw_pubs:
-                assert self._hamming_sampler is not None  # hw_pubs were compiled by it
-                # drawn when read (each PUB from its own stream): without a correction to
-                # weigh them now, when the post-processing reads them, one job at a time
-                hw_res = self._hamming_sampler.defer([pubs[i] for i in hw_pubs])
-                for i, res in zip(hw_pubs, hw_res, strict=True):
-                    raw[i] = res
-            if aer_idx:
-                aer_res = run_independent(self.sampler, [pubs[i] for i in aer_idx],
-                                          lambda job: wait_for(job, bar))
-                for i, res in zip(aer_idx, aer_res, strict=True):
-                    raw[i] = res
+            bar.set_postfix(shots=sum(p.job.rows * p.shots for p in pending), refresh=False)
+            raw = sample_pending(pending, self._hamming_sampler, self.sampler,
+                                 lambda job: wait_for(job, bar))
             bar.update(rows)
-        results: list[JobResult] = []
-        aer_name = type(self.sampler).__name__
-        for i, ((job, shots, compiled), pub_result) in enumerate(zip(metas, raw, strict=True)):
-            if isinstance(pub_result, DeferredSamples):
-                # drawn when read; with a correction to weigh them, drawn now
-                packed = pub_result if self._correction is None else pub_result.bitarray()
-            else:
-                data = pub_result.data
-                packed = next(iter(data.values())) if len(data) == 1 else pub_result.join_data()
-            bits = bitarray_to_bits(packed, job.rows, shots) if i not in hw else None
-            weights = n_eff = lins = None
+        return assemble(pending, raw, self._correction, self.ledger,
+                        type(self.sampler).__name__)
+
+    def _prepare(self, jobs: list[CircuitJob]) -> list[PendingJob]:
+        """Check every job and build its PUB: the Hamming-weight sampler's where it is exact,
+        else the transpiled template's (preparation: nothing is submitted)."""
+        out: list[PendingJob] = []
+        with self._bar(len(jobs), "transpile", "template") as bar:
+            for job in jobs:
+                label = job.label or job.circuit.name
+                if self._device is not None:
+                    check_width(job.circuit, self._device, label)
+                if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
+                    raise ValueError(
+                        f"job {label!r} needs {job.circuit.num_qubits} qubits but target "
+                        f"{self.target.name!r} has {self.target.num_qubits}; use a wider "
+                        f"device or a smaller model")
+                shots = job.shots if job.shots is not None else self.default_shots
+                out.append(self._prepared_job(job, label, shots))
+                bar.update()
+        return out
+
+    def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
+        template = self._hamming_template(job.circuit, label)
+        if template is not None:
+            # exact in the weight-k subspace: no transpilation, no Aer
+            marker = None  # what the correction reads of a compiled circuit: its weight
             if self._correction is not None:
-                weights, n_eff, lins = self._correction.weights(
-                    bitarray_to_bits(packed, job.rows, shots) if bits is None else bits,
-                    compiled, self.ledger)
-            self.ledger.record(job.label or job.circuit.name, job.rows, job.rows * shots,
-                               "hamming_weight" if i in hw else aer_name)
-            if i in hw:  # kept packed until read: device widths hold every job's shots
-                results.append(PackedJobResult(packed, job.rows, shots, job, weights=weights,
-                                               effective_shots=n_eff, readout=lins))
-            else:
-                results.append(JobResult(None, shots, job, bits=bits, weights=weights,
-                                         effective_shots=n_eff, readout=lins))
-        return results
+                marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
+                self._correction.check(job.circuit, marker, label)
+            pub = ((job.circuit, job.values, shots) if job.circuit.num_parameters
+                   else (job.circuit, None, shots * job.rows))
+            return PendingJob(job, label, shots, pub, marker, True)
+        compiled = self._cache(job.circuit)
+        if self._device is not None:
+            check_for_device(compiled, self._device, label)
+        self._check_plain_aer(compiled)
+        if self._correction is not None:
+            self._correction.check(job.circuit, compiled, label)
+        if compiled.num_parameters:
+            pub = (compiled, job.values[:, _columns_for(job.circuit, compiled)], shots)
+        else:
+            # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
+            # sample rows * shots at once and split them into rows below.
+            pub = (compiled, None, shots * job.rows)
+        return PendingJob(job, label, shots, pub, compiled, False)

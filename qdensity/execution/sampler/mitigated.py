@@ -2,15 +2,18 @@
 
 The corrections themselves live with the device (:mod:`qdensity.hardware.mitigation`: mthree's
 readout mitigation and Hamming-weight post-selection); this module runs the job through a
-:class:`~qdensity.execution.engines.SamplerEngine` and composes them. With ``q`` the corrected
-quasi-distribution (mthree's), ``S`` the kept outcomes and ``kappa = sum_S q`` the kept
-fraction, the value is ``V = sum_S q(b) h(b) / kappa``.
+:class:`~qdensity.execution.engines.SamplerEngine` and applies them with the engine's own
+correction (:class:`~qdensity.execution.sampler._correction.ReadoutCorrection`, the one way
+qdensity mitigates: per-shot weights and a :class:`~._correction.Linearisation` per row).
+With ``q`` the corrected quasi-distribution (mthree's), ``S`` the kept outcomes and
+``kappa = sum_S q`` the kept fraction, the value is ``V = sum_S q(b) h(b) / kappa``.
 
 Its standard error is the delta method on ``V`` as a function of everything that was sampled
 (:func:`mitigated_expectation` gives the formulas): the ``N`` shots of the row (a multinomial
 frequency vector ``p``) and the calibration (each qubit's two readout error rates, binomial
 frequencies over the calibration shots that prepared it in ``|0>`` and in ``|1>``), with
-``q = A^-1 p`` for the tensor product ``A`` of the calibrated single-qubit readout matrices.
+``q`` mthree's solution of ``A q = p`` on the observed outcomes for the tensor product ``A``
+of the calibrated single-qubit readout matrices.
 mthree's overhead heuristic ``M Var_q(h) / (kappa N)`` misses both on near-basis states (there
 ``Var_q(h)`` is near 0 although the flipped shots and the calibration still scatter ``V``).
 """
@@ -24,8 +27,10 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution.plans import CircuitJob, check_observable, diagonal_values, measured
+from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler.engine import SamplerEngine
-from qdensity.hardware.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights
+from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY
+from qdensity.hardware.mitigation import ReadoutMitigator
 from qdensity.validation import as_parameter_rows, check_circuit, check_positive_int
 
 __all__ = ["MitigatedEstimate", "mitigated_expectation"]
@@ -116,9 +121,12 @@ def mitigated_expectation(
       q`` (``D_0 = [[-1, 0], [1, 0]]``, ``D_1 = [[0, 1], [0, -1]]``, the derivatives of
       ``A_j``'s columns), adding ``sum_{j,s} (dV/de_{j,s})^2 e_{j,s} (1 - e_{j,s}) / n_j``.
 
-    The calibration part is shared by every row (and every later job on the same mitigator),
-    so the rows' errors are correlated through it. The linearisation uses the full inverse of
-    ``A`` where mthree solves on the observed outcomes; both agree to first order. It assumes
+    Here ``A^-1`` is the inverse of mthree's own reduced matrix on the row's observed outcomes
+    (correction distance 3, columns renormalised), so the linearisation is exact for the
+    solve that gave ``V`` (:class:`~qdensity.execution.sampler._correction.Linearisation`;
+    above 2048 distinct outcomes per row, ``Var_q(h) M / (kappa N)``). The calibration part is
+    shared by every row (and every later job on the same mitigator), so the rows' errors are
+    correlated through it. It assumes
     the readout errors of different qubits independent (mthree's own model); gate noise, and
     a calibration whose preparations are themselves noisy, bias ``V`` beyond this error.
     """
@@ -138,60 +146,25 @@ def mitigated_expectation(
     shots = check_positive_int(shots, "shots")
     vals = as_parameter_rows(values, circuit.num_parameters)
     job = CircuitJob(measured(circuit), vals, shots, label)
-    probs = engine.run([job])[0].probabilities
-    counts = np.rint(probs * shots)
-    if mitigator is not None:
-        qubits = _measured_qubits(engine.compiled(job.circuit), job.circuit.num_clbits)
-        dist, overhead = mitigator.correct(counts, qubits)
-        mats, state_shots = mitigator.readout_matrices(qubits)
-    else:
-        dist, overhead = counts / shots, np.ones(counts.shape[0])
-        mats, state_shots = np.tile(np.eye(2), (n, 1, 1)), None
+    res = engine.run([job])[0]
+    # what the correction reads of the run: the measured physical qubits (mitigation) and
+    # the weight to keep, through the engine's own correction (the one way qdensity mitigates)
+    marker = (engine.compiled(job.circuit).copy() if mitigator is not None
+              else QuantumCircuit(n, n))
+    marker.metadata = {**(marker.metadata or {}), HAMMING_WEIGHT_KEY: postselect}
+    correction = ReadoutCorrection.of_mitigator(mitigator, postselect is not None)
+    ledger = None if mitigator is None else mitigator.ledger
     h = diagonal_values(obs.paulis, np.real(obs.coeffs), n)
-    mask = (hamming_weights(n) == postselect if postselect is not None
-            else np.ones(2**n, dtype=bool))
-    kept = dist[:, mask].sum(axis=1) if postselect is not None else np.ones(len(dist))
-    if np.any(kept <= 0):
-        raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
-                         f"Hamming weight {postselect}")
-    value = np.where(mask[None, :], dist, 0.0) @ h / kept
-    var = [_delta_variance(c / shots, shots, mats, state_shots, np.where(mask, h - v, 0.0) / k)
-           for c, v, k in zip(counts, value, kept, strict=True)]
-    return MitigatedEstimate(value, np.sqrt(var), np.minimum(kept, 1.0), overhead, shots)
-
-
-_D = (np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, -1.0]]))
-
-
-def _per_qubit(mats, vec: np.ndarray) -> np.ndarray:
-    """``(mats[m-1] (x) ... (x) mats[0]) vec`` for outcomes ``b = sum_j b_j 2^j``."""
-    m = len(mats)
-    t = vec.reshape((2,) * m)  # axis 0 is bit m - 1
-    for j, a in enumerate(mats):
-        ax = m - 1 - j
-        t = np.moveaxis(np.tensordot(a, t, axes=([1], [ax])), 0, ax)
-    return t.reshape(-1)
-
-
-def _delta_variance(p: np.ndarray, shots: int, mats: np.ndarray, state_shots,
-                    u: np.ndarray) -> float:
-    """``Var(V)`` by the delta method (see :func:`mitigated_expectation`'s Notes): ``p`` the
-    row's frequencies (2**m,) over ``shots``, ``mats`` (m, 2, 2) the readout matrices,
-    ``state_shots`` (m,) the calibration shots per prepared state (None: exact matrices),
-    ``u`` the derivative of ``V`` in ``q`` (2**m,)."""
-    inv = np.linalg.inv(mats)
-    g = _per_qubit(inv.transpose(0, 2, 1), u)
-    var = max(float(p @ g**2 - (p @ g) ** 2), 0.0)
-    if state_shots is None:
-        return var / shots
-    q = _per_qubit(inv, p)
-    eye = np.eye(2)
-    cal = 0.0
-    for j in range(len(mats)):
-        for s in (0, 1):
-            ops = [eye] * len(mats)
-            ops[j] = inv[j] @ _D[s]
-            dv = -float(u @ _per_qubit(ops, q))
-            e = float(mats[j][1 - s, s])
-            cal += dv**2 * e * (1 - e) / state_shots[j]
-    return var / shots + cal
+    bits = res.bits
+    out = np.zeros((4, bits.shape[0]))  # value, standard error, kept fraction, overhead
+    for r in range(bits.shape[0]):
+        w, kept, overhead, lin = correction.row(bits[r], marker, ledger, r)
+        f = h[bits[r] @ (1 << np.arange(n))]
+        value = float(np.mean(w * f))
+        if lin is not None:
+            var = float(lin.variance(f, value))
+        else:  # Var_q(h) over the kept shots, min(kappa, 1) N / M of them
+            var = max(float(np.mean(w * f**2)) - value**2, 0.0) * overhead / (
+                min(kept, 1.0) * shots)
+        out[:, r] = value, np.sqrt(var), min(kept, 1.0), overhead
+    return MitigatedEstimate(out[0], out[1], out[2], out[3], shots)

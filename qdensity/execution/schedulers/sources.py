@@ -13,7 +13,7 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.primitives import BaseSamplerV2
 
-from qdensity.execution.sampler._independent import run_independent
+from qdensity.execution.samplers.reseed import run_independent
 from qdensity.execution.schedulers._common import _check_shots
 from qdensity.execution.schedulers.base import ShotSource
 from qdensity.validation import (

@@ -29,6 +29,14 @@ from dataclasses import dataclass
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
+from qdensity.analysis.gate_registry import (
+    CONTROLLED_PHASE_GATES,
+    EVOLUTION,
+    GATES,
+    GIVENS_GATES,
+    PHASE_GATES,
+)
+
 __all__ = ["Rotation", "Fixed", "Program", "LinearMap", "compile_program", "SUPPORTED", "cdot",
            "real_dot"]
 
@@ -353,11 +361,11 @@ class _Builder:
             self.rotation(dict(zip(qubits, _ROT[name], strict=True)), 0.5, params[0], (), name)
         elif name in _CROT:
             self.rotation({qubits[1]: _CROT[name]}, 0.5, params[0], (qubits[0],), name)
-        elif name in ("p", "u1"):
+        elif name in PHASE_GATES:
             self.rotation({}, -1.0, params[0], (qubits[0],), name)
-        elif name in ("cp", "cu1"):
+        elif name in CONTROLLED_PHASE_GATES:
             self.rotation({}, -1.0, params[0], tuple(qubits), name)
-        elif name in ("rbs", "fbs"):
+        elif name in GIVENS_GATES:
             i, j, inner = qubits[0], qubits[-1], qubits[1:-1]
             zs = {q: "Z" for q in inner}
             self.rotation({i: "X", j: "Y", **zs}, 0.5, params[0], (), name)
@@ -367,7 +375,7 @@ class _Builder:
             self.rotation({q: "Z"}, 0.5, params[2], (), name)
             self.rotation({q: "Y"}, 0.5, params[0], (), name)
             self.rotation({q: "Z"}, 0.5, params[1], (), name)
-        elif name == "PauliEvolution":
+        elif GATES.get(name) is EVOLUTION:
             self._evolution(op, qubits)
         elif name in _FIXED_PAULI and not _free(params):
             nc, letter = _FIXED_PAULI[name]

@@ -45,6 +45,7 @@ import math
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
+from qdensity.analysis.gate_registry import GIVENS_GATES
 from qdensity.analysis.structure import parameter_of
 from qdensity.execution.unary import _torch as _on_torch
 from qdensity.execution.unary._circuit import UnaryCircuit
@@ -123,11 +124,11 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
         name = inst.operation.name
         if name in _IGNORED:
             continue
-        if name not in ("rbs", "fbs"):
+        if name not in GIVENS_GATES:
             raise ValueError(
                 f"circuit instruction {index} is {name!r} on qubits "
                 f"{[circuit.find_bit(q).index for q in inst.qubits]}; the unary engine supports "
-                "only 'rbs' and 'fbs' gates (and barriers)"
+                f"only {' and '.join(map(repr, GIVENS_GATES))} gates (and barriers)"
             )
         qubits = [circuit.find_bit(q).index for q in inst.qubits]
         first.append(qubits[0])

@@ -1,7 +1,7 @@
 """Readout errors as the classical channel they are: each measured bit flips with the
 probability of its qubit and its value (``p(1|0)``, ``p(0|1)``), independently per shot and
 clbit, as qiskit-aer applies a single-qubit ``ReadoutError`` to every ``measure`` (the flips
-themselves: :func:`~qdensity.execution.sampler._hamming_bits.flip_readout`).
+themselves: :func:`~qdensity.execution.samplers._hamming_bits.flip_readout`).
 
 :func:`readout_channel` reads the probabilities from numbers, a qiskit-aer ``NoiseModel``
 (whose every other error is gate noise, refused by name), a qdensity ``HardwareTarget``, a

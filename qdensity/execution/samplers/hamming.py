@@ -16,6 +16,8 @@ weight-preserving template is compiled once into index tables of its subspace
 from __future__ import annotations
 
 import math
+import threading
+import warnings
 import weakref
 from collections.abc import Iterable
 from functools import partial
@@ -33,10 +35,14 @@ from qiskit.primitives import (
 from qiskit.primitives.containers.sampler_pub import SamplerPub
 from qiskit.providers import JobStatus
 
-from qdensity.execution.sampler._hamming_compile import HammingTemplate, compile_template
-from qdensity.execution.sampler._hamming_draw import DeferredSamples, Draw
-from qdensity.execution.sampler._hamming_readout import ReadoutChannel, readout_channel
-from qdensity.execution.sampler._hamming_subspace import SubspaceProgram
+from qdensity.execution.samplers._hamming_compile import (
+    HammingTemplate,
+    UnsupportedInstructionError,
+    compile_template,
+)
+from qdensity.execution.samplers._hamming_draw import DeferredSamples, Draw
+from qdensity.execution.samplers._hamming_readout import ReadoutChannel, readout_channel
+from qdensity.execution.samplers._hamming_subspace import SubspaceProgram
 from qdensity.validation import (
     MAX_SHOTS,
     Interval,
@@ -47,10 +53,14 @@ from qdensity.validation import (
     validates,
 )
 
-__all__ = ["HammingWeightSampler", "DeferredSamples", "MAX_DIMENSION"]
+__all__ = ["HammingWeightSampler", "DeferredSamples", "UnsupportedInstructionError",
+           "MAX_DIMENSION", "NO_REGISTERS_WARNING"]
 
 #: Largest subspace (amplitudes per row) the sampler computes: ``2**26`` (1 GiB complex).
 MAX_DIMENSION = 2**26
+#: The warning of a PUB whose circuit has no classical register (qiskit's samplers' own words).
+NO_REGISTERS_WARNING = ("One of your circuits has no output classical registers and so the "
+                        "result will be empty. Did you mean to add measurement instructions?")
 #: Compiled templates kept (oldest dropped first).
 _CACHE_TEMPLATES = 4096
 
@@ -147,11 +157,66 @@ def _values_of(bindings, params: tuple) -> np.ndarray:
     return bindings.as_array(list(params)).reshape(rows, len(params))
 
 
-def _forget(cache: dict, key: int, ref: weakref.ref) -> None:
-    """Drop a compiled template once its circuit is gone (not a newer entry of the same id)."""
-    hit = cache.get(key)
-    if hit is not None and hit[0] is ref:
-        del cache[key]
+class _TemplateCache:
+    """Compiled templates by circuit, each kept while its circuit lives (a weak reference:
+    plans rebuilt every training step would otherwise keep every old circuit alive), at most
+    :data:`_CACHE_TEMPLATES` (oldest dropped first).
+
+    A cache, not state: it pickles and deep-copies as an empty cache (rebuilt on use), so a
+    sampler never pickles a weak reference nor iterates a dict that a weak-reference callback
+    (any garbage collection, in any thread) may change while it is copied. Every change goes
+    through single dict operations under a re-entrant lock (a callback that fires inside a
+    locked section, in the same thread, only drops an entry).
+    """
+
+    __slots__ = ("_entries", "_lock", "__weakref__")
+
+    def __init__(self) -> None:
+        self._entries: dict[int, tuple[weakref.ref, _Compiled]] = {}
+        self._lock = threading.RLock()
+
+    def __reduce__(self):
+        return (_TemplateCache, ())
+
+    def __deepcopy__(self, memo) -> _TemplateCache:
+        return _TemplateCache()
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def get(self, circuit: QuantumCircuit) -> _Compiled | None:
+        """The circuit's compiled template, or None."""
+        hit = self._entries.get(id(circuit))
+        if hit is not None and hit[0]() is circuit:
+            return hit[1]
+        return None
+
+    def put(self, circuit: QuantumCircuit, compiled: _Compiled) -> None:
+        """Keep ``compiled`` while ``circuit`` lives."""
+        key = id(circuit)
+        ref = weakref.ref(circuit, partial(_forget, weakref.ref(self), key))
+        with self._lock:
+            while len(self._entries) >= _CACHE_TEMPLATES:  # bounded: plans rebuilt per step
+                try:
+                    oldest = next(iter(self._entries))
+                except (StopIteration, RuntimeError):  # emptied meanwhile
+                    break
+                self._entries.pop(oldest, None)
+            self._entries[key] = (ref, compiled)
+
+    def forget(self, key: int, ref: weakref.ref) -> None:
+        """Drop entry ``key`` if it is still the one of ``ref`` (not a newer circuit's)."""
+        with self._lock:
+            hit = self._entries.get(key)
+            if hit is not None and hit[0] is ref:
+                self._entries.pop(key, None)
+
+
+def _forget(cache_ref: weakref.ref, key: int, ref: weakref.ref) -> None:
+    """A circuit is gone: drop its compiled template (the cache itself may be gone too)."""
+    cache = cache_ref()
+    if cache is not None:
+        cache.forget(key, ref)
 
 
 def _stream_for(seed: int, index: int) -> np.random.SeedSequence:
@@ -178,12 +243,16 @@ class HammingWeightSampler(BaseSamplerV2):
     gates that commute with the number operator on their qubits (RBS, FBS, ``XXPlusYY``, P,
     RZ, RZZ, CZ, CP, CRZ, SWAP, iSWAP, S, T, Z, and any other gate judged by its matrix;
     composite gates such as loaders are followed through their definitions) and measure in the
-    Z basis at the end. The state after the gates lies in the weight-``k`` subspace
+    Z basis at the end; a final bit flip (X, Y, or any fixed one-qubit gate whose matrix is X
+    up to phases) with nothing but its measurement after it is a relabelling, applied to that
+    clbit of the drawn shots. The state after the gates lies in the weight-``k`` subspace
     (dimension ``D = C(n, k)``); the sampler computes it exactly for every parameter row, draws
     each row's shots from its ``D`` probabilities with one multinomial draw (then shuffles them
     into shot order), and flips the drawn bits with the readout channel. Results have
     qiskit-aer ``SamplerV2``'s shapes: one ``BitArray`` per classical register, of the PUB's
-    parameter-array shape, ``num_shots`` shots each.
+    parameter-array shape, ``num_shots`` shots each. As qiskit's samplers, :meth:`run` takes an
+    iterable of PUBs (``run([circuit])``; a bare circuit is refused by qiskit's own coercion)
+    and warns for a circuit without classical registers (whose result holds no data).
 
     Parameters
     ----------
@@ -229,9 +298,7 @@ class HammingWeightSampler(BaseSamplerV2):
         self._seed = seed
         self._readout: ReadoutChannel | None = readout_channel(readout_error)
         self.max_dimension = int(max_dimension)
-        # compiled templates by circuit, each kept while its circuit lives (a weak reference:
-        # plans rebuilt every training step would otherwise keep every old circuit alive)
-        self._compiled: dict[int, tuple[weakref.ref, _Compiled]] = {}
+        self._compiled = _TemplateCache()  # rebuilt, never pickled
 
     @property
     def default_shots(self) -> int:
@@ -242,6 +309,24 @@ class HammingWeightSampler(BaseSamplerV2):
     def seed(self):
         """The seed given (int, Generator or None)."""
         return self._seed
+
+    def with_seed(self, seed: SeedLike) -> HammingWeightSampler:
+        """The same sampler (settings, readout channel and compiled templates) drawing from
+        ``seed`` (the reseeding protocol of :mod:`qdensity.execution.samplers.reseed`).
+
+        Parameters
+        ----------
+        seed : int, numpy.random.Generator or None
+
+        Returns
+        -------
+        HammingWeightSampler
+        """
+        out = HammingWeightSampler(default_shots=self._default_shots, seed=seed,
+                                   readout_error=self._readout,
+                                   max_dimension=self.max_dimension)
+        out._compiled = self._compiled
+        return out
 
     @property
     def readout(self) -> ReadoutChannel | None:
@@ -260,9 +345,9 @@ class HammingWeightSampler(BaseSamplerV2):
         return self._compile(circuit, label).template
 
     def _compile(self, circuit: QuantumCircuit, label: str | None = None) -> _Compiled:
-        hit = self._compiled.get(id(circuit))
-        if hit is not None and hit[0]() is circuit:
-            return hit[1]
+        hit = self._compiled.get(circuit)
+        if hit is not None:
+            return hit
         template = compile_template(circuit, label)
         n, k = template.num_qubits, template.weight
         dim = math.comb(n, k)
@@ -272,10 +357,7 @@ class HammingWeightSampler(BaseSamplerV2):
                 f"of {n} qubits has C({n}, {k}) = {dim} states, more than max_dimension = "
                 f"{self.max_dimension}; use fewer qubits or a smaller Hamming weight")
         compiled = _Compiled(template)
-        if len(self._compiled) >= _CACHE_TEMPLATES:  # bounded: plans rebuilt per step
-            self._compiled.pop(next(iter(self._compiled)))
-        self._compiled[id(circuit)] = (weakref.ref(circuit, partial(_forget, self._compiled,
-                                                                    id(circuit))), compiled)
+        self._compiled.put(circuit, compiled)
         return compiled
 
     def run(self, pubs: Iterable, *, shots: int | None = None) -> BasePrimitiveJob:
@@ -283,10 +365,13 @@ class HammingWeightSampler(BaseSamplerV2):
 
         Raises
         ------
+        UnsupportedInstructionError
+            A circuit outside the sampler's scope, naming the instruction (a ``QiskitError``,
+            as qiskit's samplers raise, and a ``ValueError``).
         ValueError
             Shots not a positive int, a parameter array of the wrong shape (naming the PUB), a
-            circuit outside the sampler's scope or a subspace beyond ``max_dimension``:
-            all before anything is computed.
+            subspace beyond ``max_dimension``, or a bare circuit for ``pubs``: all before
+            anything is computed.
         TypeError
             Shots not an int.
         """
@@ -350,8 +435,8 @@ class HammingWeightSampler(BaseSamplerV2):
             shots = self._default_shots
         else:
             shots = check_positive_int(shots, "shots")
-        if isinstance(pubs, (QuantumCircuit, SamplerPub)):
-            pubs = [pubs]
+        # as qiskit's samplers: ``pubs`` is iterated as given (a bare circuit is refused by
+        # SamplerPub.coerce, naming the fix), and a circuit without classical registers warns
         coerced = []
         for i, pub in enumerate(pubs):
             if isinstance(pub, tuple) and len(pub) == 3 and pub[2] is not None:
@@ -360,10 +445,14 @@ class HammingWeightSampler(BaseSamplerV2):
                 coerced.append(SamplerPub.coerce(pub, shots))
             except (ValueError, TypeError) as exc:
                 raise type(exc)(f"pub {i}: {exc}") from exc
+        if any(len(pub.circuit.cregs) == 0 for pub in coerced):
+            warnings.warn(NO_REGISTERS_WARNING, UserWarning, stacklevel=3)
         compiled = []
         for i, pub in enumerate(coerced):
             try:
                 compiled.append(self._compile(pub.circuit))
+            except UnsupportedInstructionError as exc:
+                raise UnsupportedInstructionError(f"pub {i}: {exc}") from exc
             except ValueError as exc:
                 raise ValueError(f"pub {i}: {exc}") from exc
             p = len(compiled[-1].template.parameters)

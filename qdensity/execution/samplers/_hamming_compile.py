@@ -3,9 +3,10 @@
 :func:`compile_template` walks a circuit's instructions (composite gates through their
 definitions) and returns a :class:`HammingTemplate`: the qubits that X gates set on
 ``|0...0>`` (the weight-``k`` input), the list of weight-preserving gates with their angles as
-columns of the parameter array (:class:`Angle`), and the qubit each clbit measures. Anything
-else is refused with a ``ValueError`` naming the first offending instruction and the
-alternative (qiskit-aer's sampler).
+columns of the parameter array (:class:`Angle`), the qubit each clbit measures, and the clbits
+read through a final bit flip (a relabelling). Anything else is refused with an
+:class:`UnsupportedInstructionError` (a ``QiskitError`` and a ``ValueError``) naming the first
+offending instruction and the alternative (qiskit-aer's sampler).
 """
 
 from __future__ import annotations
@@ -17,7 +18,20 @@ from typing import NoReturn
 
 import numpy as np
 from qiskit.circuit import Parameter, ParameterExpression, QuantumCircuit
+from qiskit.exceptions import QiskitError
 from qiskit.quantum_info import Operator
+
+from qdensity.analysis.gate_registry import FBS, GATES, GIVENS_GATES
+
+
+class UnsupportedInstructionError(QiskitError, ValueError):
+    """An instruction the Hamming-weight sampler cannot sample: a ``QiskitError`` (what
+    qiskit's own samplers raise for an instruction they cannot run) and a ``ValueError``
+    (qdensity's bad-input error)."""
+
+    def __str__(self) -> str:  # the message itself (QiskitError shows its repr)
+        return str(self.message)
+
 
 #: Gates with a vectorised block (angles evaluated for all rows at once).
 KNOWN_GATES = frozenset({"rbs", "fbs", "xx_plus_yy", "rz", "p", "u1", "rzz", "cp", "cu1",
@@ -79,7 +93,7 @@ class GateOp:
     @property
     def real(self) -> bool:
         """Whether the gate's block is real for every angle."""
-        if self.name in ("rbs", "fbs", "cz", "swap", "z", "id"):
+        if getattr(GATES.get(self.name), "real", False):
             return True
         if self.matrix is not None:
             return bool(np.all(np.abs(self.matrix.imag) < _TOL))
@@ -102,6 +116,11 @@ class HammingTemplate:
         Per clbit, the qubit it measures last (None: never measured, reads 0).
     parameters : tuple
         ``circuit.parameters`` (the columns of a parameter row).
+    flipped : tuple of int
+        Clbits whose qubit went through a bit flip (X, Y, or any one-qubit gate whose matrix
+        is X up to phases) after the weight-preserving gates and right before its
+        measurement: a relabelling of that clbit, applied to the drawn bits. Outcomes keep
+        weight ``k`` only when this is empty.
     """
 
     num_qubits: int
@@ -110,6 +129,7 @@ class HammingTemplate:
     measured: list
     parameters: tuple
     name: str = ""
+    flipped: tuple = ()
     dimension: int = field(init=False)
 
     def __post_init__(self):
@@ -117,7 +137,8 @@ class HammingTemplate:
 
     @property
     def weight(self) -> int:
-        """The Hamming weight ``k`` every outcome keeps."""
+        """The Hamming weight ``k`` of the state before any final bit flip (every outcome's
+        when :attr:`flipped` is empty)."""
         return len(self.occupied)
 
     @property
@@ -125,7 +146,7 @@ class HammingTemplate:
         """Weight 1 and only RBS / FBS gates with angles linear in one parameter: the unary
         engine's circuits."""
         return self.weight == 1 and all(
-            g.name in ("rbs", "fbs") and g.angles[0].kind != "expr" for g in self.gates)
+            g.name in GIVENS_GATES and g.angles[0].kind != "expr" for g in self.gates)
 
     @property
     def real(self) -> bool:
@@ -155,13 +176,25 @@ def _parameter_angle(index: int) -> Angle:
     return Angle("linear", offset=0.0, index=index, coefficient=1.0)
 
 
+def _is_bit_flip(op) -> bool:
+    """Whether a one-qubit gate without free parameters has X's matrix up to phases
+    (``|0> <-> |1>``: X, Y, ``RX(pi)``, ...)."""
+    if any(isinstance(p, ParameterExpression) and p.parameters for p in op.params):
+        return False
+    try:
+        mat = Operator(op).data
+    except Exception:  # no matrix (opaque gate)
+        return False
+    return bool(mat.shape == (2, 2) and abs(mat[0, 0]) < _TOL and abs(mat[1, 1]) < _TOL)
+
+
 def _matrix_preserves(mat: np.ndarray) -> bool:
     w = np.array([bin(i).count("1") for i in range(mat.shape[0])])
     return not np.any(np.abs(mat[w[:, None] != w[None, :]]) > _TOL)
 
 
 def _refuse(label: str, index: int, name: str, qubits, why: str) -> NoReturn:
-    raise ValueError(
+    raise UnsupportedInstructionError(
         f"HammingWeightSampler cannot sample {label!r}: instruction {index} {name!r} on qubits "
         f"{list(qubits)} {why}; it samples X gates on |0...0> followed by Hamming-weight-"
         f"preserving gates (RBS, FBS, XXPlusYY, phases, RZ, CZ, SWAP, any gate whose matrix "
@@ -180,6 +213,9 @@ class _Walker:
         self.done: set[int] = set()  # measured qubits: no gate may follow
         self.top_index = 0
         self.initial: set[int] = set()  # qubits at 1 when a gate first acted on them
+        # qubits flipped (a relabelling) since a gate acted on them: instruction index
+        self.pending: dict[int, int] = {}
+        self.flipped: set[int] = set()  # clbits that read a flipped qubit
 
     def walk(self, circuit: QuantumCircuit, qmap: list[int], cmap: list[int] | None,
              top: str | None = None) -> None:
@@ -200,7 +236,12 @@ class _Walker:
             if name == "measure":
                 if cmap is None:
                     _refuse(self.label, self.top_index, shown, qs, "measures inside a gate")
-                self.measured[cmap[cindex[inst.clbits[0]]]] = qs[0]
+                clbit = cmap[cindex[inst.clbits[0]]]
+                self.measured[clbit] = qs[0]
+                if qs[0] in self.pending:
+                    self.flipped.add(clbit)
+                else:
+                    self.flipped.discard(clbit)
                 self.done.add(qs[0])
                 continue
             if self.done.intersection(qs):
@@ -208,20 +249,31 @@ class _Walker:
                         "acts after a measurement (mid-circuit measurements are not sampled)")
             if name == "reset" and self.bits[qs[0]] == 0:
                 continue
-            if name in _FLIPS and self.bits[qs[0]] is not None:
+            flip = name in _FLIPS or (len(qs) == 1 and name not in KNOWN_GATES
+                                      and _is_bit_flip(op))
+            if flip and self.bits[qs[0]] is not None:
                 self.bits[qs[0]] ^= 1
                 continue
+            if flip:  # a relabelling of the outcome, if nothing but a measurement follows
+                if self.pending.pop(qs[0], None) is None:
+                    self.pending[qs[0]] = self.top_index
+                continue
+            if self.pending.keys() & set(qs):
+                q = next(q for q in qs if q in self.pending)
+                _refuse(self.label, self.top_index, shown, qs,
+                        f"acts on qubit {q} after the bit flip of instruction "
+                        f"{self.pending[q]} (a flip is absorbed only right before the "
+                        f"qubit's measurement: X gates otherwise only prepare the input on "
+                        f"|0...0>)")
             if name in KNOWN_GATES:
                 self._known(inst, qs)
                 continue
             if self._by_matrix(op, qs):
                 continue
-            if op.definition is not None and name not in ("x", "y", "reset"):
+            if op.definition is not None and name not in ("reset",):
                 self.walk(op.definition, qs, None, shown)
                 continue
-            _refuse(self.label, self.top_index, shown, qs, "does not preserve Hamming weight"
-                    if name not in ("x", "y") else "flips a qubit that is no longer in |0> or "
-                    "|1> (X and Y only prepare the input on |0...0>)")
+            _refuse(self.label, self.top_index, shown, qs, "does not preserve Hamming weight")
 
     def _touch(self, qs) -> None:
         for q in qs:
@@ -235,7 +287,7 @@ class _Walker:
         if op.name in ("z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap"):
             self._fixed(op, qs)
             return
-        if op.name == "fbs":
+        if GATES.get(op.name) is FBS:
             self._touch(qs)
             self.gates.append(GateOp("fbs", tuple(qs), angles, position=self.top_index))
             return
@@ -305,4 +357,4 @@ def compile_template(circuit: QuantumCircuit, label: str | None = None) -> Hammi
     occupied = tuple(q for q in range(circuit.num_qubits)
                      if w.bits[q] == 1 or (w.bits[q] is None and q in w.initial))
     return HammingTemplate(circuit.num_qubits, occupied, w.gates, w.measured,
-                           w.parameters, label or circuit.name)
+                           w.parameters, label or circuit.name, tuple(sorted(w.flipped)))

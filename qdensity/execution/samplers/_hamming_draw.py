@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from qiskit.primitives import BitArray
 
-from qdensity.execution.sampler._hamming_bits import (
+from qdensity.execution.samplers._hamming_bits import (
     clbits_of_qubits,
     flip_readout,
     pack_outcomes,
@@ -48,7 +48,7 @@ class Draw:
     """
 
     __slots__ = ("probabilities", "outcome_qubits", "table", "cols", "p01", "p10", "values",
-                 "rows", "shots", "num_clbits")
+                 "rows", "shots", "num_clbits", "flip")
 
     def __init__(self, compiled, values, rows: int, shots: int, readout) -> None:
         template = compiled.template
@@ -60,6 +60,12 @@ class Draw:
                              dtype=np.int64)
         self.outcome_qubits = compiled.outcome_qubits() if self.cols.size else None
         self.table = clbits_of_qubits(template.measured, template.num_qubits)
+        # clbits read through a final bit flip (a relabelling): XORed into every shot
+        self.flip = None
+        if template.flipped:
+            self.flip = np.zeros(self.num_bytes, dtype=np.uint8)
+            for c in template.flipped:
+                self.flip[c >> 3] |= np.uint8(1 << (c & 7))
         self.p01 = self.p10 = None
         if readout is not None and self.cols.size:
             self.p01, self.p10 = readout.for_qubits(
@@ -88,7 +94,9 @@ class Draw:
             draws = rng.permuted(draws.reshape(counts.shape[0], shots), axis=1)
             chunk = pack_outcomes(self.outcome_qubits, draws.ravel(), self.table,
                                   self.num_clbits)
-            if self.p01 is not None and self.p10 is not None:
+            if self.flip is not None:  # the measured value is the flipped one
+                chunk ^= self.flip
+            if self.p01 is not None and self.p10 is not None:  # then read out with errors
                 flip_readout(chunk, self.cols, self.p01, self.p10, rng)
             packed[start * shots:start * shots + chunk.shape[0]] = chunk
         return packed

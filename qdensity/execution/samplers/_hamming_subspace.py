@@ -18,7 +18,8 @@ import math
 
 import numpy as np
 
-from qdensity.execution.sampler._hamming_compile import GateOp, HammingTemplate
+from qdensity.analysis.gate_registry import FBS, GATES, RBS
+from qdensity.execution.samplers._hamming_compile import GateOp, HammingTemplate
 
 
 def subsets(n: int, k: int) -> np.ndarray:
@@ -135,7 +136,7 @@ def local_matrix(gate: GateOp, values: np.ndarray) -> np.ndarray:
             for r in range(values.shape[0])])
     t = [a.evaluate(values) for a in gate.angles]
     name = gate.name
-    if name == "rbs":
+    if GATES.get(name) is RBS:
         c, s = np.cos(t[0]), np.sin(t[0])
         m = np.zeros((c.size, 4, 4))
         m[:, 0, 0] = m[:, 3, 3] = 1.0
@@ -178,7 +179,7 @@ class CompiledGate:
     def __init__(self, gate: GateOp, space: Subspace):
         self.gate = gate
         self.fbs: tuple[np.ndarray, np.ndarray, np.ndarray] | None
-        if gate.name == "fbs":
+        if GATES.get(gate.name) is FBS:
             self.fbs = space.fbs_table(gate.qubits)
             self.blocks = None
         else:
