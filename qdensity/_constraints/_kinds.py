@@ -178,9 +178,14 @@ class Circuit(Instance):
     def __init__(self, min_qubits: int = 0, max_qubits: int | None = None):
         from qiskit.circuit import QuantumCircuit
 
-        super().__init__(QuantumCircuit, "qiskit QuantumCircuit",
-                         example=lambda: QuantumCircuit(max(min_qubits, 2)))
+        super().__init__(QuantumCircuit, "qiskit QuantumCircuit")
         self.min_qubits, self.max_qubits = min_qubits, max_qubits
+
+    def example(self):
+        # a method, not a lambda kept on the object: a declaration pickles and deep-copies
+        from qiskit.circuit import QuantumCircuit
+
+        return QuantumCircuit(max(self.min_qubits, 2))
 
     def is_satisfied_by(self, value) -> bool:
         if not super().is_satisfied_by(value):

@@ -93,9 +93,21 @@ class GateKind:
     matrix: Callable | None = None
     decomposition: Callable | None = None
 
+    def __reduce_ex__(self, protocol):
+        # a registered entry (its functions may be closures or lambdas) pickles and copies as
+        # its name: it loads as the entry registered under that name
+        if GATES.get(self.name) is self:
+            return (_registered, (self.name,))
+        return super().__reduce_ex__(protocol)
+
 
 #: The registry: instruction name -> :class:`GateKind`.
 GATES: dict[str, GateKind] = {}
+
+
+def _registered(name: str):
+    """The registered entry ``name`` (what a registered entry pickles to)."""
+    return GATES[name]
 
 
 @validates(kind=Instance(GateKind))

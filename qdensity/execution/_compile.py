@@ -84,6 +84,11 @@ class TranspileCache:
         self._store: dict[tuple, QuantumCircuit] = {}
         self.misses = 0
 
+    def __getstate__(self) -> dict:
+        """A copy or an unpickled cache starts empty: transpiled circuits are rebuilt on use,
+        never carried."""
+        return {"_transpiler": self._transpiler, "_store": {}, "misses": 0}
+
     def __call__(self, circuit: QuantumCircuit) -> QuantumCircuit:
         key = circuit_fingerprint(circuit)
         hit = self._store.get(key)

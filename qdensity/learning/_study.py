@@ -1,7 +1,7 @@
 """Opening an optuna study that many workers share: the storage (SQLite, PostgreSQL, MySQL or
-in memory) with heartbeats and retries of dead workers' trials, a schema created once however
-many workers start together, a TPE sampler that is really TPE, and a study tied to its
-settings."""
+in memory, by URL, or any optuna storage object) with heartbeats and retries of dead workers'
+trials, a schema created once however many workers start together, a TPE sampler that is
+really TPE, and a study tied to its settings."""
 
 from __future__ import annotations
 
@@ -147,6 +147,23 @@ def _storage(optuna, url: str, grace_period: int | None):
         return optuna.storages.RDBStorage(url, engine_kwargs=engine, **kwargs)
 
 
+def storage_object(storage) -> bool:
+    """Whether ``storage`` is an optuna storage object (``RDBStorage``, ``JournalStorage``,
+    ``InMemoryStorage``, any ``optuna.storages.BaseStorage``) rather than a URL string."""
+    if isinstance(storage, str):
+        return False
+    return isinstance(storage, _optuna().storages.BaseStorage)
+
+
+def in_memory(storage) -> bool:
+    """Whether ``storage`` (a URL or an optuna storage object) keeps its trials in this
+    process's memory only, so that no other process can share them."""
+    if isinstance(storage, str):
+        return storage == MEMORY or _sqlite_file(storage) is None and storage.startswith(
+            "sqlite")
+    return isinstance(storage, _optuna().storages.InMemoryStorage)
+
+
 def _check_settings(study, settings: Mapping | None) -> None:
     if settings is None:
         return
@@ -164,16 +181,19 @@ def _check_settings(study, settings: Mapping | None) -> None:
                          "default (derived from the settings)")
 
 
-def open_study(study_name: str, storage: str, *, direction: str = "maximize",
+def open_study(study_name: str, storage, *, direction: str = "maximize",
                seed: int | None = None, n_trials: int = 32, settings: Mapping | None = None,
                grace_period: int | None = DEFAULT_GRACE_PERIOD):
     """Create or load the study ``study_name`` in ``storage`` (see
     :func:`qdensity.learning.sweep.open_study`, which documents the parameters)."""
     optuna = _optuna()
-    if not isinstance(storage, str) or (storage != MEMORY and "://" not in storage):
+    given = storage_object(storage)
+    if not given and (not isinstance(storage, str)
+                      or (storage != MEMORY and "://" not in storage)):
         raise ValueError(f"storage must be an optuna storage URL such as "
                          f"'sqlite:///sweep.db' or 'postgresql://user@host/db' (or {MEMORY!r}), "
-                         f"got {storage!r}")
+                         f"or an optuna storage object (optuna.storages.BaseStorage: "
+                         f"RDBStorage, JournalStorage, InMemoryStorage), got {storage!r}")
     if direction not in ("maximize", "minimize"):
         raise ValueError(f"direction must be 'maximize' or 'minimize', got {direction!r}")
     if grace_period is not None and (isinstance(grace_period, bool) or not isinstance(
@@ -184,7 +204,7 @@ def open_study(study_name: str, storage: str, *, direction: str = "maximize",
 
     db = None
     try:
-        db = _sqlite_file(storage) if storage != MEMORY else None
+        db = _sqlite_file(storage) if not given and storage != MEMORY else None
     except SQLAlchemyError as exc:
         raise ValueError(f"storage {storage!r} cannot be opened: {exc}") from exc
     if db is not None and not db.resolve().parent.is_dir():
@@ -195,7 +215,7 @@ def open_study(study_name: str, storage: str, *, direction: str = "maximize",
     for attempt in range(_OPEN_TRIES):
         try:
             with _file_lock(None if db is None else db.with_name(db.name + ".lock")):
-                rdb = _storage(optuna, storage, grace_period)
+                rdb = storage if given else _storage(optuna, storage, grace_period)
                 study = optuna.create_study(study_name=study_name, storage=rdb,
                                             direction=direction, sampler=sampler,
                                             load_if_exists=True)
@@ -204,7 +224,7 @@ def open_study(study_name: str, storage: str, *, direction: str = "maximize",
         except ValueError:
             raise
         except ImportError as exc:
-            hint = _driver_hint(storage)
+            hint = "its driver" if given else _driver_hint(storage)
             raise ImportError(f"storage {storage!r} needs a database driver that is not "
                               f"installed ({str(exc).splitlines()[0]}): install {hint}") from exc
         except DBAPIError as exc:  # the schema race (IntegrityError, OperationalError, ...)

@@ -8,8 +8,9 @@ scikit-learn estimator (a :class:`~qdensity.learning.estimators.QNNClassifier` b
 a dataset, scored on a held-out split; :func:`run_trials` is the loop itself, for any
 objective (the ``moe`` experiment's sweeps use it).
 
-Trials live in an optuna storage: an SQLite file by default, or any optuna storage URL
-(``postgresql+psycopg2://...`` with the extra's driver, ``mysql+pymysql://...``) so that many
+Trials live in an optuna storage: an SQLite file by default, any optuna storage URL
+(``postgresql+psycopg2://...`` with the extra's driver, ``mysql+pymysql://...``), or an optuna
+storage object (``RDBStorage``, ``JournalStorage``, ``InMemoryStorage``), so that many
 worker processes on many machines share one study -- start the same command on each machine, or
 give ``cluster`` (Dask) and the trials run on its workers. The study ends with exactly
 ``n_trials`` COMPLETE trials:
@@ -55,12 +56,14 @@ from qdensity.learning._study import (
     DEFAULT_GRACE_PERIOD,
     MEMORY,
     _optuna,
+    in_memory,
     retried_from,
     settings_hash,
     startup_trials,
+    storage_object,
 )
 from qdensity.progress import progress_bar
-from qdensity.validation import check_positive_int, check_seed
+from qdensity.validation import Instance, check_positive_int, check_seed, validates
 
 __all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "DEFAULT_GRACE_PERIOD", "MEMORY", "run_sweep",
            "run_trials", "open_study", "sweep_settings", "suggest_params", "startup_trials",
@@ -78,11 +81,18 @@ PAPER_SPACE: dict[str, tuple] = {
 #: Where trials go when no storage is given.
 DEFAULT_STORAGE = "sqlite:///qdensity-sweep.db"
 
+#: What a ``storage`` argument accepts: a URL, or an optuna storage object (loaded lazily:
+#: optuna is an optional extra).
+STORAGE = Instance((str, "optuna.storages:BaseStorage"),
+                   "an optuna storage URL (str) or storage object (optuna.storages.BaseStorage: "
+                   "RDBStorage, JournalStorage, InMemoryStorage)", example=MEMORY)
+
 #: Estimator parameters that do not change what a trial measures.
 _NOT_SETTINGS = ("verbose", "callback", "callbacks")
 
 
-def open_study(study_name: str = "qdensity", storage: str | None = None, *,
+@validates(storage=[STORAGE, None])
+def open_study(study_name: str = "qdensity", storage=None, *,
                direction: str = "maximize", seed: int | None = None, n_trials: int = 32,
                settings: Mapping | None = None,
                grace_period: int | None = DEFAULT_GRACE_PERIOD):
@@ -91,9 +101,11 @@ def open_study(study_name: str = "qdensity", storage: str | None = None, *,
     Parameters
     ----------
     study_name : str
-    storage : str, optional
+    storage : str or optuna.storages.BaseStorage, optional
         Any optuna storage URL (default :data:`DEFAULT_STORAGE`, an SQLite file in the
-        working directory), or :data:`MEMORY` for a study in this process only.
+        working directory), :data:`MEMORY` for a study in this process only, or an optuna
+        storage object (``RDBStorage``, ``JournalStorage``, ``InMemoryStorage``), used as
+        it is: its own heartbeat settings hold and ``grace_period`` is not applied to it.
     direction : {"maximize", "minimize"}
     seed : int, optional
         Seed of the TPE sampler (None: fresh randomness, right for several workers).
@@ -103,7 +115,8 @@ def open_study(study_name: str = "qdensity", storage: str | None = None, *,
         What the study measures; stored with a new study, compared with an existing one's.
     grace_period : int or None
         Seconds without a heartbeat after which a RUNNING trial is dead and retried (at least
-        3; heartbeats every third of it). None: no heartbeats.
+        3; heartbeats every third of it). None: no heartbeats. Applies to storages opened
+        from a URL; a storage object keeps its own.
 
     Returns
     -------
@@ -257,8 +270,9 @@ def run_trials(study, evaluate, n_trials: int, *, stop_after: int | None = None,
     return completed
 
 
+@validates(storage=[STORAGE, None])
 def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None = None,
-              storage: str | None = None, study_name: str | None = None,
+              storage=None, study_name: str | None = None,
               validation_size: float = 0.25, seed: int = 0, sampler_seed: int | None = None,
               verbose: bool = True, stop_after: int | None = None,
               grace_period: int | None = DEFAULT_GRACE_PERIOD, cluster=None):
@@ -274,9 +288,10 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
         COMPLETE trials of the whole study, over all workers (the paper: 32).
     space : dict, optional
         Default :data:`PAPER_SPACE`.
-    storage : str, optional
+    storage : str or optuna.storages.BaseStorage, optional
         optuna storage URL (default :data:`DEFAULT_STORAGE`; a relative SQLite path is read
-        from the working directory).
+        from the working directory) or storage object (``RDBStorage``, ``JournalStorage``,
+        ``InMemoryStorage``; see :func:`open_study`).
     study_name : str, optional
         Default ``"sweep-<hash>"`` of the settings (:func:`sweep_settings`): other data, another
         estimator or space is another study. A named study made with other settings is an
@@ -299,7 +314,8 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
     cluster : str or distributed.Client, optional
         Run the trials on Dask workers (:mod:`qdensity.cluster`: ``"local:N"``,
         ``"tcp://HOST:PORT"``, a client), one task per missing trial; ``storage`` must then be
-        reachable from every worker (a database server, or an SQLite file on a shared disk).
+        reachable from every worker (a database server, or an SQLite or journal file on a
+        shared disk; a storage object travels to the workers pickled), not in memory.
 
     Returns
     -------
@@ -327,6 +343,11 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
 
         study_name = f"sweep-{settings_hash(settings)}"
     storage = _absolute(DEFAULT_STORAGE if storage is None else storage)
+    if cluster is not None and in_memory(storage):
+        raise ValueError(f"storage {storage!r} keeps its trials in this process's memory, "
+                         "which the cluster's workers cannot reach: with cluster give a "
+                         "database URL, an SQLite file on a shared disk, or a storage object "
+                         "such as RDBStorage or JournalStorage")
     study = open_study(study_name, storage, seed=sampler_seed, n_trials=n_trials,
                        settings=settings, grace_period=grace_period)
     if cluster is not None:
@@ -353,9 +374,12 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
     return study
 
 
-def _absolute(storage: str) -> str:
-    """An SQLite URL with its path made absolute (the same file for every worker)."""
+def _absolute(storage):
+    """An SQLite URL with its path made absolute (the same file for every worker); anything
+    else (another URL, a storage object) as it is."""
     prefix = "sqlite:///"
+    if storage_object(storage) or not isinstance(storage, str):
+        return storage
     if storage.startswith(prefix) and not storage.startswith(prefix + "/") \
             and storage != prefix + ":memory:":
         return prefix + str(Path(storage[len(prefix):]).resolve())

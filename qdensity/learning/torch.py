@@ -97,8 +97,45 @@ class MoEGate(nn.Module):
         return torch.softmax(z, dim=-1)
 
 
+#: Why a second derivative through the numpy engines is refused (they return plain arrays).
+_SECOND_ORDER = (
+    "second derivatives (Hessians, double backward, create_graph=True) of DensityQNNLayer are "
+    "not available on the {path} path: its backward computes first derivatives in numpy, so "
+    "autograd cannot differentiate them again. For RBS/FBS models with a unary encoding, "
+    "DensityQNNLayer(model, engine='torch') differentiates to any order (the unary engine's "
+    "torch path); otherwise use finite differences of the gradient")
+
+
+class _Refused(torch.autograd.Function):
+    """Returns ``outputs`` unchanged, tied to ``inputs`` on the tape; differentiating it
+    raises ``message`` (a first derivative computed in numpy, asked for a second one)."""
+
+    @staticmethod
+    def forward(ctx, message, n, *tensors):
+        ctx.message = message
+        return tuple(t.clone() for t in tensors[:n])
+
+    @staticmethod
+    def backward(ctx, *grads):
+        raise RuntimeError(ctx.message)
+
+
+def _refuse_second_order(grads: tuple, inputs: tuple, path: str) -> tuple:
+    """``grads`` (tensors or None) as they are, or -- while a backward builds a graph
+    (``create_graph=True``) and an input requires a gradient -- tied to ``inputs`` through
+    :class:`_Refused`, so that the second derivative raises instead of reading as zero."""
+    if not torch.is_grad_enabled() or not any(
+            isinstance(t, torch.Tensor) and t.requires_grad for t in inputs):
+        return grads
+    present = [g for g in grads if g is not None]
+    tied = iter(_Refused.apply(_SECOND_ORDER.format(path=path), len(present), *present,
+                               *[t for t in inputs if isinstance(t, torch.Tensor)]))
+    return tuple(None if g is None else next(tied) for g in grads)
+
+
 class _Experts(torch.autograd.Function):
-    """``(x, theta) -> f_k(x)`` of every sub-unitary, shape (B, K, m), with its VJP."""
+    """``(x, theta) -> f_k(x)`` of every sub-unitary, shape (B, K, m), with its VJP (first
+    derivatives only: a second one raises, see :data:`_SECOND_ORDER`)."""
 
     @staticmethod
     def forward(ctx, x, theta, layer, need_grad, engine=None):
@@ -107,6 +144,13 @@ class _Experts(torch.autograd.Function):
         outs, state = layer._run(X, th, need_grad=need_grad,
                                  need_input=need_grad and x.requires_grad, engine=engine)
         ctx.layer, ctx.state, ctx.theta = layer, state, th
+        ctx.path = ("engine='torch' (the adjoint statevector engine on torch)"
+                    if engine is not None else
+                    f"{type(layer.engine).__name__} (sampled gradient circuits)"
+                    if not isinstance(layer.engine, str) else
+                    "engine='exact' (the unary engine in numpy)" if layer._unary else
+                    "engine='exact' (the adjoint statevector engine)")
+        ctx.save_for_backward(x, theta)
         return torch.from_numpy(outs).to(dtype=x.dtype, device=x.device)
 
     @staticmethod
@@ -117,31 +161,24 @@ class _Experts(torch.autograd.Function):
             raise RuntimeError("the input gradient was not computed: the forward ran with an "
                                "input that did not require a gradient")
         gx = None if g_x is None else torch.from_numpy(g_x).to(grad_outs)
-        return gx, torch.from_numpy(g_theta).to(grad_outs), None, None, None
+        gx, gt = _refuse_second_order((gx, torch.from_numpy(g_theta).to(grad_outs)),
+                                      (*ctx.saved_tensors, grad_outs), ctx.path)
+        return gx, gt, None, None, None
 
 
-class _UnaryTorch(torch.autograd.Function):
-    """``(x, theta) -> y = O(theta) x`` on the unary engine's torch path, with its reverse mode
-    (:func:`qdensity.execution.unary.vjp`, from the saved outputs) as the backward."""
+@torch.compiler.disable
+def _experts(x, theta, layer, need_grad, engine):
+    """:class:`_Experts` outside ``torch.compile``'s graphs (numpy work: a graph break)."""
+    return _Experts.apply(x, theta, layer, need_grad, engine)
 
-    @staticmethod
-    def forward(ctx, x, theta, compiled):
-        from qdensity.execution.unary import forward
 
-        y = forward(compiled, x.detach(), theta.detach())
-        ctx.save_for_backward(x, theta, y)
-        ctx.compiled = compiled
-        return y
+@torch.compiler.disable
+def _unary_forward(compiled, x, theta):
+    """The unary engine's torch path (differentiable to any order) outside ``torch.compile``'s
+    graphs: its index tables and checks run eagerly (a graph break)."""
+    from qdensity.execution.unary import forward
 
-    @staticmethod
-    def backward(ctx, grad_y):
-        from qdensity.execution.unary import vjp
-
-        x, theta, y = ctx.saved_tensors
-        g_theta, g_x = vjp(ctx.compiled, x.detach(), theta.detach(), grad_y.detach(),
-                           reduce="sum", outputs=y)
-        return (g_x if ctx.needs_input_grad[0] else None,
-                g_theta if ctx.needs_input_grad[1] else None, None)
+    return forward(compiled, x, theta)
 
 
 @validates(
@@ -282,7 +319,7 @@ class DensityQNNLayer(nn.Module):
             outs = self._unary_torch(flat)
         else:
             engine = self._torch_engine(flat.device) if on_torch else None
-            outs = _Experts.apply(flat, self.theta, self, need_grad, engine)
+            outs = _experts(flat, self.theta, self, need_grad, engine)
         if self._single:  # alpha = 1: f = f_1, without mixing ops in the graph
             out = outs[:, 0]
         else:
@@ -304,7 +341,7 @@ class DensityQNNLayer(nn.Module):
         outs = []
         for c, idx in zip(self._compiled, self._indices, strict=True):
             index = torch.as_tensor(np.asarray(idx, dtype=np.int64), device=flat.device)
-            y = _UnaryTorch.apply(Xn, self.theta.index_select(0, index).to(flat.dtype), c)
+            y = _unary_forward(c, Xn, self.theta.index_select(0, index).to(flat.dtype))
             if readout == "unary_amplitudes":
                 outs.append(y)
             elif readout == "unary_probabilities":

@@ -94,6 +94,10 @@ class LCUQNN:
             raise ValueError("sub_unitaries must be RBS/FBS (Hamming-weight-preserving) circuits: "
                              "the LCU model runs on the unary engine")
 
+    def __getstate__(self) -> dict:
+        """The model without its built LCU template (:meth:`template` builds it again)."""
+        return {k: v for k, v in list(self.__dict__.items()) if k != "_template"}
+
     @classmethod
     def from_density(cls, model: DensityQNN) -> LCUQNN:
         """The LCU counterpart of a unary density model, sharing its sub-unitaries and mixture and

@@ -56,6 +56,13 @@ class DecompositionKind:
         """Angles of the model built from a circuit with ``circuit_angles`` angles."""
         return circuit_angles * int(depth) if self.angle_copies else circuit_angles
 
+    def __reduce_ex__(self, protocol):
+        # a registered entry (its functions are lambdas or closures) pickles and copies as
+        # its name: it loads as the entry registered under that name
+        if DECOMPOSITIONS.get(self.name) is self:
+            return (_registered, ('DECOMPOSITIONS', self.name))
+        return super().__reduce_ex__(protocol)
+
 
 @validates(name=Instance(str), build=CallableC("f(num_qubits, K, seed) -> Mixture or None"),
            from_alpha=[CallableC("f(alpha) -> Mixture"), None], data_dependent=Instance(bool))
@@ -81,6 +88,19 @@ class MixtureKind:
     build: Callable[[int, int, object], Mixture | None]
     from_alpha: Callable[[np.ndarray], Mixture] | None = None
     data_dependent: bool = False
+
+    def __reduce_ex__(self, protocol):
+        # a registered entry (its functions are lambdas or closures) pickles and copies as
+        # its name: it loads as the entry registered under that name
+        if MIXTURES.get(self.name) is self:
+            return (_registered, ('MIXTURES', self.name))
+        return super().__reduce_ex__(protocol)
+
+
+def _registered(registry: str, name: str):
+    """The entry ``name`` of ``DECOMPOSITIONS`` or ``MIXTURES`` (what a registered entry
+    pickles to)."""
+    return DECOMPOSITIONS[name] if registry == "DECOMPOSITIONS" else MIXTURES[name]
 
 
 def _num_moments(circuit: QuantumCircuit) -> int:

@@ -90,6 +90,13 @@ class SingleQubitReuploading:
         flat = self.theta.ravel()
         return np.concatenate([flat, self.logits]) if self.num_subunitaries > 1 else flat.copy()
 
+    def __sklearn_clone__(self) -> SingleQubitReuploading:
+        """``sklearn.base.clone``: a deep copy (``get_params`` here is the flat parameter
+        vector, not scikit-learn's hyperparameter dictionary)."""
+        import copy
+
+        return copy.deepcopy(self)
+
     def set_params(self, flat) -> None:
         """Inverse of :meth:`get_params`."""
         flat = np.asarray(flat, dtype=float).ravel()

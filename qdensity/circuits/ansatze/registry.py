@@ -97,9 +97,21 @@ class AnsatzFamily:
             return int(self.num_parameters(num_qubits))
         return self.builder(num_qubits).num_parameters
 
+    def __reduce_ex__(self, protocol):
+        # a registered entry (its functions may be closures or lambdas) pickles and copies as
+        # its name: it loads as the entry registered under that name
+        if FAMILIES.get(self.name) is self:
+            return (_registered, (self.name,))
+        return super().__reduce_ex__(protocol)
+
 
 #: The registry: family name -> :class:`AnsatzFamily`, in the order listings show them.
 FAMILIES: dict[str, AnsatzFamily] = {}
+
+
+def _registered(name: str):
+    """The registered entry ``name`` (what a registered entry pickles to)."""
+    return FAMILIES[name]
 
 
 @validates(family=Instance(AnsatzFamily))

@@ -58,6 +58,11 @@ class PreparationCircuits:
     loader: QuantumCircuit | None = None
     _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
+    def __getstate__(self) -> dict:
+        """The inputs without the prepared circuits (prepared again on use)."""
+        return {**{k: v for k, v in list(self.__dict__.items()) if k != "_cache"},
+                "_cache": {}}
+
     def __post_init__(self) -> None:
         circuits = tuple(_check_sub_unitaries(self.sub_unitaries))
         object.__setattr__(self, "sub_unitaries", circuits)

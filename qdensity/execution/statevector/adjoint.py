@@ -172,6 +172,14 @@ class AdjointEngine:
         self._by_print: dict[tuple, Program] = {}
         self.compile_count = 0
 
+    #: Caches a copy or an unpickled engine rebuilds on use instead of carrying.
+    _CACHES = ("_by_id", "_by_print", "_last_observables", "_bare_cache")
+
+    def __getstate__(self) -> dict:
+        """The settings without the compiled programs (rebuilt on first use)."""
+        state = {k: v for k, v in list(self.__dict__.items()) if k not in self._CACHES}
+        return {**state, "_by_id": {}, "_by_print": {}, "compile_count": 0}
+
     # ------------------------------------------------------------------ compiling
     def _check_width(self, circuit: QuantumCircuit) -> None:
         if circuit.num_qubits > self.max_qubits:
@@ -292,6 +300,14 @@ class AdjointEngine:
     def _rows(self, circuit: QuantumCircuit, values) -> tuple[Program, np.ndarray]:
         prog = self.compile(circuit)
         if is_tensor(values):  # parameter rows are small: checked on the host
+            import torch
+
+            if values.requires_grad and torch.is_grad_enabled():
+                raise ValueError("values require a gradient, but the adjoint engine returns "
+                                 "plain tensors that autograd cannot differentiate (the "
+                                 "gradient would silently be missing): take derivatives from "
+                                 "the engine's gradient methods or DensityQNNLayer, or pass "
+                                 "values.detach() (or call under torch.no_grad())")
             values = values.detach().cpu().numpy()
         vals = as_parameter_rows(values, circuit.num_parameters)
         if not np.all(np.isfinite(vals)):

@@ -98,7 +98,10 @@ def _batch(compiled, X, values, device, dtype, xname="X"):
                 "parameter row per input, or values of shape (P,) shared by the batch")
     x2 = x if x.ndim == 2 else x[None, :]
     check_fits(device, 4 * x2.numel() * x2.element_size(), "the unary engine's columns")
-    return x2.T.contiguous(), _angles(compiled, v, device, dtype), single
+    # a copy always: the layers rotate the columns in place, and for one row ``x2.T`` is
+    # already contiguous (``.contiguous()`` would hand back the caller's own tensor)
+    Z = x2.T.clone(memory_format=torch().contiguous_format)
+    return Z, _angles(compiled, v, device, dtype), single
 
 
 class _Tables:
@@ -239,8 +242,109 @@ def backward(Y, G, compiled, angles, per_example: bool):
     return grad, YG[:, B:]
 
 
+def _recording(*arrays) -> bool:
+    """Grad mode is on and one of ``arrays`` is a tensor that requires a gradient."""
+    return torch().is_grad_enabled() and any(is_tensor(a) and a.requires_grad for a in arrays)
+
+
+def differentiable_columns(compiled, X, values):
+    """``forward`` of tensors ``X`` (n,) or (B, n) and ``values`` (P,), (B, P) or None, by
+    out-of-place tensor operations only, so that torch's autograd differentiates it to any
+    order (it keeps every layer's columns: the recomputation a second derivative needs, not
+    the first-order path)."""
+    device, dtype = _reference(X, values)
+    x = X.to(device=device, dtype=dtype) if is_tensor(X) else _tensor(X, "X", device, dtype)
+    v = (values.to(device=device, dtype=dtype) if is_tensor(values)
+         else _values(compiled, values, device, dtype))
+    single = x.ndim == 1 and v.ndim == 1
+    if v.ndim == 2 and x.ndim == 1:
+        x = x.expand(v.shape[0], x.shape[0])
+    Z = (x if x.ndim == 2 else x[None, :]).T
+    angles = _angles(compiled, v, device, dtype)
+    tab = _tables(compiled, device, dtype)
+    a = 0
+    for L in tab.sizes:
+        b = a + 2 * L
+        ang = angles.index_select(0, tab.gates2[a:b])
+        C, S = ang.cos(), ang.sin() * (tab.sgn2[a:b] if ang.ndim == 1 else tab.sgn2[a:b, None])
+        if ang.ndim == 1:
+            C, S = C[:, None], S[:, None]
+        W = Z.index_select(0, tab.rows4[2 * a:2 * b])  # [z_i; z_j; z_j; z_i]
+        Z = Z.index_copy(0, tab.rows2[a:b], W[:2 * L] * C + W[2 * L:] * S)
+        a = b
+    return Z[:, 0] if single else Z.T
+
+
+_FUNCTION: list = []
+
+
+def _function():
+    """The ``torch.autograd.Function`` of :func:`forward` (made on first use: torch is
+    optional)."""
+    if _FUNCTION:
+        return _FUNCTION[0]
+    t = torch()
+
+    class UnaryForward(t.autograd.Function):  # type: ignore[name-defined]  # torch is lazy
+        """``(X, values) -> forward(compiled, X, values)`` with the reverse pass as backward,
+        and autograd through :func:`differentiable_columns` for higher derivatives."""
+
+        @staticmethod
+        def forward(ctx, X, values, compiled):
+            y = _plain_forward(compiled, X, values)
+            ctx.compiled = compiled
+            ctx.arrays = (None if is_tensor(X) else X, None if is_tensor(values) else values)
+            ctx.save_for_backward(X if is_tensor(X) else None,
+                                  values if is_tensor(values) else None, y)
+            return y
+
+        @staticmethod
+        def backward(ctx, grad_y):
+            X, values, y = ctx.saved_tensors
+            X = ctx.arrays[0] if X is None else X
+            values = ctx.arrays[1] if values is None else values
+            need_x, need_v = ctx.needs_input_grad[0], ctx.needs_input_grad[1]
+            if t.is_grad_enabled():  # create_graph: a graph of the gradient, to any order
+                wrt = [a for a, need in ((X, need_x), (values, need_v)) if need]
+                with t.enable_grad():
+                    out = differentiable_columns(ctx.compiled, X, values)
+                    grads = list(t.autograd.grad(out, wrt, grad_y, create_graph=True,
+                                                 allow_unused=True))
+                g_x = grads.pop(0) if need_x else None
+                g_v = grads.pop(0) if need_v else None
+                return g_x, g_v, None
+            per_row = is_tensor(values) and values.ndim == 2 or (
+                not is_tensor(values) and values is not None and np.ndim(values) == 2)
+            xd = X.detach() if is_tensor(X) else X
+            vd = values.detach() if is_tensor(values) else values
+            g_v, g_x = vjp(ctx.compiled, xd, vd, grad_y.detach(),
+                           "none" if per_row else "sum", y.detach())
+            if need_x and g_x.ndim == 2 and X.ndim == 1:  # one input under every row
+                g_x = g_x.sum(dim=0)
+            return (g_x.to(X.dtype) if need_x else None,
+                    g_v.to(values.dtype) if need_v else None, None)
+
+    _FUNCTION.append(UnaryForward)
+    return UnaryForward
+
+
 def forward(compiled, X, values):
-    """:func:`qdensity.execution.unary.forward` on tensors (see there)."""
+    """:func:`qdensity.execution.unary.forward` on tensors (see there); recorded by autograd
+    when ``X`` or ``values`` requires a gradient (module docstring)."""
+    if _recording(X, values):
+        return _function().apply(X, values, compiled)
+    return _plain_forward(compiled, X, values)
+
+
+def _refuse_recording(name: str, *arrays) -> None:
+    if _recording(*arrays):
+        raise ValueError(f"{name} of the unary engine returns plain tensors: an input that "
+                         "requires a gradient would get none through it. Differentiate "
+                         "qdensity.execution.unary.forward with torch.autograd instead (any "
+                         "order), or call this under torch.no_grad() or on detached tensors")
+
+
+def _plain_forward(compiled, X, values):
     device, dtype = _reference(X, values)
     Z, angles, single = _batch(compiled, X, values, device, dtype)
     Z = _forward_columns(compiled, Z, angles)
@@ -249,6 +353,7 @@ def forward(compiled, X, values):
 
 def vjp(compiled, X, values, grad_Y, reduce: str = "none", outputs=None):
     """:func:`qdensity.execution.unary.vjp` on tensors (see there)."""
+    _refuse_recording("vjp", X, values, grad_Y, outputs)
     device, dtype = _reference(X, values, grad_Y, outputs)
     Z, angles, single = _batch(compiled, X, values, device, dtype)
     n, B = Z.shape
@@ -278,6 +383,7 @@ def vjp(compiled, X, values, grad_Y, reduce: str = "none", outputs=None):
 
 def jacobian(compiled, x, values):
     """:func:`qdensity.execution.unary.jacobian` on tensors (see there)."""
+    _refuse_recording("jacobian", x, values)
     device, dtype = _reference(x, values)
     xt = _inputs(compiled, x, "x", device, dtype)
     if xt.ndim != 1:
