@@ -92,6 +92,7 @@ html_theme_options = {
     "footer_end": ["sphinx-version", "theme-version"],
     "logo": {"text": f"qdensity {release}"},
 }
+html_context = {"default_mode": "auto"}  # light or dark, as the reader's system prefers
 html_sidebars: dict[str, list[str]] = {}
 html_static_path: list[str] = []
 html_show_sourcelink = False
