@@ -15,7 +15,8 @@ This extension writes, before Sphinx reads the sources:
 Constants are documented on the page of the module nearest to their definition. A page is only
 rewritten when its text changes, so an unchanged API does not make Sphinx read it again.
 
-A cross-reference to a re-exported name (``:class:`qdensity.DensityQNN```) resolves to the
+A cross-reference to a re-exported name (``:class:`qdensity.DensityQNN```), or to the bare name
+of one public object (``:class:`DensityQNN``` from another module's docstring), resolves to the
 object's page (``missing-reference``), so pages may cite any public import path.
 """
 
@@ -190,7 +191,7 @@ def module_page(module_name: str, rows: list[tuple[str, Entry]], modules: list[s
 def object_page(entry: Entry) -> str:
     """The reStructuredText of a class's or a function's page."""
     others = [path for path in entry.exports if path != entry.target]
-    lines = [_underline(entry.target), f".. currentmodule:: {entry.home}\n"]
+    lines = [_underline(entry.name), f".. currentmodule:: {entry.home}\n"]
     if others:
         paths = ", ".join(f"``{path}``" for path in sorted(others, key=len))
         lines.append(f"Also exported as {paths}.\n")
@@ -207,6 +208,7 @@ def _write(path: Path, text: str) -> None:
 
 
 _TARGETS: dict[str, str] = {}
+_SHORT: dict[str, set[str]] = {}  # a public object's own name -> its documented targets
 
 
 def generate(outdir: Path) -> dict[str, str]:
@@ -224,6 +226,8 @@ def generate(outdir: Path) -> dict[str, str]:
             _write(outdir / f"{entry.target}.rst", object_page(entry))
         for path in entry.exports:
             _TARGETS[path] = entry.target
+        if entry.kind in ("class", "function"):
+            _SHORT.setdefault(entry.name, set()).add(entry.target)
     for stale in outdir.glob("*.rst"):
         if stale.name not in wanted:
             stale.unlink()
@@ -243,12 +247,21 @@ def _on_missing_reference(app, env, node, contnode):
     candidates = [target] + ([f"{module}.{target}"] if module else [])
     for name in candidates:
         documented = _TARGETS.get(name.lstrip("~."))
+        short = _SHORT.get(name.lstrip("~."), set())
+        if documented is None and len(short) == 1:  # a bare name that one public object has
+            documented = next(iter(short))
         if documented and documented != name:
             found = env.get_domain("py").resolve_any_xref(env, node["refdoc"], app.builder,
                                                           documented, node, contnode)
             if found:
                 return found[0][1]
     return None
+
+
+def _bases(app, name, obj, options, bases) -> None:
+    """No "Bases: object" line: only real base classes are worth a line."""
+    if list(bases) == [object]:
+        bases.clear()
 
 
 def _skip(app, what, name, obj, skip, options):
@@ -262,5 +275,6 @@ def _skip(app, what, name, obj, skip, options):
 def setup(app):
     app.connect("builder-inited", _on_builder_inited)
     app.connect("autodoc-skip-member", _skip)
+    app.connect("autodoc-process-bases", _bases)
     app.connect("missing-reference", _on_missing_reference)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
