@@ -55,18 +55,7 @@ READOUTS = ("observable", "unary_probabilities", "unary_amplitudes")
     readout=Options(READOUTS), seed=Seed(),
 )
 class DensityQNN:
-    r"""A density quantum neural network (paper eq. 1 and 2).
-
-    The state of ``K`` sub-unitaries mixed by a distribution :math:`\alpha` (eq. 1), and the
-    expectation value it is trained on (eq. 2):
-
-    .. math::
-
-        \rho(\theta, \alpha, x) = \sum_{k=1}^{K} \alpha_k \, U_k(\theta_k) \, \rho(x) \,
-        U_k(\theta_k)^\dagger, \qquad
-        f(\theta, \alpha, x) = \operatorname{Tr}\big(O \rho(\theta, \alpha, x)\big),
-
-    with :math:`\rho(x) = V(x) |0\rangle\langle 0| V(x)^\dagger` the encoded data.
+    r"""A density QNN, :math:`\rho = \sum_k \alpha_k U_k \rho(x) U_k^\dagger` (paper eq. 1 and 2).
 
     Parameters
     ----------
@@ -84,9 +73,8 @@ class DensityQNN:
         ``O`` for ``readout="observable"`` (default ``Z`` on qubit 0).
     readout : {"observable", "unary_probabilities", "unary_amplitudes"}
         Unary readouts need a unary encoding and Hamming-weight-preserving sub-unitaries;
-        probabilities are :math:`p_j = \operatorname{Tr}(|e_j\rangle\langle e_j| \rho)`;
-        amplitudes mix the sub-unitaries' output vectors :math:`\sum_k \alpha_k O_k x` (the
-        mixture-of-experts reading, Supp. H).
+        probabilities :math:`\operatorname{Tr}(|e_j\rangle\langle e_j| \rho)`; amplitudes mix
+        the sub-unitaries' outputs :math:`\sum_k \alpha_k O_k x` (mixture of experts, Supp. H).
     seed : int or Generator, optional
         Initial angles uniform in :math:`[-\pi, \pi)` (zeros when None).
 
