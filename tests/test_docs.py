@@ -343,6 +343,41 @@ def test_a_page_renders_in_a_browser(site, page):
         assert 'id="qdensity.models.density.DensityQNN"' in dom  # the class is documented
 
 
+def test_a_copy_button_copies_the_code_without_prompts_or_output(site, tmp_path):
+    """The copy button of a docstring example copies what a user would type: the lines of the
+    docstring's ``>>>``/``...`` prompts without the prompts, and none of the output lines
+    (the oracle: the docstring itself). Run in Chromium with the site's own copybutton.js and
+    its configuration (its text-filtering functions and arguments, read from the built
+    script), on a copy of the page that reports what the button would copy."""
+    import html as htmllib
+    import json
+
+    from qdensity.models.density import DensityQNN
+
+    page = site / "api" / "qdensity.models.density.DensityQNN.html"
+    script = (site / "_static" / "copybutton.js").read_text(encoding="utf-8")
+    arguments = re.search(r"return formatCopyText\(text, (.*?)\)\n", script).group(1)
+    exclude = re.search(r"let exclude = '([^']*)'", script).group(1)
+    # the button's own functions (declared inside copybutton.js's set-up function)
+    functions = script[script.index("function escapeRegExp"):script.index("var copyTargetText")]
+    probe = ('<script>' + functions + '{'
+             ' const pre = document.querySelector("div.highlight pre");'
+             ' const out = document.createElement("pre"); out.id = "copied";'
+             f" out.textContent = JSON.stringify(formatCopyText(filterText(pre, '{exclude}'),"
+             f" {arguments})); document.body.appendChild(out); }}</script>")
+    text = page.read_text(encoding="utf-8")
+    copy = tmp_path / page.name
+    copy.write_text(text.replace("<head>", f'<head><base href="{page.parent.as_uri()}/">', 1)
+                    .replace("</body>", probe + "</body>", 1), encoding="utf-8")
+    dom, _ = _open(copy)
+    copied = json.loads(htmllib.unescape(re.search(r'<pre id="copied"[^>]*>(.*?)</pre>', dom,
+                                                   re.S).group(1)))
+    lines = inspect.getdoc(DensityQNN).split("Examples\n--------\n")[1].splitlines()
+    typed = [line[4:] for line in lines if line.startswith((">>> ", "... "))]
+    assert copied.rstrip("\n") == "\n".join(typed), copied
+    assert not any(line.startswith(">>>") for line in copied.splitlines())
+
+
 def _help_options(command: tuple[str, ...] = ()) -> set[str]:
     """Every ``--option`` in the help of ``qdensity COMMAND...`` and of its sub-commands, at
     every depth (``qdensity results report --docs``)."""
