@@ -8,9 +8,9 @@ executed (``-D nb_execution_mode=off``: the notebooks run in ``tests/test_notebo
 notebooks executed, then points the tests at it). Headless Chromium (Debian's ``chromium``)
 opens the index, a guide page and an API page (title, navigation, search, math, and no console
 message: a JavaScript error, a failed load or a log line), checks what a copy button copies,
-and opens the command-line page, whose
-example command lines are read back from the rendered text and parsed by the real parser (an
-en dash for ``--`` would fail). Without Sphinx or Chromium these tests skip with the install
+and opens the command-line page, whose example command lines are read back from the rendered
+text and parsed by the real parser (an en dash for ``--`` would fail). Without Sphinx or
+Chromium these tests skip with the install
 line, except where ``QDENSITY_REQUIRE_DOCS=1`` (CI), where they fail.
 """
 
