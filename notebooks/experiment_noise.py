@@ -13,7 +13,7 @@
 # ---
 
 # %% [markdown]
-# # Experiment `noise`: pure vs density QNNs on a noisy device (beyond the paper; issue 14 item 5)
+# # Experiment `noise`: pure vs density QNNs on a noisy device (beyond the paper)
 #
 # **The question.** The paper trains on noiseless simulators. Its case for density QNNs is a
 # training-cost one (Table 1: a round-robin OrthoQNN on `n` qubits needs `4 n (n - 1) / 2`

@@ -61,7 +61,9 @@ print(np.abs(sampled.jacobians[0] - exact.jacobians[0]).max())
 from qdensity import compare_reports, resource_report, unary_loader
 from qdensity.circuits.preparation import deterministic_circuit, randomised_circuits
 
-bound = [c.assign_parameters(model._sub_theta(k, None)) for k, c in enumerate(model.sub_unitaries)]
+# each sub-unitary bound to its own angles: theta[indices of sub-unitary k]
+bound = [c.assign_parameters(model.theta[model.subunitary_parameter_indices(k)])
+         for k, c in enumerate(model.sub_unitaries)]
 loader = unary_loader(X[0])
 alpha = model.alpha()[0]
 print(compare_reports({'randomised (k=0)': resource_report(randomised_circuits(bound, loader)[0]),

@@ -122,7 +122,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.models.mixtures import FixedMixture, GatedMixture, SoftmaxMixture
 
 
-def __getattr__(name: str):
+def _load(name: str):
     """Public names load their module on first use; the subpackages resolve without an explicit
     import (``qdensity.circuits.ansatze``)."""
     module = _EXPORTS.get(name)
@@ -137,3 +137,7 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
+
+
+if not TYPE_CHECKING:  # type checkers see the imports above, not a catch-all lookup
+    __getattr__ = _load

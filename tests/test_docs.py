@@ -1,17 +1,22 @@
-"""The documentation site builds without warnings, its internal links resolve, and its pages
-render in a real browser.
+"""The documentation site builds without warnings, its internal links resolve, its API reference
+gives each public object one page, nothing internal shows on it, and its pages render in a real
+browser.
 
 The site is built once per module from ``docs/`` with warnings as errors and the notebooks not
 executed (``-D nb_execution_mode=off``: the notebooks run in ``tests/test_notebooks.py``);
 ``QDENSITY_DOCS_HTML`` names a site already built instead (``.ci/run`` builds it with the
 notebooks executed, then points the tests at it). Headless Chromium (Debian's ``chromium``)
-opens the index and one API page: title, navigation, search box, and no console message (a
-JavaScript error, a failed load or a log line). Without Sphinx or Chromium these tests skip
-with the install line, except where ``QDENSITY_REQUIRE_DOCS=1`` (CI), where they fail.
+opens the index, a guide page and an API page (title, navigation, search, math, and no console
+message: a JavaScript error, a failed load or a log line), checks what a copy button copies,
+and opens the command-line page, whose example command lines are read back from the rendered
+text and parsed by the real parser (an en dash for ``--`` would fail). Without Sphinx or
+Chromium these tests skip with the install
+line, except where ``QDENSITY_REQUIRE_DOCS=1`` (CI), where they fail.
 """
 
 from __future__ import annotations
 
+import inspect
 import os
 import re
 import shutil
@@ -89,12 +94,17 @@ def test_every_page_of_the_site_is_there(site):
     for module in ("qdensity", "qdensity.models.density", "qdensity.execution.sampler.engine",
                    "qdensity.learning.estimators", "qdensity.cli.export"):
         assert (site / "api" / f"{module}.html").is_file(), module
+    for name in ("qdensity.models.density.DensityQNN", "qdensity.circuits.gates.RBSGate",
+                 "qdensity.learning.estimators.QNNClassifier",
+                 "qdensity.circuits.ansatze.hamming.pyramid"):
+        assert (site / "api" / f"{name}.html").is_file(), name
 
 
 def test_every_internal_link_resolves(site):
     """Every relative ``href``/``src`` of every page names a file of the site, and its
     ``#fragment`` an id on that page."""
-    pages = {p: _parse(p) for p in site.rglob("*.html")}
+    pages = {p: _parse(p) for p in site.rglob("*.html")
+             if "_static" not in p.relative_to(site).parts}  # the theme's template macros
     broken = []
     for page, parsed in pages.items():
         for link in parsed.links:
@@ -112,44 +122,159 @@ def test_every_internal_link_resolves(site):
     assert not broken, f"{len(broken)} broken internal links:\n" + "\n".join(broken[:40])
 
 
-def test_the_api_reference_documents_every_public_name(site):
-    """Every public module of the package (no ``_`` in its path) has a page, or its package
-    rebinds its name to a function (then that package's page documents it); every class and
-    function in a public module's ``__all__`` is documented on the page of a module on its
-    ``__module__`` path (where it is defined, or the package that re-exports it) or, if it is
-    defined in a private module, on that of a module that exports it."""
+def _public_objects() -> dict[int, tuple[object, list[str]]]:
+    """``id -> (object, its public paths)`` for every class and function in the ``__all__`` of a
+    public module (no ``_`` in its dotted path), read off the package itself."""
     import importlib
     import pkgutil
-    import types
 
     import qdensity
 
-    ids: set[str] = set()
-    for page in (site / "api").glob("*.html"):
-        ids |= _parse(page).ids
-    public = [m.name for m in pkgutil.walk_packages(qdensity.__path__, "qdensity.")
-              if not any(part.startswith("_") for part in m.name.split("."))]
-    assert len(public) > 50
-    missing = []
-    for name in public:
+    names = ["qdensity"] + [m.name for m in pkgutil.walk_packages(qdensity.__path__, "qdensity.")
+                            if not any(part.startswith("_") for part in m.name.split("."))]
+    found: dict[int, tuple[object, list[str]]] = {}
+    for name in names:
         module = importlib.import_module(name)
-        parent, _, last = name.rpartition(".")
-        rebound = not isinstance(getattr(importlib.import_module(parent), last, None),
-                                 types.ModuleType)
-        if not (site / "api" / f"{name}.html").is_file() and not rebound:
-            missing.append(f"no page for {name}")
         for attr in getattr(module, "__all__", []):
             obj = getattr(module, attr)
-            if not (isinstance(obj, type) or isinstance(obj, types.FunctionType)):
-                continue
-            parts = obj.__module__.split(".")
-            if parts[0] != "qdensity":
-                continue
-            homes = {f"{'.'.join(parts[:k])}.{obj.__qualname__}" for k in range(1, len(parts) + 1)}
-            homes.add(f"{name}.{attr}")  # a private helper's name, documented where exported
-            if not homes & ids:
-                missing.append(f"{name}.{attr} ({obj.__module__}.{obj.__qualname__})")
-    assert not missing, f"{len(missing)} undocumented:\n" + "\n".join(sorted(set(missing))[:40])
+            if inspect.isclass(obj) or inspect.isfunction(obj):
+                found.setdefault(id(obj), (obj, []))[1].append(f"{name}.{attr}")
+    return found
+
+
+def _documented(page: Path) -> list[str]:
+    """The ids of the classes and functions a page documents (Sphinx's ``py class`` and
+    ``py function`` descriptions)."""
+    text = page.read_text(encoding="utf-8")
+    return re.findall(r'<dl class="py (?:class|function)">\s*<dt class="sig sig-object py" '
+                      r'id="([^"]+)"', text)
+
+
+def test_the_api_reference_gives_every_public_object_one_page(site):
+    """Every public module has a page; every class and function in a public module's
+    ``__all__`` is documented exactly once on the whole site, on a page of its own named by
+    one of its public paths (``api/<path>.html``), whatever number of modules export it."""
+    import importlib
+    import pkgutil
+
+    import qdensity
+
+    modules = [m.name for m in pkgutil.walk_packages(qdensity.__path__, "qdensity.")
+               if not any(part.startswith("_") for part in m.name.split("."))]
+    assert len(modules) > 50
+    missing = [m for m in ["qdensity", *modules] if not (site / "api" / f"{m}.html").is_file()]
+    assert not missing, f"no page for the modules {missing}"
+    documented: dict[str, list[str]] = {}
+    for page in site.rglob("*.html"):
+        for target in _documented(page):
+            documented.setdefault(target, []).append(str(page.relative_to(site)))
+    objects = _public_objects()
+    assert len(objects) > 200
+    problems = []
+    for _obj, paths in objects.values():
+        ids = [path for path in paths if path in documented]
+        pages = [page for path in ids for page in documented[path]]
+        if len(pages) != 1:
+            problems.append(f"{paths[0]} documented {len(pages)} times: {pages}")
+        elif pages[0] != f"api/{ids[0]}.html":
+            problems.append(f"{ids[0]} documented on {pages[0]}, not on its own page")
+        else:
+            importlib.import_module(ids[0].rpartition(".")[0])  # a real import path
+    assert not problems, f"{len(problems)} problems:\n" + "\n".join(sorted(problems)[:40])
+
+
+def _field_lists(html: str) -> list[str]:
+    """The field names (``Parameters``, ``Returns``, ...) of the field lists in ``html``."""
+    return re.findall(r'<dt class="field-(?:odd|even)">([^<]+)', html)
+
+
+def test_a_class_page_has_one_parameters_section(site):
+    """The constructor's arguments are listed once per class (the class docstring's
+    ``Parameters``, not a second list made from the type hints), on every class page."""
+    pages = [site / "api" / f"{paths[0]}.html" for obj, paths in _public_objects().values()
+             if inspect.isclass(obj)]
+    twice = []
+    for page in pages:
+        if not page.is_file():  # named by another of its paths: the test above says which
+            continue
+        html = page.read_text(encoding="utf-8")
+        start = html.index('<dl class="py class">')
+        members = re.search(r'<dl class="py (?:method|property|attribute|function)">',
+                            html[start:])
+        own = html[start:start + members.start()] if members else html[start:]
+        if _field_lists(own).count("Parameters") > 1:
+            twice.append(page.name)
+    assert len(pages) > 50
+    assert not twice, f"classes with two Parameters sections: {twice}"
+
+
+#: Internal notes that must not reach a page: work-tracking references and talk about the way
+#: the project is organised rather than about the package.
+INTERNAL = re.compile(r"\b(?:issue|item|wave|session) ?#?\d+\b", re.IGNORECASE)
+
+
+class _Text(HTMLParser):
+    """The visible text of a page (no scripts or styles), and the text of its code cells."""
+
+    def __init__(self):
+        super().__init__()
+        self.parts: list[str] = []
+        self.code: list[str] = []
+        self._skip = 0
+        self._in_code = 0
+
+    def handle_starttag(self, tag, attrs):
+        if tag in ("script", "style"):
+            self._skip += 1
+        classes = dict(attrs).get("class") or ""
+        if tag == "div" and ("cell_input" in classes or self._in_code):
+            self._in_code += 1
+
+    def handle_endtag(self, tag):
+        if tag in ("script", "style"):
+            self._skip -= 1
+        if tag == "div" and self._in_code:
+            self._in_code -= 1
+
+    def handle_data(self, data):
+        if not self._skip:
+            self.parts.append(data)
+            if self._in_code:
+                self.code.append(data)
+
+
+def _text(html: str) -> _Text:
+    parser = _Text()
+    parser.feed(html)
+    return parser
+
+
+def test_no_page_carries_internal_notes(site):
+    """No page says "issue 14", "item 5" and the like, and no notebook's code calls a private
+    method or reads a private attribute (``obj._name``): the examples use the public API."""
+    notes, private = [], []
+    for page in sorted(site.rglob("*.html")):
+        if page.name in ("genindex.html", "search.html"):
+            continue
+        parsed = _text(page.read_text(encoding="utf-8"))
+        text = "".join(parsed.parts)
+        notes += [f"{page.relative_to(site)}: {m.group(0)!r}" for m in INTERNAL.finditer(text)]
+        code = "".join(parsed.code)
+        private += [f"{page.relative_to(site)}: {m.group(0)!r}"
+                    for m in re.finditer(r"[\w\])]\._[a-z]\w*", code)]
+    assert not notes, "internal notes on the site:\n" + "\n".join(notes[:40])
+    assert not private, "private names in notebook code:\n" + "\n".join(private[:40])
+    assert (site / "notebooks" / "quickstart.html").is_file()
+
+
+def test_the_internal_note_patterns_catch_what_they_should():
+    """The patterns of the test above, on text that must be caught and text that must not."""
+    assert INTERNAL.search("beyond the paper; issue 14 item 5")
+    assert INTERNAL.search("see Issue #43")
+    assert not INTERNAL.search("the paper's Table 1, eq. 14, 5 items")
+    parsed = _text('<div class="cell_input"><pre>bound = model._sub_theta(k)</pre></div>'
+                   '<p>obj._name in prose</p>')
+    assert re.findall(r"[\w\])]\._[a-z]\w*", "".join(parsed.code)) == ["l._sub_theta"]
 
 
 def _chromium() -> str:
@@ -173,14 +298,131 @@ def _open(page: Path) -> tuple[str, list[str]]:
     return proc.stdout, console
 
 
-@pytest.mark.parametrize("page", ["index.html", "api/qdensity.models.density.html"])
+#: Console lines a page may log: the theme's informational notes ("[PST]: Changed to auto
+#: mode ...", console.log from its own script).
+THEME_LOG = re.compile(r':INFO:CONSOLE:\d+\] "\[PST\]: [^"]*", source: \S+/_static/scripts/'
+                       r'pydata-sphinx-theme\.js')
+
+
+def _mathjax_reachable(dom: str) -> bool:
+    """Whether the MathJax script the page loads (from its CDN) can be reached from here: on a
+    machine without network access (CI) the math is checked in the markup, not typeset."""
+    import socket
+
+    src = re.search(r'<script[^>]*src="(https://[^"]*mathjax[^"]*)"', dom)
+    assert src, "the page does not load MathJax"
+    try:
+        socket.create_connection((urlsplit(src.group(1)).hostname, 443), timeout=5).close()
+    except OSError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("page", ["index.html", "guide/models.html",
+                                  "api/qdensity.models.density.DensityQNN.html"])
 def test_a_page_renders_in_a_browser(site, page):
+    """Title, navigation, search, copy buttons on code, math, and no other console message."""
     dom, console = _open(site / page)
     title = re.search(r"<title>(.*?)</title>", dom, re.S)
     assert title and "qdensity" in title.group(1), title
-    assert 'class="sphinxsidebar' in dom  # navigation
-    assert re.search(r'<form[^>]*class="search', dom) and 'name="q"' in dom  # search box
-    assert 'href="guide/circuits.html"' in dom or 'href="../guide/circuits.html"' in dom
-    assert not console, "console messages:\n" + "\n".join(console)
+    assert 'class="bd-sidebar-primary' in dom  # navigation: the sidebar and the top bar
+    assert re.search(r'class="[^"]*\bnavbar-nav\b', dom)
+    assert re.search(r'<form[^>]*class="bd-search', dom) and 'name="q"' in dom  # search box
+    linked = {(site / page).parent.joinpath(href).resolve()
+              for href in re.findall(r'href="([^"#:]+)', dom)}
+    for section in ("getting-started", "guide/index", "notebooks", "api", "cli"):  # top bar
+        assert (site / f"{section}.html").resolve() in linked, section
+    if page != "index.html":  # sphinx-copybutton put its buttons on the code blocks
+        assert 'class="copybtn' in dom
+    others = [line for line in console if not THEME_LOG.search(line)]
+    assert not others, "console messages:\n" + "\n".join(others)
+    # the math: LaTeX in MathJax's markup, typeset by MathJax where its CDN can be reached
+    assert 'class="math' in dom and ("\\(" in dom or "\\[" in dom), "no math on the page"
+    if _mathjax_reachable(dom):
+        assert "<mjx-container" in dom, "MathJax did not typeset the math"
     if page.startswith("api/"):
         assert 'id="qdensity.models.density.DensityQNN"' in dom  # the class is documented
+
+
+def test_a_copy_button_copies_the_code_without_prompts_or_output(site, tmp_path):
+    """The copy button of a docstring example copies what a user would type: the lines of the
+    docstring's ``>>>``/``...`` prompts without the prompts, and none of the output lines
+    (the oracle: the docstring itself). Run in Chromium with the site's own copybutton.js and
+    its configuration (its text-filtering functions and arguments, read from the built
+    script), on a copy of the page that reports what the button would copy."""
+    import html as htmllib
+    import json
+
+    from qdensity.models.density import DensityQNN
+
+    page = site / "api" / "qdensity.models.density.DensityQNN.html"
+    script = (site / "_static" / "copybutton.js").read_text(encoding="utf-8")
+    arguments = re.search(r"return formatCopyText\(text, (.*?)\)\n", script).group(1)
+    exclude = re.search(r"let exclude = '([^']*)'", script).group(1)
+    # the button's own functions (declared inside copybutton.js's set-up function)
+    functions = script[script.index("function escapeRegExp"):script.index("var copyTargetText")]
+    probe = ('<script>' + functions + '{'
+             ' const pre = document.querySelector("div.highlight pre");'
+             ' const out = document.createElement("pre"); out.id = "copied";'
+             f" out.textContent = JSON.stringify(formatCopyText(filterText(pre, '{exclude}'),"
+             f" {arguments})); document.body.appendChild(out); }}</script>")
+    text = page.read_text(encoding="utf-8")
+    copy = tmp_path / page.name
+    copy.write_text(text.replace("<head>", f'<head><base href="{page.parent.as_uri()}/">', 1)
+                    .replace("</body>", probe + "</body>", 1), encoding="utf-8")
+    dom, _ = _open(copy)
+    copied = json.loads(htmllib.unescape(re.search(r'<pre id="copied"[^>]*>(.*?)</pre>', dom,
+                                                   re.S).group(1)))
+    lines = inspect.getdoc(DensityQNN).split("Examples\n--------\n")[1].splitlines()
+    typed = [line[4:] for line in lines if line.startswith((">>> ", "... "))]
+    assert copied.rstrip("\n") == "\n".join(typed), copied
+    assert not any(line.startswith(">>>") for line in copied.splitlines())
+
+
+def _help_options(command: tuple[str, ...] = ()) -> set[str]:
+    """Every ``--option`` in the help of ``qdensity COMMAND...`` and of its sub-commands, at
+    every depth (``qdensity results report --docs``)."""
+    import contextlib
+    import io
+
+    from qdensity.cli.main import _parser
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
+        _parser().parse_args([*command, "--help"])
+    text = out.getvalue()
+    found = set(re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", text))
+    sub = re.search(r"^ {2}\{([a-z0-9_,-]+)\}", text, re.M)  # the sub-commands' choices
+    for name in sub.group(1).split(",") if sub and len(command) < 3 else []:
+        found |= _help_options((*command, name))
+    return found
+
+
+def test_the_command_line_page_reads_as_typed(site):
+    """The command-line page, rendered in Chromium: its example command lines, read back from
+    the page's text, parse with qdensity's own parser (``qdensity demo --quick`` among them),
+    every ``--option`` it shows is one of the parser's, and no option's dashes were turned into
+    an en or em dash (a shell refuses ``qdensity demo –quick``)."""
+    import shlex
+
+    from qdensity.cli.main import _parser
+
+    dom, _ = _open(site / "cli.html")
+    text = "".join(_text(dom[dom.index("<article"):dom.index("</article>")]).parts)
+    assert not re.search(r"[\u2013\u2014][a-z]", text), "a dash became an en or em dash"
+    lines = [line.strip().removeprefix("examples:").strip() for line in text.splitlines()]
+    examples = [line for line in lines if line.startswith("qdensity ")
+                and "[" not in line and not re.search(r"\b[A-Z]{2,}\b", line)]
+    assert "qdensity demo --quick" in examples
+    assert len(examples) >= 10, examples
+    for line in examples:
+        argv = shlex.split(line, comments=True)
+        try:
+            _parser().parse_args(argv[1:])
+        except SystemExit as exc:  # a usage error (status 2)
+            raise AssertionError(f"{line!r} from the page does not parse "
+                                 f"(status {exc.code})") from None
+    shown = set(re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", text))
+    known = _help_options()
+    assert "--quick" in shown and "--qasm-version" in shown
+    assert shown <= known, f"options on the page the parser does not have: {shown - known}"

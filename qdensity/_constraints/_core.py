@@ -70,7 +70,7 @@ class Constraint:
         """Why ``value`` fails (empty when ``str(self)`` says it all)."""
         return ""
 
-    def example(self):  # pragma: no cover - abstract
+    def example(self) -> object:  # pragma: no cover - abstract
         raise NotImplementedError
 
     def violations(self) -> list:
@@ -91,7 +91,7 @@ class Unchecked(Constraint):
     def __str__(self) -> str:
         return f"anything here ({self.why})"
 
-    def example(self):
+    def example(self) -> object:
         return self._example
 
     def violations(self) -> list:
@@ -134,7 +134,7 @@ class Instance(Constraint):
             return self.what
         return f"{'an' if self.what[:1].lower() in 'aeiou' else 'a'} {self.what}"
 
-    def example(self):
+    def example(self) -> object:
         if self._example is not None:
             return self._example() if callable(self._example) else self._example
         for t in self.types:  # builtins only: constructing other classes has side effects
@@ -194,7 +194,7 @@ class Interval(Constraint):
         out = " ".join([noun, " and ".join(bounds)]).strip()
         return out + (f" ({self.why})" if self.why else "")
 
-    def example(self):
+    def example(self) -> int | float:
         if self.kind is int:
             lo = self.low if self.low is not None else 0
             lo = lo if self.closed in ("both", "left") else lo + 1
@@ -248,7 +248,7 @@ class Options(Constraint):
             return repr(self.options[0])
         return "one of " + ", ".join(repr(o) for o in self.options)
 
-    def example(self):
+    def example(self) -> object:
         return self.options[0]
 
     def violations(self) -> list:

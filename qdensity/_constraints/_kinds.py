@@ -7,6 +7,8 @@ import math
 import numbers
 import os
 import sys
+from collections.abc import Callable
+from typing import NoReturn
 
 import numpy as np
 
@@ -112,7 +114,7 @@ class Array(Constraint):
             if self.max_size is not None else [])
         return out + (" of " + " and ".join(limits) if limits else "")
 
-    def example(self):
+    def example(self) -> np.ndarray | int | float | bool:
         ndim = self.ndim[0] if self.ndim else 1
         shape = [2] * ndim
         if self.shape is not None:
@@ -161,7 +163,7 @@ class FilePath(Constraint):
         return {"file": "the path of an existing file", "dir": "the path of an existing folder",
                 None: "a file path"}[self.exists]
 
-    def example(self):
+    def example(self) -> str:
         return {"file": __file__, "dir": os.path.dirname(__file__),
                 None: os.path.join(os.path.dirname(__file__), "x")}[self.exists]
 
@@ -226,7 +228,7 @@ class Observable(Constraint):
     def __str__(self) -> str:
         return "a SparsePauliOp, a Pauli or a Pauli label such as 'ZI'"
 
-    def example(self):
+    def example(self) -> str:
         return "ZZ"
 
     def violations(self) -> list:
@@ -249,7 +251,7 @@ class EngineLike(Constraint):
     def __str__(self) -> str:
         return "an engine with run(jobs) (ExactEngine, SamplerEngine, AdjointEngine)"
 
-    def example(self):
+    def example(self) -> object:
         return _ExampleEngine()
 
     def violations(self) -> list:
@@ -277,7 +279,7 @@ class TargetLike(Constraint):
         return ("a HardwareTarget, a target name or snapshot path, a BackendV2 or a "
                 "qiskit.transpiler.Target (qdensity.hardware.targets.get_target)")
 
-    def example(self):
+    def example(self) -> str:
         return "all_to_all"
 
     def violations(self) -> list:
@@ -303,7 +305,7 @@ class Seed(Constraint):
     def __str__(self) -> str:
         return f"an int >= 0 and <= {self.high}, a numpy.random.Generator or None"
 
-    def example(self):
+    def example(self) -> int:
         return 7
 
     def violations(self) -> list:
@@ -322,7 +324,7 @@ class CallableC(Constraint):
     def __str__(self) -> str:
         return self.what
 
-    def example(self):
+    def example(self) -> Callable[..., object]:
         return np.asarray
 
     def violations(self) -> list:
@@ -370,7 +372,7 @@ class SequenceOf(Constraint):
                                      else " or more")
         return f"a list or tuple of {bound} items, each {self.item}"
 
-    def example(self):
+    def example(self) -> list:
         if self.min_len == 0:
             return []
         return [self.item.example()] * self.min_len
@@ -405,7 +407,7 @@ class TorchTensor(Constraint):
         dims = " or ".join(str(d) for d in self.ndim)
         return f"a {dims}-dimensional torch.Tensor"
 
-    def example(self):
+    def example(self) -> NoReturn:
         raise LookupError("no example for a torch tensor (torch is optional)")
 
     def violations(self) -> list:

@@ -85,8 +85,15 @@ def _angle(theta):
 class RBSGate(Gate):
     r"""Reconfigurable beam splitter ``RBS(theta) = exp(-i theta Q)`` (paper eq. 8).
 
-    A Givens rotation on the Hamming-weight-1 subspace of two qubits. On unary amplitudes of
-    qubits ``(i, j)``: ``y_i -> cos(theta) y_i - sin(theta) y_j``,
+    A Givens rotation on the Hamming-weight-1 subspace of two qubits:
+
+    .. math::
+
+        \mathrm{RBS}(\theta) = e^{-i \theta Q} = \begin{pmatrix} 1 & 0 & 0 & 0 \\
+        0 & \cos\theta & -\sin\theta & 0 \\ 0 & \sin\theta & \cos\theta & 0 \\
+        0 & 0 & 0 & 1 \end{pmatrix}, \qquad Q = \tfrac{1}{2}(Y \otimes X - X \otimes Y).
+
+    On unary amplitudes of qubits ``(i, j)``: ``y_i -> cos(theta) y_i - sin(theta) y_j``,
     ``y_j -> sin(theta) y_i + cos(theta) y_j``. Equal to ``XXPlusYYGate(2 theta, pi/2)``.
 
     Its definition uses two CZ gates (the minimum):

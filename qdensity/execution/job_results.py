@@ -75,7 +75,7 @@ class JobResult:
         return self._probabilities
 
     @property
-    def sample_size(self):
+    def sample_size(self) -> int | np.ndarray | None:
         """Shots behind a standard error: ``shots``, or ``effective_shots[:, None]`` of a
         corrected run (broadcasts against ``(rows, k)`` estimates)."""
         if self.weights is not None:

@@ -412,7 +412,8 @@ def _commuting_count(model, circ, params, k, method) -> int | None:
     X=[Array(ndim=(1, 2), max_size=MAX_DENSE_ENTRIES), None], grad=Instance(DensityGradient),
     upstream=Array(ndim=None),
 )
-def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray):
+def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Parameter gradients of a loss from ``dL/df`` (Prop. 1 plus the mixture's vjp).
 
     Parameters

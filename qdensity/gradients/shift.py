@@ -171,7 +171,8 @@ def expand_occurrences(
     parameters=[SequenceOf(Instance('qiskit.circuit:Parameter'), min_len=0), None],
     rbs_rule=Options(('four_term', 'two_term')),
 )
-def shift_rules(circuit: QuantumCircuit, parameters=None, *, rbs_rule: str = "four_term"):
+def shift_rules(circuit: QuantumCircuit, parameters=None, *, rbs_rule: str = "four_term"
+                ) -> list[tuple[Parameter, float, ShiftRule]]:
     """The shift rule of every occurrence of ``parameters`` in ``circuit``, in circuit order."""
     _, occ = expand_occurrences(circuit, parameters)
     return [(p, a, _rule_for(inst, circuit, rbs_rule)) for p, _, a, inst in occ]

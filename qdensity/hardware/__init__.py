@@ -41,4 +41,5 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.hardware.targets import HardwareTarget, get_target, known_targets
 
 
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)
+if not TYPE_CHECKING:  # type checkers see the imports above, not a catch-all lookup
+    __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)

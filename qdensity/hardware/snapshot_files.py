@@ -69,7 +69,7 @@ class SnapshotFileBackend(BackendV2):
         return self._target
 
     @property
-    def max_circuits(self):
+    def max_circuits(self) -> None:
         """No limit of its own."""
         return None
 

@@ -56,7 +56,7 @@ READOUTS = ("observable", "unary_probabilities", "unary_amplitudes")
     readout=Options(READOUTS), seed=Seed(),
 )
 class DensityQNN:
-    """A density quantum neural network (paper eq. 1 and 2).
+    r"""A density QNN, :math:`\rho = \sum_k \alpha_k U_k \rho(x) U_k^\dagger` (paper eq. 1 and 2).
 
     Parameters
     ----------
@@ -74,10 +74,10 @@ class DensityQNN:
         ``O`` for ``readout="observable"`` (default ``Z`` on qubit 0).
     readout : {"observable", "unary_probabilities", "unary_amplitudes"}
         Unary readouts need a unary encoding and Hamming-weight-preserving sub-unitaries;
-        probabilities are ``Tr(|e_j><e_j| rho)``; amplitudes mix the sub-unitaries' output
-        vectors ``sum_k alpha_k O_k x`` (the mixture-of-experts reading, Supp. H).
+        probabilities :math:`\operatorname{Tr}(|e_j\rangle\langle e_j| \rho)`; amplitudes mix
+        the sub-unitaries' outputs :math:`\sum_k \alpha_k O_k x` (mixture of experts, Supp. H).
     seed : int or Generator, optional
-        Initial angles uniform in ``[-pi, pi)`` (zeros when None).
+        Initial angles uniform in :math:`[-\pi, \pi)` (zeros when None).
 
     Attributes
     ----------

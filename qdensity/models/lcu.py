@@ -127,7 +127,7 @@ class LCUQNN:
         return self.density.num_subunitaries
 
     @property
-    def mixture(self):
+    def mixture(self) -> Mixture:
         return self.density.mixture
 
     @property

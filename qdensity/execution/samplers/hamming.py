@@ -306,7 +306,7 @@ class HammingWeightSampler(BaseSamplerV2):
         return self._default_shots
 
     @property
-    def seed(self):
+    def seed(self) -> int | np.random.Generator | None:
         """The seed given (int, Generator or None)."""
         return self._seed
 
