@@ -48,7 +48,7 @@ from qiskit_machine_learning.optimizers import ADAM
 from qdensity.circuits.ansatze import pyramid
 from qdensity.circuits.gates import RBSGate
 from qdensity.circuits.interop import standard_gates
-from qdensity.execution.sampler.hamming import HammingWeightSampler
+from qdensity.execution.samplers.hamming import HammingWeightSampler
 from qdensity.gradients.qiskit_ml import HammingShiftSamplerGradient
 
 

@@ -3,7 +3,7 @@
 qiskit-machine-learning's ``ParamShiftSamplerGradient`` re-expresses gates it has no rule for
 in its own shift-rule gates (RBS becomes ``rxx``, ``ryy``, ``h``, ...): its shifted circuits
 leave the Hamming-weight subspace, so
-:class:`~qdensity.execution.sampler.hamming.HammingWeightSampler` refuses them and
+:class:`~qdensity.execution.samplers.hamming.HammingWeightSampler` refuses them and
 ``SamplerQNN.backward`` fails. :class:`HammingShiftSamplerGradient` implements qiskit-ml's
 :class:`~qiskit_machine_learning.gradients.BaseSamplerGradient` (its ``_run`` hook) with
 qdensity's shift rules instead: the four-term rule of the paper (Supp. E, eq. 23) for every
@@ -96,7 +96,7 @@ def _outcomes(pub_result, rows: int) -> tuple[np.ndarray, int]:
 
 
 def _example_sampler() -> BaseSamplerV2:
-    from qdensity.execution.sampler.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.hamming import HammingWeightSampler
 
     return HammingWeightSampler(seed=0)
 
@@ -113,7 +113,7 @@ class HammingShiftSamplerGradient(BaseSamplerGradient):
     ``s = (pi/4, -pi/4, pi/2, -pi/2)``, ``c = (1, -1, -(sqrt 2 - 1)/2, (sqrt 2 - 1)/2)``).
     The shifted circuits are the circuit's own template at shifted angles: a
     Hamming-weight-preserving circuit stays one, and
-    :class:`~qdensity.execution.sampler.hamming.HammingWeightSampler` samples them exactly in
+    :class:`~qdensity.execution.samplers.hamming.HammingWeightSampler` samples them exactly in
     their subspace. All rows of all samples of one circuit go out as one PUB.
 
     Parameters
@@ -138,7 +138,7 @@ class HammingShiftSamplerGradient(BaseSamplerGradient):
     >>> from qiskit import QuantumCircuit
     >>> from qiskit.circuit import Parameter
     >>> from qdensity import RBSGate
-    >>> from qdensity.execution.sampler.hamming import HammingWeightSampler
+    >>> from qdensity.execution.samplers.hamming import HammingWeightSampler
     >>> from qdensity.gradients.qiskit_ml import HammingShiftSamplerGradient
     >>> qc = QuantumCircuit(2)
     >>> _ = qc.x(0)
