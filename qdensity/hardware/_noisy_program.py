@@ -348,7 +348,8 @@ def _apply_numpy(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: i
     moved = np.moveaxis(t, rows + cols, list(range(1, 2 * k + 1)))
     shape = moved.shape
     flat = moved.reshape(R, 4**k, -1)
-    out = np.einsum("...ij,rjk->rik", sup, flat)  # no BLAS threads on these small products
+    # einsum, not matmul: no BLAS threads on these small products
+    out = np.einsum("ij,rjk->rik" if sup.ndim == 2 else "rij,rjk->rik", sup, flat)
     back = np.moveaxis(out.reshape(shape), list(range(1, 2 * k + 1)), rows + cols)
     return np.ascontiguousarray(back).reshape(R, 2**a, 2**a)
 
