@@ -147,7 +147,8 @@ def test_same_seed_same_shots_and_each_call_fresh():
     first = a.run([(qc, values, 50)]).result()[0].data.meas.array
     assert np.array_equal(first, b.run([(qc, values, 50)]).result()[0].data.meas.array)
     assert not np.array_equal(first, a.run([(qc, values, 50)]).result()[0].data.meas.array)
-    pickle.loads(pickle.dumps(a))  # compiled programs (weak references) are not pickled
+    copy = pickle.loads(pickle.dumps(a))  # compiled programs (weak references) not pickled
+    copy.run([(qc, values, 5)]).result()
 
 
 def test_unsupported_circuits_are_refused_before_any_work():
