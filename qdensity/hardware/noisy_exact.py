@@ -24,7 +24,6 @@ Correctness oracle (``tests/hardware/test_noisy_exact.py``): the probabilities e
 
 from __future__ import annotations
 
-import threading
 import weakref
 
 import numpy as np
@@ -54,8 +53,8 @@ class ExactNoisySampler(BaseSamplerV2):
     noise_model : NoiseModel or None
         The noise of the (transpiled) circuits it samples.
     seed : int or None
-        Seeds the draws: the same seed and the same sequence of ``run`` calls give the same
-        shots; each call draws fresh ones.
+        Seeds the draws: the same seed and PUBs give the same shots (as a seeded Aer sampler;
+        None draws fresh ones every call).
     default_shots : int
 
     Examples
@@ -78,8 +77,6 @@ class ExactNoisySampler(BaseSamplerV2):
         self.tables = NoiseTables(noise_model)
         self._seed = seed
         self._default_shots = int(default_shots)
-        self._calls: dict = {}  # per seed: calls so far (shot groups run on their own threads)
-        self._lock = threading.Lock()
         self._programs: dict[int, tuple] = {}
 
     @property
@@ -105,12 +102,7 @@ class ExactNoisySampler(BaseSamplerV2):
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_programs"] = {}  # weak references do not pickle; compiled again on use
-        state["_lock"] = None
         return state
-
-    def __setstate__(self, state):
-        self.__dict__.update(state)
-        self._lock = threading.Lock()
 
     def run(self, pubs, *, shots: int | None = None) -> LocalJob:
         """Sample ``pubs``: a job whose result holds one ``SamplerPubResult`` per PUB."""
@@ -125,13 +117,9 @@ class ExactNoisySampler(BaseSamplerV2):
                                                 metadata={"version": 2}))
 
     def sample(self, pubs: list[SamplerPub], seed: int | None) -> list[SamplerPubResult]:
-        """One result per coerced PUB, drawn from ``seed`` and the number of calls with that
-        seed so far (each call draws fresh shots; a fresh sampler given the same calls repeats
-        them)."""
-        with self._lock:  # per seed, so concurrent groups (each its own seed) stay reproducible
-            call = self._calls.get(seed, 0)
-            self._calls[seed] = call + 1
-        root = np.random.SeedSequence(None if seed is None else [int(seed) % 2**63, call])
+        """One result per coerced PUB, its shots drawn from ``seed`` and the PUB's position:
+        the same seed and PUBs give the same shots, as a seeded Aer sampler's do."""
+        root = np.random.SeedSequence(None if seed is None else [int(seed) % 2**63, 0xE8AC7])
         return [self._one(pub, np.random.default_rng(child))
                 for pub, child in zip(pubs, root.spawn(len(pubs)), strict=True)]
 

@@ -140,13 +140,15 @@ def test_drawn_counts_follow_the_exact_distribution(device):
         assert stats.chisquare(obs, exp).pvalue > 1e-3
 
 
-def test_same_seed_same_shots_and_each_call_fresh():
+def test_same_seed_same_shots_another_seed_others():
     qc = _circuit()
     values = np.full((2, qc.num_parameters), 0.4)
     a, b = ExactNoisySampler(None, seed=5), ExactNoisySampler(None, seed=5)
     first = a.run([(qc, values, 50)]).result()[0].data.meas.array
     assert np.array_equal(first, b.run([(qc, values, 50)]).result()[0].data.meas.array)
-    assert not np.array_equal(first, a.run([(qc, values, 50)]).result()[0].data.meas.array)
+    assert np.array_equal(first, a.run([(qc, values, 50)]).result()[0].data.meas.array)
+    other = ExactNoisySampler(None, seed=6).run([(qc, values, 50)]).result()[0].data.meas.array
+    assert not np.array_equal(first, other)
     copy = pickle.loads(pickle.dumps(a))  # compiled programs (weak references) not pickled
     copy.run([(qc, values, 5)]).result()
 
