@@ -25,6 +25,7 @@ Correctness oracle (``tests/hardware/test_noisy_exact.py``): the probabilities e
 from __future__ import annotations
 
 import weakref
+import zlib
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -117,13 +118,13 @@ class ExactNoisySampler(BaseSamplerV2):
                                                 metadata={"version": 2}))
 
     def sample(self, pubs: list[SamplerPub], seed: int | None) -> list[SamplerPubResult]:
-        """One result per coerced PUB, its shots drawn from ``seed`` and the PUB's position:
-        the same seed and PUBs give the same shots, as a seeded Aer sampler's do."""
-        root = np.random.SeedSequence(None if seed is None else [int(seed) % 2**63, 0xE8AC7])
-        return [self._one(pub, np.random.default_rng(child))
-                for pub, child in zip(pubs, root.spawn(len(pubs)), strict=True)]
+        """One result per coerced PUB, its shots drawn from a stream of ``seed``, the PUB's
+        position, circuit name, shots and parameter values: the same seed and PUBs give the
+        same shots (as a seeded Aer sampler's), other parameter values independent ones (a
+        training step's shots are not the previous step's random numbers again)."""
+        return [self._one(pub, i, seed) for i, pub in enumerate(pubs)]
 
-    def _one(self, pub: SamplerPub, rng: np.random.Generator) -> SamplerPubResult:
+    def _one(self, pub: SamplerPub, position: int, seed: int | None) -> SamplerPubResult:
         prog = self.program(pub.circuit)
         shape = pub.parameter_values.shape
         rows = int(np.prod(shape)) if shape else 1
@@ -131,6 +132,10 @@ class ExactNoisySampler(BaseSamplerV2):
             bound = pub.parameter_values.as_array(prog.parameters).reshape(rows, -1)
         else:
             bound = np.zeros((rows, 0))
+        bound = np.ascontiguousarray(bound, dtype=float)
+        rng = np.random.default_rng(None if seed is None else [
+            int(seed) % 2**63, 0xE8AC7, position, pub.shots,
+            zlib.crc32(pub.circuit.name.encode()), zlib.crc32(bound.tobytes())])
         probs = exact_probabilities(prog, np.asarray(bound, dtype=float))
         cdf = np.cumsum(probs, axis=1)
         cdf[:, -1] = 1.0
