@@ -42,10 +42,13 @@ from qdensity.hardware._noisy_program import (
     supported,
 )
 from qdensity.hardware._sampler_jobs import LocalJob
+from qdensity.validation import MAX_SHOTS, Instance, Interval, validates
 
 __all__ = ["ExactNoisySampler", "ExactRoute", "NoiseTables", "supported",
            "exact_probabilities", "exact_from", "MAX_QUBITS"]
 
+@validates(noise_model=[Instance(NoiseModel), None], seed=[Interval(int, 0), None],
+           default_shots=Interval(int, 1, MAX_SHOTS))
 class ExactNoisySampler(BaseSamplerV2):
     """A ``BaseSamplerV2`` whose shots are draws from each row's exact noisy distribution.
 
@@ -72,9 +75,6 @@ class ExactNoisySampler(BaseSamplerV2):
 
     def __init__(self, noise_model: NoiseModel | None, seed: int | None = None,
                  default_shots: int = 1024):
-        if noise_model is not None and not isinstance(noise_model, NoiseModel):
-            raise TypeError(f"noise_model must be a NoiseModel or None, got "
-                            f"{type(noise_model).__name__}")
         self.tables = NoiseTables(noise_model)
         self._seed = seed
         self._default_shots = int(default_shots)
@@ -158,6 +158,7 @@ class ExactNoisySampler(BaseSamplerV2):
                                           "circuit_metadata": pub.circuit.metadata})
 
 
+@validates(num_active=Interval(int, 0))
 def exact_from(num_active: int) -> int:
     """Shots per row from which the exact distribution costs less than Aer (measured).
 

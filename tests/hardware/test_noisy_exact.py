@@ -169,6 +169,10 @@ def test_unsupported_circuits_are_refused_before_any_work():
             sampler.run([qc])
     with pytest.raises(TypeError, match="noise_model"):
         ExactNoisySampler("noise")
+    with pytest.raises((TypeError, ValueError), match="default_shots"):
+        ExactNoisySampler(None, default_shots=0)
+    with pytest.raises((TypeError, ValueError), match="num_active"):
+        exact_from(-1)
 
 
 def test_route_takes_only_few_qubit_noisy_pubs_above_the_crossover(device):
