@@ -4,24 +4,26 @@
 circuits (a unary loader and a round-robin sub-unitary, one PUB of ``rows`` parameter rows).
 
 Goal (issue "Hardware as objects", item 4): the automatic choice within 10% of the best fixed
-method on every cell, in CPU time of the process (Aer's threads included) per call, the fixed
-methods on one thread with ``--one-thread`` (their default, all threads, costs CPU on small
-states). Each sampler first runs a pilot (1 row; at most 32 shots for trajectories, the cell's
-shots for the density matrix) twice: the first builds its simulators (``setup`` column: the auto
-sampler's first pilot less its second), the second predicts the cell's time (by rows x shots for
-trajectories, by rows for the density matrix). A sampler predicted over ``--max-seconds`` for
-``--repeat`` calls is not run (``>N``: the prediction in seconds per call; a ratio that uses a
-prediction is marked ``~``). The others are called in turn, round after round, each round
-starting one sampler later than the one before (so a change of the machine's load, or a cache
-another sampler left cold, falls on all of them alike), for ``--repeat`` rounds; then auto and
-the fixed methods within 1.5x of the best one go on until their calls took ``--min-seconds`` in
-all. The minimum over a sampler's calls is reported (what the call costs, less what other
-processes took from it). ``auto/plain`` is given in CPU and in wall time (plain Aer uses all
-threads). The device's noise model is built and serialised before any timing. OpenMP threads
-wait passively (``OMP_WAIT_POLICY=PASSIVE`` unless set): by default a threaded call's threads
-spin for a while after it returns, and the process CPU clock charged that to the next call
-(measured: the auto sampler's 7 ms density-matrix call after plain Aer's threaded one read 11
-ms). The machine may be shared: the load average is printed per cell.
+method on every cell (issue 44, item 3: at least as cheap, 1x, now that few-qubit PUBs from
+``exact_from(a)`` shots are drawn from their exact noisy distributions: method ``exact``,
+:mod:`qdensity.hardware.noisy_exact`), in CPU time of the process (Aer's threads included) per
+call, the fixed methods on one thread with ``--one-thread`` (their default, all threads, costs
+CPU on small states). Each sampler first runs a pilot (1 row; at most 32 shots for
+trajectories, the cell's shots for the density matrix) twice: the first builds its simulators
+(``setup`` column: the auto sampler's first pilot less its second), the second predicts the
+cell's time (by rows x shots for trajectories, by rows for the density matrix). A sampler
+predicted over ``--max-seconds`` for ``--repeat`` calls is not run (``>N``: the prediction in
+seconds per call; a ratio that uses a prediction is marked ``~``). The others are called in
+turn, round after round, each round starting one sampler later than the one before (so a change
+of the machine's load, or a cache another sampler left cold, falls on all of them alike), for
+``--repeat`` rounds; then auto and the fixed methods within 1.5x of the best one go on until
+their calls took ``--min-seconds`` in all. The minimum over a sampler's calls is reported (what
+the call costs, less what other processes took from it). ``auto/plain`` is given in CPU and in
+wall time (plain Aer uses all threads). The device's noise model is built and serialised before
+any timing. OpenMP threads wait passively (``OMP_WAIT_POLICY=PASSIVE`` unless set): by default
+a threaded call's threads spin for a while after it returns, and the process CPU clock charged
+that to the next call (measured: the auto sampler's 7 ms density-matrix call after plain Aer's
+threaded one read 11 ms). The machine may be shared: the load average is printed per cell.
 
     python benchmarks/bench_noisy.py [--n 4 6 8 10 12] [--rows 1 16] [--shots 16 256 4000]
                                      [--targets heavy_hex fake_kolkata] [--repeat 3]
@@ -45,6 +47,7 @@ from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.loaders import unary_loader_template
 from qdensity.execution.plans import measured
 from qdensity.hardware.aer_sampling import DENSITY_MATRIX_MAX_QUBITS, active_qubits
+from qdensity.hardware.noisy_exact import MAX_QUBITS, NoiseTables, exact_from, supported
 from qdensity.hardware.targets import get_target
 
 FIXED = ("statevector", "density_matrix", "matrix_product_state")
@@ -82,6 +85,10 @@ def _measure(target, compiled, n, rows, shots, a):
     """{sampler: (min CPU s or None, min wall s or None, predicted s, set-up s)}, auto's options."""
     values = np.random.default_rng(rows).uniform(-np.pi, np.pi, (rows, compiled.num_parameters))
     chosen = target.sampler(seed=3).choose(compiled, shots, rows)
+    a_n = active_qubits(compiled)
+    if (target.is_noisy and a_n <= MAX_QUBITS and shots >= exact_from(a_n)
+            and supported(compiled, NoiseTables(target.noise_model))):
+        chosen = {"method": "exact", "max_parallel_threads": 1}  # noisy_exact takes the PUB
     makers = {"auto": (lambda: target.sampler(seed=3), chosen["method"])}
     for m in a.methods:
         if m == "density_matrix" and n > DENSITY_MATRIX_MAX_QUBITS:

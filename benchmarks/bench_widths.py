@@ -21,12 +21,13 @@ symmetric readout error (``--readout``), which the sampler applies to the drawn 
 Goals (issue "Fast by default"): n = 32 under 2 s CPU, n = 128 under 15 s, n = 256 under 60 s,
 each under 1 GB; n = 1024 reported; also with a readout-noisy target.
 
-``--jacobian sparse`` (the default here) asks ``density_gradient_plan(..., jacobian="sparse")``
-for the Jacobians and their errors: ``scipy.sparse.csr_array`` ``(B * n, P_k)``, built from the
-estimated entries alone. A unary output of a round-robin moment depends on one parameter, so
-the dense ``(B, n, P_k)`` layout is almost all zeros: 2.1 GB of the 3.8 GB peak at n = 256 (16
-rows), 137 GB at n = 1024. At these widths the sparse layout is the one to ask for;
-``--jacobian dense`` measures the default layout of the library.
+``--jacobian auto`` (the default here) calls ``density_gradient_plan(model, X, method=
+"commuting", shots=...)`` with no layout argument, as a user does: the plan keeps dense
+Jacobians while they would hold at most 64 MiB and builds ``scipy.sparse.csr_array``
+``(B * n, P_k)`` from the estimated entries alone above that (from n = 128 here). A unary output
+of a round-robin moment depends on one parameter, so the dense ``(B, n, P_k)`` layout is almost
+all zeros: 2.1 GB of a 3.8 GB peak at n = 256 (16 rows), 137 GB at n = 1024.
+``--jacobian dense`` / ``sparse`` force a layout.
 
 ``--sampler-only`` skips the gradient plan and its post-processing: it builds the plan's kind
 of templates directly (loader + sub-unitary, and the same with an RBS(pi/4) layer on the
@@ -35,7 +36,7 @@ alone, to measure the sampler at widths where the plan takes long to build.
 
     python benchmarks/bench_widths.py [--widths 32 128 256 1024] [--noisy-widths 32 256]
                                       [--readout 0.02] [--hamming auto] [--sampler-only]
-                                      [--jacobian sparse]
+                                      [--jacobian auto]
                                       [--timeout 1800]
 """
 
@@ -81,7 +82,7 @@ def _subs(n: int, sub: int, direct: bool) -> list:
 
 
 def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
-          direct: bool = False, jacobian: str = "sparse") -> dict:
+          direct: bool = False, jacobian: str = "auto") -> dict:
     import numpy as np
 
     from qdensity import DensityQNN, Encoding, SamplerEngine
@@ -91,7 +92,8 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
     subs = _subs(n, sub, direct)
     model = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
     X = np.random.default_rng(1).normal(size=(rows, n))
-    plan = density_gradient_plan(model, X, method="commuting", shots=shots, jacobian=jacobian)
+    layout = {} if jacobian == "auto" else {"jacobian": jacobian}  # auto: the plain call
+    plan = density_gradient_plan(model, X, method="commuting", shots=shots, **layout)
     t1 = time.process_time()
     target = _readout_target(n, readout) if readout else None
     engine = SamplerEngine(target=target, seed=0, progress=False, hamming_weight=hamming)
@@ -204,8 +206,9 @@ def main() -> None:
                     help="build each round-robin moment as its own circuit (the same pairs) "
                          "instead of by_moments(round_robin(n)); with --sub, widths whose "
                          "whole circuit does not fit in memory (n = 1024)")
-    ap.add_argument("--jacobian", default="sparse", choices=["sparse", "dense"],
-                    help="density_gradient_plan(jacobian=...): the Jacobians' layout")
+    ap.add_argument("--jacobian", default="auto", choices=["auto", "sparse", "dense"],
+                    help="density_gradient_plan(jacobian=...): the Jacobians' layout (auto: "
+                         "no argument, the library's default)")
     ap.add_argument("--child", nargs=2, metavar=("N", "READOUT"))
     a = ap.parse_args()
     if a.child:

@@ -40,3 +40,14 @@ def test_tiny_demo_invariants(tmp_path):
 def test_bad_settings_are_named(setting, value, tmp_path):
     with pytest.raises(ValueError, match=setting):
         run_demo(DemoConfig.quick(**{setting: value}), output_dir=tmp_path, verbose=False)
+
+
+def test_quick_says_it_is_only_a_smoke_test(tmp_path, capsys):
+    run_demo(DemoConfig.quick(budget=1000, curve_points=2), output_dir=tmp_path, plot=False)
+    out = capsys.readouterr().out
+    assert out.count("smoke test") == 2 and "not expected to learn" in out
+    from qdensity.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    assert "smoke test of the install" in " ".join(capsys.readouterr().out.split())

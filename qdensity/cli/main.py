@@ -385,7 +385,9 @@ def _demo_options(d: argparse.ArgumentParser, shots) -> None:
                    help="seed of the data split, the models, the device's errors and the shots")
     correction_options(d, target_help())
     d.add_argument("--no-plot", action="store_true", help="do not write qdensity-demo.png")
-    d.add_argument("--quick", action="store_true", help="4 qubits, 3 classes, small budget")
+    d.add_argument("--quick", action="store_true",
+                   help="a smoke test of the install only (4 qubits, 3 classes, small budget: "
+                        "the models are not expected to learn)")
     d.add_argument("--json", action="store_true",
                    help="print JSON instead of text: per model accuracy, ceiling, "
                         "fraction_of_ceiling, circuits, shots, steps, gradient_method, seconds, "

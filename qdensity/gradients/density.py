@@ -83,8 +83,8 @@ class DensityGradient:
     outputs : numpy.ndarray, shape (B, K, m)
         ``f_k`` per data row (m = 1 for an observable, n for unary probabilities).
     jacobians : list of numpy.ndarray, each (B, m, P_k), or of scipy.sparse.csr_array
-        ``d f_k / d theta_k`` in sub-unitary k's parameter order. With
-        ``density_gradient_plan(..., jacobian="sparse")`` each is a ``csr_array`` of shape
+        ``d f_k / d theta_k`` in sub-unitary k's parameter order. In the sparse layout
+        (``density_gradient_plan``'s ``jacobian``) each is a ``csr_array`` of shape
         ``(B * m, P_k)``, row ``b * m + j`` = output ``j`` of data row ``b`` (the dense array
         reshaped; entries left out are exactly zero).
     output_errors, jacobian_errors : standard errors, same shapes and layout (zeros when
@@ -297,7 +297,7 @@ def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
     jacobian=Options(_sparse.JACOBIAN_LAYOUTS),
 )
 def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | None = None,
-                          forward: bool = True, jacobian: str = "dense") -> Plan:
+                          forward: bool = True, jacobian: str = "auto") -> Plan:
     """Plan for the outputs and Jacobians of every sub-unitary (Cor. 1 / Prop. 1).
 
     Parameters
@@ -309,12 +309,11 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         Shots per circuit row; exact when None.
     forward : bool
         Include the forward circuits (``f_k``, needed for ``d f / d alpha``).
-    jacobian : {"dense", "sparse"}
+    jacobian : {"auto", "dense", "sparse"}
         :attr:`DensityGradient.jacobians` and ``jacobian_errors`` as dense ``(B, m, P_k)``
         arrays or ``scipy.sparse.csr_array`` ``(B * m, P_k)`` (:mod:`~qdensity.gradients.
-        _sparse`), built sparse: unary outputs of RBS moments depend on one parameter each
-        (dense: 2.1 GB over the round-robin model at ``n = 256``). :func:`chain_rule` takes
-        either.
+        _sparse`) (round-robin moments at ``n = 256``: 2.1 GB dense). ``"auto"``: dense up to
+        64 MiB (``16 B m sum_k P_k`` bytes), sparse above, as ``plan.meta["jacobian"]`` says.
 
     Returns
     -------
@@ -329,6 +328,8 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     enc_key = (None if model.encoding is None  # V(x)'s structure, fingerprinted once
                else circuit_fingerprint(model.encoding.circuit))
+    m = 1 if model.readout == "observable" else model.num_qubits
+    total_p = sum(len(model.subunitary_parameter_indices(k)) for k in range(K))  # sum_k P_k
     with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
             circ, params = _circuit_of(model, k)
@@ -336,9 +337,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
             rows = model_rows(model, k, X, None, circ, encoded)
             if k == 0:
                 B = rows.shape[0]
+                layout = _sparse.choose_layout(jacobian, B, m, total_p)
             jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
                                             _fingerprint_of(model, k, enc_key),
-                                            jacobian == "sparse"))
+                                            layout == "sparse"))
             if forward:
                 # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
                 # analysis only read it and its circuits are copies, so it becomes the forward
@@ -348,10 +350,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                                                owned=same))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
-    post = partial(_density_post, combined, K, B, jacobian == "sparse")
+    post = partial(_density_post, combined, K, B, layout == "sparse")
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
     return Plan(combined.jobs, post, "density gradient",
-                {"gradient_circuits": per_point,
+                {"gradient_circuits": per_point, "jacobian": layout,
                  "methods": [p.meta.get("method") for p in jac_plans]})
 
 

@@ -31,6 +31,7 @@ from qdensity.hardware.aer_sampling import (
     check_memory,
     mps_bond_bound,
 )
+from qdensity.hardware.noisy_exact import ExactRoute
 
 __all__ = ["AdaptiveSampler", "AerSampler", "NoiselessSimulators", "derived_seed",
            "sampler_method"]
@@ -138,6 +139,8 @@ class AdaptiveSampler(BaseSamplerV2):
         self._default_shots = int(default_shots)
         self._overrides = dict(options or {})
         self._simulators: dict = {}
+        # exact noisy distributions for few-qubit PUBs (qdensity.hardware.noisy_exact)
+        self._exact = ExactRoute(make_simulator, self._noisy)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -164,6 +167,7 @@ class AdaptiveSampler(BaseSamplerV2):
         out = AdaptiveSampler(self._make_simulator, self._noisy, seed, self._default_shots,
                               self._overrides)
         out._simulators = self._simulators
+        out._exact = self._exact  # noisy_exact: one compiled program per template
         return out
 
     def choose(self, circuit: QuantumCircuit, shots: int, rows: int = 1) -> dict:
@@ -209,9 +213,12 @@ class AdaptiveSampler(BaseSamplerV2):
 
     def _run(self, pubs: list[SamplerPub]) -> PrimitiveResult:
         out: list = [None] * len(pubs)
+        exact = self._exact.take(pubs, out, self._seed, self._overrides)  # noisy_exact
         for shots, members in _by_shots(pubs).items():
             groups: dict = {}
             for i in members:
+                if i in exact:  # noisy_exact: drawn from the exact distribution
+                    continue
                 opts = self.choose(pubs[i].circuit, shots, max(pubs[i].parameter_values.size, 1))
                 groups.setdefault(tuple(sorted(opts.items())), (opts, []))[1].append(i)
             for g, (opts, idx) in enumerate(groups.values()):

@@ -25,7 +25,7 @@ TOL = 1e-11
 
 @pytest.fixture(autouse=True, params=["numba", "numpy"])
 def backend(request, monkeypatch):
-    """Every oracle test runs on the compiled gate loop (the fast extra) and on the numpy /
+    """Every oracle test runs on the compiled gate loop (numba, core) and on the numpy /
     scipy layer kernels (the path without numba, as ``QDENSITY_NUMBA=0`` gives it)."""
     if request.param == "numba" and not _numba.available():
         assert os.environ.get("QDENSITY_NUMBA", "1") == "0", "numba is a core dependency"

@@ -165,3 +165,40 @@ def test_the_sum_table_of_unary_outputs_is_every_output_table_in_order():
     assert stack.entry_value.size == np.count_nonzero(total.coefficients)
     assert stack.support.shape == (total.z.shape[0], 2)
     assert len(grads) == model.num_qubits
+
+
+def test_auto_layout_is_dense_when_small_and_sparse_when_large(monkeypatch):
+    """No ``jacobian`` argument: dense ``(B, m, P_k)`` arrays while ``16 B m sum_k P_k`` bytes
+    fit under the limit, the sparse layout (the same entries) above it. The limit is lowered
+    here so that a 6-qubit model crosses it: 3 rows x 6 outputs x 15 parameters x 16 bytes =
+    4,320 bytes."""
+    from qdensity.gradients import _sparse
+
+    model = _model()
+    X = RNG.normal(size=(3, N))
+    dense = density_gradient_plan(model, X, method="commuting", jacobian="dense").run(
+        ExactEngine())
+    small = density_gradient_plan(model, X, method="commuting")
+    assert small.meta["jacobian"] == "dense"
+    got = small.run(ExactEngine())
+    for d, a in zip(dense.jacobians, got.jacobians, strict=True):
+        assert isinstance(a, np.ndarray)
+        np.testing.assert_array_equal(a, d)
+    monkeypatch.setattr(_sparse, "DENSE_LIMIT_BYTES", 3 * N * 15 * 16 - 1)
+    large = density_gradient_plan(model, X, method="commuting")
+    assert large.meta["jacobian"] == "sparse"
+    _assert_same(dense, large.run(ExactEngine()))
+    monkeypatch.setattr(_sparse, "DENSE_LIMIT_BYTES", 3 * N * 15 * 16)
+    assert density_gradient_plan(model, X, method="commuting").meta["jacobian"] == "dense"
+
+
+@pytest.mark.parametrize("n,expected", [(64, "dense"), (256, "sparse"), (1024, "sparse")])
+def test_auto_layout_of_the_round_robin_model_by_width(n, expected):
+    """The round-robin model by moments, 16 rows: ``n - 1`` moments of ``n / 2`` parameters,
+    ``n`` unary outputs; dense Jacobians and errors hold ``16 * 16 * n * n (n - 1) / 2`` bytes
+    (33 MB at n = 64; 2.1 GB at n = 256)."""
+    from qdensity.gradients._sparse import choose_layout
+
+    assert choose_layout("auto", 16, n, n * (n - 1) // 2) == expected
+    assert choose_layout("dense", 16, n, n * (n - 1) // 2) == "dense"
+    assert choose_layout("sparse", 1, 1, 1) == "sparse"

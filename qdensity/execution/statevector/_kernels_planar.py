@@ -12,13 +12,15 @@ Z bit outside X lies below it (``rzx``-like strings, taken one amplitude at a ti
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from qdensity.execution._numba import jit
 
 #: Blocks shorter than this go by index (a slice costs more than it saves there).
 VEC = 8
 
 
-@njit(cache=True, inline="always")
+@jit(inline="always")
 def _insert(t, pos, npos):
     for i in range(npos):
         p = pos[i]
@@ -26,7 +28,7 @@ def _insert(t, pos, npos):
     return t
 
 
-@njit(cache=True, inline="always")
+@jit(inline="always")
 def _sign(v):
     v ^= v >> 32
     v ^= v >> 16
@@ -37,7 +39,7 @@ def _sign(v):
     return 1.0 - 2.0 * (v & 1)
 
 
-@njit(cache=True, inline="always")
+@jit(inline="always")
 def _blocks(n, pos, npos):
     """Positions with zeros at the sorted ``pos`` as ``outer`` blocks of ``low`` contiguous
     amplitudes; block starts enumerate the submasks of ``free`` in order."""
@@ -50,7 +52,7 @@ def _blocks(n, pos, npos):
     return low, free, (1 << (n - npos)) >> p0
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _scale(re, im, s, e, fr, fi):
     """``psi[s:e] *= fr + i fi``."""
     if e - s >= VEC:
@@ -63,7 +65,7 @@ def _scale(re, im, s, e, fr, fi):
         im[t] = fr * i + fi * r
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _scale_v(re, im, fr, fi):
     for t in range(re.shape[0]):
         r = re[t]
@@ -72,7 +74,7 @@ def _scale_v(re, im, fr, fi):
         im[t] = fr * i + fi * r
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _rot(re, im, s, j, low, c, mkr, mki, mjr, mji):
     """``(a, b) <- (c a + mk b, c b + mj a)`` for ``a = psi[s + t]``, ``b = psi[j + t]``.
     (Slices, so that the loop over separate blocks vectorises; short blocks go by index.)"""
@@ -90,7 +92,7 @@ def _rot(re, im, s, j, low, c, mkr, mki, mjr, mji):
     _rot_v(re[s:s + low], im[s:s + low], re[j:j + low], im[j:j + low], c, mkr, mki, mjr, mji)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _rot_v(Ar, Ai, Br, Bi, c, mkr, mki, mjr, mji):
     for t in range(Ar.shape[0]):
         ar = Ar[t]
@@ -103,7 +105,7 @@ def _rot_v(Ar, Ai, Br, Bi, c, mkr, mki, mjr, mji):
         Bi[t] = c * bi + mjr * ai + mji * ar
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def apply(re, im, n, x, z, cm, pos, npos, c, mr, mi):
     """``psi_k <- c psi_k + m s_k psi_{k^x}`` on the controlled positions, ``m = mr + i mi``
     and ``s_k = (-1)^{|k & z|}`` (in place)."""
@@ -140,7 +142,7 @@ def apply(re, im, n, x, z, cm, pos, npos, c, mr, mi):
         k = (k - free) & free
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def dense(re, im, n, pos, npos, offs, mat, buf):
     """A fixed gate's matrix on the ``2**npos`` amplitudes at ``base + offs``."""
     d = 1 << npos
@@ -156,7 +158,7 @@ def dense(re, im, n, pos, npos, offs, mat, buf):
             im[base + offs[a]] = s.imag
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def permute(re, im, n, row, br, bi):
     """A permutation of the bits (:func:`._layout.tile`) in place, one tile at
     a time through the small buffers ``br``, ``bi``: ``row`` holds the mask of the bits that
@@ -180,7 +182,7 @@ def permute(re, im, n, row, br, bi):
         k = (k - free) & free
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _back_v(Ur, Ui, Vr, Vi, Ar, Ai, Br, Bi, c, mr, mi, s, sj, phi_too):
     """One block pair of the backward sweep in one loop: returns
     ``sum_t s conj(u_t) b_t + sj conj(v_t) a_t`` (lam = (u, v), phi = (a, b) as they come) and
@@ -214,7 +216,7 @@ def _back_v(Ur, Ui, Vr, Vi, Ar, Ai, Br, Bi, c, mr, mi, s, sj, phi_too):
     return sr, si
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@jit(fastmath=True, inline="always")
 def _diag_v(Ur, Ui, Ar, Ai, fr, fi, phi_too):
     """``sum_t conj(u_t) a_t`` as they come, then ``u *= f`` (and ``a *= f`` when ``phi_too``),
     ``f = fr + i fi``, in one loop."""
@@ -235,7 +237,7 @@ def _diag_v(Ur, Ui, Ar, Ai, fr, fi, phi_too):
     return sr, si
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _step_back_pairs(pr, pi, lr, li, x, z, cm, low, free, outer, sxz, c, mr, mi, want, accr,
                      acci):
     M = lr.shape[0]
@@ -286,7 +288,7 @@ def _step_back_pairs(pr, pi, lr, li, x, z, cm, low, free, outer, sxz, c, mr, mi,
         k = (k - free) & free
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _step_back_diag(pr, pi, lr, li, z, h, cm, low, free, outer, c, mr, mi, want, accr, acci):
     """Short blocks of a diagonal string (or a phase, ``h = 0``): one amplitude at a time."""
     M = lr.shape[0]
@@ -322,7 +324,7 @@ def _step_back_diag(pr, pi, lr, li, z, h, cm, low, free, outer, c, mr, mi, want,
             acci[mm] += si
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acci):
     """Accumulate ``sum_k conj(lam_k) s_k phi_{k^x}`` over the controlled positions per
     observable into ``acc`` (when ``want``), then apply ``c + m s P`` to ``phi`` and every
@@ -374,7 +376,7 @@ def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acc
         k = (k - free) & free
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
                  offs, mat, inv, ptab, buf):
     re[:] = 0.0
@@ -397,7 +399,7 @@ def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, r
                   m.imag)
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@jit(parallel=True, fastmath=True)
 def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
                  offs, mat, inv, ptab):
     for r in prange(re.shape[0]):
@@ -406,7 +408,7 @@ def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, r
                      rot, pos, npos, offs, mat, inv, ptab, buf)
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def forward_serial(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
                    npos, offs, mat, inv, ptab):
     buf = np.empty(offs.shape[1], dtype=np.complex128)
@@ -415,7 +417,7 @@ def forward_serial(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale,
                      rot, pos, npos, offs, mat, inv, ptab, buf)
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmask, zmask,
                   cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab, buf, accr, acci):
     M = lr.shape[0]
@@ -446,7 +448,7 @@ def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmas
                     dtheta[r, mm, g] = 2.0 * scale[i] * (phase[i] * acc).imag
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@jit(parallel=True, fastmath=True)
 def backward_rows(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                   phase, scale, rot, pos, npos, offs, mat, inv, ptab):
     for r in prange(pr.shape[0]):
@@ -458,7 +460,7 @@ def backward_rows(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, 
                       buf, accr, acci)
 
 
-@njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def backward_serial(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                     phase, scale, rot, pos, npos, offs, mat, inv, ptab):
     buf = np.empty(offs.shape[1], dtype=np.complex128)

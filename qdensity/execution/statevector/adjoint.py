@@ -126,11 +126,11 @@ class AdjointEngine:
     memory_budget : int
         Bytes of working state per chunk of rows (default 256 MiB).
     backend : {"auto", "numba", "numpy"}
-        ``"auto"``: the compiled kernels of :mod:`._kernels` when numba is
-        installed (the ``fast`` extra) and ``QDENSITY_NUMBA`` is not ``0``, else numpy
-        gathers. Both give the same numbers to rounding. ``"torch"``: the same sweep on torch
-        tensors on ``device`` (the optional ``torch`` extra); values given as a tensor give
-        tensors on ``device``, numpy values give numpy results.
+        ``"auto"``: the compiled kernels of :mod:`._kernels` (numba, a core
+        dependency) unless ``QDENSITY_NUMBA=0`` switched them off, then numpy gathers.
+        Both give the same numbers to rounding. ``"torch"``: the same sweep on torch tensors
+        on ``device`` (the optional ``torch`` extra); values given as a tensor give tensors
+        on ``device``, numpy values give numpy results.
     device : str, int or torch.device, optional
         With ``backend="torch"``: ``"cpu"`` (default) or a visible ``"cuda"`` device; a state
         that would not fit in its free memory is refused before allocation.
@@ -159,8 +159,8 @@ class AdjointEngine:
                  backend: str = "auto", device=None, dtype=None):
         self.max_qubits, self.memory_budget = int(max_qubits), int(memory_budget)
         if backend == "numba" and not _numba.available():
-            raise ValueError("backend='numba' needs numba (pip install 'qdensity[fast]') and "
-                             "QDENSITY_NUMBA unset or 1")
+            raise ValueError("backend='numba' needs numba (a core dependency: reinstall "
+                             "qdensity) and QDENSITY_NUMBA unset or 1")
         self.backend = backend
         self.device = self.dtype = None
         if backend == "torch":

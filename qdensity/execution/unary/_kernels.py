@@ -24,9 +24,9 @@ def available() -> bool:
 
 
 if _numba.available():
-    from numba import njit
+    jit = _numba.jit
 
-    @njit(cache=True)
+    @jit()
     def _shared(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):
@@ -40,7 +40,7 @@ if _numba.available():
                 zi[b] = c * a - s * d
                 zj[b] = s * a + c * d
 
-    @njit(cache=True)
+    @jit()
     def _per_column(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):

@@ -1,0 +1,453 @@
+"""The exact noisy distribution of a circuit: the compiled program behind
+:mod:`qdensity.hardware.noisy_exact` (see there for what it computes and why).
+
+Blocks of gates on at most two qubits, each gate followed by its error, are fused into one
+superoperator ``S`` acting on ``rho`` flattened as ``rho[l, m] -> l * d + m`` (``l``, ``m``
+local indices, Qiskit's little-endian order on the block's qubits); a unitary contributes
+``U (x) conj(U)``, an error ``sum_K K (x) conj(K)`` of its Kraus operators. The compiled kernel
+applying a block to every row is numba's (core; ``QDENSITY_NUMBA=0`` switches it off here as in
+the engines, and numpy then computes the same numbers).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from qiskit.circuit import ParameterExpression, QuantumCircuit
+from qiskit.quantum_info import Kraus
+from qiskit_aer.noise import NoiseModel, QuantumError
+
+__all__ = ["MAX_QUBITS", "NoiseTables", "supported", "exact_probabilities", "Program",
+           "active_count"]
+
+try:  # the engines' switch (qdensity.execution._numba sits above this layer)
+    if os.environ.get("QDENSITY_NUMBA", "1").strip().lower() in ("0", "false", "no", "off"):
+        raise ImportError("disabled by QDENSITY_NUMBA")
+    import numba
+except ImportError:  # pragma: no cover - exercised with QDENSITY_NUMBA=0
+    numba = None  # type: ignore[assignment]
+
+
+def _jit(func):
+    """``numba.njit`` with the disk cache where numba can write one (a read-only install
+    without a writable cache folder compiles in memory; ``QDENSITY_NUMBA_CACHE=0``: no cache)."""
+    if os.environ.get("QDENSITY_NUMBA_CACHE", "1").strip().lower() not in ("0", "false", "no",
+                                                                          "off"):
+        try:
+            return numba.njit(cache=True)(func)
+        except RuntimeError:
+            pass
+    return numba.njit(func)
+
+
+#: Widest circuit (active qubits) simulated here: a density matrix of ``16 * 4**a`` bytes a row.
+MAX_QUBITS = 10
+
+_SKIP = frozenset({"barrier"})
+_REFUSED = frozenset({"reset", "delay", "initialize", "if_else", "while_loop", "for_loop",
+                      "switch_case", "box", "store"})
+
+
+class NoiseTables:
+    """The errors of a ``NoiseModel`` as Kraus superoperators, read once.
+
+    Parameters
+    ----------
+    noise_model : NoiseModel or None
+        None: noiseless.
+
+    Attributes
+    ----------
+    ok : bool
+        False when the model holds an error this module does not apply (see module).
+    """
+
+    def __init__(self, noise_model: NoiseModel | None):
+        self.local: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
+        self.all_qubit: dict[str, np.ndarray] = {}
+        self.readout: dict[int, np.ndarray] = {}
+        self.readout_all: np.ndarray | None = None
+        self.ok = True
+        if noise_model is None:
+            return
+        made: dict[int, np.ndarray] = {}
+        for e in noise_model.to_dict()["errors"]:
+            kind = e.get("type")
+            if kind == "qerror":
+                key = id(e["instructions"])
+                if key not in made:
+                    made[key] = _superop_of(QuantumError.from_dict(e))
+                sup = made[key]
+                for op in e["operations"]:
+                    if "gate_qubits" in e:
+                        for g in e["gate_qubits"]:
+                            k = (op, tuple(int(q) for q in g))
+                            self.local[k] = sup if k not in self.local else sup @ self.local[k]
+                    else:
+                        self.all_qubit[op] = (sup if op not in self.all_qubit
+                                              else sup @ self.all_qubit[op])
+            elif kind == "roerror":
+                probs = np.asarray(e["probabilities"], dtype=float)
+                if probs.shape != (2, 2):
+                    self.ok = False  # correlated readout: left to Aer
+                    return
+                if "gate_qubits" in e:
+                    for g in e["gate_qubits"]:
+                        self.readout[int(g[0])] = probs
+                else:
+                    self.readout_all = probs
+            else:
+                self.ok = False
+                return
+
+    def error(self, name: str, qubits: tuple[int, ...]) -> np.ndarray | None:
+        """The superoperator of the error after ``name`` on ``qubits`` (None: no error)."""
+        found = self.local.get((name, qubits))
+        return found if found is not None else self.all_qubit.get(name)
+
+    def readout_matrix(self, qubit: int) -> np.ndarray | None:
+        """``P[true, read]`` of ``qubit``'s readout error (None: none)."""
+        found = self.readout.get(qubit)
+        return found if found is not None else self.readout_all
+
+
+def _superop_of(error: QuantumError) -> np.ndarray:
+    """``sum_K K (x) conj(K)``: acts on ``rho`` flattened as ``rho[l, m] -> index l * d + m``."""
+    return _kraus_superop(Kraus(error.to_quantumchannel()).data)
+
+
+def _kraus_superop(kraus) -> np.ndarray:
+    return np.sum([np.kron(K, np.conj(K)) for K in kraus], axis=0)
+
+
+def _embed(mat: np.ndarray, where: int) -> np.ndarray:
+    """A one-qubit operator (..., 2, 2) on local qubit ``where`` of a two-qubit block."""
+    eye = np.eye(2)
+    if mat.ndim == 2:
+        return np.kron(eye, mat) if where == 0 else np.kron(mat, eye)
+    return (np.einsum("ij,rkl->rikjl", eye, mat) if where == 0
+            else np.einsum("rij,kl->rikjl", mat, eye)).reshape(mat.shape[0], 4, 4)
+
+
+def _embed_superop(sup: np.ndarray, where: int) -> np.ndarray:
+    """A one-qubit superoperator (4, 4) on local qubit ``where`` of a two-qubit block (16, 16)."""
+    t = sup.reshape(2, 2, 2, 2)  # [l', m', l, m]
+    eye = np.eye(2)
+    if where == 0:  # local index l = b0 + 2 b1: the block qubit 1 is untouched
+        full = np.einsum("ac,bd,iIjJ->aibIcjdJ", eye, eye, t)  # (b1', b0', m1', m0', ...)
+    else:
+        full = np.einsum("ac,bd,iIjJ->iaIbjcJd", eye, eye, t)
+    return full.reshape(16, 16)
+
+
+def _unitary_superop(U: np.ndarray) -> np.ndarray:
+    """``U (x) conj(U)`` for ``U`` (d, d) or per row (R, d, d)."""
+    if U.ndim == 2:
+        return np.kron(U, np.conj(U))
+    R, d, _ = U.shape
+    return np.einsum("rij,rkl->rikjl", U, np.conj(U)).reshape(R, d * d, d * d)
+
+
+def supported(circuit: QuantumCircuit, tables: NoiseTables) -> bool:
+    """Whether :class:`ExactNoisySampler` computes ``circuit`` under ``tables`` (see module)."""
+    if not tables.ok or circuit.num_vars or circuit.num_stretches:
+        return False
+    measured: set = set()
+    for inst in circuit.data:
+        name = inst.name
+        if name in _SKIP:
+            continue
+        if name in _REFUSED or getattr(inst.operation, "condition", None) is not None:
+            return False
+        if name == "measure":
+            if measured.intersection(inst.qubits):
+                return False  # measured twice
+            measured.update(inst.qubits)
+            continue
+        if inst.clbits or measured.intersection(inst.qubits) or len(inst.qubits) > 2:
+            return False
+        if not hasattr(inst.operation, "to_matrix") and not inst.operation.is_parameterized():
+            return False
+    return True
+
+
+class Program:
+    """A circuit compiled to fused blocks on its active qubits (see module)."""
+
+    def __init__(self, circuit: QuantumCircuit, tables: NoiseTables):
+        index = {q: i for i, q in enumerate(circuit.qubits)}
+        active = sorted({index[q] for inst in circuit.data if inst.name not in _SKIP
+                         for q in inst.qubits})
+        self.num_active = len(active)
+        local = {q: i for i, q in enumerate(active)}
+        self.parameters = list(circuit.parameters)
+        position = {p: i for i, p in enumerate(self.parameters)}
+        self.measure: list[tuple[int, int]] = []  # (local qubit, clbit)
+        blocks: list[dict | None] = []
+        open_: dict[int, int] = {}
+        for inst in circuit.data:
+            if inst.name in _SKIP:
+                continue
+            phys = tuple(index[q] for q in inst.qubits)
+            qs = tuple(local[q] for q in phys)
+            if inst.name == "measure":
+                err = tables.error("measure", phys)
+                if err is not None:
+                    self._add(blocks, open_, qs, ("fixed", qs, err))
+                self.measure.append((qs[0], circuit.find_bit(inst.clbits[0]).index))
+                continue
+            op = inst.operation
+            err = tables.error(inst.name, phys)
+            if op.is_parameterized():
+                self._add(blocks, open_, qs, ("param", qs, op, _affine(op.params, position), err))
+            else:
+                sup = _unitary_superop(np.asarray(op.to_matrix(), dtype=complex))
+                if err is not None:
+                    sup = err @ sup
+                self._add(blocks, open_, qs, ("fixed", qs, sup))
+        self.blocks = [self._finish(b) for b in blocks if b is not None]
+        self.readout = [tables.readout_matrix(active[q]) for q, _ in self.measure]
+        self.num_clbits = circuit.num_clbits
+        self.cregs = [(r.name, [circuit.find_bit(b).index for b in r]) for r in circuit.cregs]
+
+    @staticmethod
+    def _add(blocks, open_, qs, item) -> None:
+        if len(qs) == 1:
+            b = open_.get(qs[0])
+            if b is not None:
+                blocks[b]["items"].append(item)
+                return
+            blocks.append({"qubits": qs, "items": [item]})
+            open_[qs[0]] = len(blocks) - 1
+            return
+        a, c = qs
+        ba, bc = open_.get(a), open_.get(c)
+        if ba is not None and ba == bc:
+            blocks[ba]["items"].append(item)
+            return
+        items: list = []
+        for b in (ba, bc):  # single-qubit blocks still open on a or c join the new block
+            if b is not None and len(blocks[b]["qubits"]) == 1:
+                items += blocks[b]["items"]
+                blocks[b] = None
+        blocks.append({"qubits": (a, c), "items": items + [item]})
+        open_[a] = open_[c] = len(blocks) - 1
+
+    @staticmethod
+    def _finish(block: dict) -> dict:
+        qs = block["qubits"]
+        fixed = None  # the product of the fixed items before the first parametrised one
+        steps: list = []  # per-row work: ("param", ...) or ("fixed", superop)
+        for item in block["items"]:
+            if item[0] == "fixed":
+                sup = item[2] if len(qs) == 1 else (
+                    item[2] if len(item[1]) == 2 and item[1] == qs else
+                    _swap_superop(item[2]) if len(item[1]) == 2 else
+                    _embed_superop(item[2], qs.index(item[1][0])))
+                if steps:
+                    steps.append(("fixed", sup))
+                else:
+                    fixed = sup if fixed is None else sup @ fixed
+            else:
+                _, iq, op, aff, err = item
+                if err is not None:
+                    err = (err if len(qs) == 1 or (len(iq) == 2 and iq == qs) else
+                           _swap_superop(err) if len(iq) == 2 else
+                           _embed_superop(err, qs.index(iq[0])))
+                steps.append(("param", iq, op, aff, err))
+        # fold runs of fixed steps after the first parametrised one
+        folded: list = []
+        for s in steps:
+            if s[0] == "fixed" and folded and folded[-1][0] == "fixed":
+                folded[-1] = ("fixed", s[1] @ folded[-1][1])
+            else:
+                folded.append(s)
+        return {"qubits": qs, "fixed": fixed, "steps": folded}
+
+
+def _swap_superop(sup: np.ndarray) -> np.ndarray:
+    """A two-qubit superoperator given on ``(q1, q0)`` as one on ``(q0, q1)``."""
+    t = sup.reshape([2] * 8)  # [l1', l0', m1', m0', l1, l0, m1, m0]
+    return t.transpose(1, 0, 3, 2, 5, 4, 7, 6).reshape(16, 16)
+
+
+def _affine(params, position) -> list:
+    """Each gate parameter as ``(offset, [(column, coefficient), ...])`` when affine in the
+    circuit's parameters, else the expression itself (bound per row)."""
+    out: list = []
+    for p in params:
+        if not isinstance(p, ParameterExpression):
+            out.append((float(p), []))
+            continue
+        terms = []
+        try:
+            for q in p.parameters:
+                g = p.gradient(q)
+                if isinstance(g, ParameterExpression):
+                    raise TypeError("not affine")
+                terms.append((position[q], float(np.real(complex(g)))))
+            offset = float(np.real(complex(p.bind({q: 0.0 for q in p.parameters}))))
+        except (TypeError, ValueError):
+            out.append(p)
+            continue
+        out.append((offset, terms))
+    return out
+
+
+def _row_params(aff: list, values: np.ndarray, parameters) -> np.ndarray:
+    """Gate parameters per row (R, k) from the circuit's parameter rows ``values`` (R, P)."""
+    R = values.shape[0]
+    cols = []
+    for a in aff:
+        if isinstance(a, tuple):
+            offset, terms = a
+            col = np.full(R, offset)
+            for j, c in terms:
+                col = col + c * values[:, j]
+        else:
+            col = np.array([float(a.bind({p: v[parameters.index(p)] for p in a.parameters}))
+                            for v in values])
+        cols.append(col)
+    return np.stack(cols, axis=1) if cols else np.zeros((R, 0))
+
+
+def _gate_matrices(op, angles: np.ndarray) -> np.ndarray:
+    """The gate's matrix per row (R, d, d) for per-row parameters ``angles`` (R, k)."""
+    name, R = op.name, angles.shape[0]
+    if name in ("rz", "p", "u1") and angles.shape[1] == 1:
+        t = angles[:, 0]
+        out = np.zeros((R, 2, 2), dtype=complex)
+        if name == "rz":
+            out[:, 0, 0], out[:, 1, 1] = np.exp(-0.5j * t), np.exp(0.5j * t)
+        else:
+            out[:, 0, 0], out[:, 1, 1] = 1.0, np.exp(1j * t)
+        return out
+    if name in ("rx", "ry") and angles.shape[1] == 1:
+        c, s = np.cos(angles[:, 0] / 2), np.sin(angles[:, 0] / 2)
+        out = np.empty((R, 2, 2), dtype=complex)
+        out[:, 0, 0] = out[:, 1, 1] = c
+        out[:, 0, 1] = -1j * s if name == "rx" else -s
+        out[:, 1, 0] = -1j * s if name == "rx" else s
+        return out
+    mats = []
+    for row in angles:
+        bound = op.copy()
+        bound.params = [float(x) for x in row]
+        mats.append(np.asarray(bound.to_matrix(), dtype=complex))
+    return np.stack(mats)
+
+
+def _apply_numpy(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int
+                 ) -> np.ndarray:
+    """``rho`` (R, 2**a, 2**a) through a superoperator (4**k, 4**k), shared or per row."""
+    R, k = rho.shape[0], len(qubits)
+    t = rho.reshape((R,) + (2,) * (2 * a))
+    rows = [1 + (a - 1 - q) for q in reversed(qubits)]  # local index: last qubit most significant
+    cols = [1 + a + (a - 1 - q) for q in reversed(qubits)]
+    moved = np.moveaxis(t, rows + cols, list(range(1, 2 * k + 1)))
+    shape = moved.shape
+    flat = moved.reshape(R, 4**k, -1)
+    # einsum, not matmul: no BLAS threads on these small products
+    out = np.einsum("ij,rjk->rik" if sup.ndim == 2 else "rij,rjk->rik", sup, flat)
+    back = np.moveaxis(out.reshape(shape), list(range(1, 2 * k + 1)), rows + cols)
+    return np.ascontiguousarray(back).reshape(R, 2**a, 2**a)
+
+
+if numba is not None:
+    @_jit
+    def _apply_kernel(rho, sup, offsets):
+        """In place: every (row base, column base) block of ``rho`` through ``sup``."""
+        R, D = rho.shape[0], rho.shape[1]
+        L = offsets.shape[0]
+        mask = 0
+        for t in range(L):
+            mask |= offsets[t]
+        per_row = sup.shape[0] > 1
+        v = np.empty(L * L, dtype=rho.dtype)
+        for r in range(R):
+            S = sup[r] if per_row else sup[0]
+            for i0 in range(D):
+                if i0 & mask:
+                    continue
+                for j0 in range(D):
+                    if j0 & mask:
+                        continue
+                    for x in range(L):
+                        for y in range(L):
+                            v[x * L + y] = rho[r, i0 + offsets[x], j0 + offsets[y]]
+                    for x in range(L):
+                        for y in range(L):
+                            acc = 0j
+                            row = x * L + y
+                            for z in range(L * L):
+                                acc += S[row, z] * v[z]
+                            rho[r, i0 + offsets[x], j0 + offsets[y]] = acc
+        return rho
+
+
+def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) -> np.ndarray:
+    """``rho`` (R, 2**a, 2**a) through a superoperator (4**k, 4**k), shared or per row."""
+    if numba is None:
+        return _apply_numpy(rho, sup, qubits, a)
+    k = len(qubits)
+    offsets = np.array([sum(((l >> b) & 1) << qubits[b] for b in range(k))
+                        for l in range(2**k)], dtype=np.int64)
+    sup3 = np.ascontiguousarray(sup.reshape(-1, 4**k, 4**k), dtype=complex)
+    return _apply_kernel(rho, sup3, offsets)
+
+
+def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
+    """Outcome probabilities of the measured qubits per row, readout errors applied.
+
+    Returns
+    -------
+    numpy.ndarray, shape (R, 2**m)
+        Outcome ``o`` has bit ``i`` = the ``i``-th measurement's result.
+    """
+    a = program.num_active
+    R = values.shape[0]
+    rho = np.zeros((R, 2**a, 2**a), dtype=complex)
+    rho[:, 0, 0] = 1.0
+    for block in program.blocks:
+        qs = block["qubits"]
+        sup = block["fixed"]
+        for step in block["steps"]:
+            if step[0] == "fixed":
+                sup = step[1] if sup is None else step[1] @ sup
+                continue
+            _, iq, op, aff, err = step
+            U = _gate_matrices(op, _row_params(aff, values, program.parameters))
+            if len(qs) == 2 and len(iq) == 1:
+                U = _embed(U, qs.index(iq[0]))
+            elif len(iq) == 2 and iq != qs:
+                U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
+            s = _unitary_superop(U)
+            if err is not None:
+                s = err @ s
+            sup = s if sup is None else s @ sup
+        if sup is not None:
+            rho = _apply(rho, sup, qs, a)
+    diag = np.clip(np.real(np.einsum("rii->ri", rho)), 0.0, None)
+    m = len(program.measure)
+    probs = diag.reshape((R,) + (2,) * a)
+    keep = [1 + (a - 1 - q) for q, _ in program.measure]  # measurement i -> axis
+    drop = tuple(ax for ax in range(1, a + 1) if ax not in keep)
+    marg = probs.sum(axis=drop) if drop else probs
+    # axes of marg follow sorted(keep); put measurement i's bit at position i (LSB first)
+    order = sorted(keep)
+    marg = np.moveaxis(marg, [1 + order.index(k) for k in reversed(keep)], list(range(1, m + 1)))
+    for i, P in enumerate(program.readout):
+        if P is None:
+            continue
+        axis = m - i  # measurement i is bit i: axis counted from the end
+        marg = np.moveaxis(np.tensordot(marg, P, axes=([axis], [0])), -1, axis)
+    out = marg.reshape(R, 2**m)
+    return out / out.sum(axis=1, keepdims=True)
+
+
+
+
+def active_count(circuit: QuantumCircuit) -> int:
+    """Qubits an instruction other than ``barrier`` acts on."""
+    return len({q for inst in circuit.data if inst.name not in _SKIP for q in inst.qubits})
