@@ -80,6 +80,12 @@ class GateKind:
     decomposition : callable or None
         ``decomposition(params, num_qubits) -> QuantumCircuit`` in standard gates (and, for
         FBS, the RBS gate given as ``core=``); None for Qiskit's standard gates.
+    block : callable or None
+        ``block(*angles) -> ndarray`` of shape ``(B, 2**m, 2**m)``: the local matrix for ``B``
+        values of each angle at once (arrays of shape ``(B,)``), little-endian; what the
+        Hamming-weight sampler applies row by row. None where no such form is written.
+    fixed : bool
+        Whether the gate has no parameter (its matrix is a constant).
     """
 
     name: str
@@ -92,6 +98,8 @@ class GateKind:
     fixed_generator: bool = True
     matrix: Callable | None = None
     decomposition: Callable | None = None
+    block: Callable | None = None
+    fixed: bool = False
 
     def __reduce_ex__(self, protocol):
         # a registered entry (its functions may be closures or lambdas) pickles and copies as
@@ -249,28 +257,89 @@ def _fbs_decomposition(params: Sequence, num_qubits: int, core: Callable | None 
     return qc
 
 
+# --- vectorised local matrices (B angle values at once) ----------------------------------------
+
+
+def _diagonal(*phases: np.ndarray) -> np.ndarray:
+    d = np.stack(np.broadcast_arrays(*phases), axis=1).astype(complex)
+    out = np.zeros(d.shape + (d.shape[1],), dtype=complex)
+    idx = np.arange(d.shape[1])
+    out[:, idx, idx] = d
+    return out
+
+
+def _rbs_block(theta: np.ndarray) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    m = np.zeros((np.size(c), 4, 4))
+    m[:, 0, 0] = m[:, 3, 3] = 1.0
+    m[:, 1, 1] = m[:, 2, 2] = c
+    m[:, 1, 2], m[:, 2, 1] = -s, s
+    return m
+
+
+def _xx_plus_yy_block(theta: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    theta, beta = np.broadcast_arrays(theta, beta)
+    c, s = np.cos(theta / 2), np.sin(theta / 2)
+    m = np.zeros((c.size, 4, 4), dtype=complex)
+    m[:, 0, 0] = m[:, 3, 3] = 1.0
+    m[:, 1, 1] = m[:, 2, 2] = c
+    m[:, 1, 2] = -1j * s * np.exp(-1j * beta)
+    m[:, 2, 1] = -1j * s * np.exp(1j * beta)
+    return m
+
+
+def _one(x: np.ndarray) -> np.ndarray:
+    return np.ones_like(x, dtype=complex)
+
+
+def _rotation_block(pauli: str) -> Callable:
+    def block(theta: np.ndarray) -> np.ndarray:
+        c, s = np.cos(np.asarray(theta) / 2), np.sin(np.asarray(theta) / 2)
+        m = np.empty((c.size, 2, 2), dtype=complex)
+        m[:, 0, 0] = m[:, 1, 1] = c
+        m[:, 0, 1], m[:, 1, 0] = (-1j * s, -1j * s) if pauli == "x" else (-s, s)
+        return m
+
+    return block
+
+
+_BLOCKS: dict[str, Callable] = {
+    "rx": _rotation_block("x"),
+    "ry": _rotation_block("y"),
+    "rz": lambda lam: _diagonal(np.exp(-0.5j * lam), np.exp(0.5j * lam)),
+    "p": lambda lam: _diagonal(_one(lam), np.exp(1j * lam)),
+    "rzz": lambda t: _diagonal(np.exp(-0.5j * t), np.exp(0.5j * t), np.exp(0.5j * t),
+                               np.exp(-0.5j * t)),
+    "cp": lambda lam: _diagonal(_one(lam), _one(lam), _one(lam), np.exp(1j * lam)),
+    "crz": lambda t: _diagonal(_one(t), np.exp(-0.5j * t), _one(t), np.exp(0.5j * t)),
+}
+_BLOCKS["u1"], _BLOCKS["cu1"] = _BLOCKS["p"], _BLOCKS["cp"]
+
+
 # --- the entries (in this order: GENERATOR_GATES and messages list them so) --------------------
 
 for _p in "xyz":
     register_gate(GateKind("r" + _p, _single(_p.upper(), 0.5), "generator",
                            preserves_hamming_weight=_p == "z", real=_p == "y",
-                           diagonal=_p == "z"))
+                           diagonal=_p == "z", block=_BLOCKS.get("r" + _p)))
 for _p in "xyz":
     register_gate(GateKind("r" + _p * 2, _single(_p.upper() * 2, 0.5), "generator",
-                           preserves_hamming_weight=_p == "z", diagonal=_p == "z"))
+                           preserves_hamming_weight=_p == "z", diagonal=_p == "z",
+                           block=_BLOCKS.get("r" + _p * 2)))
 register_gate(GateKind("rzx", _single("ZX", 0.5), "generator"))
 for _p in "xyz":
     register_gate(GateKind("cr" + _p, _controlled(_p.upper()), "generator",
-                           preserves_hamming_weight=_p == "z", diagonal=_p == "z"))
+                           preserves_hamming_weight=_p == "z", diagonal=_p == "z",
+                           block=_BLOCKS.get("cr" + _p)))
 for _name in ("p", "u1"):
     register_gate(GateKind(_name, _phase, "generator", preserves_hamming_weight=True,
-                           diagonal=True))
+                           diagonal=True, block=_BLOCKS[_name]))
 for _name in ("cp", "cu1"):
     register_gate(GateKind(_name, _controlled_phase, "generator", preserves_hamming_weight=True,
-                           diagonal=True))
+                           diagonal=True, block=_BLOCKS[_name]))
 RBS = register_gate(GateKind(
     "rbs", _rbs_generator, "four_term", preserves_hamming_weight=True, real=True,
-    unary="givens", matrix=_rbs_matrix, decomposition=_rbs_decomposition))
+    unary="givens", matrix=_rbs_matrix, decomposition=_rbs_decomposition, block=_rbs_block))
 FBS = register_gate(GateKind(
     "fbs", _fbs_generator, "four_term", preserves_hamming_weight=True, real=True,
     unary="givens", matrix=_fbs_matrix, decomposition=_fbs_decomposition))
@@ -278,10 +347,11 @@ EVOLUTION = register_gate(GateKind("PauliEvolution", _evolution_generator, "gene
                                    fixed_generator=False))
 for _name in ("z", "cz", "swap", "id"):  # fixed, real and weight-preserving
     register_gate(GateKind(_name, preserves_hamming_weight=True, real=True,
-                           diagonal=_name != "swap"))
-for _name in ("s", "sdg", "t", "tdg", "iswap", "xx_plus_yy"):
+                           diagonal=_name != "swap", fixed=True))
+for _name in ("s", "sdg", "t", "tdg", "iswap"):
     register_gate(GateKind(_name, preserves_hamming_weight=True,
-                           diagonal=_name in ("s", "sdg", "t", "tdg")))
+                           diagonal=_name in ("s", "sdg", "t", "tdg"), fixed=True))
+register_gate(GateKind("xx_plus_yy", preserves_hamming_weight=True, block=_xx_plus_yy_block))
 for _name in ("barrier", "measure", "delay"):  # not gates: they pass any weight through
     register_gate(GateKind(_name, preserves_hamming_weight=True))
 

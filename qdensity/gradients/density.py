@@ -14,9 +14,8 @@ or ``"auto"``. ``"commuting"`` measures a sub-unitary made of one commuting bloc
 circuit and a diagonalising layer (Bowles et al.'s Thm. 1, Supp. F.3); a sub-unitary of
 ``B_k`` commuting blocks read out by one observable with :func:`commuting_block_gradient`'s
 observable shifts, ``2 B_k - 1`` circuits for a Pauli observable, so the whole model needs
-``sum_k (2 B_k - 1) = 2 sum_k B_k - K`` (Cor. 2). ``"auto"`` takes the one-block circuit when
-it applies, the block circuits when they are fewer than the parameter-shift circuits, and
-parameter shift otherwise.
+``sum_k (2 B_k - 1) = 2 sum_k B_k - K`` (Cor. 2). ``"auto"`` takes the one-block circuit where
+it applies, else the block circuits when fewer than the parameter-shift ones, else parameter shift.
 """
 
 from __future__ import annotations

@@ -18,6 +18,8 @@ from qiskit.circuit import ParameterExpression, QuantumCircuit
 from qiskit.quantum_info import Kraus
 from qiskit_aer.noise import NoiseModel, QuantumError
 
+from qdensity.analysis.gate_registry import GATES
+
 __all__ = ["MAX_QUBITS", "NoiseTables", "supported", "exact_probabilities", "Program",
            "active_count"]
 
@@ -314,22 +316,10 @@ def _row_params(aff: list, values: np.ndarray, parameters) -> np.ndarray:
 
 def _gate_matrices(op, angles: np.ndarray) -> np.ndarray:
     """The gate's matrix per row (R, d, d) for per-row parameters ``angles`` (R, k)."""
-    name, R = op.name, angles.shape[0]
-    if name in ("rz", "p", "u1") and angles.shape[1] == 1:
-        t = angles[:, 0]
-        out = np.zeros((R, 2, 2), dtype=complex)
-        if name == "rz":
-            out[:, 0, 0], out[:, 1, 1] = np.exp(-0.5j * t), np.exp(0.5j * t)
-        else:
-            out[:, 0, 0], out[:, 1, 1] = 1.0, np.exp(1j * t)
-        return out
-    if name in ("rx", "ry") and angles.shape[1] == 1:
-        c, s = np.cos(angles[:, 0] / 2), np.sin(angles[:, 0] / 2)
-        out = np.empty((R, 2, 2), dtype=complex)
-        out[:, 0, 0] = out[:, 1, 1] = c
-        out[:, 0, 1] = -1j * s if name == "rx" else -s
-        out[:, 1, 0] = -1j * s if name == "rx" else s
-        return out
+    kind = GATES.get(op.name)
+    if kind is not None and kind.block is not None and angles.shape[1] == len(op.params) \
+            and angles.shape[1]:
+        return np.asarray(kind.block(*angles.T), dtype=complex)  # vectorised over the rows
     mats = []
     for row in angles:
         bound = op.copy()

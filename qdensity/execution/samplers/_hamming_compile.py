@@ -33,9 +33,11 @@ class UnsupportedInstructionError(QiskitError, ValueError):
         return str(self.message)
 
 
-#: Gates with a vectorised block (angles evaluated for all rows at once).
-KNOWN_GATES = frozenset({"rbs", "fbs", "xx_plus_yy", "rz", "p", "u1", "rzz", "cp", "cu1",
-                         "crz", "z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap", "id"})
+#: Gates with a vectorised block (angles evaluated for all rows at once) or a constant matrix,
+#: read off the gate registry: weight-preserving entries with a ``block``, FBS (its own
+#: tables) and the fixed gates.
+KNOWN_GATES = frozenset(name for name, kind in GATES.items() if kind.preserves_hamming_weight
+                        and (kind.block is not None or kind.fixed or kind is FBS))
 _SKIPPED = frozenset({"barrier", "delay", "id"})
 _FLIPS = frozenset({"x", "y"})
 #: Widest gate judged by its matrix (``4 ** m`` entries).
@@ -284,7 +286,7 @@ class _Walker:
     def _known(self, inst, qs) -> None:
         op = inst.operation
         angles = tuple(_angle(v, self.position, op.name) for v in op.params)
-        if op.name in ("z", "s", "sdg", "t", "tdg", "cz", "swap", "iswap"):
+        if GATES[op.name].fixed:
             self._fixed(op, qs)
             return
         if GATES.get(op.name) is FBS:

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from qdensity.analysis.gate_registry import FBS, GATES, RBS
+from qdensity.analysis.gate_registry import FBS, GATES
 from qdensity.execution.samplers._hamming_compile import GateOp, HammingTemplate
 
 
@@ -118,10 +118,6 @@ class Subspace:
         return a, b, np.where(parity % 2 == 0, 1.0, -1.0)
 
 
-def _phase(x):
-    return np.exp(1j * x)
-
-
 def local_matrix(gate: GateOp, values: np.ndarray) -> np.ndarray:
     """The gate's local matrix for parameter rows ``values`` (B, P): shape (B or 1, 2**m, 2**m),
     little-endian on ``gate.qubits``."""
@@ -134,44 +130,11 @@ def local_matrix(gate: GateOp, values: np.ndarray) -> np.ndarray:
         return np.stack([Operator(qc.assign_parameters(
             dict(zip(qc.parameters, values[r, cols].tolist(), strict=True)))).data
             for r in range(values.shape[0])])
-    t = [a.evaluate(values) for a in gate.angles]
-    name = gate.name
-    if GATES.get(name) is RBS:
-        c, s = np.cos(t[0]), np.sin(t[0])
-        m = np.zeros((c.size, 4, 4))
-        m[:, 0, 0] = m[:, 3, 3] = 1.0
-        m[:, 1, 1] = m[:, 2, 2] = c
-        m[:, 1, 2], m[:, 2, 1] = -s, s
-        return m
-    if name == "xx_plus_yy":
-        theta, beta = np.broadcast_arrays(t[0], t[1])
-        c, s = np.cos(theta / 2), np.sin(theta / 2)
-        m = np.zeros((c.size, 4, 4), dtype=complex)
-        m[:, 0, 0] = m[:, 3, 3] = 1.0
-        m[:, 1, 1] = m[:, 2, 2] = c
-        m[:, 1, 2] = -1j * s * np.exp(-1j * beta)
-        m[:, 2, 1] = -1j * s * np.exp(1j * beta)
-        return m
-    if name in ("rz", "p", "u1"):
-        lam = t[0]
-        d = np.stack([np.exp(-0.5j * lam), np.exp(0.5j * lam)], axis=1) if name == "rz" \
-            else np.stack([np.ones_like(lam, dtype=complex), _phase(lam)], axis=1)
-    elif name == "rzz":
-        h = 0.5 * t[0]
-        d = np.stack([_phase(-h), _phase(h), _phase(h), _phase(-h)], axis=1)
-    elif name in ("cp", "cu1"):
-        one = np.ones_like(t[0], dtype=complex)
-        d = np.stack([one, one, one, _phase(t[0])], axis=1)
-    elif name == "crz":
-        h, one = 0.5 * t[0], np.ones_like(t[0], dtype=complex)
-        d = np.stack([one, _phase(-h), one, _phase(h)], axis=1)
-    else:  # pragma: no cover - the compiler lists only the gates above
-        raise ValueError(f"no block for gate {name!r}")
-    out = np.zeros(d.shape + (d.shape[1],), dtype=complex)
-    idx = np.arange(d.shape[1])
-    out[:, idx, idx] = d
-    return out
-
+    t = [np.asarray(a.evaluate(values)) for a in gate.angles]
+    kind = GATES.get(gate.name)
+    if kind is None or kind.block is None:  # pragma: no cover - the compiler lists these only
+        raise ValueError(f"no block for gate {gate.name!r}")
+    return kind.block(*t)
 
 class CompiledGate:
     """A gate's tables on one subspace (built once per template)."""
