@@ -1,7 +1,8 @@
 """Results files: written atomically under a lock, read back only after their fields check.
 
-A results file is written to a temporary file in the same folder, flushed to disk and renamed
-over the old one (``os.replace``), so a crash or a full disk leaves the old file whole. Runs
+A results file is written with :func:`qdensity.io.atomic_write_text` (a temporary file in the
+same folder, flushed to disk and renamed over the old one), so a crash or a full disk leaves
+the old file whole. Runs
 that share a folder take an exclusive ``fcntl.flock`` on ``.<file>.lock`` beside it while they
 read, merge and write, so two runs finishing together both keep their seeds.
 """
@@ -10,8 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -19,32 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write_text", "locked", "check_fields", "close_enough", "read_fields",
+__all__ = ["locked", "check_fields", "close_enough", "read_fields",
            "canonical", "jsonable", "recomputed"]
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and ``os.replace`` (all or nothing).
-
-    Raises
-    ------
-    OSError
-        Whatever writing raised (a full disk: ``ENOSPC``); the old ``path`` is untouched and
-        the temporary file removed.
-    """
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 @contextmanager

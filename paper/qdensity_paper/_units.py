@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from qdensity.io import atomic_write_text
+
 __all__ = ["normalise", "settings_hash", "checkpoint_dir", "load_unit", "save_unit",
            "merge_parts", "work_directory", "working_in"]
 
@@ -111,13 +113,7 @@ def save_unit(directory: Path, seed: int, unit: int, sub_config: Mapping, metric
     record = normalise({"seed": seed, "unit": unit, "sub_config": normalise(sub_config),
                         "worker": worker, "metrics": metrics})
     record["checksum"] = _checksum(record)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    try:
-        tmp.write_text(json.dumps(record, default=_plain), encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    atomic_write_text(path, json.dumps(record, default=_plain))
     return path
 
 

@@ -29,9 +29,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from qdensity.io import atomic_write_text
 from qdensity.validation import check_finite_array, check_seed
 from qdensity_paper._result_files import (
-    atomic_write_text,
     canonical,
     check_fields,
     locked,
