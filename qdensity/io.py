@@ -14,6 +14,12 @@ the file it replaces (a new file: ``0o666`` less the umask, as ``open`` gives), 
 link is written through (its target is replaced, the link kept). A destination that exists
 and is not a regular file (``/dev/null``, a FIFO, a terminal) cannot be replaced by a rename:
 it is written in place.
+
+Readers check what they are given before they read: :func:`check_readable` refuses a path that
+is not a regular file (``/dev/zero`` reads forever, a FIFO blocks until a writer comes) or is
+larger than the reader allows, and :func:`check_npz` refuses an ``.npz`` archive whose members
+would inflate past a bound, or whose ``.npy`` headers claim more data than the member holds
+(numpy allocates the header's shape before it reads), before anything is inflated.
 """
 
 from __future__ import annotations
@@ -22,13 +28,18 @@ import contextlib
 import os
 import secrets
 import stat
+import zipfile
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from qdensity.validation import FilePath, Instance, Options, validates
+import numpy as np
 
-__all__ = ["atomic_write", "atomic_path", "atomic_write_text", "atomic_write_bytes"]
+from qdensity.validation import FilePath, Instance, Interval, Options, validates
+
+__all__ = ["atomic_write", "atomic_path", "atomic_write_text", "atomic_write_bytes",
+           "check_readable", "check_npz"]
 
 _MODES = ("w", "wb", "x", "xb")
 
@@ -205,3 +216,114 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     with atomic_write(path, "wb") as fh:
         fh.write(data)
     return Path(path)
+
+
+@validates(path=FilePath(exists=None), name=Instance(str),
+           max_bytes=[Interval(int, 0), None])
+def check_readable(path: str | os.PathLike, name: str = "path", *,
+                   max_bytes: int | None = None) -> Path:
+    """Refuse, before opening it, a path a reader must not read: a device, FIFO or socket
+    (``/dev/zero`` would be read until memory runs out, a FIFO blocks until a writer comes), or
+    a file of more than ``max_bytes`` bytes. A path that does not exist, or a folder, is left to
+    the reader's own ``open`` (``FileNotFoundError``, ``IsADirectoryError``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    name : str
+        The argument named in the message.
+    max_bytes : int, optional
+        Largest file size the reader accepts.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, the path and what it is.
+
+    Examples
+    --------
+    >>> check_readable("/dev/zero")
+    Traceback (most recent call last):
+    ...
+    ValueError: path must be a regular file, got '/dev/zero' (a character device: it would be \
+read forever or block)
+    """
+    try:
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return Path(path)
+    mode = info.st_mode
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+        what = ("a character device" if stat.S_ISCHR(mode) else "a block device"
+                if stat.S_ISBLK(mode) else "a FIFO" if stat.S_ISFIFO(mode) else "a socket"
+                if stat.S_ISSOCK(mode) else "not a regular file")
+        raise ValueError(f"{name} must be a regular file, got {os.fspath(path)!r} ({what}: it "
+                         f"would be read forever or block)")
+    if max_bytes is not None and stat.S_ISREG(mode) and info.st_size > max_bytes:
+        raise ValueError(f"{name} {os.fspath(path)!r} has {info.st_size} bytes, more than the "
+                         f"{max_bytes} this reader accepts")
+    return Path(path)
+
+
+@validates(path=FilePath(exists=None), max_bytes=Interval(int, 0),
+           max_members=Interval(int, 1))
+def check_npz(path: str | os.PathLike, max_bytes: int, *, max_members: int = 10_000) -> None:
+    """Refuse an ``.npz`` archive before ``numpy.load`` inflates or allocates anything.
+
+    Checks, from the zip directory and each member's ``.npy`` header alone: at most
+    ``max_members`` members, their sizes (``ZipInfo.file_size``) summing to at most
+    ``max_bytes``, and no header claiming a shape whose data (shape times item size) is larger
+    than its member (numpy allocates the header's shape first, so a 1 kB member claiming
+    ``(10**12,)`` would ask for terabytes). Headers that need pickle (object arrays) are
+    refused too.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The archive (a regular file: see :func:`check_readable`).
+    max_bytes : int
+        Most bytes the inflated arrays may take.
+    max_members : int
+        Most arrays the archive may hold.
+
+    Raises
+    ------
+    ValueError
+        Naming the path and the member: not a zip archive, too many or too large members, a
+        header that is not a ``.npy`` header or claims more than its member holds.
+    """
+    where = repr(os.fspath(path))
+    check_readable(path)
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            if len(infos) > max_members:
+                raise ValueError(f"{where} holds {len(infos)} arrays, more than {max_members}")
+            total = sum(info.file_size for info in infos)
+            if total > max_bytes:
+                raise ValueError(f"{where}: its arrays inflate to {total} bytes, more than the "
+                                 f"{max_bytes} allowed; refused before inflating")
+            for info in infos:
+                try:
+                    with zf.open(info) as member:
+                        version = np.lib.format.read_magic(member)
+                        shape, _, dtype = (np.lib.format.read_array_header_1_0(member)
+                                           if version == (1, 0)
+                                           else np.lib.format.read_array_header_2_0(member))
+                except ValueError as exc:
+                    raise ValueError(f"{where}: member {info.filename!r} is not a .npy array "
+                                     f"readable without pickle: {exc}") from exc
+                if dtype.hasobject:
+                    raise ValueError(f"{where}: member {info.filename!r} holds Python objects "
+                                     f"(it needs pickle, which is never used)")
+                claimed = int(np.prod(shape, dtype=object)) * dtype.itemsize
+                if claimed > info.file_size:
+                    raise ValueError(f"{where}: member {info.filename!r} claims shape {shape} of "
+                                     f"{dtype} ({claimed} bytes), more than its {info.file_size} "
+                                     f"bytes")
+    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
+        raise ValueError(f"{where} is not a readable .npz archive: {exc}") from exc

@@ -428,6 +428,7 @@ class ExperimentResult:
         the same way. Under a lock shared by the runs writing the folder; replaced atomically
         (a temporary file renamed over it), so a full disk leaves the old file whole.
         """
+        check_fields(self.__dict__, "ExperimentResult")  # a name changed since: never a path
         folder = Path(directory)
         folder.mkdir(parents=True, exist_ok=True)
         plain = folder / f"{self.name}-{self.mode}.json"

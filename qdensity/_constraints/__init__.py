@@ -31,6 +31,7 @@ from qdensity._constraints._kinds import (
     CallableC,
     Circuit,
     EngineLike,
+    FileName,
     FilePath,
     Observable,
     Seed,
@@ -39,8 +40,8 @@ from qdensity._constraints._kinds import (
     TorchTensor,
 )
 
-__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "Circuit",
-           "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
+__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "FileName",
+           "Circuit", "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
            "Unchecked", "TorchTensor", "validates", "refuse", "as_constraint", "declared",
            "check_declared", "MAX_CIRCUIT_QUBITS",
            "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "MAX_SUBUNITARIES", "Qubits",

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from qdensity.io import atomic_write
+from qdensity.io import atomic_write, check_readable
 
 __all__ = ["get_flat", "set_flat", "save_parameters", "load_parameters", "MAX_PARAMETER_BYTES",
            "MAX_PARAMETER_ARRAYS"]
@@ -225,6 +225,7 @@ def load_parameters(path: str | os.PathLike, *,
         archive, or is not a qdensity parameter JSON file.
     """
     path = os.fspath(path)
+    check_readable(path)  # not /dev/zero or a FIFO: they would be read forever or block
     limit = MAX_PARAMETER_BYTES if max_bytes is None else int(max_bytes)
     if str(path).lower().endswith(".json"):
         size = os.path.getsize(path)

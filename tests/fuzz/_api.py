@@ -15,7 +15,7 @@ import qdensity
 from qdensity.validation import declared
 
 #: Public modules that are not packages but hold entry points of their own.
-EXTRA_MODULES = ("qdensity.cluster", "qdensity.learning.torch")
+EXTRA_MODULES = ("qdensity.cluster", "qdensity.io", "qdensity.learning.torch")
 
 #: Callables that take no arguments, so there is nothing to declare: name -> why.
 NO_ARGUMENTS = {
