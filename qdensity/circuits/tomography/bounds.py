@@ -81,4 +81,6 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
         raise refuse("shots_for_error", "delta", delta, f">= {smallest:.3g} for n = {n} and "
                      f"p_fail = {p_fail:g}", f"a smaller delta needs more than {MAX_SHOTS} "
                      "shots per circuit")
+    if log_shots < 0:  # fewer than one shot: one (delta**2 would overflow above 1e154)
+        return 1
     return math.ceil(SIGN_FACTOR**2 * math.log(6.0 * n / p_fail) / delta**2)
