@@ -459,6 +459,8 @@ MAX_CIRCUIT_QUBITS = 4096
 MAX_LAYERS = 10_000
 #: Most shots one call may ask for (10**8 shots is hours of sampling).
 MAX_SHOTS = 10**8
+#: Most shots one plan may spend in total, over all its jobs and rows (days of sampling).
+MAX_PLAN_SHOTS = 10**10
 #: Most data rows, parameter rows or units one call may ask for.
 MAX_ROWS = 10**7
 #: Most sub-unitaries (K) a density model or preparation circuit may hold.

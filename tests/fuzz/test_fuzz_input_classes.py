@@ -305,3 +305,53 @@ def test_a_huge_tolerance_needs_one_shot(delta):
     from qdensity.circuits.tomography.bounds import shots_for_error
 
     assert shots_for_error(delta, 4, 0.01) == 1
+
+
+# ------------------------------------------------------------------ widths and totals bounded
+
+def test_a_forced_mps_run_of_unbounded_entanglement_is_refused_before_aer():
+    from qiskit import QuantumCircuit
+
+    from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY, check_memory
+
+    n = 40  # a dense state of 40 qubits takes 16 TiB: only a bounded MPS may run
+    chain, spread = QuantumCircuit(n, n), QuantumCircuit(n, n)
+    chain.h(0)
+    for q in range(n - 1):  # neighbours on the line: bond dimension 2 (mps_bond_bound)
+        chain.cx(q, q + 1)
+    spread.h(0)
+    for q in range(1, n):  # all from qubit 0: no neighbour bound
+        spread.cx(0, q)
+    check_memory(n, "matrix_product_state", "test", chain)
+    with pytest.raises(ValueError, match="no proven bond bound"):
+        check_memory(n, "matrix_product_state", "test", spread)
+    spread.metadata = {HAMMING_WEIGHT_KEY: 1}  # weight 1: Schmidt rank <= 2 on every cut
+    check_memory(n, "matrix_product_state", "test", spread)
+
+
+def test_a_unary_circuit_beyond_the_gate_bound_is_refused_before_compiling(monkeypatch):
+    import qdensity.execution.unary as unary
+    from qdensity.circuits.ansatze.hamming import pyramid
+
+    monkeypatch.setattr(unary, "MAX_UNARY_GATES", 14)
+    assert unary.compile_unary(pyramid(5)).num_gates == 10  # n(n-1)/2 gates
+    with pytest.raises(ValueError, match="circuit has 15 instructions, more than the 14"):
+        unary.compile_unary(pyramid(6))  # 6 * 5 / 2 = 15
+
+
+def test_a_plan_bounds_its_total_shots():
+    from qiskit import QuantumCircuit
+
+    from qdensity.execution.plans import CircuitJob, Plan
+    from qdensity.validation import MAX_PLAN_SHOTS
+
+    qc = QuantumCircuit(1, 1)
+    qc.measure(0, 0)
+    job = CircuitJob(qc, np.zeros((1000, 0)), shots=200_000)  # 2e8 shots: within one job
+    jobs = MAX_PLAN_SHOTS // (1000 * 200_000)
+    assert Plan([job] * jobs, list).total_shots == MAX_PLAN_SHOTS
+    with pytest.raises(ValueError, match="jobs must ask for at most"):
+        Plan([job] * (jobs + 1), list)
+    with pytest.raises(ValueError, match="jobs must ask for at most"):
+        Plan([job.__class__(qc, np.zeros((1000, 0)), shots=1)] * (jobs + 1), list).with_shots(
+            200_000)
