@@ -114,6 +114,22 @@ def test_numpy_scalars_give_the_same_results_as_python_values():
     assert gates(model.circuit(np.uint8(1))) == gates(model.circuit(1))
 
 
+def test_an_estimator_with_numpy_hyperparameters_fits_and_saves_as_with_python_ones(tmp_path):
+    from qdensity.learning.estimators import QNNClassifier
+
+    X = np.random.default_rng(0).normal(size=(12, 2))
+    y = (X[:, 0] > 0).astype(int)
+    numpy_clf = QNNClassifier(num_qubits=np.uint8(2), epochs=np.int64(2), batch_size=np.int32(4),
+                              seed=np.uint32(5), verbose=False).fit(X, y)
+    python_clf = QNNClassifier(num_qubits=2, epochs=2, batch_size=4, seed=5,
+                               verbose=False).fit(X, y)
+    np.testing.assert_array_equal(numpy_clf.predict_proba(X), python_clf.predict_proba(X))
+    for suffix in (".json", ".npz"):
+        numpy_clf.save(tmp_path / f"clf{suffix}")
+        loaded = QNNClassifier().load(tmp_path / f"clf{suffix}")
+        np.testing.assert_array_equal(loaded.predict_proba(X), python_clf.predict_proba(X))
+
+
 def test_weights_sum_to_one_within_their_own_precision():
     for dtype in (np.float16, np.float32):
         w = np.full(7, 1 / 7, dtype=dtype)
