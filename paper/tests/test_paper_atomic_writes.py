@@ -81,3 +81,34 @@ def test_a_write_past_a_size_limit_leaves_the_old_file_whole(size_limited, name)
     assert got["raised"] is not None and got["raised"][1] == errno.EFBIG, got["raised"]
     assert got["intact"], f"{name}: the old file changed"
     assert got["listing_after"] == got["listing_before"]  # no temporary file left
+
+
+@pytest.mark.parametrize("field", ["name", "mode"])
+def test_a_results_file_whose_name_is_a_path_is_refused(tmp_path, field):
+    import json
+
+    from qdensity_paper.results import ExperimentResult
+
+    doc = _result([0]).to_dict()
+    doc[field] = "../../outside"
+    path = tmp_path / "evil.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=f"{field} must be a file name"):
+        ExperimentResult.load(path)
+    renamed = _result([0])
+    setattr(renamed, field, "../outside")  # changed after construction: refused at save
+    with pytest.raises(ValueError, match=f"{field} must be a file name"):
+        renamed.save(tmp_path / "out")
+    assert not (tmp_path / "outside-quick.json").exists() and not (tmp_path / "out").exists()
+
+
+def test_results_files_refuse_devices_and_fifos(tmp_path):
+    import os
+
+    from qdensity_paper.results import ExperimentResult
+
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    for special in ("/dev/zero", fifo):
+        with pytest.raises(ValueError, match="must be a regular file"):
+            ExperimentResult.load(special)

@@ -371,3 +371,20 @@ def test_a_plan_bounds_its_total_shots():
     with pytest.raises(ValueError, match="jobs must ask for at most"):
         Plan([job.__class__(qc, np.zeros((1000, 0)), shots=1)] * (jobs + 1), list).with_shots(
             200_000)
+
+
+def test_a_model_without_an_encoding_refuses_columns_it_would_ignore():
+    from qdensity import DensityQNN, GatedMixture
+    from qdensity.circuits.ansatze.hamming import pyramid
+
+    model = DensityQNN([pyramid(3)], seed=0)  # no encoding, no uploaded x[i]: takes no data
+    with pytest.raises(ValueError, match=r"X must have shape \(rows >= 1, 0\).*pass X=None"):
+        model.predict(np.ones((2, 5)))
+    assert model.predict().shape == (1,)
+    gated = DensityQNN([pyramid(3), pyramid(3, parameter_prefix="b")],
+                       GatedMixture(num_features=4, num_components=2, seed=0), seed=0)
+    X = np.random.default_rng(1).normal(size=(3, 4))  # the gate reads these columns
+    alpha = gated.alpha(X)
+    np.testing.assert_allclose(gated.predict(X), (alpha * gated.expert_outputs(None)).sum(axis=1))
+    with pytest.raises(ValueError, match=r"X must have shape \(rows >= 1, 4\)"):
+        gated.predict(np.ones((3, 5)))
