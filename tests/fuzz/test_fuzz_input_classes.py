@@ -291,6 +291,13 @@ def test_an_invalid_attribute_is_refused_when_assigned_and_a_valid_one_is_used()
             engine.default_shots = bad
     engine.default_shots = np.int64(200)
     assert type(engine.default_shots) is int and engine.default_shots == 200
+    from qdensity.learning.layer import QuantumLayer
+
+    layer = QuantumLayer(model, "exact")
+    with pytest.raises(ValueError, match="shots must be an int >= 2"):
+        layer.shots = -1
+    with pytest.raises(TypeError, match="engine must be 'exact' or"):
+        layer.engine = 3
 
 
 # ------------------------------------------------------------------ names are never paths
