@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from qdensity.io import atomic_write_text
+from qdensity.io import atomic_write_text, check_readable
 
 __all__ = ["normalise", "settings_hash", "checkpoint_dir", "load_unit", "save_unit",
            "merge_parts", "work_directory", "working_in"]
@@ -92,7 +92,7 @@ def load_unit(directory: Path, seed: int, unit: int, sub_config: Mapping) -> dic
     if not path.is_file():
         return None
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = json.loads(check_readable(path, max_bytes=2**28).read_text(encoding="utf-8"))
         why = _why_unusable(record, seed)
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         why = f"it cannot be read as UTF-8 JSON ({type(exc).__name__})"

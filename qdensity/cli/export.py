@@ -36,7 +36,7 @@ from qdensity.cli.reference import (
     reference_seed,
     symbolic_circuit,
 )
-from qdensity.io import atomic_write_bytes
+from qdensity.io import atomic_write_bytes, check_readable
 
 __all__ = [
     "QASM2_BASIS",
@@ -196,9 +196,9 @@ def _same_text(written: str, expected: str) -> bool:
 
 
 def _read_text(path: Path) -> str | None:
-    try:
-        return path.read_bytes().decode("utf-8")
-    except (FileNotFoundError, UnicodeDecodeError):
+    try:  # a FIFO or device in its place, or a huge file, is not the export: unreadable
+        return check_readable(path, max_bytes=2**26).read_bytes().decode("utf-8")
+    except (FileNotFoundError, UnicodeDecodeError, ValueError):
         return None
 
 
