@@ -387,8 +387,8 @@ class CallableC(Constraint):
 
 
 class SequenceOf(Constraint):
-    """A list, tuple (or ``range``, ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
-    satisfying ``item``."""
+    """A list, tuple (or ``range``, ``ParameterVector``, 1-d numpy array, handed to the body as
+    a list of Python values) of ``min_len`` to ``max_len`` items, each satisfying ``item``."""
 
     def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
         self.item, self.min_len, self.max_len = as_constraint(item), min_len, max_len
@@ -396,7 +396,10 @@ class SequenceOf(Constraint):
     def type_ok(self, value) -> bool:
         from qiskit.circuit import ParameterVector
 
-        if not isinstance(value, (list, tuple, range, ParameterVector)):
+        if isinstance(value, np.ndarray):  # a 1-d array means the list of its items
+            if value.ndim != 1 or value.dtype.kind == "c":
+                return False
+        elif not isinstance(value, (list, tuple, range, ParameterVector)):
             return False
         return all(self.item.type_ok(v) for v in value)
 
@@ -408,6 +411,8 @@ class SequenceOf(Constraint):
         return all(self.item.is_satisfied_by(v) for v in value)
 
     def normalise(self, value):
+        if isinstance(value, np.ndarray):  # the body gets the list of Python values
+            return [self.item.normalise(_python_scalar(v)) for v in value]
         if type(value) in (list, tuple) and any(isinstance(v, np.generic) for v in value):
             return type(value)(self.item.normalise(_python_scalar(v)) for v in value)
         return value

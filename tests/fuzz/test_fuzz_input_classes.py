@@ -92,6 +92,33 @@ def test_numpy_scalars_meaning_a_valid_value_are_accepted_as_that_value(name, ar
             assert type(body_gets) is type(example)
 
 
+SEQUENCE_CASES = []
+for _name, _arg, _c in DECLARED:
+    _members = [m for m in getattr(_c, "members", [_c]) if hasattr(m, "item")
+                and isinstance(m.item, (Interval, Options))]
+    for _m in _members:
+        try:
+            _example = _m.example()
+        except LookupError:
+            continue
+        if _example and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                            for v in _example):
+            SEQUENCE_CASES.append((_name, _arg, _c, list(_example)))
+
+
+@pytest.mark.parametrize(("name", "arg", "c", "example"), SEQUENCE_CASES,
+                         ids=[f"{n}:{a}" for n, a, *_ in SEQUENCE_CASES])
+def test_numpy_arrays_of_valid_items_are_accepted_as_lists(name, arg, c, example):
+    kinds = _INTS if isinstance(example[0], int) else _FLOATS
+    for t in kinds:
+        arr = np.array(example).astype(t)
+        if arr.tolist() != example:
+            continue  # this dtype cannot hold the values
+        assert c.is_satisfied_by(arr), f"{name}: {arg}={arr!r} refused"
+        body_gets = c.normalise(arr)
+        assert body_gets == example and all(not isinstance(v, np.generic) for v in body_gets)
+
+
 def test_numpy_scalars_give_the_same_results_as_python_values():
     from qdensity import DensityQNN, FixedMixture
     from qdensity.circuits.ansatze.hamming import pyramid
