@@ -405,6 +405,8 @@ def validates(**declarations) -> Callable:
             where = obj.__qualname__
         items = [(k, constraints[k]) for k in sig.parameters if k in constraints]
 
+        is_class = isinstance(obj, type)
+
         @functools.wraps(target)
         def checked(*args, **kwargs):
             try:
@@ -418,8 +420,17 @@ def validates(**declarations) -> Callable:
                     if value is not arguments[name]:  # a numpy scalar, as its Python value
                         arguments[name], changed = value, True
             if changed:
-                return target(*bound.args, **bound.kwargs)
-            return target(*args, **kwargs)
+                args, kwargs = bound.args, bound.kwargs
+            if not is_class:
+                return target(*args, **kwargs)
+            key = id(args[0])  # under construction: its own assignments are not re-checked
+            _BUILDING[key] = _BUILDING.get(key, 0) + 1
+            try:
+                return target(*args, **kwargs)
+            finally:
+                depth = _BUILDING.pop(key, 1) - 1
+                if depth:
+                    _BUILDING[key] = depth
 
         checked.__constraints__ = constraints  # type: ignore[attr-defined]  # our own marker
         if isinstance(obj, type):
@@ -432,11 +443,16 @@ def validates(**declarations) -> Callable:
     return decorate
 
 
+#: ``id`` of each instance whose checked constructor is running -> nesting depth.
+_BUILDING: dict[int, int] = {}
+
+
 def _check_assignments(cls: type, where: str, constraints: dict) -> None:
     """Check a public attribute that holds a constructor argument when it is assigned again
     (``model.readout = "bogus"`` is refused as ``DensityQNN(readout="bogus")`` is, instead of
-    being read later or ignored). The first assignment, in the constructor, is the checked
-    argument itself; attributes behind a property check in their setters."""
+    being read later or ignored). Assignments made while the constructor runs are its own
+    (the checked argument, or what it was turned into); attributes behind a property check
+    in their setters."""
     public = {k: c for k, c in constraints.items()
               if not k.startswith("_") and not isinstance(c, Unchecked)}
     if not public:
@@ -445,7 +461,8 @@ def _check_assignments(cls: type, where: str, constraints: dict) -> None:
 
     def __setattr__(self, name, value):
         constraint = public.get(name)
-        if constraint is not None and name in getattr(self, "__dict__", ()):
+        if (constraint is not None and id(self) not in _BUILDING
+                and name in getattr(self, "__dict__", ())):
             value = _check(f"{where}.{name}", name, constraint, value)
         inherited(self, name, value)
 
