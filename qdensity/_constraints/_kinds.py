@@ -183,7 +183,7 @@ class FilePath(Constraint):
         return ""
 
     def __str__(self) -> str:
-        return {"file": "the path of an existing regular file",
+        return {"file": "the path of an existing file (a regular file)",
                 "dir": "the path of an existing folder", None: "a file path"}[self.exists]
 
     def example(self):
