@@ -35,8 +35,7 @@ _NOT_A_FILE = os.path.join(os.sep, "nonexistent-qdensity-dir", "missing.file")
 
 
 def _python_scalar(value):
-    """A numpy scalar (``np.int64(3)``, ``np.float32(0.5)``, ``np.bool_(True)``, ``np.str_``)
-    as the Python value it means; anything else as given."""
+    """A numpy scalar (``np.int64(3)``, ``np.float32(0.5)``, ``np.str_``) as its Python value."""
     return value.item() if isinstance(value, np.generic) else value
 
 
@@ -405,8 +404,6 @@ def validates(**declarations) -> Callable:
             where = obj.__qualname__
         items = [(k, constraints[k]) for k in sig.parameters if k in constraints]
 
-        is_class = isinstance(obj, type)
-
         @functools.wraps(target)
         def checked(*args, **kwargs):
             try:
@@ -421,16 +418,17 @@ def validates(**declarations) -> Callable:
                         arguments[name], changed = value, True
             if changed:
                 args, kwargs = bound.args, bound.kwargs
-            if not is_class:
+            if not isinstance(obj, type):
                 return target(*args, **kwargs)
             key = id(args[0])  # under construction: its own assignments are not re-checked
             _BUILDING[key] = _BUILDING.get(key, 0) + 1
             try:
                 return target(*args, **kwargs)
             finally:
-                depth = _BUILDING.pop(key, 1) - 1
-                if depth:
-                    _BUILDING[key] = depth
+                if _BUILDING[key] == 1:
+                    del _BUILDING[key]
+                else:
+                    _BUILDING[key] -= 1
 
         checked.__constraints__ = constraints  # type: ignore[attr-defined]  # our own marker
         if isinstance(obj, type):
