@@ -30,6 +30,7 @@ from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.gradients.density import density_gradient_plan
 from qdensity.hardware.resources import compare_reports, resource_report
 from qdensity.hardware.targets import get_target
+from qdensity.io import atomic_path
 from qdensity.learning.nn import Linear
 from qdensity.learning.training import QNNClassifier
 from qdensity.models.decompositions import by_moments
@@ -340,5 +341,6 @@ def _plot(results: dict, path: Path, cfg: DemoConfig, label: str) -> None:
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)

@@ -112,6 +112,24 @@ def seed_u32(seed: SeedLike, name: str = "seed") -> int | None:
     return out
 
 
+def _as_real(values, name: str, what: str) -> np.ndarray:
+    """``values`` as a float64 array; complex values (even with zero imaginary parts: the
+    math is real), strings and bytes are refused rather than cut or parsed."""
+    if isinstance(values, (str, bytes)):
+        raise TypeError(f"{name} must be {what}, got {values!r:.80}")
+    try:
+        raw = values if isinstance(values, np.ndarray) else np.asarray(values)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be {what}, got {values!r:.80}") from exc
+    if raw.dtype.kind not in "biufO":
+        raise TypeError(f"{name} must be {what}, got an array of dtype {raw.dtype} (complex "
+                        f"values are not cut to their real part)")
+    try:
+        return np.asarray(raw, dtype=float)
+    except (TypeError, ValueError) as exc:  # an object array of complex or non-numbers
+        raise TypeError(f"{name} must be {what}, got {values!r:.80}") from exc
+
+
 def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
     """A finite real 1-d float array, or a ``ValueError`` naming ``name``.
 
@@ -127,10 +145,7 @@ def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
     -------
     numpy.ndarray, shape (d,), float64
     """
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a real vector, got {x!r}") from exc
+    arr = _as_real(x, name, "a real vector")
     if arr.ndim != 1:
         raise ValueError(f"{name} must be 1-dimensional, got shape {arr.shape}")
     if arr.size < min_length:
@@ -156,7 +171,9 @@ def check_distribution(alpha, name: str = "alpha", *, atol: float = 1e-9) -> np.
     alpha : array_like, shape (K,)
     name : str
     atol : float
-        Tolerance on ``|sum(alpha) - 1|``. The vector is never renormalised.
+        Tolerance on ``|sum(alpha) - 1|``, raised to the rounding of the given precision
+        (``K`` times the machine epsilon of a float32 or float16 ``alpha``, which cannot sum
+        to 1 within 1e-9). The vector is never renormalised.
 
     Returns
     -------
@@ -165,6 +182,11 @@ def check_distribution(alpha, name: str = "alpha", *, atol: float = 1e-9) -> np.
     arr = check_real_vector(alpha, name, min_length=1)
     if np.any(arr < 0):
         raise ValueError(f"{name} must be non-negative, got {arr}")
+    given = getattr(alpha, "dtype", None)
+    if given is None and isinstance(alpha, (list, tuple)) and alpha:
+        given = np.result_type(*[getattr(a, "dtype", float) for a in alpha])
+    if given is not None and np.dtype(given).kind == "f":
+        atol = max(atol, arr.size * float(np.finfo(given).eps))
     total = float(arr.sum())
     if abs(total - 1.0) > atol:
         raise ValueError(
@@ -208,10 +230,7 @@ def check_parameter_values(values, num_parameters: int, name: str = "values") ->
     numpy.ndarray, shape (P,) or (B, P)
         Same number of dimensions as given.
     """
-    try:
-        arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be real numbers, got {values!r}") from exc
+    arr = _as_real(values, name, "real numbers")
     if arr.ndim not in (1, 2) or arr.shape[-1] != num_parameters:
         raise ValueError(
             f"{name} must have shape ({num_parameters},) or (rows, {num_parameters}) "
@@ -246,10 +265,9 @@ def as_parameter_rows(values, num_parameters: int, name: str = "values") -> np.n
 
 def check_nonnegative_float(value, name: str) -> float:
     """A finite real number ``>= 0`` (e.g. a noise standard deviation)."""
-    try:
-        out = float(value)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a real number, got {value!r}") from exc
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r:.80}")
+    out = float(value)
     if not np.isfinite(out) or out < 0:
         raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
     return out
@@ -336,12 +354,7 @@ def check_finite_array(values, name: str, shape: tuple[int, ...] | None = None) 
     -------
     numpy.ndarray, float64
     """
-    if isinstance(values, (str, bytes)):
-        raise TypeError(f"{name} must be real numbers, got {values!r}")
-    try:
-        arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be real numbers, got {values!r}") from exc
+    arr = _as_real(values, name, "real numbers")
     if shape is not None and arr.shape != tuple(shape):
         raise ValueError(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):

@@ -1,6 +1,6 @@
 """CI installs the optional extras (torch, sweep, ibm, interop) and numba (core) so that their
-tests run there, never skip: ``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then fails if one is
-missing. The core package imports without them."""
+tests run there, never skip: ``.ci/run`` sets ``QDENSITY_REQUIRE_EXTRAS=1`` and this test then
+fails if one is missing. The core package imports without them."""
 
 import importlib
 import os

@@ -25,6 +25,7 @@ LAYERS = [
     "_lazy",
     "_constraints",
     "validation",
+    "io",
     "progress",
     "cluster",
     "datasets",

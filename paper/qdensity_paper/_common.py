@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from qdensity.gradients.density import density_gradient_plan
+from qdensity.io import atomic_path
 from qdensity_paper.results import ExperimentResult, metric_bounds
 
 __all__ = ["circuits_per_row", "epoch_curves", "plot_curves", "curve_colours", "figure_name",
@@ -231,7 +232,8 @@ def plot_curves(result: ExperimentResult, panels: Sequence[tuple[str, Sequence[s
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 

@@ -1,7 +1,8 @@
 """Results files: written atomically under a lock, read back only after their fields check.
 
-A results file is written to a temporary file in the same folder, flushed to disk and renamed
-over the old one (``os.replace``), so a crash or a full disk leaves the old file whole. Runs
+A results file is written with :func:`qdensity.io.atomic_write_text` (a temporary file in the
+same folder, flushed to disk and renamed over the old one), so a crash or a full disk leaves
+the old file whole. Runs
 that share a folder take an exclusive ``fcntl.flock`` on ``.<file>.lock`` beside it while they
 read, merge and write, so two runs finishing together both keep their seeds.
 """
@@ -10,8 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -19,32 +18,18 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write_text", "locked", "check_fields", "close_enough", "read_fields",
+from qdensity.io import check_readable
+from qdensity.validation import FileName
+
+__all__ = ["locked", "check_fields", "close_enough", "read_fields",
            "canonical", "jsonable", "recomputed"]
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and ``os.replace`` (all or nothing).
+#: Largest results file read (the committed ones take a few MB).
+MAX_RESULT_BYTES = 256 * 2**20
 
-    Raises
-    ------
-    OSError
-        Whatever writing raised (a full disk: ``ENOSPC``); the old ``path`` is untouched and
-        the temporary file removed.
-    """
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+#: What a result's name, mode and figures may be (each becomes a file name).
+_FILE_NAME = FileName()
 
 
 @contextmanager
@@ -96,6 +81,9 @@ def check_fields(fields: Mapping, where: str) -> None:
     for key, (kind, what) in _FIELDS.items():
         if key in fields and not isinstance(fields[key], kind):
             raise TypeError(f"{where}: {key} must be {what}, got {type(fields[key]).__name__}")
+    for key in ("name", "mode"):  # both name files: never a path
+        if key in fields and not _FILE_NAME.is_satisfied_by(fields[key]):
+            raise ValueError(f"{where}: {key} must be {_FILE_NAME}, got {fields[key]!r:.80}")
     seeds = fields.get("seeds", [])
     bad = [s for s in seeds if not _is_seed(s)]
     if bad:
@@ -113,6 +101,10 @@ def check_fields(fields: Mapping, where: str) -> None:
     figures = fields.get("figures", [])
     if any(not isinstance(f, str) for f in figures):
         raise TypeError(f"{where}: figures must be a list of file names (str)")
+    bad = [f for f in figures if not _FILE_NAME.is_satisfied_by(f)]
+    if bad:
+        raise ValueError(f"{where}: figures must be file names in the results folder (never "
+                         f"paths), got {bad[0]!r:.80}")
     seconds = fields.get("seconds")
     if seconds is not None and (isinstance(seconds, bool)
                                 or not isinstance(seconds, (int, float, np.number))
@@ -155,8 +147,9 @@ def read_fields(path: Path, version: int, allowed: set[str], where: str) -> dict
         fields, a field of the wrong type, seeds that are not distinct non-negative ints,
         seeds and per-seed rows of different lengths.
     """
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+    try:  # a regular file of bounded size (not /dev/zero or a FIFO), then its JSON
+        data = json.loads(check_readable(path, where, max_bytes=MAX_RESULT_BYTES).read_text(
+            encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"cannot read {where}: {exc}") from exc
     except RecursionError as exc:

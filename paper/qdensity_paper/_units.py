@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from qdensity.io import atomic_write_text, check_readable
+
 __all__ = ["normalise", "settings_hash", "checkpoint_dir", "load_unit", "save_unit",
            "merge_parts", "work_directory", "working_in"]
 
@@ -90,7 +92,7 @@ def load_unit(directory: Path, seed: int, unit: int, sub_config: Mapping) -> dic
     if not path.is_file():
         return None
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = json.loads(check_readable(path, max_bytes=2**28).read_text(encoding="utf-8"))
         why = _why_unusable(record, seed)
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         why = f"it cannot be read as UTF-8 JSON ({type(exc).__name__})"
@@ -111,13 +113,7 @@ def save_unit(directory: Path, seed: int, unit: int, sub_config: Mapping, metric
     record = normalise({"seed": seed, "unit": unit, "sub_config": normalise(sub_config),
                         "worker": worker, "metrics": metrics})
     record["checksum"] = _checksum(record)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    try:
-        tmp.write_text(json.dumps(record, default=_plain), encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    atomic_write_text(path, json.dumps(record, default=_plain))
     return path
 
 

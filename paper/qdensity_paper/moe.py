@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from qdensity.io import atomic_path
 from qdensity.progress import progress_bar
 from qdensity_paper._accounting import breakdown_metrics, circuit_breakdown
 from qdensity_paper._common import figure_name, plot_curves, require_torch
@@ -222,7 +223,8 @@ def plot(result: ExperimentResult, directory: Path) -> list[Path]:
                  f"{'s' * (n != 1)} per model; mean, 95% bootstrap CI, best (star)", fontsize=10)
     fig.tight_layout()
     violin = directory / figure_name(result, "moe-violins.png")
-    fig.savefig(violin, dpi=110)
+    with atomic_path(violin) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     labels = {f"{dec}/{v}": _LABELS[v] for dec in (*DECOMPOSITIONS, "pyramid") for v in VARIANTS}
     curves = plot_curves(result, [(t, [f"{nm}/test_vs_epoch" for nm in names])

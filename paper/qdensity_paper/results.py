@@ -29,9 +29,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from qdensity.io import atomic_write_text
 from qdensity.validation import check_finite_array, check_seed
 from qdensity_paper._result_files import (
-    atomic_write_text,
     canonical,
     check_fields,
     locked,
@@ -437,6 +437,7 @@ class ExperimentResult:
         the same way. Under a lock shared by the runs writing the folder; replaced atomically
         (a temporary file renamed over it), so a full disk leaves the old file whole.
         """
+        check_fields(self.__dict__, "ExperimentResult")  # a name changed since: never a path
         folder = Path(directory)
         folder.mkdir(parents=True, exist_ok=True)
         plain = folder / f"{self.name}-{self.mode}.json"

@@ -8,6 +8,7 @@ observables, engines, targets, seeds, callables, sequences).
 from qdensity._constraints._core import (
     MAX_CIRCUIT_QUBITS,
     MAX_LAYERS,
+    MAX_PLAN_SHOTS,
     MAX_ROWS,
     MAX_SEEDS,
     MAX_SHOTS,
@@ -31,6 +32,7 @@ from qdensity._constraints._kinds import (
     CallableC,
     Circuit,
     EngineLike,
+    FileName,
     FilePath,
     Observable,
     Seed,
@@ -39,9 +41,10 @@ from qdensity._constraints._kinds import (
     TorchTensor,
 )
 
-__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "Circuit",
-           "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
+__all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "FileName",
+           "Circuit", "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
            "Unchecked", "TorchTensor", "validates", "refuse", "as_constraint", "declared",
            "check_declared", "MAX_CIRCUIT_QUBITS",
-           "MAX_LAYERS", "MAX_SHOTS", "MAX_ROWS", "MAX_SEEDS", "MAX_SUBUNITARIES", "Qubits",
+           "MAX_LAYERS", "MAX_SHOTS", "MAX_PLAN_SHOTS", "MAX_ROWS", "MAX_SEEDS",
+           "MAX_SUBUNITARIES", "Qubits",
            "Layers", "Shots"]

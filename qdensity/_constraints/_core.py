@@ -34,6 +34,18 @@ import numpy as np
 _NOT_A_FILE = os.path.join(os.sep, "nonexistent-qdensity-dir", "missing.file")
 
 
+def _python_scalar(value):
+    """A numpy scalar (``np.int64(3)``, ``np.float32(0.5)``, ``np.str_``) as its Python value."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+class _ScalarMixin:
+    """Numpy scalars mean their Python values: accepted, and handed to the body as those."""
+
+    def normalise(self, value):
+        return _python_scalar(value)
+
+
 def _show(value, width: int = 80) -> str:
     """``repr`` of ``value`` cut to ``width`` characters (arrays by shape and dtype when big;
     a path is shown whole up to 1,000 characters: the user needs to see which file)."""
@@ -70,6 +82,11 @@ class Constraint:
         """Why ``value`` fails (empty when ``str(self)`` says it all)."""
         return ""
 
+    def normalise(self, value):
+        """The value the body receives for an accepted ``value`` (a numpy scalar of a scalar
+        declaration becomes the Python number it means; everything else as given)."""
+        return value
+
     def example(self) -> object:  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -98,7 +115,7 @@ class Unchecked(Constraint):
         return []
 
 
-class Instance(Constraint):
+class Instance(_ScalarMixin, Constraint):
     """``isinstance(value, types)``; ``what`` names the types in words (bools refused as ints)."""
 
     def __init__(self, types, what: str | None = None, example=None):
@@ -122,6 +139,8 @@ class Instance(Constraint):
         return self._types
 
     def is_satisfied_by(self, value) -> bool:
+        if isinstance(value, np.generic) and not isinstance(value, self.types):
+            value = value.item()  # np.int64(3) is an int, np.bool_(True) a bool
         if isinstance(value, (bool, np.bool_)) and bool not in self.types:
             return False
         return isinstance(value, self.types)
@@ -147,7 +166,7 @@ class Instance(Constraint):
                 if not self.is_satisfied_by(v)]
 
 
-class Interval(Constraint):
+class Interval(_ScalarMixin, Constraint):
     """A real or integer number in an interval (bools refused, reals finite).
 
     Parameters
@@ -173,6 +192,10 @@ class Interval(Constraint):
         if isinstance(value, (bool, np.bool_)):
             return False
         return isinstance(value, numbers.Integral if self.kind is int else numbers.Real)
+
+    def normalise(self, value):
+        value = _python_scalar(value)
+        return float(value) if self.kind is float and not isinstance(value, int) else value
 
     def is_satisfied_by(self, value) -> bool:
         if not self.type_ok(value):
@@ -221,7 +244,7 @@ class Interval(Constraint):
         return [v for v in out if not self.is_satisfied_by(v)]
 
 
-class Options(Constraint):
+class Options(_ScalarMixin, Constraint):
     """One of a fixed set of values (strings, usually); given as a callable returning them,
     the set is read at each check (a registry that grows after the declaration)."""
 
@@ -235,11 +258,12 @@ class Options(Constraint):
         return tuple(source()) if callable(source) else source
 
     def type_ok(self, value) -> bool:
+        value = _python_scalar(value)  # np.str_("a") is "a", np.int64(2) is 2
         return any(type(value) is type(o) for o in self.options)
 
     def is_satisfied_by(self, value) -> bool:
         try:
-            return self.type_ok(value) and value in self.options
+            return self.type_ok(value) and _python_scalar(value) in self.options
         except TypeError:  # unhashable or incomparable
             return False
 
@@ -273,6 +297,12 @@ class _AnyOf(Constraint):
             if m.type_ok(value):
                 return m.reason(value)
         return ""
+
+    def normalise(self, value):
+        for m in self.members:
+            if m.is_satisfied_by(value):
+                return m.normalise(value)
+        return value
 
     def __str__(self) -> str:
         return " or ".join(str(m) for m in self.members)
@@ -330,9 +360,10 @@ def refuse(where: str, name: str, value, allowed, reason: str = "",
     return error(text + (f" ({reason})" if reason else ""))
 
 
-def _check(where: str, name: str, constraint: Constraint, value) -> None:
+def _check(where: str, name: str, constraint: Constraint, value):
+    """``value`` as the body receives it (:meth:`Constraint.normalise`), or the refusal."""
     if constraint.is_satisfied_by(value):
-        return
+        return constraint.normalise(value)
     error = ValueError if constraint.type_ok(value) else TypeError
     raise refuse(where, name, value, constraint, constraint.reason(value), error)
 
@@ -383,22 +414,65 @@ def validates(**declarations) -> Callable:
         @functools.wraps(target)
         def checked(*args, **kwargs):
             try:
-                arguments = sig.bind(*args, **kwargs).arguments
+                bound = sig.bind(*args, **kwargs)
             except TypeError as exc:
                 raise TypeError(f"{where}: {exc}") from None
+            arguments, changed = bound.arguments, False
             for name, constraint in items:
                 if name in arguments:
-                    _check(where, name, constraint, arguments[name])
-            return target(*args, **kwargs)
+                    value = _check(where, name, constraint, arguments[name])
+                    if value is not arguments[name]:  # a numpy scalar, as its Python value
+                        arguments[name], changed = value, True
+            if changed:
+                args, kwargs = bound.args, bound.kwargs
+            if not isinstance(obj, type):
+                return target(*args, **kwargs)
+            key = id(args[0])  # under construction: its own assignments are not re-checked
+            _BUILDING[key] = _BUILDING.get(key, 0) + 1
+            try:
+                return target(*args, **kwargs)
+            finally:
+                if _BUILDING[key] == 1:
+                    del _BUILDING[key]
+                else:
+                    _BUILDING[key] -= 1
 
         checked.__constraints__ = constraints  # type: ignore[attr-defined]  # our own marker
         if isinstance(obj, type):
             type.__setattr__(obj, "__init__", checked)
             type.__setattr__(obj, "__constraints__", constraints)
+            _check_assignments(obj, where, constraints)
             return obj
         return checked
 
     return decorate
+
+
+#: ``id`` of each instance whose checked constructor is running -> nesting depth.
+_BUILDING: dict[int, int] = {}
+
+
+def _check_assignments(cls: type, where: str, constraints: dict) -> None:
+    """Check a public attribute that holds a constructor argument when it is assigned again
+    (``model.readout = "bogus"`` is refused as ``DensityQNN(readout="bogus")`` is, instead of
+    being read later or ignored). Assignments made while the constructor runs are its own
+    (the checked argument, or what it was turned into); attributes behind a property check
+    in their setters."""
+    public = {k: c for k, c in constraints.items()
+              if not k.startswith("_") and not isinstance(c, Unchecked)}
+    if not public:
+        return
+    inherited: Callable[..., None] = cls.__setattr__
+
+    def __setattr__(self, name, value):
+        constraint = public.get(name)
+        if (constraint is not None and id(self) not in _BUILDING
+                and name in getattr(self, "__dict__", ())):
+            value = _check(f"{where}.{name}", name, constraint, value)
+        inherited(self, name, value)
+
+    __setattr__.__qualname__ = f"{cls.__qualname__}.__setattr__"
+    type.__setattr__(cls, "__setattr__", __setattr__)
 
 
 #: Widest circuit a builder makes (far beyond any device; refuses 10**9 before building).
@@ -407,6 +481,8 @@ MAX_CIRCUIT_QUBITS = 4096
 MAX_LAYERS = 10_000
 #: Most shots one call may ask for (10**8 shots is hours of sampling).
 MAX_SHOTS = 10**8
+#: Most shots one plan may spend in total, over all its jobs and rows (days of sampling).
+MAX_PLAN_SHOTS = 10**10
 #: Most data rows, parameter rows or units one call may ask for.
 MAX_ROWS = 10**7
 #: Most sub-unitaries (K) a density model or preparation circuit may hold.

@@ -6,13 +6,22 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
 import sys
 from collections.abc import Callable
 from typing import NoReturn
 
 import numpy as np
 
-from qdensity._constraints._core import _NOT_A_FILE, Constraint, Instance, _show, as_constraint
+from qdensity._constraints._core import (
+    _NOT_A_FILE,
+    Constraint,
+    Instance,
+    _python_scalar,
+    _ScalarMixin,
+    _show,
+    as_constraint,
+)
 
 _DTYPES = {"real": "biuf", "int": "iu", "bool": "b", "complex": "biufc", "any": None}
 
@@ -133,6 +142,7 @@ class Array(Constraint):
             bad.flat[-1] = math.inf
             out.append(bad)
             out.append(good.astype(complex) + 1j)
+            out.append(good.astype(complex))  # complex with zero imaginary parts: still complex
             out.append(np.zeros((0,) * good.ndim))
             out.append(good.reshape(-1)[:1].reshape((1,) * (good.ndim + 1)))
             out.append(good.astype(float) + 0.5)
@@ -153,15 +163,30 @@ class FilePath(Constraint):
     def is_satisfied_by(self, value) -> bool:
         if not self.type_ok(value) or not os.fspath(value):
             return False
-        if self.exists == "file":
+        if self.exists == "file":  # a regular file: not a device, FIFO or socket
             return os.path.isfile(value)
         if self.exists == "dir":
             return os.path.isdir(value)
         return "\0" not in os.fspath(value)
 
+    def reason(self, value) -> str:
+        if self.exists == "file" and self.type_ok(value) and os.fspath(value):
+            import stat
+
+            try:
+                mode = os.stat(value).st_mode
+            except (OSError, ValueError):
+                return ""
+            for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
+                               (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO"),
+                               (stat.S_ISSOCK, "a socket")):
+                if test(mode):
+                    return f"it is {what}, not a regular file"
+        return ""
+
     def __str__(self) -> str:
-        return {"file": "the path of an existing file", "dir": "the path of an existing folder",
-                None: "a file path"}[self.exists]
+        return {"file": "the path of an existing file (a regular file)",
+                "dir": "the path of an existing folder", None: "a file path"}[self.exists]
 
     def example(self) -> str:
         return {"file": __file__, "dir": os.path.dirname(__file__),
@@ -171,7 +196,44 @@ class FilePath(Constraint):
         out = [3, None, b"x", object(), "", "a\0b"]
         if self.exists:
             out += [_NOT_A_FILE, os.path.dirname(__file__) if self.exists == "file" else __file__]
+        if self.exists == "file":  # special files read forever (/dev/zero) or block (a FIFO)
+            out += [p for p in ("/dev/zero", "/dev/urandom", os.devnull) if os.path.exists(p)]
         return [v for v in out if not self.is_satisfied_by(v)]
+
+
+class FileName(Constraint):
+    """A name that becomes part of a file name (a result's, a figure's, a checkpoint's): letters,
+    digits, ``_``, ``-`` and ``.``, not starting with ``.`` and at most ``max_len`` characters.
+    Never a path: no separator, no ``..``, no NUL, so a name read from a file cannot write
+    outside the folder it is joined to."""
+
+    _PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
+
+    def __init__(self, max_len: int = 200):
+        self.max_len = max_len
+
+    def type_ok(self, value) -> bool:
+        return isinstance(value, str)
+
+    def is_satisfied_by(self, value) -> bool:
+        return (isinstance(value, str) and 0 < len(value) <= self.max_len
+                and self._PATTERN.fullmatch(value) is not None and ".." not in value)
+
+    def reason(self, value) -> str:
+        if isinstance(value, str) and ("/" in value or "\\" in value or ".." in value):
+            return "a name is never a path"
+        return ""
+
+    def __str__(self) -> str:
+        return (f"a file name of 1 to {self.max_len} letters, digits, '_', '-' or '.' (not "
+                f"starting with '.', no '..')")
+
+    def example(self):
+        return "pyramid-shots"
+
+    def violations(self) -> list:
+        return ["", "../x", "a/b", "/etc/passwd", "..", ".hidden", "a\0b", "a\\b", "x" * 201, 3,
+                None, b"x"]
 
 
 class Circuit(Instance):
@@ -286,7 +348,7 @@ class TargetLike(Constraint):
         return [3, object(), math.nan, [], ""]
 
 
-class Seed(Constraint):
+class Seed(_ScalarMixin, Constraint):
     """A seed: an int in ``[0, high]``, a ``numpy.random.Generator`` or None."""
 
     def __init__(self, high: int = 2**63 - 1):
@@ -332,8 +394,8 @@ class CallableC(Constraint):
 
 
 class SequenceOf(Constraint):
-    """A list, tuple (or ``range``, ``ParameterVector``) of ``min_len`` to ``max_len`` items, each
-    satisfying ``item``."""
+    """A list, tuple (or ``range``, ``ParameterVector``, 1-d numpy array, handed to the body as
+    a list of Python values) of ``min_len`` to ``max_len`` items, each satisfying ``item``."""
 
     def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
         self.item, self.min_len, self.max_len = as_constraint(item), min_len, max_len
@@ -341,7 +403,10 @@ class SequenceOf(Constraint):
     def type_ok(self, value) -> bool:
         from qiskit.circuit import ParameterVector
 
-        if not isinstance(value, (list, tuple, range, ParameterVector)):
+        if isinstance(value, np.ndarray):  # a 1-d array means the list of its items
+            if value.ndim != 1 or value.dtype.kind == "c":
+                return False
+        elif not isinstance(value, (list, tuple, range, ParameterVector)):
             return False
         return all(self.item.type_ok(v) for v in value)
 
@@ -351,6 +416,13 @@ class SequenceOf(Constraint):
         if self.max_len is not None and len(value) > self.max_len:
             return False
         return all(self.item.is_satisfied_by(v) for v in value)
+
+    def normalise(self, value):
+        if isinstance(value, np.ndarray):  # the body gets the list of Python values
+            return [self.item.normalise(_python_scalar(v)) for v in value]
+        if type(value) in (list, tuple) and any(isinstance(v, np.generic) for v in value):
+            return type(value)(self.item.normalise(_python_scalar(v)) for v in value)
+        return value
 
     def reason(self, value) -> str:
         if self.type_ok(value):

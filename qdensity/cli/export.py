@@ -36,6 +36,7 @@ from qdensity.cli.reference import (
     reference_seed,
     symbolic_circuit,
 )
+from qdensity.io import atomic_write_bytes, check_readable
 
 __all__ = [
     "QASM2_BASIS",
@@ -159,10 +160,10 @@ def export_circuits(directory: str | Path, names: Sequence[str] | None = None, *
     for suffix in (f for f in _WRITERS if f in formats):
         for name in selected:
             path = out / f"{name}.{suffix}"
-            path.write_bytes(_WRITERS[suffix](name).encode("utf-8"))
+            atomic_write_bytes(path, _WRITERS[suffix](name).encode("utf-8"))
             written.append(path)
     index = out / INDEX_NAME
-    index.write_bytes(index_markdown(selected).encode("utf-8"))
+    atomic_write_bytes(index, index_markdown(selected).encode("utf-8"))
     written.append(index)
     return written
 
@@ -195,9 +196,9 @@ def _same_text(written: str, expected: str) -> bool:
 
 
 def _read_text(path: Path) -> str | None:
-    try:
-        return path.read_bytes().decode("utf-8")
-    except (FileNotFoundError, UnicodeDecodeError):
+    try:  # a FIFO or device in its place, or a huge file, is not the export: unreadable
+        return check_readable(path, max_bytes=2**26).read_bytes().decode("utf-8")
+    except (FileNotFoundError, UnicodeDecodeError, ValueError):
         return None
 
 

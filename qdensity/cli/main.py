@@ -21,6 +21,7 @@ import numpy as np
 from qdensity.cli._builders import BUILDERS, _vector, build_circuit, check_size
 from qdensity.cli._devices import DEMO_OPTIONS, correction_options, corrections
 from qdensity.cli._help import Formatter, texts
+from qdensity.io import atomic_write_text
 from qdensity.validation import Instance, SequenceOf, validates
 
 __all__ = ["main", "BUILDERS", "build_circuit", "MAX_CLI_QUBITS", "MAX_CLI_SHOTS"]
@@ -121,8 +122,7 @@ def _cmd_build(args) -> int:
             if not args.json:
                 print(text)
         else:
-            with open(args.qasm, "w", encoding="utf-8") as fh:
-                fh.write(text)
+            atomic_write_text(args.qasm, text)
             out["qasm_file"] = args.qasm
             if not args.json:
                 print(f"wrote {args.qasm}")

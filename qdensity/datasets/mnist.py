@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from qdensity.io import check_npz
 from qdensity.validation import (
     MAX_ROWS,
     FilePath,
@@ -109,15 +110,9 @@ def _from_npz(path: Path) -> tuple[np.ndarray, ...]:
     if not zipfile.is_zipfile(path):
         raise ValueError(f"cannot read {str(path)!r}: not an .npz archive (nor a directory of "
                          "MNIST IDX files)")
-    try:
-        with zipfile.ZipFile(path) as zf:  # sizes from the zip headers, before inflating
-            declared = sum(info.file_size for info in zf.infolist())
-    except (OSError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from exc
-    if declared > MAX_FILE_BYTES:
-        raise ValueError(f"{str(path)!r}: its arrays inflate to {declared} bytes, more than "
-                         f"the {MAX_FILE_BYTES} an MNIST archive may take; refused before "
-                         f"inflating")
+    # sizes from the zip directory and each .npy header (a member's header claiming more than
+    # the member holds would make numpy allocate it), before anything is inflated
+    check_npz(path, MAX_FILE_BYTES, max_members=16)
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in ("x_train", "y_train", "x_test", "y_test") if k not in data]

@@ -28,6 +28,7 @@ from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.job_results import JobResult, bits_to_probabilities, unary_frequencies
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
+    MAX_PLAN_SHOTS,
     MAX_SHOTS,
     Array,
     CallableC,
@@ -148,6 +149,13 @@ class Plan:
     postprocess: Callable[[list[JobResult]], Any]
     description: str = ""
     meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        total = self.total_shots
+        if total is not None and total > MAX_PLAN_SHOTS:  # each job is bounded; so is the sum
+            raise ValueError(f"Plan: jobs must ask for at most {MAX_PLAN_SHOTS} shots in total "
+                             f"(days of sampling), got {total} (rows x shots summed over "
+                             f"{len(self.jobs)} jobs); split the plan or use fewer shots")
 
     @property
     def num_templates(self) -> int:

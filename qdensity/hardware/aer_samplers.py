@@ -193,7 +193,7 @@ class AdaptiveSampler(BaseSamplerV2):
                 options = {**options, "method": "matrix_product_state",
                            "max_parallel_threads": 1}
                 options.pop("max_parallel_shots", None)
-        check_memory(a, options["method"], "SamplerEngine (Aer SamplerV2)")
+        check_memory(a, options["method"], "SamplerEngine (Aer SamplerV2)", circuit)
         return options
 
     def simulator(self, options: dict) -> AerSimulator:

@@ -259,7 +259,8 @@ def _fits(num_active: int, method: str) -> bool:
     return per is None or per <= memory_budget()
 
 
-def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") -> None:
+def check_memory(num_active: int, method: str, engine: str = "SamplerEngine",
+                 circuit: QuantumCircuit | None = None) -> None:
     """Refuse a simulation whose state would not fit in :func:`memory_budget`.
 
     Parameters
@@ -271,12 +272,30 @@ def check_memory(num_active: int, method: str, engine: str = "SamplerEngine") ->
         stabilizers are not dense and always pass).
     engine : str
         Named in the message.
+    circuit : QuantumCircuit, optional
+        The circuit itself: a ``matrix_product_state`` run (forced by the caller) too wide
+        for a dense state must then be Hamming-weight 1 or of proven bond dimension at most
+        :data:`MPS_MAX_BOND` (:func:`mps_bond_bound`); a matrix-product state of a highly
+        entangled circuit is exponential again, and Aer would run for hours.
 
     Raises
     ------
     ValueError
         Naming the engine, the width, the bytes needed and the alternatives.
     """
+    if method == "matrix_product_state" and circuit is not None and not _fits(
+            num_active, "statevector"):
+        weight = (circuit.metadata or {}).get(HAMMING_WEIGHT_KEY)
+        bond = None if weight == 1 else mps_bond_bound(circuit)
+        if weight != 1 and (bond is None or bond > MPS_MAX_BOND):
+            raise ValueError(
+                f"{engine}: Aer's matrix_product_state method on {num_active} active qubits "
+                f"needs a circuit of bounded entanglement, and this one has no proven bond "
+                f"bound (two-qubit gates between qubits that are not neighbours on the line of "
+                f"its active qubits{'' if bond is None else f', or a bond bound of {bond}'}; "
+                f"at most {MPS_MAX_BOND} runs); alternatives: Hamming-weight-1 circuits (a "
+                f"unary loader and RBS/FBS gates), the unary engine for RBS circuits at any "
+                f"width, or fewer qubits")
     if _fits(num_active, method):
         return
     per = _dense_bytes(num_active, method)

@@ -27,6 +27,7 @@ from qiskit.providers import BackendV2, Options, QubitProperties
 from qiskit.transpiler import InstructionProperties, Target
 
 from qdensity.hardware._snapshot_checks import MAX_SNAPSHOT_BYTES, check_snapshot_data, t2_bound
+from qdensity.io import atomic_write_text
 from qdensity.validation import FilePath, Instance, validates
 
 __all__ = ["SNAPSHOT_FORMAT", "SNAPSHOT_VERSION", "SnapshotFileBackend", "save_snapshot",
@@ -159,7 +160,7 @@ def save_snapshot(device, path: str | os.PathLike) -> Path:
     # what load_snapshot would refuse is not written (an error of 1.5, T1 <= 0, ...)
     check_snapshot_data(data, f"device {name!r} (not saved)", _arities(), _CONTROL_NAMES)
     out = Path(path)
-    out.write_text(json.dumps(data, indent=1))
+    atomic_write_text(out, json.dumps(data, indent=1))
     return out
 
 

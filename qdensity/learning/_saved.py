@@ -247,6 +247,13 @@ def _check_arrays(est, meta, data, name, width, targets, width_q, scaled: bool) 
                          f"equal its {targets} target(s)")
 
 
+def _plain(value):
+    """A numpy scalar hyperparameter (``epochs=np.int64(5)``) as the Python value it means."""
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} {value!r:.60} cannot be saved in JSON")
+
+
 def write_estimator(est, path) -> None:
     """Write a fitted estimator's metadata and arrays (the body of ``save``)."""
     meta = {"format": FORMAT, "version": FORMAT_VERSION, "estimator": type(est).__name__,
@@ -260,7 +267,7 @@ def write_estimator(est, path) -> None:
         arrays.update(pca_components=est.pca_.components_, pca_mean=est.pca_.mean_)
     if est.scaler_ is not None:
         arrays.update(scaler_mean=est.scaler_.mean_, scaler_scale=est.scaler_.scale_)
-    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    arrays["meta"] = np.frombuffer(json.dumps(meta, default=_plain).encode(), dtype=np.uint8)
     save_parameters(path, **arrays)
 
 

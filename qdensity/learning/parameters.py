@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from qdensity.io import atomic_write, check_readable
+
 __all__ = ["get_flat", "set_flat", "save_parameters", "load_parameters", "MAX_PARAMETER_BYTES",
            "MAX_PARAMETER_ARRAYS"]
 
@@ -183,12 +185,13 @@ def save_parameters(path: str | os.PathLike, /, **arrays) -> None:
             }
             if _fortran(arr):  # as .npy keeps it: the memory layout changes float results
                 doc["arrays"][name]["order"] = "F"
-        with open(path, "w", encoding="utf-8") as fh:
+        with atomic_write(path) as fh:
             json.dump(doc, fh, allow_nan=False)
         return
     # the layout of numpy.savez (one "<name>.npy" member per array, uncompressed), written
     # directly so that no array name can clash with a keyword of numpy.savez
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+    with atomic_write(path, "wb") as fh, zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_STORED,
+                                                        allowZip64=True) as zf:
         for name, arr in checked.items():
             with zf.open(name + ".npy", "w", force_zip64=True) as member:
                 np.lib.format.write_array(member, arr, allow_pickle=False)
@@ -222,6 +225,7 @@ def load_parameters(path: str | os.PathLike, *,
         archive, or is not a qdensity parameter JSON file.
     """
     path = os.fspath(path)
+    check_readable(path)  # not /dev/zero or a FIFO: they would be read forever or block
     limit = MAX_PARAMETER_BYTES if max_bytes is None else int(max_bytes)
     if str(path).lower().endswith(".json"):
         size = os.path.getsize(path)

@@ -52,6 +52,7 @@ from sklearn.base import clone, is_classifier
 from sklearn.model_selection import train_test_split
 
 from qdensity.cluster import IN_PROCESS, worker_name
+from qdensity.io import atomic_write, atomic_write_text
 from qdensity.learning._study import (
     DEFAULT_GRACE_PERIOD,
     MEMORY,
@@ -447,10 +448,10 @@ def export_trials(study, path: str | os.PathLike) -> Path:
     rows = trial_rows(study)
     if suffix == ".json":
         doc = {"study": study.study_name, "direction": study.direction.name, "trials": rows}
-        path.write_text(json.dumps(doc, indent=1, default=str))
+        atomic_write_text(path, json.dumps(doc, indent=1, default=str))
     else:
         keys = list(dict.fromkeys(k for r in rows for k in r))
-        with path.open("w", newline="") as fh:
+        with atomic_write(path, newline="") as fh:
             writer = csv.DictWriter(fh, fieldnames=keys)
             writer.writeheader()
             writer.writerows(rows)

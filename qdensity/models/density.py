@@ -214,11 +214,12 @@ class DensityQNN:
         """Data as a finite 2-d float array (B, d)."""
         arr = np.atleast_2d(check_finite_array(X, name))
         d = self.num_features
-        if self.encoding is None and d == 0:  # the circuits take no data: any row is ignored
-            d = arr.shape[-1]
+        if self.encoding is None and d == 0:  # the circuits take no data: only a gate may
+            d = getattr(self.mixture, "num_features", None) or 0  # read columns, never ignored
         if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] != d:
+            why = "; 0: it has no encoding nor uploaded x[i], so pass X=None" if d == 0 else ""
             raise ValueError(f"{name} must have shape (rows >= 1, {d}) (d = the model's "
-                             f"num_features), got {arr.shape}")
+                             f"num_features{why}), got {arr.shape}")
         return arr
 
     @property

@@ -15,8 +15,8 @@ import qdensity
 from qdensity.validation import declared
 
 #: Public modules that are not packages but hold entry points of their own.
-EXTRA_MODULES = ("qdensity.cluster", "qdensity.learning.torch", "qdensity.circuits.interop",
-                 "qdensity.gradients.qiskit_ml")
+EXTRA_MODULES = ("qdensity.cluster", "qdensity.io", "qdensity.learning.torch",
+                 "qdensity.circuits.interop", "qdensity.gradients.qiskit_ml")
 
 #: Callables that take no arguments, so there is nothing to declare: name -> why.
 NO_ARGUMENTS = {

@@ -22,6 +22,7 @@ import re
 import textwrap
 from pathlib import Path
 
+from qdensity.io import atomic_write_text
 from qdensity_paper.cli._help import texts
 
 __all__ = ["add_parser", "is_headline", "print_summary", "QUICK", "WIDTH"]
@@ -111,7 +112,7 @@ def _cmd_merge(args) -> int:
     merged = merge_results([ExperimentResult.load(p) for p in args.files])
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(merged.to_dict(), indent=2) + "\n", encoding="utf-8")
+    atomic_write_text(out, json.dumps(merged.to_dict(), indent=2) + "\n")
     if _json(args):
         print(json.dumps(merged.to_dict(), indent=2))
     else:
@@ -202,7 +203,7 @@ def _cmd_report(args) -> int:
         current = path.read_text(encoding="utf-8")
         updated = splice(current, text, str(path))
         if args.write and updated != current:
-            path.write_text(updated, encoding="utf-8")
+            atomic_write_text(path, updated)
             print(f"wrote {path}")
         elif args.check and updated != current:
             drift.append(str(path))

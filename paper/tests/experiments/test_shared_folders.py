@@ -16,7 +16,8 @@ import threading
 import numpy as np
 import pytest
 
-from qdensity_paper import _result_files, registry
+import qdensity.io
+from qdensity_paper import registry
 from qdensity_paper.merge import merge_results
 from qdensity_paper.registry import Experiment
 from qdensity_paper.results import ExperimentResult
@@ -107,7 +108,7 @@ def test_concurrent_saves_into_one_folder_lose_nothing(tmp_path):
 def test_a_full_disk_leaves_the_old_file_whole(tmp_path, monkeypatch):
     path = _result([0, 1]).save(tmp_path)
     before = path.read_bytes()
-    real = _result_files.os.fdopen
+    real = open
 
     class Full:
         def __init__(self, handle):
@@ -123,7 +124,8 @@ def test_a_full_disk_leaves_the_old_file_whole(tmp_path, monkeypatch):
             self.handle.write(text[: len(text) // 2])
             raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(_result_files.os, "fdopen", lambda fd, *a, **k: Full(real(fd, *a, **k)))
+    # the results file is written through qdensity.io's open (a temporary file, then a rename)
+    monkeypatch.setattr(qdensity.io, "open", lambda *a, **k: Full(real(*a, **k)), raising=False)
     with pytest.raises(OSError) as info:
         _result([2]).save(tmp_path)
     assert info.value.errno == errno.ENOSPC

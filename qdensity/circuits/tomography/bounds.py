@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from qdensity.validation import Interval, Qubits, validates
+from qdensity.validation import MAX_SHOTS, Interval, Qubits, refuse, validates
 
 __all__ = ["shots_for_error", "SIGN_FACTOR"]
 
@@ -73,4 +73,14 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     37562
     """
     delta, n, p_fail = float(delta), int(num_qubits), float(p_fail)
+    # in logarithms: delta**2 underflows to 0 below 1e-162 and the quotient overflows
+    log_shots = 2 * math.log(SIGN_FACTOR) + math.log(math.log(6.0 * n / p_fail)) - 2 * math.log(
+        delta)
+    if log_shots > math.log(MAX_SHOTS):
+        smallest = SIGN_FACTOR * math.sqrt(math.log(6.0 * n / p_fail) / MAX_SHOTS)
+        raise refuse("shots_for_error", "delta", delta, f">= {smallest:.3g} for n = {n} and "
+                     f"p_fail = {p_fail:g}", f"a smaller delta needs more than {MAX_SHOTS} "
+                     "shots per circuit")
+    if log_shots < 0:  # fewer than one shot: one (delta**2 would overflow above 1e154)
+        return 1
     return math.ceil(SIGN_FACTOR**2 * math.log(6.0 * n / p_fail) / delta**2)

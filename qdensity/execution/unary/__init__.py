@@ -67,6 +67,7 @@ from qdensity.validation import (
 
 __all__ = [
     "UnaryCircuit",
+    "MAX_UNARY_GATES",
     "compile_unary",
     "orthogonal_matrix",
     "forward",
@@ -75,6 +76,10 @@ __all__ = [
 ]
 
 _IGNORED = frozenset({"barrier"})
+
+#: Most instructions :func:`compile_unary` reads (2**21: a pyramid on about 2,000 qubits; each
+#: gate costs about 30 us to compile, so this is about a minute).
+MAX_UNARY_GATES = 2**21
 
 
 @validates(circuit=[Circuit(min_qubits=1), Instance(UnaryCircuit)])
@@ -106,6 +111,12 @@ def compile_unary(circuit: QuantumCircuit) -> UnaryCircuit:
     """
     if isinstance(circuit, UnaryCircuit):
         return circuit
+    if len(circuit.data) > MAX_UNARY_GATES:  # compiling reads each gate (~30 us): minutes
+        raise ValueError(
+            f"circuit has {len(circuit.data)} instructions, more than the {MAX_UNARY_GATES} the "
+            f"unary engine compiles (about a minute at that size; a pyramid on "
+            f"{circuit.num_qubits} qubits has n(n-1)/2 gates): use an ansatz of fewer gates "
+            f"(butterfly: n log n), fewer qubits, or sample() with shots")
     phase = circuit.global_phase
     if isinstance(phase, ParameterExpression) and phase.parameters:
         raise ValueError(
