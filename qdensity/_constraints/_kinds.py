@@ -13,15 +13,8 @@ from typing import NoReturn
 
 import numpy as np
 
-from qdensity._constraints._core import (
-    _NOT_A_FILE,
-    Constraint,
-    Instance,
-    _python_scalar,
-    _ScalarMixin,
-    _show,
-    as_constraint,
-)
+from qdensity._constraints._core import _NOT_A_FILE, Constraint, Instance, as_constraint
+from qdensity._constraints._values import _python_scalar, _ScalarMixin, _show
 
 _DTYPES = {"real": "biuf", "int": "iu", "bool": "b", "complex": "biufc", "any": None}
 

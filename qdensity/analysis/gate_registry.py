@@ -46,6 +46,8 @@ SHIFT_RULES = ("four_term", "generator")
     fixed_generator=Instance(bool),
     matrix=[CallableC("f(params, num_qubits) -> ndarray"), None],
     decomposition=[CallableC("f(params, num_qubits) -> QuantumCircuit"), None],
+    block=[CallableC("f(*angles) -> ndarray of shape (B, 2**m, 2**m)"), None],
+    fixed=Instance(bool),
 )
 @dataclass(frozen=True)
 class GateKind:

@@ -23,17 +23,25 @@ from qdensity.analysis.gate_registry import GATES
 __all__ = ["MAX_QUBITS", "NoiseTables", "supported", "exact_probabilities", "Program",
            "active_count"]
 
-try:  # the engines' switch (qdensity.execution._numba sits above this layer)
+def _numba():
+    """numba, imported on first use (importing it costs about a second of CPU, which a plan
+    that never simulates a noisy circuit should not pay), or None where it is missing or
+    ``QDENSITY_NUMBA`` switches it off (the engines' switch; qdensity.execution._numba sits
+    above this layer)."""
     if os.environ.get("QDENSITY_NUMBA", "1").strip().lower() in ("0", "false", "no", "off"):
-        raise ImportError("disabled by QDENSITY_NUMBA")
-    import numba
-except ImportError:  # pragma: no cover - exercised with QDENSITY_NUMBA=0
-    numba = None  # type: ignore[assignment]
+        return None
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - numba is a core dependency
+        return None
+    return numba
 
 
 def _jit(func):
     """``numba.njit`` with the disk cache where numba can write one (a read-only install
     without a writable cache folder compiles in memory; ``QDENSITY_NUMBA_CACHE=0``: no cache)."""
+    numba = _numba()
+    assert numba is not None  # callers check first
     if os.environ.get("QDENSITY_NUMBA_CACHE", "1").strip().lower() not in ("0", "false", "no",
                                                                           "off"):
         try:
@@ -344,47 +352,51 @@ def _apply_numpy(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: i
     return np.ascontiguousarray(back).reshape(R, 2**a, 2**a)
 
 
-if numba is not None:
-    @_jit
-    def _apply_kernel(rho, sup, offsets):
-        """In place: every (row base, column base) block of ``rho`` through ``sup``."""
-        R, D = rho.shape[0], rho.shape[1]
-        L = offsets.shape[0]
-        mask = 0
-        for t in range(L):
-            mask |= offsets[t]
-        per_row = sup.shape[0] > 1
-        v = np.empty(L * L, dtype=rho.dtype)
-        for r in range(R):
-            S = sup[r] if per_row else sup[0]
-            for i0 in range(D):
-                if i0 & mask:
+def _apply_block(rho, sup, offsets):
+    """In place: every (row base, column base) block of ``rho`` through ``sup``."""
+    R, D = rho.shape[0], rho.shape[1]
+    L = offsets.shape[0]
+    mask = 0
+    for t in range(L):
+        mask |= offsets[t]
+    per_row = sup.shape[0] > 1
+    v = np.empty(L * L, dtype=rho.dtype)
+    for r in range(R):
+        S = sup[r] if per_row else sup[0]
+        for i0 in range(D):
+            if i0 & mask:
+                continue
+            for j0 in range(D):
+                if j0 & mask:
                     continue
-                for j0 in range(D):
-                    if j0 & mask:
-                        continue
-                    for x in range(L):
-                        for y in range(L):
-                            v[x * L + y] = rho[r, i0 + offsets[x], j0 + offsets[y]]
-                    for x in range(L):
-                        for y in range(L):
-                            acc = 0j
-                            row = x * L + y
-                            for z in range(L * L):
-                                acc += S[row, z] * v[z]
-                            rho[r, i0 + offsets[x], j0 + offsets[y]] = acc
-        return rho
+                for x in range(L):
+                    for y in range(L):
+                        v[x * L + y] = rho[r, i0 + offsets[x], j0 + offsets[y]]
+                for x in range(L):
+                    for y in range(L):
+                        acc = 0j
+                        row = x * L + y
+                        for z in range(L * L):
+                            acc += S[row, z] * v[z]
+                        rho[r, i0 + offsets[x], j0 + offsets[y]] = acc
+    return rho
+
+
+#: The compiled ``_apply_block``, made on first use (None until then).
+_KERNEL: list = []
 
 
 def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) -> np.ndarray:
     """``rho`` (R, 2**a, 2**a) through a superoperator (4**k, 4**k), shared or per row."""
-    if numba is None:
+    if _numba() is None:
         return _apply_numpy(rho, sup, qubits, a)
+    if not _KERNEL:
+        _KERNEL.append(_jit(_apply_block))
     k = len(qubits)
     offsets = np.array([sum(((l >> b) & 1) << qubits[b] for b in range(k))
                         for l in range(2**k)], dtype=np.int64)
     sup3 = np.ascontiguousarray(sup.reshape(-1, 4**k, 4**k), dtype=complex)
-    return _apply_kernel(rho, sup3, offsets)
+    return _KERNEL[0](rho, sup3, offsets)
 
 
 def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:

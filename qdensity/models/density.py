@@ -3,9 +3,8 @@
 ``rho(theta, alpha, x) = sum_k alpha_k(x) U_k(theta_k) rho(x) U_k(theta_k)^dagger`` with a data
 encoding ``rho(x) = V(x)|0><0|V(x)^dagger``; the model's output is
 ``f(x) = sum_k alpha_k(x) f_k(x)``, ``f_k = Tr(O U_k rho(x) U_k^dagger)`` for an observable
-readout, or the mixture of the sub-unitaries' unary probability (or amplitude) vectors.
-The encoding ``V(x)`` (:class:`Encoding`) lives in :mod:`qdensity.models.encoding` and is
-re-exported here.
+readout, or the mixture of the sub-unitaries' unary probability (or amplitude) vectors. The
+encoding ``V(x)`` (:class:`Encoding`, :mod:`qdensity.models.encoding`) is re-exported here.
 """
 
 from __future__ import annotations

@@ -21,13 +21,16 @@ from qiskit.circuit import Parameter
 from qiskit.circuit.library import XXPlusYYGate, get_standard_gate_name_mapping
 from qiskit.quantum_info import Operator, SparsePauliOp, Statevector
 
+from qdensity.circuits.ansatze.registry import FAMILIES
 from qdensity.circuits.gates import FBSGate, RBSGate, rbs_matrix
 from qdensity.circuits.interop import PORTABLE_GATES, standard_gates, to_pennylane
-from qdensity.cli._builders import BUILDERS, MIN_SIZE, build_circuit
+from qdensity.cli._builders import BUILDERS, build_circuit
 
 NAMES = list(BUILDERS)
+#: The smallest size each registered family builds (the registry's, by command name).
+_LOWEST = {f.command_name: f.min_qubits for f in FAMILIES.values()}
 #: Sizes that give a non-trivial circuit of every builder (butterfly: a power of two).
-SIZE = {name: max(4, MIN_SIZE.get(name, 2)) for name in NAMES} | {"reuploading": 2}
+SIZE = {name: max(4, _LOWEST.get(name, 2)) for name in NAMES} | {"reuploading": 2}
 TOL = 1e-9
 
 

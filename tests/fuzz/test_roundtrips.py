@@ -494,6 +494,12 @@ def _simulator(method):
     return AerSimulator(method=method)
 
 
+def _noisy_simulator(noise_model, method):
+    from qiskit_aer import AerSimulator
+
+    return AerSimulator(method=method, noise_model=noise_model)
+
+
 def _hw_circuit():
     """A Hamming-weight-1 circuit (X on qubit 0, then RBS gates), measured, and two rows."""
     circ = QuantumCircuit(4)
@@ -779,6 +785,100 @@ def _sampler_states():
         out["DensityQNNLayer[SamplerEngine]"] = layer
     return out
 
+def _late_additions():
+    """Classes added with the exact noisy sampler, dropout, file names and qiskit-ml."""
+    from qiskit.providers.fake_provider import GenericBackendV2
+    from qiskit_aer.noise import NoiseModel
+
+    from qdensity import validation as v
+    from qdensity.execution.sampler.engine import ShotLedger
+    from qdensity.hardware.noisy_exact import ExactNoisySampler, ExactRoute, NoiseTables
+    from qdensity.models.dropout import RandomisedPreparation
+
+    def noise():
+        return NoiseModel.from_backend(GenericBackendV2(2, seed=3))
+
+    def noisy_circuit():
+        circ = QuantumCircuit(2, name="bell-ish")  # the draws' stream reads the name
+        circ.x(0)
+        circ.cx(0, 1)
+        circ.measure_all()
+        return circ
+
+    def file_name():
+        c = v.FileName()
+        probes = ["a.json", "../x", "a/b", "", "ok-name.png", 3]
+        return [("fresh", c, lambda c: (str(c), [bool(c.is_satisfied_by(p)) for p in probes]))]
+
+    def exact_sampler():
+        def counts(s):
+            return s.run([(noisy_circuit(), None, 64)]).result()[0].data.meas.get_counts()
+
+        used = ExactNoisySampler(noise(), seed=4)
+        counts(used)
+        return [("fresh", ExactNoisySampler(noise(), seed=4), counts), ("used", used, counts)]
+
+    def tables():
+        return [("fresh", NoiseTables(noise()), lambda t: t.ok)]
+
+    def route():
+        def taken(r):
+            from qiskit.primitives.containers import SamplerPub
+
+            out: list = [None]
+            chosen = r.take([SamplerPub.coerce((noisy_circuit(), None, 4096))], out, 5, {})
+            return (sorted(chosen), out[0].data.meas.get_counts() if chosen else None)
+
+        def make():
+            import functools
+
+            return ExactRoute(functools.partial(_noisy_simulator, noise()), True)
+
+        used = make()
+        taken(used)
+        return [("fresh", make(), taken), ("used", used, taken)]
+
+    def preparation():
+        alpha = np.array([[0.3, 0.7], [0.5, 0.5]])
+        probs = np.array([[[0.2, 0.8], [0.6, 0.4]], [[0.5, 0.5], [0.9, 0.1]]])
+        values = np.array([[1.0], [-1.0]])
+
+        def make():
+            return RandomisedPreparation(alpha, probs, values, 16, seed=2, ledger=ShotLedger())
+
+        used = make()
+        used.outputs()
+        return [("fresh", make(), lambda r: r.outputs()), ("used", used, lambda r: r.outputs())]
+
+    def qiskit_ml():
+        from qiskit.circuit import Parameter
+
+        from qdensity.circuits.gates import RBSGate
+        from qdensity.execution.samplers import HammingWeightSampler
+        from qdensity.gradients.qiskit_ml import HammingShiftSamplerGradient
+
+        theta = Parameter("t")
+        circ = QuantumCircuit(2)
+        circ.x(0)
+        circ.append(RBSGate(theta), [0, 1])
+        circ.measure_all()
+
+        def grad(g):
+            res = g.run([circ], [[0.4]]).result()
+            return [sorted(d.items()) for d in res.gradients[0]]
+
+        def make():
+            return HammingShiftSamplerGradient(HammingWeightSampler(seed=6))
+
+        used = make()
+        grad(used)
+        return [("fresh", make(), grad), ("used", used, grad)]
+
+    return {"FileName": file_name, "ExactNoisySampler": exact_sampler, "NoiseTables": tables,
+            "ExactRoute": route, "RandomisedPreparation": preparation,
+            "HammingShiftSamplerGradient": qiskit_ml}
+
+
 
 #: Recipes of the states above (run beside the classes' own recipes).
 SAMPLER_STATES = ("QNNClassifier[SamplerEngine]", "DensityQNNLayer[SamplerEngine]")
@@ -786,7 +886,8 @@ SAMPLER_STATES = ("QNNClassifier[SamplerEngine]", "DensityQNNLayer[SamplerEngine
 RECIPES: dict = {}
 for _group in (_constraints, _gates, _preparation, _tomography, _engines, _plans,
                _sampler_side, _values, _schedulers, _gradients, _unary_circuit, _hardware,
-               _deferred, _models, _learning, _torch_layer, _registries, _sampler_states):
+               _deferred, _models, _learning, _torch_layer, _registries, _sampler_states,
+               _late_additions):
     RECIPES.update(_group())
 
 

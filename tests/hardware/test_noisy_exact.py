@@ -78,10 +78,9 @@ def device():
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])
 def test_probabilities_equal_aer_density_matrix_on_a_noisy_device(device, kernel, monkeypatch):
     """Both block kernels (numba's, and numpy's used with ``QDENSITY_NUMBA=0``)."""
-    from qdensity.hardware import _noisy_program
 
     if kernel == "numpy":
-        monkeypatch.setattr(_noisy_program, "numba", None)
+        monkeypatch.setenv("QDENSITY_NUMBA", "0")
     tc = device.transpile(_circuit())
     sampler = ExactNoisySampler(device.noise_model, seed=1)
     values = np.random.default_rng(0).uniform(-3, 3, size=(3, tc.num_parameters))

@@ -41,7 +41,9 @@ def _check_summary_and_figures(result, clipped: bool) -> None:
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
 def test_summary_recomputed_from_seeds(path):
     result = ExperimentResult.load(path)
-    assert result.mode == "full" and len(result.seeds) == len(result.per_seed) >= 4
+    # absolute-gap is a measurement of 2 declared seeds (EXPERIMENTS.md), judged by no claim
+    least = 2 if result.name == "absolute-gap" else 4
+    assert result.mode == "full" and len(result.seeds) == len(result.per_seed) >= least
     assert len(set(result.seeds)) == len(result.seeds)
     assert result.versions["qiskit"] and result.versions["qdensity"]
     _check_summary_and_figures(result, clipped=False)
