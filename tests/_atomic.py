@@ -74,3 +74,14 @@ def _child(module: str, root: Path) -> dict:
 
 if __name__ == "__main__":
     print(json.dumps(_child(sys.argv[1], Path(sys.argv[2]))))
+
+
+def assert_old_file_whole(got: dict, name: str) -> None:
+    """What :func:`run_writers` recorded for writer ``name``: its write past the size limit
+    failed with EFBIG, the old file is byte for byte as before, and no temporary file is left."""
+    import errno
+
+    assert got["old_size"] > 32  # the limit is below the file, so the write must fail
+    assert got["raised"] is not None and got["raised"][1] == errno.EFBIG, got["raised"]
+    assert got["intact"], f"{name}: the old file changed"
+    assert got["listing_after"] == got["listing_before"]  # no temporary file left

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from qdensity.io import atomic_write, check_readable
+from qdensity.io import atomic_write, check_npz, check_readable
 
 __all__ = ["get_flat", "set_flat", "save_parameters", "load_parameters", "MAX_PARAMETER_BYTES",
            "MAX_PARAMETER_ARRAYS"]
@@ -236,38 +236,6 @@ def load_parameters(path: str | os.PathLike, *,
     return _load_npz(path, limit)
 
 
-def _check_members(path: str, limit: int) -> None:
-    """Refuse an archive whose members would inflate past ``limit`` bytes (zip headers)."""
-    try:
-        with zipfile.ZipFile(path) as zf:
-            infos = zf.infolist()
-            if len(infos) > MAX_PARAMETER_ARRAYS:
-                raise ValueError(f"{path!r} holds {len(infos)} arrays, more than the "
-                                 f"{MAX_PARAMETER_ARRAYS} a parameter archive may hold")
-            total = 0
-            for info in infos:
-                total += info.file_size
-                if total > limit:
-                    raise ValueError(f"{path!r}: its arrays inflate to more than {limit} bytes "
-                                     f"(member {info.filename!r} declares {info.file_size}); "
-                                     f"refused before inflating")
-            for info in infos:  # each .npy header (a few bytes) against its member's size
-                try:
-                    with zf.open(info) as member:
-                        version = np.lib.format.read_magic(member)
-                        shape, _, dtype = (np.lib.format.read_array_header_1_0(member)
-                                           if version == (1, 0)
-                                           else np.lib.format.read_array_header_2_0(member))
-                except ValueError as exc:
-                    raise ValueError(f"{path!r}: member {info.filename!r} is not a .npy array "
-                                     f"readable without pickle: {exc}") from exc
-                if int(np.prod(shape, dtype=object)) * dtype.itemsize > info.file_size:
-                    raise ValueError(f"{path!r}: array {info.filename!r} claims shape {shape} "
-                                     f"of {dtype}, more than its {info.file_size} bytes")
-    except (zipfile.BadZipFile, OSError, EOFError, zlib.error) as exc:
-        raise ValueError(f"{path!r} is not a readable .npz parameter archive: {exc}") from exc
-
-
 def _finite(path: str, name: str, arr: np.ndarray) -> np.ndarray:
     if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
         raise ValueError(f"{path!r}: array {name!r} holds NaN or inf; parameters must be finite")
@@ -330,7 +298,7 @@ def _load_npz(path: str, limit: int) -> dict[str, np.ndarray]:
         what = "an empty file" if not head else "not a zip archive"
         raise ValueError(f"{path!r} is not an .npz parameter archive ({what}); parameter "
                          "files are written by save_parameters")
-    _check_members(path, limit)
+    check_npz(path, limit, max_members=MAX_PARAMETER_ARRAYS)  # before numpy allocates
     try:
         loaded = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:

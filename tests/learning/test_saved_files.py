@@ -159,9 +159,10 @@ def test_members_are_measured_from_the_zip_headers_before_inflating(tmp_path):
     # 64 MB of zeros deflate to ~64 KB; the header says 64 MB: refused without inflating
     _npz_with_member(path, "part0.npy", (8 * 2**20,), bytes(64 * 2**20), deflate=True)
     assert path.stat().st_size < 2**20
-    with pytest.raises(ValueError, match=r"big.npz.*inflate to more than 1000000 bytes.*part0"):
+    with pytest.raises(ValueError, match=r"big.npz.*inflate to 67108\d+ bytes, more than the "
+                                         r"1000000 allowed; refused before inflating"):
         load_parameters(path, max_bytes=10**6)
-    with pytest.raises(ValueError, match="inflate to more than"):
+    with pytest.raises(ValueError, match="inflate to .* more than"):
         QNNClassifier().load(path)  # estimator files: 64 MiB at most
 
 
