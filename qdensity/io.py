@@ -318,8 +318,8 @@ def check_npz(path: str | os.PathLike, max_bytes: int, *, max_members: int = 10_
                     raise ValueError(f"{where}: member {info.filename!r} is not a .npy array "
                                      f"readable without pickle: {exc}") from exc
                 if dtype.hasobject:
-                    raise ValueError(f"{where}: member {info.filename!r} holds Python objects "
-                                     f"(it needs pickle, which is never used)")
+                    raise ValueError(f"{where}: member {info.filename!r} holds Python objects, "
+                                     f"not readable without pickle (which is never used)")
                 claimed = int(np.prod(shape, dtype=object)) * dtype.itemsize
                 if claimed > info.file_size:
                     raise ValueError(f"{where}: member {info.filename!r} claims shape {shape} of "
