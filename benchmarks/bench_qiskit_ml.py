@@ -50,6 +50,7 @@ from qdensity.circuits.gates import RBSGate
 from qdensity.circuits.interop import standard_gates
 from qdensity.execution.samplers.hamming import HammingWeightSampler
 from qdensity.gradients.qiskit_ml import HammingShiftSamplerGradient
+from qdensity.io import atomic_write_text
 
 
 class Counting(BaseSamplerV2):
@@ -163,8 +164,7 @@ def main(argv=None) -> list[dict]:
                   f"{r['test_accuracy']:8.3f} {r['first_loss']:6.3f}->{r['final_loss']:.3f}",
                   flush=True)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump({"args": vars(args), "rows": rows}, fh, indent=2)
+        atomic_write_text(args.json, json.dumps({"args": vars(args), "rows": rows}, indent=2))
     return rows
 
 

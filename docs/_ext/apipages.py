@@ -31,6 +31,8 @@ import types
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from qdensity.io import atomic_write_text
+
 PACKAGE = "qdensity"
 
 
@@ -204,7 +206,7 @@ def object_page(entry: Entry) -> str:
 
 def _write(path: Path, text: str) -> None:
     if not path.is_file() or path.read_text(encoding="utf-8") != text:
-        path.write_text(text, encoding="utf-8")
+        atomic_write_text(path, text)  # a full disk leaves the old page whole
 
 
 _TARGETS: dict[str, str] = {}
