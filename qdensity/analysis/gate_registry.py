@@ -88,6 +88,13 @@ class GateKind:
         Hamming-weight sampler applies row by row. None where no such form is written.
     fixed : bool
         Whether the gate has no parameter (its matrix is a constant).
+
+    Examples
+    --------
+    >>> from qdensity.analysis import gate_kind
+    >>> rbs = gate_kind("rbs")
+    >>> rbs.preserves_hamming_weight, rbs.real, rbs.shift_rule
+    (True, True, 'four_term')
     """
 
     name: str
@@ -128,6 +135,19 @@ def register_gate(kind: GateKind) -> GateKind:
     ------
     ValueError
         If a kind with the same name is registered already.
+
+    Examples
+    --------
+    A new name registers once; the same name again is refused:
+
+    >>> kind = register_gate(GateKind("my_phase", diagonal=True))
+    >>> gate_kind("my_phase").diagonal
+    True
+    >>> register_gate(GateKind("my_phase"))
+    Traceback (most recent call last):
+        ...
+    ValueError: kind: a gate named 'my_phase' is registered already
+    >>> del GATES["my_phase"]  # leave the registry as it was
     """
     if kind.name in GATES:
         raise ValueError(f"kind: a gate named {kind.name!r} is registered already")
@@ -137,7 +157,15 @@ def register_gate(kind: GateKind) -> GateKind:
 
 @validates(name=Instance(str))
 def gate_kind(name: str) -> GateKind | None:
-    """The registered :class:`GateKind` of instruction ``name``, or None if none is known."""
+    """The registered :class:`GateKind` of instruction ``name``, or None if none is known.
+
+    Examples
+    --------
+    >>> gate_kind("rbs").unary
+    'givens'
+    >>> gate_kind("no_such_gate") is None
+    True
+    """
     return GATES.get(name)
 
 

@@ -19,7 +19,17 @@ DATA_PREFIX = "x"
 
 @validates(circuit=Circuit())
 def trainable_parameters(circuit: QuantumCircuit) -> list:
-    """Parameters of ``circuit`` that are not data (not in a vector named ``"x"``), in order."""
+    """Parameters of ``circuit`` that are not data (not in a vector named ``"x"``), in order.
+
+    Examples
+    --------
+    >>> from qiskit.circuit import ParameterVector, QuantumCircuit
+    >>> x, theta = ParameterVector("x", 1), ParameterVector("theta", 2)
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.ry(x[0], 0); _ = qc.rz(theta[0], 0); _ = qc.ry(theta[1], 0)
+    >>> [p.name for p in trainable_parameters(qc)]
+    ['theta[0]', 'theta[1]']
+    """
     return [p for p in circuit.parameters if not _is_data(p)]
 
 

@@ -55,10 +55,7 @@ _PAULIS = Instance((PauliList, SparsePauliOp, Pauli, list, tuple),
                    "PauliList, SparsePauliOp, Pauli or a list of Pauli labels")
 
 
-@validates(
-    paulis=_PAULIS,
-    name=Instance(str),
-)
+@validates(paulis=_PAULIS, name=Instance(str))
 def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
     """A ``PauliList`` from a ``PauliList``, a sequence of ``Pauli``/labels, or a ``Pauli``.
 
@@ -71,6 +68,11 @@ def as_pauli_list(paulis, name: str = "paulis") -> PauliList:
     Returns
     -------
     PauliList
+
+    Examples
+    --------
+    >>> as_pauli_list(["XX", "ZZ"])
+    PauliList(['XX', 'ZZ'])
     """
     if isinstance(paulis, PauliList):
         return paulis
@@ -202,9 +204,7 @@ class ZStringTable:
         return cls(z, coef)
 
 
-@validates(
-    paulis=_PAULIS,
-)
+@validates(paulis=_PAULIS)
 def commutation_matrix(paulis) -> np.ndarray:
     """Symplectic inner products of every pair of Pauli operators.
 
@@ -216,14 +216,17 @@ def commutation_matrix(paulis) -> np.ndarray:
     -------
     numpy.ndarray, shape (m, m), dtype bool
         Entry ``[s, t]`` is True iff ``P_s`` and ``P_t`` anticommute.
+
+    Examples
+    --------
+    >>> commutation_matrix(["XI", "ZI", "IZ"]).astype(int).tolist()
+    [[0, 1, 0], [1, 0, 0], [0, 0, 0]]
     """
     pl = as_pauli_list(paulis)
     return anticommutation(pl.x, pl.z)
 
 
-@validates(
-    paulis=_PAULIS,
-)
+@validates(paulis=_PAULIS)
 def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     """Indices ``(s, t)``, ``s < t``, of the first anticommuting pair, or None if all commute.
 
@@ -235,6 +238,11 @@ def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     -------
     (int, int) or None
         Lexicographically first pair (row-major over ``s < t``).
+
+    Examples
+    --------
+    >>> first_noncommuting_pair(["ZZ", "XX", "XI"]), first_noncommuting_pair(["XX", "YY", "ZZ"])
+    ((0, 2), None)
     """
     pl = as_pauli_list(paulis)
     if all_commute(pl.x, pl.z):
@@ -246,9 +254,7 @@ def first_noncommuting_pair(paulis) -> tuple[int, int] | None:
     return int(s), int(t)
 
 
-@validates(
-    paulis=_PAULIS,
-)
+@validates(paulis=_PAULIS)
 def paulis_commute_pairwise(paulis) -> bool:
     """Whether every pair of the given Pauli operators commutes.
 
@@ -278,9 +284,7 @@ def _apply(pl: PauliList, gate: str, qubits: Sequence[int], circ: QuantumCircuit
     return pl.evolve(step, frame="s")
 
 
-@validates(
-    paulis=_PAULIS,
-)
+@validates(paulis=_PAULIS)
 def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
     """Clifford circuit ``C`` that maps each of a commuting set of Paulis to a ``Z``/``I`` string.
 
@@ -363,10 +367,7 @@ def diagonalising_clifford(paulis) -> tuple[QuantumCircuit, PauliList]:
     return circ, z_paulis
 
 
-@validates(
-    z_paulis=_PAULIS,
-    num_qubits=[Qubits(1), None],
-)
+@validates(z_paulis=_PAULIS, num_qubits=[Qubits(1), None])
 def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:
     """Eigenvalue of each diagonal Pauli string on each computational basis state.
 
@@ -387,6 +388,13 @@ def z_string_values(z_paulis, num_qubits: int | None = None) -> np.ndarray:
     ------
     ValueError
         If a string has an ``X`` or ``Y`` factor.
+
+    Examples
+    --------
+    Rows: the basis states ``b = 0..3``; columns: the strings:
+
+    >>> z_string_values(["ZI", "ZZ"]).tolist()
+    [[1.0, 1.0], [1.0, -1.0], [-1.0, -1.0], [-1.0, 1.0]]
     """
     pl = as_pauli_list(z_paulis, "z_paulis")
     n = pl.num_qubits
@@ -457,6 +465,13 @@ def conjugate_two_qubit(
     Returns
     -------
     SparsePauliOp
+
+    Examples
+    --------
+    >>> from qiskit.circuit.library import CXGate
+    >>> from qiskit.quantum_info import SparsePauliOp
+    >>> conjugate_two_qubit(SparsePauliOp("IX"), CXGate(), (0, 1)).paulis  # X on the control
+    PauliList(['XX'])
     """
     mat = Operator(unitary).data
     q0, q1 = (int(q) for q in qubits)

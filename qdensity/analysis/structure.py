@@ -46,6 +46,14 @@ def moment_indices(
 
     Positions are stable identifiers (Qiskit builds new ``CircuitInstruction`` objects on each
     access, so object identity is not).
+
+    Examples
+    --------
+    >>> from qiskit.circuit import Parameter, QuantumCircuit
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.ry(Parameter("a"), 0); _ = qc.ry(Parameter("b"), 1); _ = qc.cx(0, 1)
+    >>> moment_indices(qc)
+    [[0, 1], [2]]
     """
     front = [0] * circuit.num_qubits  # per qubit, the first layer free on it
     layers: list[list[int]] = []
@@ -119,6 +127,12 @@ def depth_of_gates(circuit: QuantumCircuit, names: Sequence[str]) -> int:
     Returns
     -------
     int
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> depth_of_gates(round_robin(4), ["rbs"])
+    3
     """
     wanted = set(names)
     return circuit.depth(filter_function=lambda inst: inst.operation.name in wanted)
@@ -148,6 +162,15 @@ def parameter_of(inst: CircuitInstruction) -> tuple[Parameter, float] | None:
     ------
     ValueError
         If the angle depends on more than one parameter or non-linearly on one.
+
+    Examples
+    --------
+    >>> from qiskit.circuit import Parameter, QuantumCircuit
+    >>> a = Parameter("a")
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.rz(2 * a, 0)
+    >>> parameter_of(qc.data[0])
+    (Parameter(a), 2.0)
     """
     exprs = [p for p in inst.operation.params if isinstance(p, ParameterExpression)]
     exprs = [e for e in exprs if e.parameters]
@@ -199,6 +222,17 @@ def instruction_generator(inst: CircuitInstruction, circuit: QuantumCircuit) -> 
     ------
     ValueError
         For a gate whose generator is not a known Pauli form.
+
+    Examples
+    --------
+    ``RY(angle) = exp(-i angle Y / 2)``:
+
+    >>> from qiskit.circuit import Parameter, QuantumCircuit
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.ry(Parameter("a"), 1)
+    >>> instruction_generator(qc.data[0], qc)
+    SparsePauliOp(['YI'],
+                  coeffs=[0.5+0.j])
     """
     name = inst.operation.name
     kind = GATES.get(name)
@@ -223,6 +257,17 @@ def is_hamming_weight_preserving(circuit: QuantumCircuit) -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> is_hamming_weight_preserving(pyramid(4))
+    True
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.x(0)
+    >>> is_hamming_weight_preserving(qc)
+    False
     """
     for inst in circuit.data:
         name = inst.operation.name
