@@ -47,6 +47,12 @@ def rbs_matrix(theta: float) -> np.ndarray:
     numpy.ndarray, shape (4, 4)
         ``[[1,0,0,0],[0,c,-s,0],[0,s,c,0],[0,0,0,1]]`` with ``c = cos(theta)``,
         ``s = sin(theta)``, basis index ``q_0 + 2 q_1``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rbs_matrix(np.pi / 2).round(12).real.tolist()
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
     """
     return RBS.matrix([float(theta)], 2)
 
@@ -68,6 +74,14 @@ def fbs_matrix(theta: float, num_qubits: int) -> np.ndarray:
     numpy.ndarray, shape (2**m, 2**m)
         Acts as ``RBS((-1)^p theta)`` on qubits ``(0, m-1)``, ``p`` the parity of qubits
         ``1 .. m-2``; basis index ``sum_q b_q 2^q``.
+
+    Examples
+    --------
+    With nothing between the pair it is the RBS matrix:
+
+    >>> import numpy as np
+    >>> fbs_matrix(0.3, 3).shape, np.allclose(fbs_matrix(0.3, 2), rbs_matrix(0.3))
+    ((8, 8), True)
     """
     return FBS.matrix([float(theta)], int(num_qubits))
 
@@ -161,6 +175,15 @@ class FBSGate(Gate):
         Rotation angle.
     num_qubits : int
         Width of the contiguous block, ``>= 2``.
+
+    Examples
+    --------
+    On 3 qubits it is an RBS on the outer pair whose angle flips sign with the middle qubit:
+
+    >>> import numpy as np
+    >>> from qiskit.quantum_info import Operator
+    >>> np.allclose(Operator(FBSGate(0.3, 3)).data, fbs_matrix(0.3, 3))
+    True
     """
 
     def __init__(self, theta: ParameterValueType, num_qubits: int, label: str | None = None):

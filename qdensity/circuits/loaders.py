@@ -237,6 +237,11 @@ def loader_start_qubit(d: int, layout: str = "parallel") -> int:
     int
         ``0`` for the diagonal layout, ``d // 2 - 1`` for the semi-diagonal one, and the root
         head chosen for nearest-neighbour friendliness for the parallel one.
+
+    Examples
+    --------
+    >>> loader_start_qubit(8, "diagonal"), loader_start_qubit(8, "semi_diagonal")
+    (0, 3)
     """
     d = check_num_qubits(d, "d", minimum=1)
     return _plan(d, _check_layout(layout)).start

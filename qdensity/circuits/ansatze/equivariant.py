@@ -335,6 +335,12 @@ def equivariant_observable(num_qubits: int) -> SparsePauliOp:
     -------
     SparsePauliOp
         ``n`` terms ``Z_i`` with coefficient 1 (eigenvalues ``-n .. n``).
+
+    Examples
+    --------
+    >>> equivariant_observable(3)
+    SparsePauliOp(['IIZ', 'IZI', 'ZII'],
+                  coeffs=[1.+0.j, 1.+0.j, 1.+0.j])
     """
     n = int(num_qubits)
     return SparsePauliOp.from_sparse_list([("Z", [i], 1.0) for i in range(n)], n)

@@ -77,6 +77,12 @@ def pairs_circuit(
     -------
     QuantumCircuit
         ``num_qubits`` qubits, one parameter per pair, in the given order.
+
+    Examples
+    --------
+    >>> qc = pairs_circuit(3, [[(0, 1)], [(1, 2)]])
+    >>> qc.num_parameters, [[qc.find_bit(q).index for q in inst.qubits] for inst in qc.data]
+    (2, [[0, 1], [1, 2]])
     """
     ordered = [[(min(p), max(p)) for p in layer] for layer in layers]
     count = sum(len(layer) for layer in ordered)
@@ -160,6 +166,12 @@ def x_circuit(num_qubits: int, **kwargs) -> QuantumCircuit:
     QuantumCircuit
         ``2 n - 3`` RBS gates and depth ``n - 1`` for even ``n``; ``2 n - 2`` gates and depth
         ``n + 1`` for odd ``n`` (the diagonals meet on a shared qubit for two steps).
+
+    Examples
+    --------
+    >>> qc = x_circuit(4)
+    >>> qc.num_qubits, qc.num_parameters, dict(qc.count_ops())
+    (4, 5, {'rbs': 5})
     """
     n = int(num_qubits)
     layers = []
@@ -192,6 +204,14 @@ def butterfly(num_qubits: int, **kwargs) -> QuantumCircuit:
     ------
     ValueError
         If ``n`` is not a power of two.
+
+    Examples
+    --------
+    ``(n / 2) log2(n)`` gates in ``log2(n)`` layers:
+
+    >>> qc = butterfly(8)
+    >>> qc.num_parameters, qc.depth()
+    (12, 3)
     """
     n = int(num_qubits)
     if n & (n - 1):
@@ -217,6 +237,11 @@ def round_robin_pairs(num_qubits: int) -> list[list[tuple[int, int]]]:
     list of list of (int, int)
         ``n - 1`` rounds of ``n / 2`` disjoint pairs (even ``n``); ``n`` rounds of
         ``(n - 1) / 2`` pairs (odd ``n``, one qubit rests each round).
+
+    Examples
+    --------
+    >>> round_robin_pairs(4)
+    [[(0, 3), (1, 2)], [(0, 2), (1, 3)], [(0, 1), (2, 3)]]
     """
     n = int(num_qubits)
     players = list(range(n)) + ([None] if n % 2 else [])
@@ -251,6 +276,14 @@ def round_robin(num_qubits: int, **kwargs) -> QuantumCircuit:
     -------
     QuantumCircuit
         ``n (n - 1) / 2`` gates in ``n - 1`` layers (even ``n``) or ``n`` layers (odd ``n``).
+
+    Examples
+    --------
+    Every pair of qubits meets once: ``n (n - 1) / 2`` gates in ``n - 1`` layers (``n`` even):
+
+    >>> qc = round_robin(4)
+    >>> qc.num_parameters, qc.depth()
+    (6, 3)
     """
     n = int(num_qubits)
     return pairs_circuit(n, round_robin_pairs(n), name=f"round_robin_{n}", **kwargs)

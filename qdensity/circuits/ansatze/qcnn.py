@@ -93,6 +93,11 @@ def qcnn_readout_qubit(num_qubits: int) -> int:
     -------
     int
         ``n - 1``.
+
+    Examples
+    --------
+    >>> qcnn_readout_qubit(8)
+    7
     """
     layers = qcnn_layers(num_qubits)
     return layers[-1][1][-1][1]

@@ -68,6 +68,13 @@ class AnsatzFamily:
         Whether the estimators' ``ansatz=`` may name it (unary-encoded, weight-preserving).
     cli_name : str or None
         Its name in ``qdensity build`` / ``transpile`` when not ``name``.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> fam = AnsatzFamily("my_rr", round_robin, num_parameters=lambda n: n * (n - 1) // 2)
+    >>> fam.parameter_count(4), fam.builder(4).num_parameters
+    (6, 6)
     """
 
     name: str
@@ -123,6 +130,18 @@ def register_family(family: AnsatzFamily) -> AnsatzFamily:
     ValueError
         If its name (or its command-line name) is taken already, or an estimator family
         declares no parameter count.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> fam = register_family(AnsatzFamily("my_rr", round_robin))
+    >>> "my_rr" in FAMILIES
+    True
+    >>> register_family(AnsatzFamily("my_rr", round_robin))
+    Traceback (most recent call last):
+        ...
+    ValueError: family: an ansatz family named 'my_rr' ('my_rr') is registered already
+    >>> del FAMILIES["my_rr"]  # leave the registry as it was
     """
     if family.estimator and family.num_parameters is None:
         raise ValueError(f"family: {family.name!r} is an estimator ansatz and must declare "
@@ -136,7 +155,13 @@ def register_family(family: AnsatzFamily) -> AnsatzFamily:
 
 
 def estimator_ansatze() -> tuple[str, ...]:
-    """Names the estimators' ``ansatz=`` accepts, read off :data:`FAMILIES` at each call."""
+    """Names the estimators' ``ansatz=`` accepts, read off :data:`FAMILIES` at each call.
+
+    Examples
+    --------
+    >>> estimator_ansatze()
+    ('pyramid', 'x', 'butterfly', 'round_robin')
+    """
     return tuple(name for name, fam in FAMILIES.items() if fam.estimator)
 
 

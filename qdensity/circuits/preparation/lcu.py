@@ -253,6 +253,17 @@ def lcu_postselected_state(
     ValueError
         If a circuit has unbound parameters, or the success probability is below ``1e-12``
         (the post-selected state is then undefined).
+
+    Examples
+    --------
+    Two sub-unitaries at their zero angles act as the identity: the data state is ``|0...0>``:
+
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> subs = [pyramid(3, parameter_prefix=p) for p in "ab"]
+    >>> subs = [s.assign_parameters([0.0] * s.num_parameters) for s in subs]
+    >>> state = lcu_postselected_state(subs, [0.5, 0.5])
+    >>> state.num_qubits, round(float(abs(state.data[0])), 6)
+    (3, 1.0)
     """
     circuits = _check_sub_unitaries(sub_unitaries)
     arr = _check_alpha(alpha, len(circuits))

@@ -146,6 +146,12 @@ class TomographyResult:
         Tolerance used to decide which groups matter.
     p_fail : float
         Failure probability of the bounds.
+
+    Examples
+    --------
+    >>> res = reconstruct([{"01": 64, "10": 36}, {"01": 2, "10": 98}, {"01": 64, "10": 36}], 2)
+    >>> isinstance(res, TomographyResult), res.amplitudes.shape
+    (True, (2,))
     """
 
     amplitudes: np.ndarray
