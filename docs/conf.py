@@ -8,7 +8,9 @@ The notebooks (``notebooks/*.py``, jupytext percent scripts) are read through th
 
 from __future__ import annotations
 
+import importlib.resources
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -61,6 +63,19 @@ nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
 myst_heading_anchors = 3
 
+# MathJax 3 served with the site, not from a CDN: the math renders without a network
+# connection. Its files come from the django-static-mathjax wheel (the docs extra: MathJax's own
+# build, no dependencies, importable as ``mathjax``); _copy_mathjax copies the parts the
+# tex-mml-chtml component loads (the TeX extensions it autoloads, the CHTML fonts, the menu and
+# its accessibility parts) into the site's _static/mathjax.
+try:
+    MATHJAX = Path(str(importlib.resources.files("mathjax"))) / "static" / "mathjax"
+except ModuleNotFoundError as err:
+    raise ModuleNotFoundError("the documentation's MathJax comes from the docs extra: "
+                              "pip install -e '.[docs]'") from err
+MATHJAX_PARTS = ("tex-mml-chtml.js", "input", "output/chtml", "ui", "a11y", "sre", "adaptors")
+mathjax_path = "mathjax/tex-mml-chtml.js"  # relative: under the site's _static
+
 # API reference: a page per public module and one per public class or function, written from
 # the modules' __all__ by docs/_ext/apipages.py; the docstrings are numpy style
 autosummary_generate = False
@@ -104,3 +119,22 @@ copybutton_prompt_is_regexp = True
 copybutton_only_copy_prompt_lines = True
 copybutton_exclude = ".linenos, .go"
 
+
+
+def _copy_mathjax(app, exception) -> None:
+    """Copy MathJax's files into the built site's ``_static/mathjax`` (see ``mathjax_path``)."""
+    if exception is not None or app.builder.format != "html":
+        return
+    dest = Path(app.outdir) / "_static" / "mathjax"
+    for part in MATHJAX_PARTS:
+        source, target = MATHJAX / "es5" / part, dest / part
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if source.is_dir():
+            shutil.copytree(source, target, dirs_exist_ok=True)
+        else:
+            shutil.copy2(source, target)
+    shutil.copy2(MATHJAX / "LICENSE", dest / "LICENSE")
+
+
+def setup(app):
+    app.connect("build-finished", _copy_mathjax)
