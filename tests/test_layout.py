@@ -181,3 +181,11 @@ def test_package_names_load_lazily_and_are_the_defining_modules_objects():
         assert getattr(qdensity, name) is getattr(importlib.import_module(module), name)
         assert name in dir(qdensity)
     assert qdensity.circuits is importlib.import_module("qdensity.circuits")
+
+
+def test_contributing_spine_lists_the_layers():
+    """CONTRIBUTING.md's spine names the layers of ``LAYERS``, top (cli) to bottom."""
+    text = (ROOT.parent / "CONTRIBUTING.md").read_text()
+    block = text.split("## The spine", 1)[1].split("\n\n", 2)[1]
+    rows = [line.split()[0] for line in block.splitlines() if line.startswith("    ")]
+    assert rows == LAYERS[::-1]
