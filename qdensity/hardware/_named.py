@@ -38,6 +38,13 @@ def heavy_hex_distance(num_qubits: int) -> int:
     -------
     int
         ``3`` for up to 19 qubits, ``5`` up to 57, ``7`` up to 115, ...
+
+    Examples
+    --------
+    A distance-``d`` heavy-hex lattice has ``(5 d**2 - 2 d - 1) / 2`` qubits (19 at ``d = 3``):
+
+    >>> heavy_hex_distance(19), heavy_hex_distance(20)
+    (3, 5)
     """
     n = check_positive_int(num_qubits, "num_qubits")
     d = 3

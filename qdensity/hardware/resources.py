@@ -65,6 +65,16 @@ class ResourceReport:
         disjoint pairs: 1).
     gate_counts : dict of str to int
         Instruction counts by name (barriers excluded), sorted by name.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.hardware import resource_report
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.h(0); _ = qc.cx(0, 1)
+    >>> rep = resource_report(qc, "all_to_all")
+    >>> isinstance(rep, ResourceReport), rep.two_qubit_count, rep.num_qubits
+    (True, 1, 2)
     """
 
     name: str

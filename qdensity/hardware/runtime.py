@@ -32,6 +32,8 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
+from qiskit.primitives import BaseSamplerV2
+
 from qdensity.hardware.aer_sampling import aer_seed
 from qdensity.validation import SeedLike, check_positive_int, seed_int
 
@@ -47,12 +49,23 @@ def runtime_available() -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    >>> from qdensity.hardware.snapshots import snapshots_available
+    >>> runtime_available() == snapshots_available()  # both: the ibm extra installed
+    True
     """
     return importlib.util.find_spec("qiskit_ibm_runtime") is not None
 
 
 def require_runtime() -> None:
-    """Raise ``ValueError`` naming what to install when qiskit-ibm-runtime is missing."""
+    """Raise ``ValueError`` naming what to install when qiskit-ibm-runtime is missing.
+
+    Examples
+    --------
+    >>> require_runtime() if runtime_available() else None  # raises only without the extra
+    """
     if not runtime_available():
         raise ValueError(f"the provider's runtime client needs qiskit-ibm-runtime; install the "
                          f"optional extra: {_INSTALL}")
@@ -124,7 +137,7 @@ def runtime_options(
     return out
 
 
-def runtime_sampler(mode, **knobs):
+def runtime_sampler(mode, **knobs) -> BaseSamplerV2:
     """A ``qiskit_ibm_runtime.SamplerV2`` with validated options.
 
     Parameters
@@ -145,6 +158,14 @@ def runtime_sampler(mode, **knobs):
     ValueError
         Without the ``ibm`` extra, or for options the runtime rejects (its validation message
         is kept), before any job is submitted.
+
+    Examples
+    --------
+    A fake backend runs in the runtime's local testing mode (needs the ``ibm`` extra):
+
+    >>> from qiskit.providers.fake_provider import GenericBackendV2
+    >>> runtime_sampler(GenericBackendV2(2, seed=1), shots=100).options.default_shots
+    100
     """
     require_runtime()
     from qiskit_ibm_runtime import SamplerV2

@@ -58,6 +58,13 @@ class SnapshotFileBackend(BackendV2):
     name : str
         The device's name as saved.
     target : qiskit.transpiler.Target
+
+    Examples
+    --------
+    >>> from qiskit.providers.fake_provider import GenericBackendV2
+    >>> backend = SnapshotFileBackend("my_device", GenericBackendV2(2, seed=1).target)
+    >>> backend.name, backend.num_qubits
+    ('my_device', 2)
     """
 
     def __init__(self, name: str, target: Target):
@@ -128,6 +135,16 @@ def save_snapshot(device, path: str | os.PathLike) -> Path:
         error outside ``[0, 1]``, T1 <= 0, a negative duration: it could not be read back).
         A T2 above ``2 * T1`` is written as ``2 * T1``, the value qiskit-aer's noise model
         uses; a device without qubit properties is written without them.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from qiskit.providers.fake_provider import GenericBackendV2
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "dev.json"
+    >>> save_snapshot(GenericBackendV2(3, seed=1), path) == path
+    True
+    >>> load_snapshot(path).num_qubits
+    3
     """
     name, target = _as_target(device)
     standard = get_standard_gate_name_mapping()
@@ -174,6 +191,11 @@ def is_snapshot_path(name) -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    >>> is_snapshot_path("device.json"), is_snapshot_path("heavy_hex")
+    (True, False)
     """
     return isinstance(name, os.PathLike) or (isinstance(name, str) and name.endswith(".json"))
 
@@ -205,6 +227,15 @@ def load_snapshot(path: str | os.PathLike) -> SnapshotFileBackend:
         T1 > 0, 0 < T2 <= 2 T1, durations >= 0, qubit indices in range, each gate on as many
         qubits as it acts on), named with the file, the field and the qubit; all before
         anything is built.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from qiskit.providers.fake_provider import GenericBackendV2
+    >>> path = save_snapshot(GenericBackendV2(2, seed=1), pathlib.Path(tempfile.mkdtemp()) / "d.json")
+    >>> backend = load_snapshot(path)
+    >>> isinstance(backend, SnapshotFileBackend), backend.num_qubits
+    (True, 2)
     """
     p = Path(path)
     size = p.stat().st_size

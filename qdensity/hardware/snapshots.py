@@ -58,6 +58,11 @@ def snapshots_available() -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    >>> snapshots_available() == bool(snapshot_names())  # names only with the ibm extra
+    True
     """
     return importlib.util.find_spec("qiskit_ibm_runtime") is not None
 
@@ -81,6 +86,11 @@ def snapshot_names() -> tuple[str, ...]:
     -------
     tuple of str
         For example ``("fake_aachen", ..., "fake_manila", ..., "fake_torino", ...)``.
+
+    Examples
+    --------
+    >>> all(name.startswith("fake_") for name in snapshot_names())
+    True
     """
     if not snapshots_available():
         return ()
@@ -126,6 +136,11 @@ def snapshot_backend(name: str) -> BackendV2:
     ValueError
         Without the ``ibm`` extra (the message says what to install), or for a name the
         provider does not have (the message lists the known ones).
+
+    Examples
+    --------
+    >>> snapshot_backend("fake_athens").num_qubits  # needs the ibm extra
+    5
     """
     if not isinstance(name, str):
         raise TypeError(f"name must be a str, got {type(name).__name__}")
@@ -184,6 +199,12 @@ def snapshot_fields(name: str, num_qubits: int | None = None, *, noise: bool = T
     dict
         ``name``, ``num_qubits`` (the device's), ``backend``, ``coupling_map``,
         ``basis_gates``, ``noise_model``, ``target``.
+
+    Examples
+    --------
+    >>> fields = snapshot_fields("fake_athens")  # needs the ibm extra
+    >>> fields["name"], fields["num_qubits"], fields["noise_model"] is not None
+    ('fake_athens', 5, True)
     """
     backend = snapshot_backend(name)
     if basis_gates is not None:
