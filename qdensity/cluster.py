@@ -56,6 +56,14 @@ def idle_core() -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    How a caller picks its thread count:
+
+    >>> threads = 2 if idle_core() else 1
+    >>> threads in (1, 2)
+    True
     """
     if not hasattr(os, "getloadavg"):  # pragma: no cover - Windows
         return True
@@ -128,6 +136,16 @@ def open_client(cluster, *, timeout: float = CONNECT_TIMEOUT) -> Iterator[Any]:
     OSError
         When no scheduler answers at a ``tcp://`` address within ``timeout`` seconds; the
         message names the address.
+
+    Examples
+    --------
+    An address is checked before anything starts:
+
+    >>> with open_client("somewhere") as client:
+    ...     pass
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown cluster address 'somewhere'; allowed: ...
     """
     distributed = _distributed()
     if isinstance(cluster, distributed.Client):
@@ -158,7 +176,13 @@ def open_client(cluster, *, timeout: float = CONNECT_TIMEOUT) -> Iterator[Any]:
 
 
 def worker_name() -> str:
-    """The address of the Dask worker running the caller, or ``"in-process"``."""
+    """The address of the Dask worker running the caller, or ``"in-process"``.
+
+    Examples
+    --------
+    >>> worker_name()  # outside a Dask worker
+    'in-process'
+    """
     try:
         from distributed import get_worker
 
@@ -182,6 +206,20 @@ def run_units(client, fn: Callable, arguments: Sequence[tuple], *, retries: int 
 
     A unit whose worker is lost is run again on another worker by the scheduler; one that
     raises is tried ``retries`` more times before its error is raised here.
+
+    Examples
+    --------
+    On a client made by the caller (here in-process, one worker thread; ``open_client`` leaves it
+    open):
+
+    >>> import distributed
+    >>> client = distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
+    ...                             dashboard_address=None)
+    >>> with open_client(client) as c:
+    ...     done = sorted(run_units(c, pow, [(2, 3), (3, 2)]))
+    >>> [(index, result) for index, result, _ in done]
+    [(0, 8), (1, 9)]
+    >>> client.close()
     """
     distributed = _distributed()
     futures = {client.submit(_call, fn, tuple(args), pure=False, retries=int(retries)): i

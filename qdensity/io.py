@@ -212,7 +212,15 @@ def atomic_write_text(path: str | os.PathLike, text: str, *, encoding: str = "ut
 @validates(path=FilePath(exists=None), data=Instance((bytes, bytearray, memoryview),
                                                           "a bytes-like object"))
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`); returns the path."""
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`); returns the path.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = atomic_write_bytes(pathlib.Path(tempfile.mkdtemp()) / "x.bin", b"qdensity")
+    >>> path.read_bytes()
+    b'qdensity'
+    """
     with atomic_write(path, "wb") as fh:
         fh.write(data)
     return Path(path)
@@ -295,6 +303,18 @@ def check_npz(path: str | os.PathLike, max_bytes: int, *, max_members: int = 10_
     ValueError
         Naming the path and the member: not a zip archive, too many or too large members, a
         header that is not a ``.npy`` header or claims more than its member holds.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> import numpy as np
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.npz"
+    >>> np.savez(path, w=np.zeros(100))
+    >>> check_npz(path, max_bytes=10_000)  # 800 bytes of float64 and a header: accepted
+    >>> check_npz(path, max_bytes=100)
+    Traceback (most recent call last):
+        ...
+    ValueError: '...a.npz': its arrays inflate to 928 bytes, more than the 100 allowed; ...
     """
     where = repr(os.fspath(path))
     check_readable(path)
