@@ -81,6 +81,14 @@ class DemoConfig:
     smoke_test : bool
         Set by :meth:`quick`: the run only checks that the install works end to end, and the
         printed output says so (at its budget the models are not expected to learn).
+
+    Examples
+    --------
+    >>> cfg = DemoConfig.quick()  # the install check behind ``qdensity demo --quick``
+    >>> cfg.num_qubits, cfg.num_classes, cfg.smoke_test
+    (4, 3, True)
+    >>> DemoConfig(shots=32).budget  # the fields not given keep the defaults
+    32000
     """
 
     num_qubits: int = 6
@@ -200,6 +208,16 @@ def run_demo(config: DemoConfig | None = None, *, output_dir: str | Path = ".",
     ValueError
         A bad setting in ``config`` (named in the message), or a ``budget`` that cannot pay
         for one training step of each model (checked before anything is trained).
+
+    Examples
+    --------
+    A budget that cannot pay for one step is refused before anything is trained (a full run takes
+    about 20 s; ``qdensity demo`` on the command line):
+
+    >>> run_demo(DemoConfig(budget=1), verbose=False, plot=False)
+    Traceback (most recent call last):
+        ...
+    ValueError: budget=1 shots cannot pay for one training step: ...; use a budget >= 1952
     """
     cfg = config or DemoConfig()
     cfg.check()

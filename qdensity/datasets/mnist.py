@@ -71,6 +71,17 @@ def read_idx(path: str | Path) -> np.ndarray:
     ValueError
         If the file is not a well-formed IDX file (bad magic number, unknown type code, or a
         payload shorter or longer than its header says). The message names the file.
+
+    Examples
+    --------
+    An IDX file: two zero bytes, a type code (``0x08``: unsigned bytes), the number of axes, each
+    axis' length (big-endian int32), then the data:
+
+    >>> import struct, tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "labels.idx"
+    >>> _ = path.write_bytes(struct.pack(">BBBBI", 0, 0, 0x08, 1, 3) + bytes([7, 2, 1]))
+    >>> read_idx(path)
+    array([7, 2, 1], dtype=uint8)
     """
     path = Path(path)
     opener = gzip.open if path.suffix == ".gz" else open
@@ -200,6 +211,13 @@ def mnist_source(path: str | Path | None = None) -> str:
     -------
     str
         :data:`BUNDLED`, or ``"MNIST files at PATH"``.
+
+    Examples
+    --------
+    >>> mnist_source() == BUNDLED
+    True
+    >>> mnist_source("/data/mnist")
+    "MNIST files at '/data/mnist'"
     """
     return BUNDLED if path is None else f"MNIST files at {str(path)!r}"
 
