@@ -140,6 +140,12 @@ def build_circuit(name: str, num_qubits: int, *, bind_seed: int | None = 0) -> Q
     ------
     ValueError
         For an unknown name (the message lists the known ones).
+
+    Examples
+    --------
+    >>> qc = build_circuit("pyramid", 4)
+    >>> qc.num_qubits, qc.num_parameters, dict(qc.count_ops())  # parameters bound
+    (4, 0, {'rbs': 6})
     """
     if name not in BUILDERS:
         raise ValueError(f"unknown builder {name!r} (argument name); known builders: "

@@ -73,6 +73,12 @@ def index_markdown(names: Sequence[str] | None = None) -> str:
         Markdown: a table of file, qubits, two-qubit gates and depth of the exported circuit,
         a one-line description and the OpenQASM 3 file with its number of symbolic
         parameters, followed by how to regenerate and check the files.
+
+    Examples
+    --------
+    >>> text = index_markdown(["pyramid_4"])
+    >>> text.splitlines()[0], "pyramid_4.qasm" in text
+    ('# Reference circuits', True)
     """
     rows = []
     for name in _check_names(names):
@@ -275,6 +281,13 @@ def main(argv: Sequence[str] | None = None, *, prog: str = "python -m qdensity.c
     int
         Exit status: 0, 1 when ``--check`` finds out-of-date files, 2 when the directory is
         missing or not a directory.
+
+    Examples
+    --------
+    ``--check`` on a directory that does not exist writes nothing and exits with status 2:
+
+    >>> main(["/no/such/directory", "--check"])
+    2
     """
     parser = argparse.ArgumentParser(
         prog=prog,

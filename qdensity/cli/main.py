@@ -396,7 +396,18 @@ def _demo_options(d: argparse.ArgumentParser, shots) -> None:
 
 @validates(argv=[SequenceOf(Instance(str), min_len=0), None])
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``qdensity`` command; returns the exit status."""
+    """Entry point of the ``qdensity`` command; returns the exit status.
+
+    Examples
+    --------
+    >>> main(["build", "pyramid", "--size", "4", "--json"])
+    {
+      "name": "pyramid",
+      "num_qubits": 4,
+      ...
+    }
+    0
+    """
     words = sys.argv[1:] if argv is None else list(argv)
     parser = _parser(demo="demo" in words)
     args = parser.parse_args(words)  # usage errors: one line, SystemExit(2)

@@ -38,7 +38,14 @@ NOT_INSTALLED: dict[str, tuple[str, str]] = {
 
 
 class CommandTexts(TypedDict):
-    """The keyword arguments :func:`command_texts` gives ``add_parser``."""
+    """The keyword arguments :func:`command_texts` gives ``add_parser``.
+
+    Examples
+    --------
+    >>> texts = command_texts("Say hello.", "qdensity hello")
+    >>> sorted(texts) == sorted(CommandTexts.__annotations__)
+    True
+    """
 
     description: str
     epilog: str
@@ -94,6 +101,17 @@ def add_plugin_parsers(sub: Any) -> list[str]:
     -------
     list of str
         The names of the sub-commands that installed packages added.
+
+    Examples
+    --------
+    The paper's commands are there either way: the installed package's, or stand-ins that say what
+    to install:
+
+    >>> import argparse
+    >>> sub = argparse.ArgumentParser(prog="qdensity").add_subparsers()
+    >>> added = add_plugin_parsers(sub)
+    >>> set(NOT_INSTALLED) <= set(sub.choices), set(added) <= set(sub.choices)
+    (True, True)
     """
     added: list[str] = []
     for point in sorted(entry_points(group=GROUP), key=lambda p: p.name):

@@ -35,8 +35,7 @@ parameter binding) and the exported form of one circuit (:func:`reference_circui
 :func:`reference_qasm`). Writing and checking the ``circuits/`` directory, and the command
 line, live in :mod:`qdensity.cli.export`: regenerate the directory with ``qdensity export`` or
 ``python -m qdensity.cli.export [DIR]``; :func:`qdensity.cli.export.check_circuits` lists the files
-that
-are missing or out of date.
+that are missing or out of date.
 
 Examples
 --------
@@ -86,18 +85,9 @@ from qdensity.circuits.tomography import tomography_circuits
 from qdensity.gradients.commuting import commuting_gradient
 from qdensity.models.decompositions import by_moments
 
-__all__ = [
-    "QASM2_BASIS",
-    "REFERENCE_BUILDERS",
-    "REFERENCE_DESCRIPTIONS",
-    "reference_seed",
-    "bind_reference",
-    "reference_circuit",
-    "reference_qasm",
-    "QASM3_BASIS",
-    "symbolic_circuit",
-    "reference_qasm3",
-]
+__all__ = ["QASM2_BASIS", "REFERENCE_BUILDERS", "REFERENCE_DESCRIPTIONS", "reference_seed",
+           "bind_reference", "reference_circuit", "reference_qasm", "QASM3_BASIS",
+           "symbolic_circuit", "reference_qasm3"]
 
 #: Gates of the original ``qelib1.inc`` (the file ``qiskit.qasm2.loads`` and other OpenQASM 2
 #: readers include) that exported circuits may contain; everything else is unrolled. Newer
@@ -175,6 +165,12 @@ def bind_reference(circuit: QuantumCircuit, name: str) -> QuantumCircuit:
     QuantumCircuit
         ``circuit`` with ``circuit.parameters[i]`` bound to
         ``default_rng(reference_seed(name)).uniform(-pi, pi, P)[i]``.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> bind_reference(pyramid(4), "pyramid_4") == bind_reference(pyramid(4), "pyramid_4")
+    True
     """
     rng = np.random.default_rng(reference_seed(name))
     if _SYMBOLIC.get():  # building the OpenQASM 3 form: parameters stay free
@@ -402,6 +398,11 @@ def reference_circuit(name: str) -> QuantumCircuit:
     QuantumCircuit
         The builder's circuit (same registers, measurements kept), every gate outside
         ``qelib1.inc`` replaced by its definition; equal to the builder's up to global phase.
+
+    Examples
+    --------
+    >>> sorted(reference_circuit("pyramid_4").count_ops())  # RBS unrolled into qelib1.inc gates
+    ['cz', 'h', 'ry']
     """
     circuit = REFERENCE_BUILDERS[_check_name(name)]()
     return transpile(circuit, basis_gates=list(QASM2_BASIS), optimization_level=0)
@@ -420,6 +421,11 @@ def reference_qasm(name: str) -> str:
     str
         ``qasm2.dumps`` of :func:`reference_circuit`, with a comment line naming and describing
         the circuit after the version line, ending in a newline.
+
+    Examples
+    --------
+    >>> reference_qasm("pyramid_4").splitlines()[1]
+    '// pyramid_4: Pyramid RBS ansatz (Fig. 9a), 6 RBS gates.'
     """
     return _exported(_check_name(name))[0]
 
@@ -436,7 +442,6 @@ def _exported(name: str) -> tuple[str, int, int, int]:
         if len(inst.qubits) == 2 and inst.operation.name not in ("barrier", "measure")
     )
     return text, circuit.num_qubits, two_qubit, circuit.depth()
-
 
 
 def symbolic_circuit(name: str) -> QuantumCircuit:
@@ -478,6 +483,11 @@ def reference_qasm3(name: str) -> str:
         ``qasm3.dumps`` of :func:`symbolic_circuit`, with a comment line naming and describing
         the circuit after the version line; one ``input float[64]`` per free parameter, in
         ``parameters`` order. Reload with ``qiskit.qasm3.loads`` (``qiskit-qasm3-import``).
+
+    Examples
+    --------
+    >>> reference_qasm3("pyramid_4").count("input float[64]")  # one per RBS angle
+    6
     """
     return _exported3(_check_name(name))[0]
 

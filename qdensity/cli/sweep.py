@@ -54,7 +54,17 @@ def _cmd_sweep(args) -> int:
 
 def add_parser(sub, int_in, seed_type, max_qubits: int) -> None:
     """Add the ``sweep`` sub-command to ``qdensity``'s sub-parsers (``int_in(low, high)`` and
-    ``seed_type`` are the command's argparse types)."""
+    ``seed_type`` are the command's argparse types).
+
+    Examples
+    --------
+    >>> import argparse
+    >>> sub = argparse.ArgumentParser(prog="qdensity").add_subparsers()
+    >>> add_parser(sub, lambda low, high: int, int, max_qubits=12)
+    >>> args = sub.choices["sweep"].parse_args(["--num-qubits", "4", "--n-trials", "8"])
+    >>> args.num_qubits, args.n_trials, args.ansatz, args.storage is None
+    (4, 8, 'round_robin', True)
+    """
     sw = sub.add_parser("sweep", help="optuna hyperparameter sweep of a QNNClassifier (the "
                                       "paper's space); start it on many machines with one "
                                       "--storage to share a study", **texts("sweep"))

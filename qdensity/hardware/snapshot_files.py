@@ -232,7 +232,8 @@ def load_snapshot(path: str | os.PathLike) -> SnapshotFileBackend:
     --------
     >>> import tempfile, pathlib
     >>> from qiskit.providers.fake_provider import GenericBackendV2
-    >>> path = save_snapshot(GenericBackendV2(2, seed=1), pathlib.Path(tempfile.mkdtemp()) / "d.json")
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "d.json"
+    >>> _ = save_snapshot(GenericBackendV2(2, seed=1), path)
     >>> backend = load_snapshot(path)
     >>> isinstance(backend, SnapshotFileBackend), backend.num_qubits
     (True, 2)
