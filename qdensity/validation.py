@@ -7,13 +7,20 @@ what is allowed. Nothing is renormalised or clipped silently.
 from __future__ import annotations
 
 import numbers
-import os
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
 
 from qdensity import _constraints
 from qdensity._constraints import *  # noqa: F403 - the declared vocabulary, re-exported
+from qdensity._constraints._checks import (
+    check_callable,
+    check_engine,
+    check_sequence_of,
+    check_target,
+    check_type,
+)
+from qdensity._constraints._seeds import SeedLike, as_rng, check_seed, seed_int, seed_u32
 
 __all__ = [
     "as_rng", "check_seed", "seed_int", "seed_u32", "check_real_vector", "check_nonzero_vector",
@@ -30,86 +37,6 @@ __all__ += _constraints.__all__  # the declared vocabulary (qdensity._constraint
 MAX_DENSE_QUBITS = 24
 #: Most entries of a dense ``(rows, 2**n)`` array (2 GiB of float64).
 MAX_DENSE_ENTRIES = 2**28
-
-SeedLike = int | np.random.Generator | None
-
-
-def check_seed(seed, name: str = "seed") -> SeedLike:
-    """A seed as every stochastic function takes it: an int ``>= 0``, a Generator or None.
-
-    The one place seeds are checked, so ``seed=-1`` anywhere is refused with a message that
-    names the argument (numpy's own says only "expected non-negative integer").
-
-    Parameters
-    ----------
-    seed : int, numpy.random.Generator or None
-    name : str
-        Argument name for the error message.
-
-    Returns
-    -------
-    int, numpy.random.Generator or None
-        ``seed`` itself (a numpy integer becomes an int).
-    """
-    if seed is None or isinstance(seed, np.random.Generator):
-        return seed
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
-        raise TypeError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
-                        f"{type(seed).__name__} {seed!r}")
-    if seed < 0:
-        raise ValueError(f"{name} must be an int >= 0, a numpy.random.Generator or None, got "
-                         f"{seed!r}")
-    return int(seed)
-
-
-def as_rng(seed: SeedLike, name: str = "seed") -> np.random.Generator:
-    """A ``numpy.random.Generator`` from an int ``>= 0``, a Generator (returned as is) or None.
-
-    Parameters
-    ----------
-    seed : int, numpy.random.Generator or None
-    name : str
-        Argument name for the error message (see :func:`check_seed`).
-
-    Returns
-    -------
-    numpy.random.Generator
-    """
-    seed = check_seed(seed, name)
-    if isinstance(seed, np.random.Generator):
-        return seed
-    return np.random.default_rng(seed)
-
-
-def seed_int(seed: SeedLike, name: str = "seed") -> int | None:
-    """An integer seed for libraries that need one (Aer's ``seed_simulator``, transpiler).
-
-    Draws from the generator when given one, so a Generator still yields reproducible runs.
-
-    Parameters
-    ----------
-    seed : int, numpy.random.Generator or None
-    name : str
-        Argument name for the error message (see :func:`check_seed`).
-
-    Returns
-    -------
-    int or None
-    """
-    seed = check_seed(seed, name)
-    if isinstance(seed, np.random.Generator):
-        return int(seed.integers(0, 2**31 - 1))
-    return seed
-
-
-def seed_u32(seed: SeedLike, name: str = "seed") -> int | None:
-    """:func:`seed_int` within ``[0, 2**32 - 1]``, scikit-learn's ``random_state`` range (a
-    larger int is refused naming ``name``, not passed on to fail inside scikit-learn)."""
-    out = seed_int(seed, name)
-    if out is not None and out > 2**32 - 1:
-        raise ValueError(f"{name} must be at most 2**32 - 1 = {2**32 - 1} (scikit-learn's "
-                         f"random_state range), got {out}")
-    return out
 
 
 def _as_real(values, name: str, what: str) -> np.ndarray:
@@ -144,6 +71,15 @@ def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (d,), float64
+
+    Examples
+    --------
+    >>> check_real_vector([1, 2], "x")
+    array([1., 2.])
+    >>> check_real_vector([[1.0]], "x")
+    Traceback (most recent call last):
+        ...
+    ValueError: x must be 1-dimensional, got shape (1, 1)
     """
     arr = _as_real(x, name, "a real vector")
     if arr.ndim != 1:
@@ -156,7 +92,15 @@ def check_real_vector(x, name: str, *, min_length: int = 1) -> np.ndarray:
 
 
 def check_nonzero_vector(x, name: str, *, min_length: int = 2) -> np.ndarray:
-    """Like :func:`check_real_vector` and also refuses the zero vector (it has no direction)."""
+    """Like :func:`check_real_vector` and also refuses the zero vector (it has no direction).
+
+    Examples
+    --------
+    >>> check_nonzero_vector([0.0, 0.0], "x")
+    Traceback (most recent call last):
+        ...
+    ValueError: x must not be the zero vector (it cannot be normalised)
+    """
     arr = check_real_vector(x, name, min_length=min_length)
     if not np.any(arr):
         raise ValueError(f"{name} must not be the zero vector (it cannot be normalised)")
@@ -178,6 +122,15 @@ def check_distribution(alpha, name: str = "alpha", *, atol: float = 1e-9) -> np.
     Returns
     -------
     numpy.ndarray, shape (K,)
+
+    Examples
+    --------
+    >>> check_distribution([0.25, 0.75])
+    array([0.25, 0.75])
+    >>> check_distribution([0.5, 0.6])
+    Traceback (most recent call last):
+        ...
+    ValueError: alpha must sum to 1 within 1e-09 (it is not renormalised), got sum 1.1
     """
     arr = check_real_vector(alpha, name, min_length=1)
     if np.any(arr < 0):
@@ -204,6 +157,14 @@ def check_rows_sum_to_one(probs: np.ndarray, name: str = "probs", *, atol: float
         Finite floats. Never renormalised.
     name : str
     atol : float
+
+    Examples
+    --------
+    >>> check_rows_sum_to_one(np.array([[0.5, 0.5], [1.0, 0.0]]))  # accepted: returns None
+    >>> check_rows_sum_to_one(np.array([[0.5, 0.4]]))
+    Traceback (most recent call last):
+        ...
+    ValueError: probs rows must sum to 1 within 1e-06 (...); rows [0] sum to [0.9]
     """
     if np.any(probs < 0):
         raise ValueError(f"{name} must be non-negative, got minimum {probs.min()!r}")
@@ -229,6 +190,15 @@ def check_parameter_values(values, num_parameters: int, name: str = "values") ->
     -------
     numpy.ndarray, shape (P,) or (B, P)
         Same number of dimensions as given.
+
+    Examples
+    --------
+    >>> check_parameter_values([[0.1, 0.2]], 2).shape
+    (1, 2)
+    >>> check_parameter_values([0.1, 0.2, 0.3], 2)
+    Traceback (most recent call last):
+        ...
+    ValueError: values must have shape (2,) or (rows, 2) ...
     """
     arr = _as_real(values, name, "real numbers")
     if arr.ndim not in (1, 2) or arr.shape[-1] != num_parameters:
@@ -255,6 +225,11 @@ def as_parameter_rows(values, num_parameters: int, name: str = "values") -> np.n
     Returns
     -------
     numpy.ndarray, shape (rows, P)
+
+    Examples
+    --------
+    >>> as_parameter_rows([0.1, 0.2], 2).shape, as_parameter_rows(None, 0).shape
+    ((1, 2), (1, 0))
     """
     if num_parameters == 0 and (values is None or np.size(values) == 0):
         rows = 1 if values is None or np.ndim(values) < 2 else max(np.shape(values)[0], 1)
@@ -278,6 +253,15 @@ def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | Non
     """An int ``>= minimum`` (and ``<= maximum`` when given; bools refused).
 
     ``why`` explains the maximum in the message.
+
+    Examples
+    --------
+    >>> check_positive_int(np.int64(3), "shots")
+    3
+    >>> check_positive_int(0, "shots")
+    Traceback (most recent call last):
+        ...
+    ValueError: shots must be >= 1, got 0
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an int, got {value!r}")
@@ -290,21 +274,45 @@ def check_positive_int(value, name: str, *, minimum: int = 1, maximum: int | Non
 
 
 def check_num_qubits(value, name: str = "num_qubits", *, minimum: int = 1) -> int:
-    """A circuit width for a builder: an int in ``[minimum, MAX_CIRCUIT_QUBITS]``."""
+    """A circuit width for a builder: an int in ``[minimum, MAX_CIRCUIT_QUBITS]``.
+
+    Examples
+    --------
+    >>> check_num_qubits(8)
+    8
+    >>> check_num_qubits(10**6)
+    Traceback (most recent call last):
+        ...
+    ValueError: num_qubits must be <= 4096 (wider circuits are beyond any device ...), got 1000000
+    """
     return check_positive_int(value, name, minimum=minimum, maximum=_constraints.MAX_CIRCUIT_QUBITS,
                               why="wider circuits are beyond any device and take minutes "
                               "to build")
 
 
 def check_layers(value, name: str = "layers", *, minimum: int = 1) -> int:
-    """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``."""
+    """A repetition count for a builder: an int in ``[minimum, MAX_LAYERS]``.
+
+    Examples
+    --------
+    >>> check_layers(3), check_layers(0, minimum=0)
+    (3, 0)
+    """
     return check_positive_int(value, name, minimum=minimum, maximum=_constraints.MAX_LAYERS,
                               why="deeper circuits take minutes to build")
 
 
 def check_entries(shape: tuple[int, ...], name: str) -> None:
     """Refuse a parameter array of ``shape`` with more than :data:`MAX_DENSE_ENTRIES` entries
-    (2 GiB of float64) before it is allocated; ``name`` says what the array is."""
+    (2 GiB of float64) before it is allocated; ``name`` says what the array is.
+
+    Examples
+    --------
+    >>> check_entries((2**20, 2**10), "weights")  # 2**30 numbers
+    Traceback (most recent call last):
+        ...
+    ValueError: weights would hold 1073741824 numbers (shape (1048576, 1024)), more than ...
+    """
     total = 1
     for s in shape:
         total *= int(s)
@@ -314,7 +322,17 @@ def check_entries(shape: tuple[int, ...], name: str) -> None:
 
 
 def check_circuit(circuit, name: str = "circuit") -> QuantumCircuit:
-    """A ``QuantumCircuit`` or a ``TypeError`` naming ``name``."""
+    """A ``QuantumCircuit`` or a ``TypeError`` naming ``name``.
+
+    Examples
+    --------
+    >>> check_circuit(QuantumCircuit(2)).num_qubits
+    2
+    >>> check_circuit("qc")
+    Traceback (most recent call last):
+        ...
+    TypeError: circuit must be a qiskit QuantumCircuit, got str
+    """
     if not isinstance(circuit, QuantumCircuit):
         raise TypeError(f"{name} must be a qiskit QuantumCircuit, got {type(circuit).__name__}")
     return circuit
@@ -331,6 +349,15 @@ def check_real_scalar(value, name: str) -> float:
     Returns
     -------
     float
+
+    Examples
+    --------
+    >>> check_real_scalar(np.float32(0.5), "theta")
+    0.5
+    >>> check_real_scalar(True, "theta")
+    Traceback (most recent call last):
+        ...
+    TypeError: theta must be a real number, got True
     """
     if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {value!r}")
@@ -353,6 +380,15 @@ def check_finite_array(values, name: str, shape: tuple[int, ...] | None = None) 
     Returns
     -------
     numpy.ndarray, float64
+
+    Examples
+    --------
+    >>> check_finite_array([[1, 2]], "w", shape=(1, 2)).dtype
+    dtype('float64')
+    >>> check_finite_array([np.nan], "w")
+    Traceback (most recent call last):
+        ...
+    ValueError: w must be finite (no NaN or inf)
     """
     arr = _as_real(values, name, "real numbers")
     if shape is not None and arr.shape != tuple(shape):
@@ -360,66 +396,6 @@ def check_finite_array(values, name: str, shape: tuple[int, ...] | None = None) 
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
     return arr
-
-
-def check_callable(value, name: str, what: str = "a callable"):
-    """``value`` if it is callable, else a ``TypeError`` naming ``name`` and ``what``."""
-    if not callable(value):
-        raise TypeError(f"{name} must be {what}, got {type(value).__name__} {value!r}")
-    return value
-
-
-def check_type(value, name: str, types, expected: str, *, allow_none: bool = False):
-    """``value`` if it is an instance of ``types`` (or None with ``allow_none``), else a
-    ``TypeError`` naming ``name``, what is ``expected`` in words, and what came."""
-    if value is None and allow_none:
-        return value
-    if not isinstance(value, types):
-        extra = " or None" if allow_none else ""
-        raise TypeError(f"{name} must be {expected}{extra}, got {type(value).__name__} "
-                        f"{value!r:.80}")
-    return value
-
-
-def check_sequence_of(values, name: str, types, expected: str) -> list:
-    """``values`` as a list whose every item is an instance of ``types`` (``TypeError`` naming
-    ``name`` or ``name[i]`` otherwise; a lone item, a string or a non-iterable is refused)."""
-    if isinstance(values, (str, bytes, types)) or not hasattr(values, "__iter__"):
-        raise TypeError(f"{name} must be a sequence of {expected}, got "
-                        f"{type(values).__name__} {values!r:.80}")
-    out = list(values)
-    for i, v in enumerate(out):
-        if not isinstance(v, types):
-            raise TypeError(f"{name}[{i}] must be a {expected}, got {type(v).__name__} "
-                            f"{v!r:.80}")
-    return out
-
-
-def check_engine(engine, name: str = "engine"):
-    """An engine (anything with ``run(jobs)``: ExactEngine, SamplerEngine, AdjointEngine)."""
-    if not callable(getattr(engine, "run", None)):
-        raise TypeError(f"{name} must be an engine with run(jobs) (ExactEngine, SamplerEngine, "
-                        f"AdjointEngine), got {type(engine).__name__} {engine!r:.80}")
-    return engine
-
-
-def check_target(target, name: str = "target"):
-    """Anything a target may be given as, or None: a ``HardwareTarget``, a target name or
-    snapshot path, a ``BackendV2`` or a ``qiskit.transpiler.Target`` (``as_target`` in
-    ``qdensity.hardware.targets`` builds each; this only refuses the wrong types, by name)."""
-    if target is None or isinstance(target, (str, os.PathLike)):
-        return target
-    if all(callable(getattr(target, a, None)) for a in ("sampler", "transpile")):
-        return target
-    from qiskit.providers import BackendV2
-    from qiskit.transpiler import Target
-
-    if isinstance(target, (BackendV2, Target)):
-        return target
-    raise TypeError(f"{name} must be a HardwareTarget, a target name or snapshot path, a "
-                    f"BackendV2 or a qiskit.transpiler.Target "
-                    f"(qdensity.hardware.targets.get_target), "
-                    f"or None; got {type(target).__name__} {target!r:.80}")
 
 
 def check_magnitude(values: np.ndarray, name: str, hint: str) -> None:
@@ -431,6 +407,13 @@ def check_magnitude(values: np.ndarray, name: str, hint: str) -> None:
     name : str
     hint : str
         How to scale the data (for the message).
+
+    Examples
+    --------
+    >>> check_magnitude(np.array([1e200]), "X", "standardise the features")
+    Traceback (most recent call last):
+        ...
+    ValueError: X is too large: its squares overflow float64 (largest |X| = 1e+200); standardise ...
     """
     with np.errstate(over="ignore"):
         total = float(np.sum(np.square(values)))

@@ -1,10 +1,12 @@
 """Declared argument constraints: the vocabulary that :mod:`qdensity.validation` exports.
 
-The core (:mod:`._core`: the base class, numbers, options, unions and the :func:`validates`
-decorator) and the kinds of values the library takes (:mod:`._kinds`: arrays, paths, circuits,
-observables, engines, targets, seeds, callables, sequences).
+The core (:mod:`._core`: the base class, numbers, options, unions), the :func:`validates`
+decorator and its refusals (:mod:`._decorator`), and the kinds of values the library takes
+(:mod:`._kinds`: arrays, paths, circuits, observables, engines, targets; :mod:`._seeds`: seeds;
+:mod:`._checks`: callables, sequences, torch tensors).
 """
 
+from qdensity._constraints._checks import CallableC, SequenceOf, TorchTensor
 from qdensity._constraints._core import (
     MAX_CIRCUIT_QUBITS,
     MAX_LAYERS,
@@ -22,24 +24,18 @@ from qdensity._constraints._core import (
     Shots,
     Unchecked,
     as_constraint,
-    check_declared,
-    declared,
-    refuse,
-    validates,
 )
+from qdensity._constraints._decorator import check_declared, declared, refuse, validates
 from qdensity._constraints._kinds import (
     Array,
-    CallableC,
     Circuit,
     EngineLike,
     FileName,
     FilePath,
     Observable,
-    Seed,
-    SequenceOf,
     TargetLike,
-    TorchTensor,
 )
+from qdensity._constraints._seeds import Seed
 
 __all__ = ["Constraint", "Instance", "Interval", "Options", "Array", "FilePath", "FileName",
            "Circuit", "Observable", "EngineLike", "TargetLike", "Seed", "CallableC", "SequenceOf",
