@@ -24,7 +24,15 @@ _C = TypeVar("_C", bound=Callable)
 
 
 class CallableC(Constraint):
-    """A callable (``what`` says which, in words)."""
+    """A callable (``what`` says which, in words).
+
+    Examples
+    --------
+    >>> from qdensity.validation import CallableC
+    >>> c = CallableC("a loss function")
+    >>> c.is_satisfied_by(abs), c.is_satisfied_by("mse"), str(c)
+    (True, False, 'a loss function')
+    """
 
     def __init__(self, what: str = "a callable"):
         self.what = what
@@ -44,7 +52,15 @@ class CallableC(Constraint):
 
 class SequenceOf(Constraint):
     """A list, tuple (or ``range``, ``ParameterVector``, 1-d numpy array, handed to the body as
-    a list of Python values) of ``min_len`` to ``max_len`` items, each satisfying ``item``."""
+    a list of Python values) of ``min_len`` to ``max_len`` items, each satisfying ``item``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Interval, SequenceOf
+    >>> c = SequenceOf(Interval(int, 0), min_len=2, max_len=2)
+    >>> c.is_satisfied_by((0, 3)), c.is_satisfied_by([0]), c.is_satisfied_by([0, -1])
+    (True, False, False)
+    """
 
     def __init__(self, item, *, min_len: int = 1, max_len: int | None = None):
         self.item, self.min_len, self.max_len = as_constraint(item), min_len, max_len
@@ -110,7 +126,17 @@ class SequenceOf(Constraint):
 class TorchTensor(Constraint):
     """A ``torch.Tensor`` of ``ndim`` dimensions (the torch engines' inputs), checked without
     importing torch: a tensor can only exist once torch is imported. Its values are checked
-    by the torch engine on the tensor's own device (no copy to the host here)."""
+    by the torch engine on the tensor's own device (no copy to the host here).
+
+    Examples
+    --------
+    Checked without importing torch (a tensor exists only once torch is imported):
+
+    >>> import numpy as np
+    >>> from qdensity.validation import TorchTensor
+    >>> TorchTensor(2).is_satisfied_by(np.zeros((2, 2))), str(TorchTensor((1, 2)))
+    (False, 'a 1 or 2-dimensional torch.Tensor')
+    """
 
     def __init__(self, ndim: int | tuple[int, ...]):
         self.ndim = (ndim,) if isinstance(ndim, int) else tuple(ndim)

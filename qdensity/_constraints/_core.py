@@ -41,6 +41,19 @@ class Constraint:
     Subclasses define ``type_ok`` (the value has an acceptable type; a failure is a
     ``TypeError``), ``is_satisfied_by`` (type and value acceptable), ``__str__`` (what is
     allowed, in words), ``example`` (one valid value) and ``violations`` (values that are not).
+
+    Examples
+    --------
+    A new kind of argument subclasses it (the other methods have defaults):
+
+    >>> from qdensity.validation import Constraint, validates
+    >>> class Even(Constraint):
+    ...     def is_satisfied_by(self, value): return isinstance(value, int) and value % 2 == 0
+    ...     def __str__(self): return "an even int"
+    >>> @validates(n=Even())
+    ... def half(n): return n // 2
+    >>> half(4), Even().is_satisfied_by(3)
+    (2, False)
     """
 
     def type_ok(self, value) -> bool:
@@ -68,7 +81,15 @@ class Constraint:
 
 class Unchecked(Constraint):
     """An argument no single constraint describes (``**kwargs`` passed on, a value whose checks
-    need other arguments); ``why`` says where it is checked. The fuzzer skips it."""
+    need other arguments); ``why`` says where it is checked. The fuzzer skips it.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Unchecked
+    >>> c = Unchecked("passed on to qiskit's transpile")
+    >>> c.is_satisfied_by(object()), c.violations()
+    (True, [])
+    """
 
     def __init__(self, why: str, example=None):
         self.why, self._example = why, example
@@ -87,7 +108,15 @@ class Unchecked(Constraint):
 
 
 class Instance(_ScalarMixin, Constraint):
-    """``isinstance(value, types)``; ``what`` names the types in words (bools refused as ints)."""
+    """``isinstance(value, types)``; ``what`` names the types in words (bools refused as ints).
+
+    Examples
+    --------
+    >>> from qdensity.validation import Instance
+    >>> c = Instance((int, float), "a number")
+    >>> c.is_satisfied_by(2.5), c.is_satisfied_by(True), str(c)  # bools are not numbers here
+    (True, False, 'a number')
+    """
 
     def __init__(self, types, what: str | None = None, example=None):
         self._types = types if isinstance(types, tuple) else (types,)
@@ -150,6 +179,13 @@ class Interval(_ScalarMixin, Constraint):
     closed : {"both", "left", "right", "neither"}
     why : str
         Why the bound is there (for the message).
+
+    Examples
+    --------
+    >>> from qdensity.validation import Interval
+    >>> c = Interval(float, 0, 1, closed="left")
+    >>> c.is_satisfied_by(0.0), c.is_satisfied_by(1.0), str(c)
+    (True, False, 'a finite real number >= 0 and < 1')
     """
 
     def __init__(self, kind, low=None, high=None, *, closed: str = "both", why: str = ""):
@@ -217,7 +253,15 @@ class Interval(_ScalarMixin, Constraint):
 
 class Options(_ScalarMixin, Constraint):
     """One of a fixed set of values (strings, usually); given as a callable returning them,
-    the set is read at each check (a registry that grows after the declaration)."""
+    the set is read at each check (a registry that grows after the declaration).
+
+    Examples
+    --------
+    >>> from qdensity.validation import Options
+    >>> c = Options(["softmax", "fixed"])
+    >>> c.is_satisfied_by("fixed"), c.is_satisfied_by("bogus"), c.options
+    (True, False, ('softmax', 'fixed'))
+    """
 
     def __init__(self, options: Iterable | Callable[[], Iterable]):
         self._source = options if callable(options) else tuple(options)
@@ -306,7 +350,17 @@ class _IsNone(Constraint):
 
 
 def as_constraint(declaration) -> Constraint:
-    """A :class:`Constraint` from a declaration: a constraint, a type, None or a list of them."""
+    """A :class:`Constraint` from a declaration: a constraint, a type, None or a list of them.
+
+    Examples
+    --------
+    A list means "any one of these"; None in it allows None:
+
+    >>> from qdensity.validation import as_constraint
+    >>> c = as_constraint([int, None])
+    >>> c.is_satisfied_by(3), c.is_satisfied_by(None), c.is_satisfied_by("3")
+    (True, True, False)
+    """
     if isinstance(declaration, Constraint):
         return declaration
     if declaration is None:
@@ -338,16 +392,37 @@ MAX_SEEDS = 10_000
 
 
 def Qubits(minimum: int = 1, maximum: int = MAX_CIRCUIT_QUBITS) -> Interval:
-    """The declared width of a circuit: an int in ``[minimum, maximum]``."""
+    """The declared width of a circuit: an int in ``[minimum, maximum]``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Qubits
+    >>> [Qubits(2).is_satisfied_by(n) for n in (1, 2, 4096, 4097)]  # at most MAX_CIRCUIT_QUBITS
+    [False, True, True, False]
+    """
     return Interval(int, minimum, maximum, why="wider circuits are beyond any device and take "
                     "minutes to build" if maximum == MAX_CIRCUIT_QUBITS else "")
 
 
 def Layers(minimum: int = 1) -> Interval:
-    """The declared repetition count of a builder: an int in ``[minimum, MAX_LAYERS]``."""
+    """The declared repetition count of a builder: an int in ``[minimum, MAX_LAYERS]``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Layers
+    >>> Layers().is_satisfied_by(3), Layers().is_satisfied_by(0), Layers(0).is_satisfied_by(0)
+    (True, False, True)
+    """
     return Interval(int, minimum, MAX_LAYERS, why="deeper circuits take minutes to build")
 
 
 def Shots(minimum: int = 1) -> Interval:
-    """The declared shot count: an int in ``[minimum, MAX_SHOTS]``."""
+    """The declared shot count: an int in ``[minimum, MAX_SHOTS]``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import MAX_SHOTS, Shots
+    >>> Shots().is_satisfied_by(1000), Shots().is_satisfied_by(MAX_SHOTS + 1)
+    (True, False)
+    """
     return Interval(int, minimum, MAX_SHOTS)

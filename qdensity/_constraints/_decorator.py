@@ -18,7 +18,18 @@ __all__ = ["validates", "refuse", "check_declared", "declared"]
 def refuse(where: str, name: str, value, allowed, reason: str = "",
            error: type[Exception] = ValueError) -> Exception:
     """The error a declaration raises, for checks that stay in a body (cross-argument ones):
-    ``"{where}: {name} must be {allowed}, got {value}"``; raise what it returns."""
+    ``"{where}: {name} must be {allowed}, got {value}"``; raise what it returns.
+
+    Examples
+    --------
+    A cross-argument check in a body, worded as the declarations word theirs:
+
+    >>> from qdensity.validation import refuse
+    >>> raise refuse("split", "test_size", 5, "less than the 4 rows")
+    Traceback (most recent call last):
+        ...
+    ValueError: split: test_size must be less than the 4 rows, got 5
+    """
     if reason.startswith("["):  # an item of a sequence: name it as name[i]
         return error(f"{where}: {name} must be {allowed}; {name}{reason}")
     text = f"{where}: {name} must be {allowed}, got {_show(value)}"
@@ -36,14 +47,31 @@ def _check(where: str, name: str, constraint: Constraint, value):
 def check_declared(where: str, constraints: dict, arguments: dict) -> None:
     """Check ``arguments`` (name -> value) against ``constraints`` (name -> declaration) as
     :func:`validates` does; for hyperparameters checked when a scikit-learn estimator is fitted
-    (its ``_parameter_constraints``) rather than when it is constructed."""
+    (its ``_parameter_constraints``) rather than when it is constructed.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Interval, check_declared
+    >>> check_declared("Model.fit", {"lr": Interval(float, 0)}, {"lr": -1.0})
+    Traceback (most recent call last):
+        ...
+    ValueError: Model.fit: lr must be a finite real number >= 0, got -1.0
+    """
     for name, declaration in constraints.items():
         if name in arguments:
             _check(where, name, as_constraint(declaration), arguments[name])
 
 
 def declared(fn) -> dict[str, Constraint]:
-    """The declarations of a callable or class (``{}`` when it declares none)."""
+    """The declarations of a callable or class (``{}`` when it declares none).
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> from qdensity.validation import declared
+    >>> "num_qubits" in declared(pyramid), declared(len)
+    (True, {})
+    """
     return dict(getattr(fn, "__constraints__", None) or {})
 
 
@@ -61,6 +89,18 @@ def validates(**declarations) -> Callable:
     callable
         A decorator. The decorated callable checks each declared argument it is given, before
         its body runs, and carries the declarations as ``__constraints__``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import Interval, Qubits, validates
+    >>> @validates(num_qubits=Qubits(2), angle=Interval(float))
+    ... def ring(num_qubits, angle=0.0): return num_qubits
+    >>> ring(4)
+    4
+    >>> ring(1)
+    Traceback (most recent call last):
+        ...
+    ValueError: ring: num_qubits must be an int >= 2 and <= 4096 (wider circuits ...), got 1
     """
     constraints = {k: as_constraint(v) for k, v in declarations.items()}
 

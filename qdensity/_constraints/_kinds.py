@@ -32,6 +32,16 @@ class Array(Constraint):
         Fewest elements.
     max_size : int, optional
         Most elements (an upper bound on what the callable will allocate from it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.validation import Array
+    >>> c = Array(ndim=2, shape=(None, 3))
+    >>> c.is_satisfied_by(np.zeros((5, 3))), c.is_satisfied_by(np.zeros((5, 4)))
+    (True, False)
+    >>> c.is_satisfied_by([[1.0, 2.0, np.nan]])  # finite by default
+    False
     """
 
     def __init__(self, ndim=None, shape=None, *, dtype: str = "real", finite: bool = True,
@@ -141,7 +151,14 @@ class Array(Constraint):
 
 class FilePath(Constraint):
     """A path (``str`` or ``os.PathLike``); with ``exists="file"`` an existing file, with
-    ``"dir"`` an existing folder, with None any path."""
+    ``"dir"`` an existing folder, with None any path.
+
+    Examples
+    --------
+    >>> from qdensity.validation import FilePath
+    >>> FilePath().is_satisfied_by("/no/such/file"), FilePath(None).is_satisfied_by("out.json")
+    (False, True)
+    """
 
     def __init__(self, exists: str | None = "file"):
         self.exists = exists
@@ -194,7 +211,14 @@ class FileName(Constraint):
     """A name that becomes part of a file name (a result's, a figure's, a checkpoint's): letters,
     digits, ``_``, ``-`` and ``.``, not starting with ``.`` and at most ``max_len`` characters.
     Never a path: no separator, no ``..``, no NUL, so a name read from a file cannot write
-    outside the folder it is joined to."""
+    outside the folder it is joined to.
+
+    Examples
+    --------
+    >>> from qdensity.validation import FileName
+    >>> FileName().is_satisfied_by("run-1_seed0"), FileName().is_satisfied_by("../escape")
+    (True, False)
+    """
 
     _PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
 
@@ -226,7 +250,16 @@ class FileName(Constraint):
 
 
 class Circuit(Instance):
-    """A ``QuantumCircuit`` of at most ``max_qubits`` qubits (and at least ``min_qubits``)."""
+    """A ``QuantumCircuit`` of at most ``max_qubits`` qubits (and at least ``min_qubits``).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.validation import Circuit
+    >>> c = Circuit(min_qubits=2)
+    >>> c.is_satisfied_by(QuantumCircuit(2)), c.is_satisfied_by(QuantumCircuit(1))
+    (True, False)
+    """
 
     def __init__(self, min_qubits: int = 0, max_qubits: int | None = None):
         from qiskit.circuit import QuantumCircuit
@@ -264,7 +297,14 @@ class Circuit(Instance):
 
 class Observable(Constraint):
     """An observable: a ``SparsePauliOp``, ``Pauli`` or Pauli label string (checked as a label,
-    ``I X Y Z`` only; widths against the circuit are checked in the body)."""
+    ``I X Y Z`` only; widths against the circuit are checked in the body).
+
+    Examples
+    --------
+    >>> from qdensity.validation import Observable
+    >>> Observable().is_satisfied_by("ZZI"), Observable().is_satisfied_by("ZQ")
+    (True, False)
+    """
 
     def type_ok(self, value) -> bool:
         from qiskit.quantum_info import Pauli, SparsePauliOp
@@ -294,7 +334,15 @@ class _ExampleEngine:
 
 
 class EngineLike(Constraint):
-    """An engine: anything with ``run(jobs)`` (ExactEngine, SamplerEngine, AdjointEngine)."""
+    """An engine: anything with ``run(jobs)`` (ExactEngine, SamplerEngine, AdjointEngine).
+
+    Examples
+    --------
+    >>> from qdensity.execution import ExactEngine
+    >>> from qdensity.validation import EngineLike
+    >>> EngineLike().is_satisfied_by(ExactEngine()), EngineLike().is_satisfied_by("exact")
+    (True, False)
+    """
 
     def is_satisfied_by(self, value) -> bool:
         return callable(getattr(value, "run", None)) and not isinstance(value, type)
@@ -311,7 +359,14 @@ class EngineLike(Constraint):
 
 class TargetLike(Constraint):
     """A target as :func:`qdensity.hardware.targets.get_target` takes it: a ``HardwareTarget``,
-    a target name or snapshot path, a ``BackendV2`` or a ``qiskit.transpiler.Target``."""
+    a target name or snapshot path, a ``BackendV2`` or a ``qiskit.transpiler.Target``.
+
+    Examples
+    --------
+    >>> from qdensity.validation import TargetLike
+    >>> TargetLike().is_satisfied_by("heavy_hex"), TargetLike().is_satisfied_by(3)
+    (True, False)
+    """
 
     def is_satisfied_by(self, value) -> bool:
         if isinstance(value, (str, os.PathLike)):

@@ -23,7 +23,15 @@ SeedLike = int | np.random.Generator | None
 
 
 class Seed(_ScalarMixin, Constraint):
-    """A seed: an int in ``[0, high]``, a ``numpy.random.Generator`` or None."""
+    """A seed: an int in ``[0, high]``, a ``numpy.random.Generator`` or None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.validation import Seed
+    >>> [Seed().is_satisfied_by(s) for s in (7, None, np.random.default_rng(0), -1, True)]
+    [True, True, True, False, False]
+    """
 
     def __init__(self, high: int = 2**63 - 1):
         self.high = high
