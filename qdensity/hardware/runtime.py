@@ -30,10 +30,13 @@ from __future__ import annotations
 import importlib.util
 import warnings
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from qdensity.hardware.aer_sampling import aer_seed
 from qdensity.validation import SeedLike, check_positive_int, seed_int
+
+if TYPE_CHECKING:
+    from qiskit.primitives import BaseSamplerV2
 
 __all__ = ["runtime_available", "runtime_options", "runtime_sampler", "require_runtime"]
 
@@ -124,7 +127,7 @@ def runtime_options(
     return out
 
 
-def runtime_sampler(mode, **knobs):
+def runtime_sampler(mode, **knobs) -> BaseSamplerV2:
     """A ``qiskit_ibm_runtime.SamplerV2`` with validated options.
 
     Parameters
