@@ -32,6 +32,21 @@ class UnscaledFeaturesWarning(UserWarning):
     The unary encoding normalises each row, so the largest-scale features dominate every
     loaded state and the model can stay at the majority-class rate. Standardise them
     (``scale=True``, the estimators' default, or a ``Pipeline`` with ``StandardScaler``).
+
+    Examples
+    --------
+    A second column a thousand times the first's spread:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from qdensity.learning import UnscaledFeaturesWarning
+    >>> from qdensity.learning._encoding import warn_if_unscaled
+    >>> X = np.column_stack([np.arange(5.0), 1000 * np.arange(5.0)])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warned = warn_if_unscaled(X, "fit")
+    >>> warned, [w.category is UnscaledFeaturesWarning for w in caught]
+    (True, [True])
     """
 
 
