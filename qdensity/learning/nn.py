@@ -59,6 +59,30 @@ class Layer(abc.ABC):
         Trainable arrays, updated in place by :func:`set_flat`.
     grads : dict[str, numpy.ndarray]
         Same keys and shapes as ``params``; zeros until the first ``backward``.
+
+    Examples
+    --------
+    A layer ``Y = w X`` with one trainable scalar:
+
+    >>> import numpy as np
+    >>> from qdensity.learning.nn import Layer
+    >>> class Scale(Layer):
+    ...     def __init__(self):
+    ...         super().__init__()
+    ...         self.params, self.grads = {"w": np.array([2.0])}, {"w": np.zeros(1)}
+    ...     def forward(self, X):
+    ...         self._X = np.asarray(X, dtype=float)
+    ...         self._out_shape = self._X.shape
+    ...         return self.params["w"] * self._X
+    ...     def backward(self, grad_Y):
+    ...         self._need_forward()
+    ...         self.grads["w"][:] = np.sum(grad_Y * self._X)
+    ...         return self.params["w"] * grad_Y
+    >>> layer = Scale()
+    >>> layer([[1.0, 2.0]]).tolist(), layer.backward(np.ones((1, 2))).tolist()
+    ([[2.0, 4.0]], [[2.0, 2.0]])
+    >>> layer.grads["w"].tolist(), layer.num_parameters
+    ([3.0], 1)
     """
 
     def __init__(self) -> None:
