@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Any, cast
+from typing import Generic, TypeVar, cast
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -49,6 +49,7 @@ __all__ = [
     "basis_rotation", "expectation_plan", "probabilities_plan", "check_observable",
     "postselect_hamming_weight", "bits_to_probabilities", "unary_frequencies",
 ]
+_T = TypeVar("_T")  # what a plan's post-processing returns
 
 
 @validates(
@@ -131,14 +132,14 @@ class Estimate:
     postprocess=CallableC('a callable results -> answer'), description=Instance(str),
 )
 @dataclass
-class Plan:
-    """Jobs plus the post-processing that turns their results into an answer.
+class Plan(Generic[_T]):
+    """Jobs plus the post-processing that turns their results into an answer (of type ``_T``).
 
     Attributes
     ----------
     jobs : list of CircuitJob
     postprocess : callable
-        ``postprocess(results: list[JobResult]) -> Any``, results in job order.
+        ``postprocess(results: list[JobResult]) -> answer``, results in job order.
     description : str
 
     Examples
@@ -149,7 +150,7 @@ class Plan:
     """
 
     jobs: list[CircuitJob]
-    postprocess: Callable[[list[JobResult]], Any]
+    postprocess: Callable[[list[JobResult]], _T]
     description: str = ""
     meta: dict = field(default_factory=dict)
 
@@ -177,19 +178,19 @@ class Plan:
             return None
         return int(sum(job.rows * cast(int, job.shots) for job in self.jobs))
 
-    def with_shots(self, shots: int | None) -> Plan:
+    def with_shots(self, shots: int | None) -> Plan[_T]:
         """The same plan with every job's shots per row set to ``shots``."""
         if shots is not None:
             check_positive_int(shots, "shots")
         return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
 
-    def run(self, engine) -> Any:
+    def run(self, engine) -> _T:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
         results = check_engine(engine).run(self.jobs)
         return self.postprocess(results)
 
     @staticmethod
-    def combine(plans: Sequence[Plan], description: str = "") -> Plan:
+    def combine(plans: Sequence[Plan], description: str = "") -> Plan[list]:
         """One plan running several; its post-processing returns the list of their answers."""
         plans = list(plans)
         bounds = np.cumsum([0] + [len(p.jobs) for p in plans])
@@ -250,9 +251,8 @@ def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
     >>> z_parities(np.array([0b01, 0b11]), 2).tolist()  # Z_0 and Z_0 Z_1 on b = 0, 1, 2, 3
     [[1.0, -1.0, 1.0, -1.0], [1.0, -1.0, -1.0, 1.0]]
     """
-    check_width(num_bits, engine="z_parities (a dense 2**n table)",
-                alternative="the measured bits' parities (sampling)",
-                rows=max(int(np.size(z_masks)), 1))
+    check_width(num_bits, engine="z_parities (a dense 2**n table)", rows=max(np.size(z_masks), 1),
+                alternative="the measured bits' parities (sampling)")
     outcomes = np.arange(2**num_bits, dtype=np.int64)
     anded = outcomes[None, :] & np.asarray(z_masks, dtype=np.int64)[:, None]
     parity = np.zeros_like(anded)
@@ -358,7 +358,7 @@ def check_observable(observable, num_qubits: int, name: str = "observable") -> S
 def expectation_plan(
     circuit: QuantumCircuit, observable: SparsePauliOp, values, *, shots: int | None = None,
     label: str = "expectation",
-) -> Plan:
+) -> Plan[Estimate]:
     """Plan for ``<psi(values)| H |psi(values)>`` by measuring qubit-wise commuting groups.
 
     Each group of ``H``'s Pauli terms is one template (basis rotation then measurement) run
@@ -419,7 +419,7 @@ def expectation_plan(
 def probabilities_plan(
     circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities",
     inplace: bool = False,
-) -> Plan:
+) -> Plan[JobResult]:
     """Plan for the computational-basis outcome distribution of ``circuit``.
 
     Parameters
