@@ -35,18 +35,17 @@ class UnscaledFeaturesWarning(UserWarning):
 
     Examples
     --------
-    A second column a thousand times the first's spread:
+    A second column a thousand times the first's spread, given unscaled:
 
     >>> import warnings
     >>> import numpy as np
-    >>> from qdensity.learning import UnscaledFeaturesWarning
-    >>> from qdensity.learning._encoding import warn_if_unscaled
-    >>> X = np.column_stack([np.arange(5.0), 1000 * np.arange(5.0)])
+    >>> from qdensity.learning import QNNClassifier, UnscaledFeaturesWarning
+    >>> X, y = np.column_stack([np.arange(8.0), 1000 * np.arange(8.0)]), np.arange(8) % 2
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     warned = warn_if_unscaled(X, "fit")
-    >>> warned, [w.category is UnscaledFeaturesWarning for w in caught]
-    (True, [True])
+    ...     _ = QNNClassifier(scale=False, epochs=1, max_steps=1, verbose=False).fit(X, y)
+    >>> [w.category is UnscaledFeaturesWarning for w in caught]
+    [True]
     """
 
 

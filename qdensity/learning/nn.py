@@ -71,12 +71,10 @@ class Layer(abc.ABC):
     ...         super().__init__()
     ...         self.params, self.grads = {"w": np.array([2.0])}, {"w": np.zeros(1)}
     ...     def forward(self, X):
-    ...         self._X = np.asarray(X, dtype=float)
-    ...         self._out_shape = self._X.shape
-    ...         return self.params["w"] * self._X
+    ...         self.last_X = np.asarray(X, dtype=float)  # what backward needs
+    ...         return self.params["w"] * self.last_X
     ...     def backward(self, grad_Y):
-    ...         self._need_forward()
-    ...         self.grads["w"][:] = np.sum(grad_Y * self._X)
+    ...         self.grads["w"][:] = np.sum(grad_Y * self.last_X)
     ...         return self.params["w"] * grad_Y
     >>> layer = Scale()
     >>> layer([[1.0, 2.0]]).tolist(), layer.backward(np.ones((1, 2))).tolist()

@@ -75,7 +75,7 @@ class Mixture(ABC):
     >>> class FirstOnly(Mixture):
     ...     num_components = 2
     ...     def alpha(self, X=None):
-    ...         return np.tile([1.0, 0.0], (self._batch(X), 1))
+    ...         return np.tile([1.0, 0.0], (1 if X is None else len(X), 1))
     >>> m = FirstOnly()
     >>> m.alpha(np.zeros((3, 1))).tolist(), m.num_params, m.input_vjp(np.zeros((3, 1)), None).shape
     ([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]], 0, (3, 1))
