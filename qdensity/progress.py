@@ -16,11 +16,19 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any
+from typing import Protocol, TypeVar
 
 from tqdm import tqdm
 
 __all__ = ["progress_bar", "wait_for"]
+
+_Result = TypeVar("_Result", covariant=True)
+
+
+class _Job(Protocol[_Result]):
+    """What :func:`wait_for` needs of a job: ``result()`` (``done()`` is looked up, optional)."""
+
+    def result(self) -> _Result: ...
 
 
 def progress_bar(total: int | None = None, *, desc: str = "", verbose: bool = True,
@@ -66,7 +74,7 @@ def progress_bar(total: int | None = None, *, desc: str = "", verbose: bool = Tr
                 disable=None if verbose else True, dynamic_ncols=True, **kwargs)
 
 
-def wait_for(job, bar: tqdm | None = None, *, poll: float = 0.2) -> Any:
+def wait_for(job: _Job[_Result], bar: tqdm | None = None, *, poll: float = 0.2) -> _Result:
     """``job.result()``, refreshing ``bar`` (its elapsed time) until the job is done.
 
     Parameters
@@ -80,7 +88,8 @@ def wait_for(job, bar: tqdm | None = None, *, poll: float = 0.2) -> Any:
 
     Returns
     -------
-    The job's result.
+    object
+        The job's result, of the type its ``result()`` returns.
 
     Examples
     --------

@@ -23,7 +23,9 @@ def test_every_module_is_collected():
 
 #: Modules of optional extras and the package each needs (CI installs the extras).
 OPTIONAL = {"qdensity.learning.torch": "torch", "qdensity.circuits.interop": "pennylane",
-            "qdensity.gradients.qiskit_ml": "qiskit_machine_learning"}
+            "qdensity.gradients.qiskit_ml": "qiskit_machine_learning",
+            "qdensity.execution.sampler.runtime": "qiskit_ibm_runtime",
+            "qdensity.learning.sweep": "optuna", "qdensity.learning._study": "optuna"}
 
 
 @pytest.mark.parametrize("name", MODULES)

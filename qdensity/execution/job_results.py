@@ -4,6 +4,8 @@ read off it (:func:`bits_to_probabilities`, :func:`unary_frequencies`)."""
 
 from __future__ import annotations
 
+from typing import Literal, overload
+
 import numpy as np
 
 from qdensity.execution.intervals import binomial_standard_error, shot_mean
@@ -52,6 +54,20 @@ class JobResult:
         observed outcomes): the delta-method variance of the row's corrected estimates over
         its shots and the calibration's
         (:func:`~qdensity.execution.intervals.shot_mean`'s ``linearisations``).
+
+    Examples
+    --------
+    Two rows of three shots on two clbits (clbit ``j`` is column ``j``; outcome ``b_0 + 2 b_1``):
+
+    >>> import numpy as np
+    >>> from qdensity.execution.plans import JobResult
+    >>> bits = np.array([[[0, 0], [1, 0], [1, 0]], [[1, 1], [1, 1], [0, 1]]], dtype=bool)
+    >>> result = JobResult(bits=bits, shots=3)
+    >>> result.bits_shape, (result.probabilities * 3).round(12).tolist()
+    ((2, 3, 2), [[1.0, 2.0, 0.0, 0.0], [0.0, 0.0, 1.0, 2.0]])
+    >>> JobResult()
+    Traceback (most recent call last):
+    ValueError: JobResult needs probabilities or bits
     """
 
     def __init__(self, probabilities=None, shots: int | None = None, job=None, bits=None,
@@ -128,6 +144,16 @@ def bits_to_probabilities(bits: np.ndarray, weights: np.ndarray | None = None) -
     ValueError
         Above :data:`~qdensity.validation.MAX_DENSE_QUBITS` bits (the dense row would
         need ``2**m`` entries): estimate from the bits instead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.execution.plans import bits_to_probabilities
+    >>> bits = np.array([[[1, 0], [1, 0], [0, 1], [1, 1]]], dtype=bool)  # outcomes 1, 1, 2, 3
+    >>> bits_to_probabilities(bits).tolist()
+    [[0.0, 0.5, 0.25, 0.25]]
+    >>> bits_to_probabilities(bits, weights=np.array([[1.0, 1.0, 2.0, 0.0]])).tolist()
+    [[0.0, 0.5, 0.5, 0.0]]
     """
     rows, shots, m = bits.shape
     if m > MAX_DENSE_QUBITS:
@@ -143,7 +169,17 @@ def bits_to_probabilities(bits: np.ndarray, weights: np.ndarray | None = None) -
     return np.bincount(flat.ravel(), weights=w, minlength=rows * dim).reshape(rows, dim) / shots
 
 
-def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std: bool = False):
+@overload
+def unary_frequencies(result: JobResult, postselect: bool = False, *,
+                      return_std: Literal[False] = False) -> tuple[np.ndarray, np.ndarray]: ...
+@overload
+def unary_frequencies(result: JobResult, postselect: bool = False, *,
+                      return_std: Literal[True]) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+@overload
+def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std: bool = False
+                      ) -> tuple[np.ndarray, ...]: ...
+def unary_frequencies(result: JobResult, postselect: bool = False, *,
+                      return_std: bool = False) -> tuple[np.ndarray, ...]:
     """Frequencies of the unary outcomes ``e_j`` (only bit ``j`` set), from bits or exact.
 
     Parameters
@@ -169,6 +205,20 @@ def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std
         per-shot indicators (the readout linearisations' delta method when mitigated;
         post-selected, of the ratio's per-shot influence ``(h_s - p_j [|b_s| = 1]) / kept``).
         Frequencies without bits but with ``shots`` use the binomial error of ``shots``.
+
+    Examples
+    --------
+    Four shots on three clbits: ``e_0``, ``e_2``, ``e_2`` and one that leaked to weight 2:
+
+    >>> import numpy as np
+    >>> from qdensity.execution.plans import JobResult, unary_frequencies
+    >>> bits = np.array([[[1, 0, 0], [0, 0, 1], [0, 0, 1], [1, 1, 0]]], dtype=bool)
+    >>> p, kept = unary_frequencies(JobResult(bits=bits, shots=4))
+    >>> p.tolist(), kept.tolist()
+    ([[0.25, 0.0, 0.5]], [0.75])
+    >>> p, kept = unary_frequencies(JobResult(bits=bits, shots=4), postselect=True)
+    >>> (p * 3).round(12).tolist()  # renormalised over the 3 kept shots
+    [[1.0, 0.0, 2.0]]
     """
     se = None
     if result.has_bits and result.weights is None:
@@ -222,4 +272,7 @@ def unary_frequencies(result: JobResult, postselect: bool = False, *, return_std
             raise ValueError(f"rows {np.flatnonzero(kept <= 0).tolist()} keep no outcome of "
                              "Hamming weight 1")
         p = p / kept[:, None]
-    return (p, kept, se) if return_std else (p, kept)
+    if not return_std:
+        return p, kept
+    assert se is not None  # every branch above sets it with return_std
+    return p, kept, se

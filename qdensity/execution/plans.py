@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Any, cast
+from typing import Generic, TypeVar, cast
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -45,21 +45,11 @@ from qdensity.validation import (
 )
 
 __all__ = [
-    "CircuitJob",
-    "JobResult",
-    "Plan",
-    "Estimate",
-    "measured",
-    "z_parities",
-    "diagonal_values",
-    "basis_rotation",
-    "expectation_plan",
-    "probabilities_plan",
-    "check_observable",
-    "postselect_hamming_weight",
-    "bits_to_probabilities",
-    "unary_frequencies",
+    "CircuitJob", "JobResult", "Plan", "Estimate", "measured", "z_parities", "diagonal_values",
+    "basis_rotation", "expectation_plan", "probabilities_plan", "check_observable",
+    "postselect_hamming_weight", "bits_to_probabilities", "unary_frequencies",
 ]
+_T = TypeVar("_T")  # what a plan's post-processing returns
 
 
 @validates(
@@ -73,14 +63,19 @@ class CircuitJob:
     Attributes
     ----------
     circuit : QuantumCircuit
-        Measured template (qubit ``j`` -> clbit ``j``); free parameters in
-        ``circuit.parameters`` order.
+        Measured template (qubit ``j`` -> clbit ``j``); parameters in ``circuit.parameters``.
     values : numpy.ndarray, shape (rows, P)
         One row per execution.
     shots : int or None
         Shots per row; ``None`` asks for exact probabilities.
     label : str
         What the job is for (ledger key).
+
+    Examples
+    --------
+    >>> job = CircuitJob(measured(QuantumCircuit(2)), np.zeros((3, 0)), shots=100)  # 3 rows
+    >>> job.rows, job.circuit.num_clbits
+    (3, 2)
     """
 
     circuit: QuantumCircuit
@@ -106,10 +101,8 @@ class CircuitJob:
         return int(self.values.shape[0])
 
 
-@validates(
-    value=Array(ndim=None, min_size=0, finite=False),
-    standard_error=Array(ndim=None, min_size=0, finite=False),
-)
+@validates(value=Array(ndim=None, min_size=0, finite=False),
+           standard_error=Array(ndim=None, min_size=0, finite=False))
 @dataclass
 class Estimate:
     """A value with its standard error (zero for exact evaluations).
@@ -119,6 +112,12 @@ class Estimate:
     value : numpy.ndarray
     standard_error : numpy.ndarray
         Same shape as ``value``.
+
+    Examples
+    --------
+    >>> value, standard_error = Estimate(np.array([0.5]), np.array([0.1]))  # unpacks as a pair
+    >>> float(standard_error[0])
+    0.1
     """
 
     value: np.ndarray
@@ -129,24 +128,29 @@ class Estimate:
 
 
 @validates(
-    jobs=SequenceOf(Instance(CircuitJob), min_len=0),
+    jobs=SequenceOf(Instance(CircuitJob), min_len=0), meta=Instance(dict),
     postprocess=CallableC('a callable results -> answer'), description=Instance(str),
-    meta=Instance(dict),
 )
 @dataclass
-class Plan:
-    """Jobs plus the post-processing that turns their results into an answer.
+class Plan(Generic[_T]):
+    """Jobs plus the post-processing that turns their results into an answer (of type ``_T``).
 
     Attributes
     ----------
     jobs : list of CircuitJob
     postprocess : callable
-        ``postprocess(results: list[JobResult]) -> Any``, results in job order.
+        ``postprocess(results: list[JobResult]) -> answer``, results in job order.
     description : str
+
+    Examples
+    --------
+    >>> plan = probabilities_plan(QuantumCircuit(1), np.zeros((2, 0)), shots=50)  # 2 rows
+    >>> plan.num_templates, plan.num_circuits, plan.total_shots
+    (1, 2, 100)
     """
 
     jobs: list[CircuitJob]
-    postprocess: Callable[[list[JobResult]], Any]
+    postprocess: Callable[[list[JobResult]], _T]
     description: str = ""
     meta: dict = field(default_factory=dict)
 
@@ -174,19 +178,19 @@ class Plan:
             return None
         return int(sum(job.rows * cast(int, job.shots) for job in self.jobs))
 
-    def with_shots(self, shots: int | None) -> Plan:
+    def with_shots(self, shots: int | None) -> Plan[_T]:
         """The same plan with every job's shots per row set to ``shots``."""
         if shots is not None:
             check_positive_int(shots, "shots")
         return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
 
-    def run(self, engine) -> Any:
+    def run(self, engine) -> _T:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
         results = check_engine(engine).run(self.jobs)
         return self.postprocess(results)
 
     @staticmethod
-    def combine(plans: Sequence[Plan], description: str = "") -> Plan:
+    def combine(plans: Sequence[Plan], description: str = "") -> Plan[list]:
         """One plan running several; its post-processing returns the list of their answers."""
         plans = list(plans)
         bounds = np.cumsum([0] + [len(p.jobs) for p in plans])
@@ -241,10 +245,14 @@ def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (T, 2**num_bits), entries +-1
+
+    Examples
+    --------
+    >>> z_parities(np.array([0b01, 0b11]), 2).tolist()  # Z_0 and Z_0 Z_1 on b = 0, 1, 2, 3
+    [[1.0, -1.0, 1.0, -1.0], [1.0, -1.0, -1.0, 1.0]]
     """
-    check_width(num_bits, engine="z_parities (a dense 2**n table)",
-                alternative="the measured bits' parities (sampling)",
-                rows=max(int(np.size(z_masks)), 1))
+    check_width(num_bits, engine="z_parities (a dense 2**n table)", rows=max(np.size(z_masks), 1),
+                alternative="the measured bits' parities (sampling)")
     outcomes = np.arange(2**num_bits, dtype=np.int64)
     anded = outcomes[None, :] & np.asarray(z_masks, dtype=np.int64)[:, None]
     parity = np.zeros_like(anded)
@@ -267,6 +275,11 @@ def diagonal_values(paulis: PauliList, coeffs: np.ndarray, num_bits: int) -> np.
     Returns
     -------
     numpy.ndarray, shape (2**num_bits,)
+
+    Examples
+    --------
+    >>> diagonal_values(PauliList(["IZ", "ZZ"]), np.array([1.0, 0.5]), 2).tolist()
+    [1.5, -1.5, 0.5, -0.5]
     """
     if np.any(paulis.x):
         raise ValueError("diagonal_values needs Z-type Paulis (no X or Y part)")
@@ -288,6 +301,12 @@ def basis_rotation(paulis: PauliList) -> tuple[QuantumCircuit, PauliList]:
     -------
     (QuantumCircuit, PauliList)
         The rotation (H for X, Sdg then H for Y) and the Z-type images.
+
+    Examples
+    --------
+    >>> rotation, images = basis_rotation(PauliList(["XI", "XZ"]))
+    >>> dict(rotation.count_ops()), images.to_labels()
+    ({'h': 1}, ['ZI', 'ZZ'])
     """
     n = paulis.num_qubits
     qc = QuantumCircuit(n)
@@ -307,7 +326,14 @@ def basis_rotation(paulis: PauliList) -> tuple[QuantumCircuit, PauliList]:
 
 
 def check_observable(observable, num_qubits: int, name: str = "observable") -> SparsePauliOp:
-    """A Hermitian ``SparsePauliOp`` on ``num_qubits`` qubits, or a ``ValueError``."""
+    """A Hermitian ``SparsePauliOp`` on ``num_qubits`` qubits, or a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_observable("ZZ", 3)
+    Traceback (most recent call last):
+    ValueError: observable acts on 2 qubits but the circuit has 3
+    """
     if not isinstance(observable, SparsePauliOp):
         try:
             observable = SparsePauliOp(observable)
@@ -330,13 +356,9 @@ def check_observable(observable, num_qubits: int, name: str = "observable") -> S
     shots=[Interval(int, 1, MAX_SHOTS), None], label=Instance(str),
 )
 def expectation_plan(
-    circuit: QuantumCircuit,
-    observable: SparsePauliOp,
-    values,
-    *,
-    shots: int | None = None,
+    circuit: QuantumCircuit, observable: SparsePauliOp, values, *, shots: int | None = None,
     label: str = "expectation",
-) -> Plan:
+) -> Plan[Estimate]:
     """Plan for ``<psi(values)| H |psi(values)>`` by measuring qubit-wise commuting groups.
 
     Each group of ``H``'s Pauli terms is one template (basis rotation then measurement) run
@@ -358,6 +380,15 @@ def expectation_plan(
     Plan
         Post-processing returns an :class:`Estimate` with ``value`` and ``standard_error`` of
         shape (rows,).
+
+    Examples
+    --------
+    >>> from qiskit.circuit import Parameter
+    >>> from qdensity.execution.engines import ExactEngine
+    >>> qc = QuantumCircuit(1); _ = qc.ry(Parameter("t"), 0)
+    >>> est = expectation_plan(qc, SparsePauliOp("Z"), [[0.0], [np.pi]]).run(ExactEngine())
+    >>> est.value.round(12).tolist(), est.standard_error.tolist()  # cos t, exact
+    ([1.0, -1.0], [0.0, 0.0])
     """
     observable = check_observable(observable, circuit.num_qubits).simplify()
     vals = as_parameter_rows(values, circuit.num_parameters)
@@ -388,7 +419,7 @@ def expectation_plan(
 def probabilities_plan(
     circuit: QuantumCircuit, values, *, shots: int | None = None, label: str = "probabilities",
     inplace: bool = False,
-) -> Plan:
+) -> Plan[JobResult]:
     """Plan for the computational-basis outcome distribution of ``circuit``.
 
     Parameters
@@ -410,6 +441,13 @@ def probabilities_plan(
         (rows, 2**n) (at most 24 qubits), or, sampled, the measured ``bits`` at any width
         (unary frequencies and parities are read off them; the dense ``probabilities`` only
         up to 24 qubits).
+
+    Examples
+    --------
+    >>> from qdensity.execution.engines import ExactEngine
+    >>> qc = QuantumCircuit(2); _ = qc.h(0)
+    >>> probabilities_plan(qc, []).run(ExactEngine()).probabilities.round(12).tolist()
+    [[0.5, 0.5, 0.0, 0.0]]
     """
     if shots is None:
         check_width(circuit.num_qubits, engine="probabilities_plan without shots (dense "
@@ -440,6 +478,12 @@ def postselect_hamming_weight(probabilities, weight: int = 1) -> tuple[np.ndarra
     ------
     ValueError
         If a row keeps nothing.
+
+    Examples
+    --------
+    >>> out, kept = postselect_hamming_weight([[0.1, 0.3, 0.6, 0.0]])  # b = 1, 2 have weight 1
+    >>> out.round(4).tolist(), kept.round(12).tolist()
+    ([[0.0, 0.3333, 0.6667, 0.0]], [0.9])
     """
     probs = np.atleast_2d(np.asarray(probabilities, dtype=float))
     m = int(round(np.log2(probs.shape[1])))

@@ -95,6 +95,25 @@ class CommutingBlockGradient(_GradientCircuits):
         Block ranges into the input circuit's ``data``.
     method : str
         ``"shift"`` or ``"hadamard"`` (module docstring).
+
+    Examples
+    --------
+    The pyramid's three RBS blocks, against central finite differences of ``<Z_0>``:
+
+    >>> import numpy as np
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.quantum_info import SparsePauliOp, Statevector
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> from qdensity.gradients import commuting_block_gradient
+    >>> qc = QuantumCircuit(3); _ = qc.x(0); qc = qc.compose(pyramid(3))
+    >>> z0, v = SparsePauliOp("IIZ"), np.array([0.3, 0.5, 0.7])
+    >>> grad = commuting_block_gradient(qc, z0)
+    >>> probs = [Statevector(c.remove_final_measurements(inplace=False).assign_parameters(v))
+    ...          .probabilities() for c in grad.circuits]
+    >>> f = lambda w: Statevector(qc.assign_parameters(w)).expectation_value(z0).real
+    >>> fd = [(f(v + 1e-6 * e) - f(v - 1e-6 * e)) / 2e-6 for e in np.eye(3)]
+    >>> grad.blocks, bool(np.allclose(grad.gradient_from_probabilities(probs), fd, atol=1e-6))
+    ([(1, 2), (2, 3), (3, 4)], True)
     """
 
     roles: list[str] = field(default_factory=list)

@@ -54,6 +54,21 @@ def loader_angles_jacobian(X, layout: str = "parallel") -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (B, d - 1, d)
+
+    Examples
+    --------
+    The angles do not change when ``x`` is scaled, so ``J x = 0``; and ``J`` matches central
+    finite differences:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.loaders import loader_angles
+    >>> from qdensity.gradients.inputs import loader_angles_jacobian
+    >>> x = np.array([[1.0, 2.0, 3.0, 4.0]])
+    >>> J = loader_angles_jacobian(x)
+    >>> fd = [(loader_angles(x + 1e-6 * e) - loader_angles(x - 1e-6 * e))[0] / 2e-6
+    ...       for e in np.eye(4)]
+    >>> J.shape, bool(np.allclose(J[0] @ x[0], 0)), bool(np.allclose(J[0].T, fd, atol=1e-6))
+    ((1, 3, 4), True, True)
     """
     from qdensity.circuits.loaders import _plan, loader_angles
 
@@ -100,6 +115,17 @@ def encoding_jacobian(encoding, X) -> np.ndarray:
     ------
     ValueError
         For an encoding of another kind without a ``jacobian``.
+
+    Examples
+    --------
+    The angle encoding's parameters are the features themselves (its gates scale them):
+
+    >>> from qdensity.gradients.inputs import encoding_jacobian
+    >>> from qdensity.models.encoding import Encoding
+    >>> encoding_jacobian(Encoding.angle(2), [[0.1, 0.2], [0.3, 0.4]]).tolist()
+    [[[1.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [0.0, 1.0]]]
+    >>> encoding_jacobian(Encoding.unary(4), [[1.0, 2.0, 3.0, 4.0]]).shape  # 3 loader angles
+    (1, 3, 4)
     """
     X = np.atleast_2d(np.asarray(X, dtype=float))
     jac = getattr(encoding, "jacobian", None)
@@ -135,6 +161,23 @@ def input_jacobian(model, X, columns: InputColumns, jac: np.ndarray) -> np.ndarr
     Returns
     -------
     numpy.ndarray, shape (B, M, d)
+
+    Examples
+    --------
+    A re-uploading model (the feature enters as a circuit parameter), against finite
+    differences of its exact outputs:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> from qdensity.models.exact import exact_gradients, exact_outputs
+    >>> model, X = DensityQNN([reuploading(2)], seed=0), np.array([[0.3], [0.8]])
+    >>> from qdensity.gradients.inputs import input_jacobian
+    >>> g = exact_gradients(model, X)
+    >>> jac = input_jacobian(model, X, g.data_columns[0], g.data_jacobians[0])  # k = 0
+    >>> fd = (exact_outputs(model, X + 1e-6) - exact_outputs(model, X - 1e-6)) / 2e-6
+    >>> jac.shape, bool(np.allclose(jac[:, 0, 0], fd[:, 0], atol=1e-6))
+    ((2, 1, 1), True)
     """
     X = np.atleast_2d(np.asarray(X, dtype=float))
     B, M = jac.shape[:2]
@@ -162,6 +205,19 @@ def input_jacobians(model, X, gradients: ExactGradients) -> list[np.ndarray]:
     Returns
     -------
     list of numpy.ndarray, K arrays of shape (B, m, d)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> from qdensity.models.exact import exact_gradients, exact_outputs
+    >>> model, X = DensityQNN([reuploading(2)], seed=0), np.array([[0.3], [0.8]])
+    >>> from qdensity.gradients.inputs import input_jacobians
+    >>> jacs = input_jacobians(model, X, exact_gradients(model, X))
+    >>> fd = (exact_outputs(model, X + 1e-6) - exact_outputs(model, X - 1e-6)) / 2e-6
+    >>> len(jacs), bool(np.allclose(jacs[0][:, 0, 0], fd[:, 0], atol=1e-6))
+    (1, True)
     """
     if gradients.data_jacobians is None:
         raise ValueError("gradients has no data Jacobians (exact_gradients(..., inputs=False)); "
@@ -204,6 +260,24 @@ def input_gradient_plan(model, X, *, shots: int | None = None) -> Plan:
     ------
     ValueError
         For ``readout="unary_amplitudes"`` (their signs are in no measured distribution).
+
+    Examples
+    --------
+    Run exactly, the shift rules give the adjoint engine's input Jacobians:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> from qdensity.models.exact import exact_gradients, exact_outputs
+    >>> model, X = DensityQNN([reuploading(2)], seed=0), np.array([[0.3], [0.8]])
+    >>> from qdensity.execution.engines import ExactEngine
+    >>> from qdensity.gradients.inputs import input_gradient_plan, input_jacobians
+    >>> est = input_gradient_plan(model, X).run(ExactEngine())[0]  # sub-unitary 0
+    >>> exact = input_jacobians(model, X, exact_gradients(model, X))[0]
+    >>> est.value.shape, bool(np.allclose(est.value, exact))
+    ((2, 1, 1), True)
+    >>> input_gradient_plan(model, X, shots=100).total_shots  # 2 rows x 4 circuits x 100
+    800
     """
     from qdensity.gradients.shift import parameter_shift_plan
     from qdensity.models.exact import input_columns
@@ -255,6 +329,22 @@ def input_vjp(model, X, outputs: np.ndarray, jacobians, upstream: np.ndarray) ->
     Returns
     -------
     numpy.ndarray, shape (B, d)
+
+    Examples
+    --------
+    With ``L = sum_b u_b f(x_b)``, ``dL/dx_b = u_b f'(x_b)``:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> from qdensity.models.exact import exact_gradients, exact_outputs
+    >>> model, X = DensityQNN([reuploading(2)], seed=0), np.array([[0.3], [0.8]])
+    >>> from qdensity.gradients.inputs import input_jacobians, input_vjp
+    >>> g, u = exact_gradients(model, X), np.array([[1.0], [-2.0]])
+    >>> grad = input_vjp(model, X, g.outputs, input_jacobians(model, X, g), u)
+    >>> fd = (model.predict(X + 1e-6) - model.predict(X - 1e-6)) / 2e-6
+    >>> grad.shape, bool(np.allclose(grad[:, 0], u[:, 0] * fd, atol=1e-6))
+    ((2, 1), True)
     """
     X = np.atleast_2d(np.asarray(X, dtype=float))
     upstream = np.atleast_2d(np.asarray(upstream, dtype=float))

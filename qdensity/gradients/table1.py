@@ -106,6 +106,16 @@ def table1_row(ansatz: str, num_qubits: int, *, layers: int = 3, copies_k: int =
         :func:`~qdensity.models.compression.compressed_odd_even`), given for the pyramid: the
         paper's Table 1 states ``O(n)`` parameters for the density pyramid, which holds for
         this version (``n - 1``), while the uncompressed one keeps ``n (n - 1) / 2``.
+
+    Examples
+    --------
+    The round-robin ansatz on 4 qubits: 6 RBS gates, 4 shifted circuits each; its density
+    version (one sub-unitary per layer) needs one commuting circuit per layer, ``n - 1``:
+
+    >>> from qdensity.gradients.table1 import table1_row
+    >>> row = table1_row("round_robin", 4)
+    >>> row["original"], row["density"]["gradient_circuits"]
+    ({'params': 6, 'gradient_circuits': 24, 'method': 'shift'}, 3)
     """
     n = check_positive_int(num_qubits, "num_qubits", minimum=2)
     if ansatz not in ANSATZE:
@@ -154,6 +164,15 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
 
     ``verbose``: on a terminal, a ``table1`` bar counts the rows done and names the row in
     progress (see :mod:`qdensity.progress`); False: silent.
+
+    Examples
+    --------
+    The butterfly needs a power of two, so its 6-qubit row is left out:
+
+    >>> from qdensity.gradients.table1 import table1
+    >>> rows = table1(sizes=(4, 6), ansatze=("butterfly", "round_robin"), verbose=False)
+    >>> [(r["ansatz"], r["n"], r["density"]["gradient_circuits"]) for r in rows]
+    [('butterfly', 4, 2), ('round_robin', 4, 3), ('round_robin', 6, 5)]
     """
     todo = [(name, n) for name in ansatze for n in sizes
             if not (name in FAMILIES and FAMILIES[name].power_of_two and n & (n - 1))]
@@ -168,7 +187,17 @@ def table1(sizes=(4, 8), ansatze=ANSATZE, *, layers: int = 3, copies_k: int = 2,
 
 
 def format_table1(rows: list[dict]) -> str:
-    """Fixed-width text table of :func:`table1` rows."""
+    """Fixed-width text table of :func:`table1` rows.
+
+    Examples
+    --------
+    Three header lines, then one line per row (the pyramid's with its compressed version):
+
+    >>> from qdensity.gradients.table1 import format_table1, table1
+    >>> text = format_table1(table1(sizes=(4,), ansatze=("pyramid",), verbose=False))
+    >>> text.splitlines()[3].split()
+    ['pyramid', '4', 'sum', 'Z', '6', '24', '2', '6', '2', '12.0', '3', '2']
+    """
     head = (f"{'ansatz':<20}{'n':>4}  {'obs':<6}{'params':>8}{'grad circ':>11}"
             f"{'K':>5}{'params':>8}{'grad circ':>11}{'ratio':>8}{'params':>9}{'grad circ':>11}")
     lines = [f"{'':<30}{'original':>19}{'density':>24}{'compressed density':>28}", head,

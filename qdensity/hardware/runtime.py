@@ -30,12 +30,15 @@ from __future__ import annotations
 import importlib.util
 import warnings
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from qiskit.primitives import BaseSamplerV2
 
 from qdensity.hardware.aer_sampling import aer_seed
 from qdensity.validation import SeedLike, check_positive_int, seed_int
+
+if TYPE_CHECKING:
+    from qiskit.primitives import BaseSamplerV2
 
 __all__ = ["runtime_available", "runtime_options", "runtime_sampler", "require_runtime"]
 

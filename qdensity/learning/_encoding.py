@@ -32,6 +32,20 @@ class UnscaledFeaturesWarning(UserWarning):
     The unary encoding normalises each row, so the largest-scale features dominate every
     loaded state and the model can stay at the majority-class rate. Standardise them
     (``scale=True``, the estimators' default, or a ``Pipeline`` with ``StandardScaler``).
+
+    Examples
+    --------
+    A second column a thousand times the first's spread, given unscaled:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from qdensity.learning import QNNClassifier, UnscaledFeaturesWarning
+    >>> X, y = np.column_stack([np.arange(8.0), 1000 * np.arange(8.0)]), np.arange(8) % 2
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = QNNClassifier(scale=False, epochs=1, max_steps=1, verbose=False).fit(X, y)
+    >>> [w.category is UnscaledFeaturesWarning for w in caught]
+    [True]
     """
 
 

@@ -13,6 +13,12 @@ import time
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from qdensity.validation import check_seed
+
+if TYPE_CHECKING:
+    from optuna import Study
 
 __all__ = ["MEMORY", "DEFAULT_GRACE_PERIOD", "MAX_RETRY", "retried_from", "startup_trials",
            "settings_hash", "open_study"]
@@ -63,7 +69,16 @@ def _optuna():
 
 def retried_from(trial) -> int | None:
     """The number of the dead trial that ``trial`` (a ``FrozenTrial``, or a running
-    ``Trial``) runs again, or None."""
+    ``Trial``) runs again, or None.
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import MEMORY, open_study, retried_from, run_trials
+    >>> study = open_study("fresh", MEMORY, seed=0, n_trials=1)
+    >>> _ = run_trials(study, lambda trial: 1.0, 1)
+    >>> retried_from(study.trials[0]) is None  # a first run, not a retry
+    True
+    """
     optuna = _optuna()
     if not hasattr(trial, "system_attrs"):  # a running Trial: read its stored record
         trial = next(t for t in trial.study.get_trials(deepcopy=False)
@@ -77,7 +92,14 @@ def retried_from(trial) -> int | None:
 
 def startup_trials(n_trials: int) -> int:
     """Random trials before TPE models the results: a quarter of the study, between 1 and 10
-    (optuna's default of 10 would make a study of 10 trials or fewer random search)."""
+    (optuna's default of 10 would make a study of 10 trials or fewer random search).
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import startup_trials
+    >>> [startup_trials(n) for n in (2, 8, 32, 100)]
+    [1, 2, 8, 10]
+    """
     return max(1, min(10, int(n_trials) // 4))
 
 
@@ -94,7 +116,16 @@ def _plain(value):
 
 
 def settings_hash(settings: Mapping) -> str:
-    """Eight hex digits naming the settings (sorted JSON, SHA-256)."""
+    """Eight hex digits naming the settings (sorted JSON, SHA-256).
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import settings_hash
+    >>> settings_hash({"a": 1, "b": [2, 3]}) == settings_hash({"b": (2, 3), "a": 1})  # order
+    True
+    >>> settings_hash({"a": 1}), settings_hash({"a": 1.0})  # JSON tells 1 from 1.0
+    ('f9d86028', '742609b2')
+    """
     text = json.dumps(_plain(settings), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:8]
 
@@ -183,7 +214,7 @@ def _check_settings(study, settings: Mapping | None) -> None:
 
 def open_study(study_name: str, storage, *, direction: str = "maximize",
                seed: int | None = None, n_trials: int = 32, settings: Mapping | None = None,
-               grace_period: int | None = DEFAULT_GRACE_PERIOD):
+               grace_period: int | None = DEFAULT_GRACE_PERIOD) -> Study:
     """Create or load the study ``study_name`` in ``storage`` (see
     :func:`qdensity.learning.sweep.open_study`, which documents the parameters)."""
     optuna = _optuna()
@@ -238,3 +269,36 @@ def open_study(study_name: str, storage, *, direction: str = "maximize",
         raise ValueError(f"storage {storage!r} cannot be opened after {_OPEN_TRIES} tries: "
                          f"{type(last).__name__}: {first}") from last
     return study
+
+
+def _int_seed(seed, name: str) -> int:
+    """``seed`` as an int ``>= 0`` (the split and the sampler seeds are stored with the study,
+    so a Generator or None is refused too), with a message naming ``name``."""
+    seed = check_seed(seed, name)
+    if not isinstance(seed, int):
+        raise TypeError(f"{name} must be an int >= 0, got {type(seed).__name__} {seed!r}")
+    return seed
+
+
+def _check_space(space: Mapping, estimator) -> None:
+    known = estimator.get_params()
+    for name, spec in space.items():
+        if name not in known:
+            raise ValueError(f"space names {name!r}, which is not a hyperparameter of "
+                             f"{type(estimator).__name__} (allowed: {sorted(known)})")
+        if not isinstance(spec, (tuple, list)) or not spec or spec[0] not in (
+                "int", "log", "float", "categorical"):
+            raise ValueError(f"space[{name!r}] must be ('int', lo, hi[, step]), ('log', lo, "
+                             f"hi), ('float', lo, hi) or ('categorical', choices), got {spec!r}")
+
+
+def _absolute(storage):
+    """An SQLite URL with its path made absolute (the same file for every worker); anything
+    else (another URL, a storage object) as it is."""
+    prefix = "sqlite:///"
+    if storage_object(storage) or not isinstance(storage, str):
+        return storage
+    if storage.startswith(prefix) and not storage.startswith(prefix + "/") \
+            and storage != prefix + ":memory:":
+        return prefix + str(Path(storage[len(prefix):]).resolve())
+    return storage

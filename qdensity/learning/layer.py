@@ -61,7 +61,22 @@ __all__ = ["QuantumLayer", "History", "BudgetExhausted"]
 
 
 class BudgetExhausted(RuntimeError):
-    """Raised before a step whose circuits would exceed the shot budget."""
+    """Raised before a step whose circuits would exceed the shot budget.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.execution.engines import SamplerEngine
+    >>> from qdensity.learning import QuantumLayer
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> model = DensityQNN([round_robin(3)], encoding=Encoding.unary(3),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> layer = QuantumLayer(model, SamplerEngine(seed=0, progress=False), shots=10)
+    >>> layer.max_shots = 50  # nothing runs: the step's plan is priced first
+    >>> layer.forward([[1.0, 2.0, 3.0]])
+    Traceback (most recent call last):
+    qdensity.learning.layer.BudgetExhausted: the next step needs ... shots; 50 remain
+    """
 
 
 @validates(
@@ -89,6 +104,26 @@ class QuantumLayer:
         circuits in every forward with ``need_grad``, so that :meth:`backward` returns
         ``dL/dZ``; their circuits and shots count with the others (and against ``max_shots``).
         The exact and adjoint paths always return it.
+
+    Examples
+    --------
+    Unary probabilities sum to 1 whatever the angles and the input, so ``L = sum F`` has zero
+    gradient in both:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.learning import QuantumLayer
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> from qdensity.models.decompositions import by_moments
+    >>> model = DensityQNN(by_moments(round_robin(3)).sub_unitaries, encoding=Encoding.unary(3),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> layer = QuantumLayer(model)  # exact: the unary engine's reverse mode
+    >>> F = layer.forward(np.array([[1.0, 2.0, 3.0], [0.5, -1.0, 2.0]]))
+    >>> F.shape, bool(np.allclose(F.sum(axis=1), 1.0))
+    ((2, 3), True)
+    >>> dZ = layer.backward(np.ones((2, 3)))
+    >>> bool(np.allclose(dZ, 0.0)), bool(np.allclose(layer.grads["theta"], 0.0))
+    (True, True)
     """
 
     def __init__(self, model: DensityQNN, engine="exact", shots: int | None = None,
@@ -261,6 +296,14 @@ class History:
     epochs : list of dict
         One per finished epoch (filled by the estimators): ``epoch, step, train_loss,
         train_metric, circuits, shots, seconds`` and ``test_metric`` with an ``eval_set``.
+
+    Examples
+    --------
+    >>> from qdensity.learning import History
+    >>> history = History()
+    >>> history.append(step=1, loss=0.5); history.append(step=2, loss=0.25)
+    >>> len(history), history["loss"].tolist()
+    (2, [0.5, 0.25])
     """
 
     records: list[dict] = field(default_factory=list)

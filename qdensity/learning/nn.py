@@ -59,6 +59,28 @@ class Layer(abc.ABC):
         Trainable arrays, updated in place by :func:`set_flat`.
     grads : dict[str, numpy.ndarray]
         Same keys and shapes as ``params``; zeros until the first ``backward``.
+
+    Examples
+    --------
+    A layer ``Y = w X`` with one trainable scalar:
+
+    >>> import numpy as np
+    >>> from qdensity.learning.nn import Layer
+    >>> class Scale(Layer):
+    ...     def __init__(self):
+    ...         super().__init__()
+    ...         self.params, self.grads = {"w": np.array([2.0])}, {"w": np.zeros(1)}
+    ...     def forward(self, X):
+    ...         self.last_X = np.asarray(X, dtype=float)  # what backward needs
+    ...         return self.params["w"] * self.last_X
+    ...     def backward(self, grad_Y):
+    ...         self.grads["w"][:] = np.sum(grad_Y * self.last_X)
+    ...         return self.params["w"] * grad_Y
+    >>> layer = Scale()
+    >>> layer([[1.0, 2.0]]).tolist(), layer.backward(np.ones((1, 2))).tolist()
+    ([[2.0, 4.0]], [[2.0, 2.0]])
+    >>> layer.grads["w"].tolist(), layer.num_parameters
+    ([3.0], 1)
     """
 
     def __init__(self) -> None:

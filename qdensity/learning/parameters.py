@@ -62,6 +62,15 @@ def get_flat(target) -> np.ndarray:
     -------
     numpy.ndarray, shape (P,), float64
         A copy; entries in the dict's key order, each array raveled in C order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.learning.nn import Linear, get_flat
+    >>> get_flat({"W": np.array([[1.0, 2.0], [3.0, 4.0]]), "b": np.array([5.0])}).tolist()
+    [1.0, 2.0, 3.0, 4.0, 5.0]
+    >>> get_flat(Linear(3, 2, seed=0)).shape  # W (3, 2) and b (2,)
+    (8,)
     """
     mapping = _as_mapping(target, "target")
     if not mapping:
@@ -78,6 +87,18 @@ def set_flat(target, flat) -> None:
         Order and sizes as in :func:`get_flat`.
     flat : array_like, shape (P,)
         ``P`` must equal the total number of entries; values must be finite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.learning.nn import set_flat
+    >>> params = {"W": np.zeros((2, 2)), "b": np.zeros(1)}
+    >>> set_flat(params, [1.0, 2.0, 3.0, 4.0, 5.0])
+    >>> params["W"].tolist(), params["b"].tolist()
+    ([[1.0, 2.0], [3.0, 4.0]], [5.0])
+    >>> set_flat(params, [1.0, 2.0])
+    Traceback (most recent call last):
+    ValueError: flat must have shape (5,) (one entry per parameter), got (2,)
     """
     mapping = _as_mapping(target, "target")
     total = int(sum(np.size(v) for v in mapping.values()))
@@ -223,6 +244,20 @@ def load_parameters(path: str | os.PathLike, *,
         Naming the file: if it is empty, damaged, holds NaN or inf, needs pickle (object
         arrays or a pickled object), is not an ``.npz``
         archive, or is not a qdensity parameter JSON file.
+
+    Examples
+    --------
+    Arrays come back with their dtype and shape (a scalar as a 0-d array):
+
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from qdensity.learning.nn import load_parameters, save_parameters
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = os.path.join(tmp, "model.npz")
+    ...     save_parameters(path, theta=np.arange(3.0), step=np.int64(7))
+    ...     loaded = load_parameters(path)
+    >>> loaded["theta"].tolist(), loaded["step"].shape, loaded["step"].dtype
+    ([0.0, 1.0, 2.0], (), dtype('int64'))
     """
     path = os.fspath(path)
     check_readable(path)  # not /dev/zero or a FIFO: they would be read forever or block

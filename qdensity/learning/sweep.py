@@ -46,6 +46,7 @@ import time
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from sklearn.base import clone, is_classifier
@@ -56,15 +57,20 @@ from qdensity.io import atomic_write, atomic_write_text
 from qdensity.learning._study import (
     DEFAULT_GRACE_PERIOD,
     MEMORY,
+    _absolute,
+    _check_space,
+    _int_seed,
     _optuna,
     in_memory,
     retried_from,
     settings_hash,
     startup_trials,
-    storage_object,
 )
 from qdensity.progress import progress_bar
-from qdensity.validation import Instance, check_positive_int, check_seed, validates
+from qdensity.validation import Instance, check_positive_int, validates
+
+if TYPE_CHECKING:
+    from optuna import Study
 
 __all__ = ["PAPER_SPACE", "DEFAULT_STORAGE", "DEFAULT_GRACE_PERIOD", "MEMORY", "run_sweep",
            "run_trials", "open_study", "sweep_settings", "suggest_params", "startup_trials",
@@ -96,7 +102,7 @@ _NOT_SETTINGS = ("verbose", "callback", "callbacks")
 def open_study(study_name: str = "qdensity", storage=None, *,
                direction: str = "maximize", seed: int | None = None, n_trials: int = 32,
                settings: Mapping | None = None,
-               grace_period: int | None = DEFAULT_GRACE_PERIOD):
+               grace_period: int | None = DEFAULT_GRACE_PERIOD) -> Study:
     """Create or load (``load_if_exists``) the study ``study_name`` in ``storage``.
 
     Parameters
@@ -130,6 +136,13 @@ def open_study(study_name: str = "qdensity", storage=None, *,
         the study was made with other ``settings`` (the message names the first difference).
     ImportError
         When the storage's database driver is missing (the message says what to install).
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import MEMORY, open_study
+    >>> study = open_study("demo", MEMORY, direction="minimize", seed=0)
+    >>> study.study_name, study.direction.name, len(study.trials)
+    ('demo', 'MINIMIZE', 0)
     """
     from qdensity.learning._study import open_study as _open
 
@@ -138,29 +151,17 @@ def open_study(study_name: str = "qdensity", storage=None, *,
                  grace_period=grace_period)
 
 
-def _int_seed(seed, name: str) -> int:
-    """``seed`` as an int ``>= 0`` (the split and the sampler seeds are stored with the study,
-    so a Generator or None is refused too), with a message naming ``name``."""
-    seed = check_seed(seed, name)
-    if not isinstance(seed, int):
-        raise TypeError(f"{name} must be an int >= 0, got {type(seed).__name__} {seed!r}")
-    return seed
-
-
-def _check_space(space: Mapping, estimator) -> None:
-    known = estimator.get_params()
-    for name, spec in space.items():
-        if name not in known:
-            raise ValueError(f"space names {name!r}, which is not a hyperparameter of "
-                             f"{type(estimator).__name__} (allowed: {sorted(known)})")
-        if not isinstance(spec, (tuple, list)) or not spec or spec[0] not in (
-                "int", "log", "float", "categorical"):
-            raise ValueError(f"space[{name!r}] must be ('int', lo, hi[, step]), ('log', lo, "
-                             f"hi), ('float', lo, hi) or ('categorical', choices), got {spec!r}")
-
-
 def suggest_params(trial, space: Mapping) -> dict:
-    """The trial's value of every hyperparameter of ``space`` (see :data:`PAPER_SPACE`)."""
+    """The trial's value of every hyperparameter of ``space`` (see :data:`PAPER_SPACE`).
+
+    Examples
+    --------
+    >>> from optuna.trial import FixedTrial
+    >>> from qdensity.learning.sweep import suggest_params
+    >>> suggest_params(FixedTrial({"lr": 0.01, "l2": 0.0}), {"lr": ("log", 1e-4, 1e-1),
+    ...                                                      "l2": ("categorical", [0.0, 1e-4])})
+    {'lr': 0.01, 'l2': 0.0}
+    """
     params = {}
     for name, spec in space.items():
         kind = spec[0]
@@ -179,7 +180,16 @@ def suggest_params(trial, space: Mapping) -> dict:
 def sweep_settings(X, y, estimator, space: Mapping, validation_size: float, seed: int) -> dict:
     """What a sweep measures, for naming and checking its study: the estimator's class and
     plain hyperparameters, the space, a SHA-256 fingerprint of ``X`` and ``y`` (shapes, dtypes
-    and bytes), the validation split."""
+    and bytes), the validation split.
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LogisticRegression
+    >>> from qdensity.learning.sweep import sweep_settings
+    >>> s = sweep_settings(np.zeros((4, 2)), np.arange(4) % 2, LogisticRegression(), {}, 0.25, 0)
+    >>> s["estimator"], len(s["data"]), s["validation_size"]  # data: a 16-digit fingerprint
+    ('LogisticRegression', 16, 0.25)
+    """
     digest = hashlib.sha256()
     for a in (np.ascontiguousarray(X), np.ascontiguousarray(y)):
         digest.update(f"{a.shape}{a.dtype}".encode())
@@ -216,6 +226,15 @@ def run_trials(study, evaluate, n_trials: int, *, stop_after: int | None = None,
     int
         Trials this call completed. It also stops after more than ``n_trials`` of its own
         trials failed (an objective that always fails).
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import MEMORY, open_study, run_trials
+    >>> study = open_study("parabola", MEMORY, direction="minimize", seed=0, n_trials=4)
+    >>> run_trials(study, lambda trial: (trial.suggest_float("x", -1, 1) - 0.5) ** 2, 4)
+    4
+    >>> run_trials(study, lambda trial: 0.0, 4)  # the study is complete: nothing to run
+    0
     """
     optuna = _optuna()
     from optuna.exceptions import ExperimentalWarning
@@ -276,7 +295,7 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
               storage=None, study_name: str | None = None,
               validation_size: float = 0.25, seed: int = 0, sampler_seed: int | None = None,
               verbose: bool = True, stop_after: int | None = None,
-              grace_period: int | None = DEFAULT_GRACE_PERIOD, cluster=None):
+              grace_period: int | None = DEFAULT_GRACE_PERIOD, cluster=None) -> Study:
     """Run (this worker's share of) a sweep until the study has ``n_trials`` COMPLETE trials.
 
     Parameters
@@ -323,6 +342,18 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
     optuna.Study
         ``study.trials`` holds every trial; user attributes ``seconds``, ``shots`` and
         ``worker`` (process id; ``dask_worker``: the Dask worker's address on a cluster).
+
+    Examples
+    --------
+    Two trials of a logistic regression's ``C``, in memory:
+
+    >>> from sklearn.linear_model import LogisticRegression
+    >>> from qdensity.learning.sweep import MEMORY, run_sweep
+    >>> X = np.random.default_rng(0).normal(size=(40, 2)); y = (X[:, 0] > 0).astype(int)
+    >>> study = run_sweep(X, y, LogisticRegression(), n_trials=2, space={"C": ("log", 0.01, 10.0)},
+    ...                   storage=MEMORY, verbose=False, sampler_seed=0)
+    >>> [t.state.name for t in study.trials], sorted(study.trials[0].user_attrs)
+    (['COMPLETE', 'COMPLETE'], ['seconds', 'shots', 'worker'])
     """
     _optuna()
     if estimator is None:
@@ -375,18 +406,6 @@ def run_sweep(X, y, estimator=None, *, n_trials: int = 32, space: Mapping | None
     return study
 
 
-def _absolute(storage):
-    """An SQLite URL with its path made absolute (the same file for every worker); anything
-    else (another URL, a storage object) as it is."""
-    prefix = "sqlite:///"
-    if storage_object(storage) or not isinstance(storage, str):
-        return storage
-    if storage.startswith(prefix) and not storage.startswith(prefix + "/") \
-            and storage != prefix + ":memory:":
-        return prefix + str(Path(storage[len(prefix):]).resolve())
-    return storage
-
-
 def _trial_task(X, y, estimator, n_trials, space, storage, study_name, validation_size, seed,
                 grace_period, sampler_seed) -> int:
     """On a Dask worker: complete one trial of the study (or find it complete)."""
@@ -422,7 +441,16 @@ def _evaluate(estimator, params, X_tr, y_tr, X_va, y_va) -> tuple[float, dict]:
 
 
 def trial_rows(study) -> list[dict]:
-    """One flat dict per trial: number, state, value, params, user attributes, seconds."""
+    """One flat dict per trial: number, state, value, params, user attributes, seconds.
+
+    Examples
+    --------
+    >>> from qdensity.learning.sweep import MEMORY, open_study, run_trials, trial_rows
+    >>> study = open_study("rows", MEMORY, seed=0, n_trials=1)
+    >>> _ = run_trials(study, lambda trial: trial.suggest_int("k", 2, 2) / 4, 1)
+    >>> trial_rows(study)
+    [{'number': 0, 'state': 'COMPLETE', 'value': 0.5, 'param_k': 2}]
+    """
     rows = []
     for t in study.trials:
         row = {"number": t.number, "state": t.state.name, "value": t.value}
@@ -438,6 +466,17 @@ def export_trials(study, path: str | os.PathLike) -> Path:
     Returns
     -------
     pathlib.Path
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> from qdensity.learning.sweep import MEMORY, export_trials, open_study, run_trials
+    >>> study = open_study("export", MEMORY, seed=0, n_trials=2)
+    >>> _ = run_trials(study, lambda trial: trial.suggest_float("x", 0, 1), 2)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = export_trials(study, pathlib.Path(tmp) / "trials.json")
+    ...     [row["state"] for row in json.loads(path.read_text())["trials"]]
+    ['COMPLETE', 'COMPLETE']
     """
     path = Path(path)
     suffix = path.suffix.lower()

@@ -82,6 +82,15 @@ class MoEGate(nn.Module):
         ``d`` and ``K``.
     activation : {None, "gelu"}
         None is the paper's "MoE", "gelu" its "MoE*" (exact erf GELU).
+
+    Examples
+    --------
+    >>> import torch
+    >>> from qdensity.learning.torch import MoEGate
+    >>> _ = torch.manual_seed(0)
+    >>> alpha = MoEGate(4, 3, activation="gelu")(torch.randn(5, 4, dtype=torch.float64))
+    >>> tuple(alpha.shape), bool(torch.allclose(alpha.sum(dim=1), torch.ones(5).double()))
+    ((5, 3), True)
     """
 
     def __init__(self, num_features: int, num_components: int, activation: str | None = None):

@@ -30,6 +30,20 @@ def bind_rows(circuit: QuantumCircuit, columns: dict) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (B, P)
+
+    Examples
+    --------
+    ``circuit.parameters`` is sorted by name (``a`` before ``b``); a scalar is broadcast down
+    the rows:
+
+    >>> import numpy as np
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.circuit import Parameter
+    >>> from qdensity.models import bind_rows
+    >>> a, b = Parameter("a"), Parameter("b")
+    >>> qc = QuantumCircuit(1); _ = qc.rx(b, 0); _ = qc.ry(a, 0)
+    >>> bind_rows(qc, {b: np.array([1.0, 2.0, 3.0]), a: 0.5}).tolist()
+    [[0.5, 1.0], [0.5, 2.0], [0.5, 3.0]]
     """
     return _placed(list(circuit.parameters), columns)
 

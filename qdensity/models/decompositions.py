@@ -64,6 +64,19 @@ class Decomposition:
         The circuit they were cut from.
     independent : bool
         Whether sub-unitaries have disjoint parameters (Cor. 1) or may share them (Prop. 1).
+
+    Examples
+    --------
+    The round-robin ansatz on 4 qubits, one sub-unitary per layer: its 6 parameters split 2,
+    2, 2, none shared:
+
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import by_moments
+    >>> dec = by_moments(round_robin(4))
+    >>> dec
+    Decomposition('round_robin_4_by_moments_1', K=3, params=6, per_subunitary=[2, 2, 2])
+    >>> dec.independent, dec.source.num_parameters
+    (True, 6)
     """
 
     name: str
@@ -195,6 +208,16 @@ def cyclic_moments(circuit: QuantumCircuit, depth: int) -> Decomposition:
     -------
     Decomposition
         ``K = M`` sub-unitaries, ``depth * (gates per moment)`` parameters each.
+
+    Examples
+    --------
+    Round-robin on 4 qubits has 3 moments of 2 RBS gates; depth 2 gives 3 experts of 4
+    fresh parameters each:
+
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import cyclic_moments
+    >>> cyclic_moments(round_robin(4), 2).parameter_counts()
+    [4, 4, 4]
     """
     layers = moments(circuit, include_unparameterised=False)
     m = len(layers)
@@ -228,6 +251,16 @@ def odd_even(circuit: QuantumCircuit) -> Decomposition:
     -------
     Decomposition
         Two sub-unitaries ``[U_even, U_odd]`` sharing the source's parameters.
+
+    Examples
+    --------
+    The 4-qubit pyramid's 6 RBS gates: 4 start on an even qubit, 2 on an odd one:
+
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> from qdensity.models.decompositions import odd_even
+    >>> dec = odd_even(pyramid(4))
+    >>> dec.parameter_counts(), dec.num_parameters
+    ([4, 2], 6)
     """
     even = circuit.copy_empty_like(name=f"{circuit.name}_even")
     odd = circuit.copy_empty_like(name=f"{circuit.name}_odd")
@@ -259,6 +292,16 @@ def independent(circuits: Sequence[QuantumCircuit], name: str = "independent") -
     Returns
     -------
     Decomposition
+
+    Examples
+    --------
+    The same circuit twice: with fresh names, twice the parameters:
+
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import independent
+    >>> dec = independent([round_robin(4), round_robin(4)])
+    >>> dec.num_parameters, [p.name for p in dec.sub_unitaries[1].parameters][:2]
+    (12, ['θ1[0]', 'θ1[1]'])
     """
     circuits = list(circuits)
     return Decomposition(name, _fresh_parameters(circuits), None, independent=True)
@@ -278,6 +321,13 @@ def copies(circuit: QuantumCircuit, num_copies: int) -> Decomposition:
     -------
     Decomposition
         K sub-unitaries with K times the source's parameters.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.decompositions import copies
+    >>> copies(round_robin(4), 3).parameter_counts()
+    [6, 6, 6]
     """
     k = int(num_copies)
     dec = independent([circuit] * k, name=f"{circuit.name}_copies_{k}")

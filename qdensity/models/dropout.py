@@ -64,6 +64,21 @@ class RandomisedPreparation:
     ledger : ShotLedger, optional
         Records the shots each sub-unitary's circuits drew (``forward_k{k}``,
         ``{gradient_label}_k{k}``, ``mixture_k{k}``).
+
+    Examples
+    --------
+    Sub-unitary 0 always reads ``+1``, sub-unitary 1 ``-1``, mixed ``(3/4, 1/4)``: ``f = 1/2``,
+    and a shot's value has variance ``1 - f^2 = 3/4``:
+
+    >>> import numpy as np
+    >>> from qdensity.execution.engines import ShotLedger
+    >>> from qdensity.models.dropout import RandomisedPreparation
+    >>> ledger = ShotLedger()
+    >>> prep = RandomisedPreparation(np.array([[0.75, 0.25]]), np.array([[[1.0, 0.0], [0.0, 1.0]]]),
+    ...                              np.array([[1.0], [-1.0]]), shots=400, seed=0, ledger=ledger)
+    >>> f = prep.outputs()
+    >>> f.shape, bool(abs(f[0, 0] - 0.5) < 4 * np.sqrt(0.75 / 400)), ledger.total_shots
+    ((1, 1), True, 400)
     """
 
     def __init__(self, alpha: np.ndarray, outcome_probabilities: np.ndarray,

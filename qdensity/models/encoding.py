@@ -56,6 +56,19 @@ class Encoding:
         ``X (B, d) -> (B, P_enc, d)``, the derivative of ``transform``: input gradients
         through an encoding of another kind need it (the angle and unary encodings have theirs
         built in, :mod:`qdensity.gradients.inputs`).
+
+    Examples
+    --------
+    The unary loader puts ``x / ||x||`` on the states ``e_j`` (one qubit set, index ``2^j``):
+
+    >>> import numpy as np
+    >>> from qiskit.quantum_info import Statevector
+    >>> from qdensity.models import Encoding
+    >>> enc, x = Encoding.unary(4), np.array([[1.0, 2.0, 3.0, 4.0]])
+    >>> angles = enc.values(x)  # 3 RBS angles
+    >>> psi = Statevector(enc.circuit.assign_parameters(angles[0])).data
+    >>> angles.shape, bool(np.allclose(psi[[1, 2, 4, 8]], x[0] / np.linalg.norm(x)))
+    ((1, 3), True)
     """
 
     circuit: QuantumCircuit

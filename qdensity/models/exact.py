@@ -33,7 +33,19 @@ __all__ = ["ModelEngines", "engines_of", "exact_outputs", "exact_gradients", "Ex
 
 @dataclass
 class ModelEngines:
-    """What a model keeps for exact evaluation (see the module docstring)."""
+    """What a model keeps for exact evaluation (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> model = DensityQNN([reuploading(2)], seed=0)  # one qubit, <Z>, 6 angles
+    >>> from qdensity.models.exact import engines_of
+    >>> state = engines_of(model)
+    >>> len(state.circuits), type(state.adjoint).__name__, state.unary is None
+    (1, 'AdjointEngine', True)
+    """
 
     circuits: list[QuantumCircuit]
     adjoint: object = None
@@ -45,7 +57,18 @@ class ModelEngines:
 def engines_of(model) -> ModelEngines:
     """The model's :class:`ModelEngines`, made on first use and kept in the model's
     :meth:`~qdensity.models.density.DensityQNN.derived` store (made again when its circuits,
-    encoding, readout or observable change)."""
+    encoding, readout or observable change).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> model = DensityQNN([reuploading(2)], seed=0)  # one qubit, <Z>, 6 angles
+    >>> from qdensity.models.exact import engines_of
+    >>> engines_of(model) is engines_of(model)  # made once, kept
+    True
+    """
     known = model.derived("exact")
     state = known.get("engines")
     if state is None:
@@ -95,6 +118,13 @@ class InputColumns:
         The circuit columns of re-uploaded data parameters ``x[i]``.
     features : numpy.ndarray of int, shape (D,)
         The feature ``i`` each of those columns reads.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.models.exact import InputColumns
+    >>> InputColumns(np.array([1, 2]), np.array([0]), np.array([0])).columns.tolist()
+    [1, 2, 0]
     """
 
     encoding: np.ndarray
@@ -110,7 +140,21 @@ class InputColumns:
 def input_columns(model, circuit: QuantumCircuit) -> InputColumns:
     """The columns of ``circuit`` (built on ``model.circuit(k)``) that carry data: the
     encoding's parameters (set from ``encoding.values(X)``, which take precedence) and the
-    re-uploaded features ``x[i]``."""
+    re-uploaded features ``x[i]``.
+
+    Examples
+    --------
+    A re-uploading circuit reads feature 0 in its column 0 (``x[0]`` sorts first):
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> model = DensityQNN([reuploading(2)], seed=0)  # one qubit, <Z>, 6 angles
+    >>> from qdensity.models.exact import input_columns
+    >>> cols = input_columns(model, model.circuit(0))
+    >>> cols.encoding.tolist(), cols.data.tolist(), cols.features.tolist()
+    ([], [0], [0])
+    """
     index = {p: i for i, p in enumerate(circuit.parameters)}
     enc = model.encoding
     enc_params = list(enc.circuit.parameters) if enc is not None else []
@@ -159,6 +203,26 @@ def exact_outputs(model, X=None, theta=None, engine=None) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
+
+    Examples
+    --------
+    Each sub-unitary's unary probabilities sum to 1; mixed by ``alpha`` they are the model's
+    prediction:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> from qdensity.models.decompositions import by_moments
+    >>> model = DensityQNN(by_moments(round_robin(3)).sub_unitaries, encoding=Encoding.unary(3),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> from qdensity.models.exact import exact_outputs
+    >>> X = np.array([[1.0, 2.0, 3.0]])
+    >>> f = exact_outputs(model, X)
+    >>> f.shape, bool(np.allclose(f.sum(axis=2), 1.0))
+    ((1, 3, 3), True)
+    >>> bool(np.allclose(np.einsum("bk,bkn->bn", model.alpha(X) * np.ones((1, 3)), f),
+    ...                  model.predict(X)))
+    True
     """
     state = engines_of(model)
     engine = engine or state.adjoint
@@ -207,6 +271,17 @@ class ExactGradients:
     data_jacobians : list of numpy.ndarray (B, m, len(data_columns[k].columns)), or None
         ``d f_k`` w.r.t. those columns (None when asked for no input gradients);
         :func:`qdensity.gradients.inputs.input_jacobians` chains them to ``d f_k / d x``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> model = DensityQNN([reuploading(2)], seed=0)  # one qubit, <Z>, 6 angles
+    >>> from qdensity.models.exact import exact_gradients
+    >>> g = exact_gradients(model, np.array([[0.3], [0.8]]), inputs=False)
+    >>> g.outputs.shape, [j.shape for j in g.jacobians], g.data_jacobians
+    ((2, 1, 1), [(2, 1, 6)], None)
     """
 
     outputs: np.ndarray
@@ -238,6 +313,21 @@ def exact_gradients(model, X=None, engine=None, inputs: bool = True) -> ExactGra
     Returns
     -------
     ExactGradients
+
+    Examples
+    --------
+    Against central finite differences of :func:`exact_outputs` in every angle:
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models import DensityQNN
+    >>> model = DensityQNN([reuploading(2)], seed=0)  # one qubit, <Z>, 6 angles
+    >>> from qdensity.models.exact import exact_gradients, exact_outputs
+    >>> X, th = np.array([[0.3], [0.8]]), model.theta
+    >>> fd = np.stack([(exact_outputs(model, X, th + e) - exact_outputs(model, X, th - e))[:, 0]
+    ...                / 2e-6 for e in 1e-6 * np.eye(6)], axis=-1)
+    >>> bool(np.allclose(exact_gradients(model, X).jacobians[0][:, 0], fd, atol=1e-6))
+    True
     """
     state = engines_of(model)
     engine = engine or state.adjoint
@@ -258,7 +348,21 @@ def exact_gradients(model, X=None, engine=None, inputs: bool = True) -> ExactGra
 def uses_unary_engine(model) -> bool:
     """True when ``model`` runs on the unary engine: RBS/FBS sub-unitaries on a unary encoding
     and, for an observable readout, a diagonal (I/Z) observable. Kept in the model's derived
-    store, so it is recomputed when the circuits, encoding, readout or observable change."""
+    store, so it is recomputed when the circuits, encoding, readout or observable change.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> from qdensity.models.decompositions import by_moments
+    >>> model = DensityQNN(by_moments(round_robin(3)).sub_unitaries, encoding=Encoding.unary(3),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> from qdensity.circuits.ansatze import reuploading
+    >>> from qdensity.models.exact import uses_unary_engine
+    >>> uses_unary_engine(model), uses_unary_engine(DensityQNN([reuploading(2)]))
+    (True, False)
+    """
     known = model.derived("unary")
     if "ok" not in known:
         ok = model.encoding is not None and model.encoding.kind == "unary"
@@ -274,7 +378,24 @@ def uses_unary_engine(model) -> bool:
 
 
 def unary_amplitudes(model, X, theta) -> np.ndarray:
-    """Unary amplitudes ``y_k(x)`` of every sub-unitary, shape (B, K, n) (inputs normalised)."""
+    """Unary amplitudes ``y_k(x)`` of every sub-unitary, shape (B, K, n) (inputs normalised).
+
+    Examples
+    --------
+    The squared amplitudes are the unary probabilities (their signs are in no measurement):
+
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models import DensityQNN, Encoding
+    >>> from qdensity.models.decompositions import by_moments
+    >>> model = DensityQNN(by_moments(round_robin(3)).sub_unitaries, encoding=Encoding.unary(3),
+    ...                    readout="unary_probabilities", seed=0)
+    >>> from qdensity.models.exact import exact_outputs, unary_amplitudes
+    >>> X = np.array([[1.0, -2.0, 3.0]])
+    >>> y = unary_amplitudes(model, X, model.theta)
+    >>> y.shape, bool(np.allclose(y**2, exact_outputs(model, X)))
+    ((1, 3, 3), True)
+    """
     from qdensity.execution.unary import forward
 
     X = model._check_X(X)
@@ -291,6 +412,15 @@ def z_readout_diagonal(observable) -> np.ndarray:
 
     ``sum_t c_t s_t (1 - 2 z_t[j])`` for Z-type terms ``s_t Z^{z_t}`` (``s_t`` the Pauli's
     phase): ``e_j`` has its one 1 on qubit j. O(terms x n), no 2^n table.
+
+    Examples
+    --------
+    ``Z_0 + Z_2 / 2`` on ``e_0, e_1, e_2``: ``-1 + 1/2``, ``1 + 1/2``, ``1 - 1/2``:
+
+    >>> from qiskit.quantum_info import SparsePauliOp
+    >>> from qdensity.models.exact import z_readout_diagonal
+    >>> z_readout_diagonal(SparsePauliOp(["IIZ", "ZII"], [1.0, 0.5])).tolist()
+    [-0.5, 1.5, 0.5]
     """
     paulis = observable.paulis
     if np.any(paulis.x):

@@ -41,7 +41,15 @@ __all__ = ["Mixture", "FixedMixture", "SoftmaxMixture", "GatedMixture", "as_mixt
 
 @validates(z=Array(max_size=MAX_DENSE_ENTRIES))
 def softmax(z: np.ndarray) -> np.ndarray:
-    """Row-wise softmax, numerically stable. ``z`` shape (..., K)."""
+    """Row-wise softmax, numerically stable. ``z`` shape (..., K).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.models.mixtures import softmax
+    >>> softmax(np.array([[0.0, np.log(3.0)], [1000.0, 1000.0]])).round(12).tolist()
+    [[0.25, 0.75], [0.5, 0.5]]
+    """
     z = z - z.max(axis=-1, keepdims=True)
     e = np.exp(z)
     return e / e.sum(axis=-1, keepdims=True)
@@ -53,7 +61,25 @@ def _softmax_vjp(alpha: np.ndarray, grad_alpha: np.ndarray) -> np.ndarray:
 
 
 class Mixture(ABC):
-    """Base class: a distribution over ``K`` sub-unitaries, possibly data dependent."""
+    """Base class: a distribution over ``K`` sub-unitaries, possibly data dependent.
+
+    Subclasses set ``num_components`` and implement :meth:`alpha`; a trainable one also
+    overrides ``params`` and :meth:`vjp` (and, when data dependent, :meth:`input_vjp`).
+
+    Examples
+    --------
+    A fixed mixture that always runs the first of two sub-unitaries:
+
+    >>> import numpy as np
+    >>> from qdensity.models.mixtures import Mixture
+    >>> class FirstOnly(Mixture):
+    ...     num_components = 2
+    ...     def alpha(self, X=None):
+    ...         return np.tile([1.0, 0.0], (1 if X is None else len(X), 1))
+    >>> m = FirstOnly()
+    >>> m.alpha(np.zeros((3, 1))).tolist(), m.num_params, m.input_vjp(np.zeros((3, 1)), None).shape
+    ([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]], 0, (3, 1))
+    """
 
     num_components: int
     data_dependent: bool = False
@@ -108,6 +134,16 @@ class FixedMixture(Mixture):
     ----------
     alpha : array_like, shape (K,)
         Non-negative, summing to 1 within 1e-9 (never renormalised).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.models.mixtures import FixedMixture
+    >>> FixedMixture([0.25, 0.75]).alpha(np.zeros((2, 3))).tolist()  # one row per data point
+    [[0.25, 0.75], [0.25, 0.75]]
+    >>> FixedMixture([0.5, 0.6])
+    Traceback (most recent call last):
+    ValueError: alpha must sum to 1 within 1e-09 (it is not renormalised), got sum 1.1
     """
 
     def __init__(self, alpha):
@@ -133,6 +169,17 @@ class SoftmaxMixture(Mixture):
     logits : array_like, shape (K,), optional
     alpha : array_like, shape (K,), optional
         Initial distribution (strictly positive), converted to logits ``log(alpha)``.
+
+    Examples
+    --------
+    ``d alpha_0 / d z = alpha_0 (e_0 - alpha)``:
+
+    >>> from qdensity.models.mixtures import SoftmaxMixture
+    >>> mix = SoftmaxMixture(alpha=[0.25, 0.75])
+    >>> mix.alpha().round(12).tolist(), mix.vjp(None, [[1.0, 0.0]]).round(12).tolist()
+    ([[0.25, 0.75]], [0.1875, -0.1875])
+    >>> SoftmaxMixture(3).alpha().round(4).tolist()  # zero logits: uniform
+    [[0.3333, 0.3333, 0.3333]]
     """
 
     def __init__(self, num_components: int | None = None, *, logits=None, alpha=None):
@@ -199,6 +246,19 @@ class GatedMixture(Mixture):
     bias : array_like, shape (K,), optional
     seed : int or Generator, optional
         Initialises ``W`` with N(0, 1/d) entries when ``weights`` is not given; ``b = 0``.
+
+    Examples
+    --------
+    The weights of each data point, and their input gradient against finite differences:
+
+    >>> import numpy as np
+    >>> from qdensity.models.mixtures import GatedMixture
+    >>> gate = GatedMixture(2, 3, activation="gelu", seed=0)
+    >>> X, g = np.array([[0.3, -0.2]]), np.array([[1.0, 0.0, -1.0]])
+    >>> L = lambda X: float(np.sum(g * gate.alpha(X)))
+    >>> fd = [(L(X + 1e-6 * e) - L(X - 1e-6 * e)) / 2e-6 for e in np.eye(2)]
+    >>> gate.num_params, bool(np.allclose(gate.input_vjp(X, g)[0], fd, atol=1e-8))
+    (9, True)
     """
 
     data_dependent = True
@@ -276,7 +336,17 @@ class GatedMixture(Mixture):
     num_components=Interval(int, 1, MAX_SUBUNITARIES),
 )
 def as_mixture(mixture, num_components: int) -> Mixture:
-    """A :class:`Mixture` from a Mixture, an alpha vector, or None (uniform, fixed)."""
+    """A :class:`Mixture` from a Mixture, an alpha vector, or None (uniform, fixed).
+
+    Examples
+    --------
+    >>> from qdensity.models.mixtures import as_mixture
+    >>> as_mixture(None, 4).alpha().tolist()
+    [[0.25, 0.25, 0.25, 0.25]]
+    >>> as_mixture([0.5, 0.5], 3)
+    Traceback (most recent call last):
+    ValueError: the mixture has 2 components but there are 3 sub-unitaries
+    """
     if mixture is None:
         return FixedMixture(np.full(num_components, 1.0 / num_components))
     if not isinstance(mixture, Mixture):

@@ -46,6 +46,16 @@ class DecompositionKind:
     angle_copies : bool
         Whether each of the ``depth`` parts carries its own copy of the circuit's angles (the
         cyclic decomposition), so a model has ``depth`` times the circuit's angles.
+
+    Examples
+    --------
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.models.registry import DECOMPOSITIONS
+    >>> cyclic = DECOMPOSITIONS["cyclic"]
+    >>> len(cyclic.split(round_robin(4), 2)), cyclic.num_angles(6, 2)  # K = 3 moments
+    (3, 12)
+    >>> DECOMPOSITIONS["layers"].num_angles(6, 2)  # shared: the circuit's own 6
+    6
     """
 
     name: str
@@ -82,6 +92,15 @@ class MixtureKind:
         mixture cannot start from one.
     data_dependent : bool
         Whether ``alpha`` depends on the input (a mixture-of-experts gate).
+
+    Examples
+    --------
+    >>> from qdensity.models.registry import MIXTURES
+    >>> gate = MIXTURES["moe"].build(4, 3, 0)  # 4 features, 3 sub-unitaries: W (3, 4), b (3,)
+    >>> MIXTURES["moe"].data_dependent, type(gate).__name__, gate.num_params
+    (True, 'GatedMixture', 15)
+    >>> MIXTURES["fixed"].build(4, 3, None) is None  # DensityQNN's uniform default
+    True
     """
 
     name: str

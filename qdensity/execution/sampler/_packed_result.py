@@ -42,6 +42,16 @@ def bitarray_to_bits(bitarray, rows: int, shots: int | None = None) -> np.ndarra
     -------
     numpy.ndarray of bool, shape (rows, shots, num_bits)
         Column ``j`` is clbit ``j``; ``rows * shots * num_bits`` bytes, never ``2**num_bits``.
+
+    Examples
+    --------
+    Four samples (bitstrings read clbit 0 rightmost) split into 2 rows of 2 shots:
+
+    >>> from qiskit.primitives import BitArray
+    >>> from qdensity.execution.engines import bitarray_to_bits
+    >>> samples = BitArray.from_samples(["01", "10", "11", "11"], num_bits=2)
+    >>> bitarray_to_bits(samples, rows=2, shots=2).astype(int).tolist()
+    [[[1, 0], [0, 1]], [[1, 1], [1, 1]]]
     """
     shots = bitarray.num_shots if shots is None else int(shots)
     return _unpacked(np.asarray(bitarray.array), rows, shots, bitarray.num_bits)
@@ -71,6 +81,14 @@ def bitarray_to_probabilities(bitarray, rows: int, shots: int | None = None) -> 
     ------
     ValueError
         Above ``MAX_DENSE_QUBITS`` (24) bits; use :func:`bitarray_to_bits`.
+
+    Examples
+    --------
+    >>> from qiskit.primitives import BitArray
+    >>> from qdensity.execution.engines import bitarray_to_probabilities
+    >>> samples = BitArray.from_samples(["01", "10", "11", "11"], num_bits=2)  # outcomes 1,2,3,3
+    >>> bitarray_to_probabilities(samples, rows=2, shots=2).tolist()
+    [[0.0, 0.5, 0.5, 0.0], [0.0, 0.0, 0.0, 1.0]]
     """
     return bits_to_probabilities(bitarray_to_bits(bitarray, rows, shots))
 

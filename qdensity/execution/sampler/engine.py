@@ -27,21 +27,13 @@ from qdensity.execution._compile import (
 from qdensity.execution.plans import CircuitJob, JobResult
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._jobs import PendingJob, assemble, sample_pending
-from qdensity.execution.sampler._packed_result import (
-    bitarray_to_bits,
-    bitarray_to_probabilities,
-)
+from qdensity.execution.sampler._packed_result import bitarray_to_bits, bitarray_to_probabilities
 from qdensity.execution.samplers._hamming_readout import readout_channel
 from qdensity.execution.samplers.hamming import HammingWeightSampler
 from qdensity.execution.samplers.reseed import check_reseedable, reseeded
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
-from qdensity.hardware.aer_sampling import (
-    HAMMING_WEIGHT_KEY,
-    active_qubits,
-    aer_seed,
-    check_memory,
-)
+from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY, active_qubits, aer_seed, check_memory
 from qdensity.hardware.mitigation import MITIGATIONS, POSTSELECTIONS
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
@@ -63,11 +55,7 @@ from qdensity.validation import (
 )
 
 __all__ = [
-    "SamplerEngine",
-    "ShotLedger",
-    "LedgerEntry",
-    "bitarray_to_probabilities",
-    "bitarray_to_bits",
+    "SamplerEngine", "ShotLedger", "LedgerEntry", "bitarray_to_probabilities", "bitarray_to_bits",
 ]
 
 
@@ -86,7 +74,15 @@ def _hamming_stream(seed: int | None) -> np.random.Generator | None:
 class LedgerEntry:
     """One sampled job: what it was for, how many circuits (rows) and shots it spent, and
     which sampler drew them (``"hamming_weight"`` for :class:`HammingWeightSampler`, else the
-    sampler's class name; empty when not recorded)."""
+    sampler's class name; empty when not recorded).
+
+    Examples
+    --------
+    >>> from qdensity.execution.engines import LedgerEntry
+    >>> LedgerEntry("forward", circuits=2, shots=-1)
+    Traceback (most recent call last):
+    ValueError: LedgerEntry: shots must be an int >= 0, got -1
+    """
 
     label: str
     circuits: int
@@ -102,6 +98,13 @@ class ShotLedger:
     Attributes
     ----------
     entries : list of LedgerEntry
+
+    Examples
+    --------
+    >>> from qdensity.execution.engines import ShotLedger
+    >>> ledger = ShotLedger(); ledger.record("grad[0]", 4, 400); ledger.record("grad[1]", 4, 400)
+    >>> ledger.by_label(), ledger.total_shots  # labels grouped at their first "["
+    ({'grad': (8, 800)}, 800)
     """
 
     entries: list[LedgerEntry] = field(default_factory=list)
@@ -232,6 +235,19 @@ class SamplerEngine:
 
     Examples
     --------
+    A loader then an RBS keep Hamming weight 1: sampled exactly in that subspace, not on Aer.
+
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.execution.engines import SamplerEngine
+    >>> from qdensity.execution.plans import probabilities_plan
+    >>> qc = QuantumCircuit(2); _ = qc.x(0); qc = qc.compose(round_robin(2))
+    >>> engine = SamplerEngine(seed=7, progress=False)
+    >>> result = probabilities_plan(qc, [[0.3], [1.2]], shots=100).run(engine)
+    >>> result.bits_shape, set(result.bits.sum(axis=2).ravel().tolist()), engine.ledger.entries
+    ((2, 100, 2), {1}, [LedgerEntry(label='probabilities', circuits=2, shots=200,
+                                    sampler='hamming_weight')])
+
     Passing a hardware provider's primitive instead of Aer's::
 
         engine = SamplerEngine(sampler=provider_sampler, transpiler=pass_manager.run)
@@ -243,20 +259,11 @@ class SamplerEngine:
     """
 
     def __init__(
-        self,
-        sampler: BaseSamplerV2 | None = None,
-        *,
-        target=None,
+        self, sampler: BaseSamplerV2 | None = None, *, target=None,
         transpiler: Callable[[QuantumCircuit], QuantumCircuit] | None = None,
-        seed: SeedLike = None,
-        ledger: ShotLedger | None = None,
-        default_shots: int = 1024,
-        optimization_level: int = 1,
-        progress: bool = True,
-        mitigation: str | None = None,
-        postselect: str | None = None,
-        calibration_shots: int = 4000,
-        hamming_weight: str = "auto",
+        seed: SeedLike = None, ledger: ShotLedger | None = None, default_shots: int = 1024,
+        optimization_level: int = 1, progress: bool = True, mitigation: str | None = None,
+        postselect: str | None = None, calibration_shots: int = 4000, hamming_weight: str = "auto",
     ):
         if hamming_weight == "always" and mitigation is not None:
             raise ValueError(f"hamming_weight='always' cannot be combined with mitigation="
@@ -267,9 +274,8 @@ class SamplerEngine:
         if target is not None:
             target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
-            sampler = (target.sampler(seed=seed) if target is not None
-                       else AdaptiveSampler(NoiselessSimulators(seed), False,
-                                            seed=aer_seed(seed)))
+            sampler = (target.sampler(seed=seed) if target is not None else
+                       AdaptiveSampler(NoiselessSimulators(seed), False, seed=aer_seed(seed)))
         else:
             check_reseedable(sampler)
         self.sampler = sampler
@@ -286,8 +292,7 @@ class SamplerEngine:
         self.hamming_weight = hamming_weight
         self._seed = seed
         self._own_sampler = own_sampler
-        # built on first use (reads the target's noise)
-        self._hamming_sampler: HammingWeightSampler | None = None
+        self._hamming_sampler: HammingWeightSampler | None = None  # first use: reads the noise
         self._hamming_why: str | None = None
         self._correction = None
         if mitigation is not None or postselect is not None:
@@ -326,9 +331,8 @@ class SamplerEngine:
             raise ValueError("seed must be an int or a numpy.random.Generator, got None")
         if self._own_sampler:
             target = self.target
-            sampler = (target.sampler(seed=seed) if target is not None
-                       else AdaptiveSampler(NoiselessSimulators(seed), False,
-                                            seed=aer_seed(seed)))
+            sampler = (target.sampler(seed=seed) if target is not None else
+                       AdaptiveSampler(NoiselessSimulators(seed), False, seed=aer_seed(seed)))
         else:
             sampler = reseeded(self.sampler, seed)
             if sampler is None:
@@ -449,8 +453,7 @@ class SamplerEngine:
             raw = sample_pending(pending, self._hamming_sampler, self.sampler,
                                  lambda job: wait_for(job, bar))
             bar.update(rows)
-        return assemble(pending, raw, self._correction, self.ledger,
-                        type(self.sampler).__name__)
+        return assemble(pending, raw, self._correction, self.ledger, type(self.sampler).__name__)
 
     def _prepare(self, jobs: list[CircuitJob]) -> list[PendingJob]:
         """Check every job and build its PUB: the Hamming-weight sampler's where it is exact,

@@ -41,6 +41,22 @@ class PostselectedUnary:
         Successful shots per row (None for exact results).
     shots : int or None
         Shots per row (None for exact results).
+
+    Examples
+    --------
+    Exact probabilities over 3 clbits, clbit 0 the post-selected ancilla (outcome ``b_0 + 2 b_1
+    + 4 b_2``): the ancilla reads 0 with probability 0.8, and then the data is ``e_0`` (outcome
+    2) with probability ``0.6 / 0.8``:
+
+    >>> import numpy as np
+    >>> from qdensity.execution.plans import JobResult
+    >>> from qdensity.execution.sampler.postselection import postselected_unary
+    >>> probs = np.array([[0.0, 0.0, 0.6, 0.1, 0.2, 0.1, 0.0, 0.0]])
+    >>> est = postselected_unary(JobResult(probabilities=probs), postselect=[0], data=[1, 2])
+    >>> est.success_probability.round(12).tolist(), est.probabilities.round(12).tolist()
+    ([0.8], [[0.75, 0.25]])
+    >>> est.standard_error.tolist(), est.shots  # exact: no error, no shots
+    ([[0.0, 0.0]], None)
     """
 
     probabilities: np.ndarray

@@ -48,6 +48,22 @@ def runtime_engine(
     SamplerEngine
         Its ``sampler`` is the runtime's; circuits are checked against ``backend`` before any
         job is submitted.
+
+    Examples
+    --------
+    A fake backend runs in the runtime's local testing mode; a job wider than the device is
+    refused before anything is submitted:
+
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit_ibm_runtime.fake_provider import FakeManilaV2
+    >>> from qdensity.execution.plans import probabilities_plan
+    >>> from qdensity.execution.sampler.runtime import runtime_engine
+    >>> engine = runtime_engine(FakeManilaV2(), seed=1, default_shots=100)
+    >>> type(engine.sampler).__name__, engine.default_shots
+    ('SamplerV2', 100)
+    >>> probabilities_plan(QuantumCircuit(6), [], shots=10).run(engine)
+    Traceback (most recent call last):
+    ValueError: job 'probabilities' needs 6 qubits but device 'fake_manila' has 5; ...
     """
     require_runtime()
     from qiskit.providers import BackendV2

@@ -182,6 +182,18 @@ def stratified_variance(alpha, variances, allocation) -> float:
     Returns
     -------
     float
+
+    Examples
+    --------
+    Spreads ``sigma = (1, 1/4)``: Neyman's allocation reaches ``(sum_k alpha_k sigma_k)^2 / S
+    = 0.625^2 / 100``, below the proportional allocation's ``sum_k alpha_k sigma_k^2 / S``:
+
+    >>> from qdensity.execution.schedulers import allocate_neyman, stratified_variance
+    >>> alpha, variances = [0.5, 0.5], [1.0, 0.0625]
+    >>> stratified_variance(alpha, variances, [50, 50])
+    0.0053125
+    >>> stratified_variance(alpha, variances, allocate_neyman(alpha, [1.0, 0.25], 100))
+    0.00390625
     """
     alpha = check_distribution(alpha, "alpha")
     var = np.asarray(variances, dtype=float)
@@ -215,6 +227,17 @@ def per_shot_variance(alpha, means, variances, budget: int) -> float:
     Returns
     -------
     float
+
+    Examples
+    --------
+    Two deterministic sub-unitaries (``f_k = +-1``, no variance within either): stratifying
+    removes all the variance, per-shot sampling keeps ``sum_k alpha_k (f_k - f)^2 / S``:
+
+    >>> from qdensity.execution.schedulers import per_shot_variance, stratified_variance
+    >>> per_shot_variance([0.5, 0.5], [1.0, -1.0], [0.0, 0.0], 100)
+    0.01
+    >>> stratified_variance([0.5, 0.5], [0.0, 0.0], [50, 50])
+    0.0
     """
     alpha = check_distribution(alpha, "alpha")
     mu, var = np.asarray(means, dtype=float), np.asarray(variances, dtype=float)

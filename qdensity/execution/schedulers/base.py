@@ -54,6 +54,14 @@ class ScheduleResult:
     info : dict
         Scheduler-specific details (e.g. the pilot-estimated spreads and whether Neyman fell
         back to proportional allocation).
+
+    Examples
+    --------
+    >>> from qdensity.execution.schedulers import discrete_source, proportional
+    >>> src = discrete_source([[1.0, 0.0], [0.0, 1.0]], [1.0, -1.0])  # f_0 = 1, f_1 = -1
+    >>> res = proportional([0.75, 0.25], 8, src, seed=0)
+    >>> res.name, res.estimate, res.allocation.tolist(), res.per_subunitary.tolist()
+    ('proportional', 0.5, [6, 2], [1.0, -1.0])
     """
 
     name: str
@@ -67,7 +75,15 @@ class ScheduleResult:
 
 
 class Scheduler(Protocol):
-    """Anything with ``run(alpha, budget, source, seed) -> ScheduleResult``."""
+    """Anything with ``run(alpha, budget, source, seed) -> ScheduleResult``.
+
+    Examples
+    --------
+    >>> from qdensity.execution.schedulers import (NeymanScheduler, PerShotScheduler,
+    ...                                            ProportionalScheduler)
+    >>> [s.name for s in (PerShotScheduler(), ProportionalScheduler(), NeymanScheduler())]
+    ['per_shot', 'proportional', 'neyman']
+    """
 
     name: str
 

@@ -86,6 +86,17 @@ class NeymanScheduler:
     prior_weight : float
         Pseudo-shots ``c >= 0`` of maximal variance added to each pilot variance for the
         allocation (not for the reported error).
+
+    Examples
+    --------
+    Sub-unitary 0 always gives ``+1``, sub-unitary 1 a fair ``+-1``: after a pilot of 20% of
+    the budget, the main phase gives most shots to the spread-out one:
+
+    >>> from qdensity.execution.schedulers import NeymanScheduler, discrete_source
+    >>> src = discrete_source([[1.0, 0.0], [0.5, 0.5]], [1.0, -1.0])
+    >>> res = NeymanScheduler(pilot_fraction=0.2).run([0.5, 0.5], 400, src, seed=0)
+    >>> res.pilot_allocation.tolist(), res.shots_used, bool(res.allocation[1] > res.allocation[0])
+    ([40, 40], 400, True)
     """
 
     pilot_fraction: float = 0.2

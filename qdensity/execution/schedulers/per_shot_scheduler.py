@@ -47,6 +47,16 @@ class PerShotScheduler:
     ----------
     value_range : (float, float)
         Interval every per-shot value lies in; ``(-1, 1)`` for Pauli observables.
+
+    Examples
+    --------
+    Every shot gives ``+1``; the estimate is exact, yet its standard error is not zero:
+
+    >>> from qdensity.execution.schedulers import PerShotScheduler, discrete_source
+    >>> src = discrete_source([[1.0, 0.0], [1.0, 0.0]], [1.0, -1.0])
+    >>> res = PerShotScheduler().run([0.5, 0.5], 100, src, seed=0)
+    >>> res.estimate, int(res.allocation.sum()), res.standard_error > 0
+    (1.0, 100, True)
     """
 
     value_range: tuple[float, float] = (-1.0, 1.0)

@@ -52,6 +52,17 @@ class ProportionalScheduler:
     ----------
     value_range : (float, float)
         Interval every per-shot value lies in; ``(-1, 1)`` for Pauli observables.
+
+    Examples
+    --------
+    One shot per stratum: each stratum's variance is Popoviciu's bound ``(1 - (-1))^2 / 4 = 1``,
+    so the standard error is ``sqrt(0.5^2 + 0.5^2)``:
+
+    >>> from qdensity.execution.schedulers import ProportionalScheduler, discrete_source
+    >>> src = discrete_source([[1.0, 0.0], [0.5, 0.5]], [1.0, -1.0])
+    >>> res = ProportionalScheduler(value_range=(-1.0, 1.0)).run([0.5, 0.5], 2, src, seed=0)
+    >>> res.allocation.tolist(), round(res.standard_error, 12) == round(0.5**0.5, 12)
+    ([1, 1], True)
     """
 
     value_range: tuple[float, float] = (-1.0, 1.0)
