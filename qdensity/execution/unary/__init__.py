@@ -47,10 +47,13 @@ from qiskit.circuit import ParameterExpression, QuantumCircuit
 
 from qdensity.analysis.gate_registry import GIVENS_GATES
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution.unary import _kernels
 from qdensity.execution.unary import _torch as _on_torch
+from qdensity.execution.unary._compiled import forward_rows, vjp_rows
 from qdensity.execution.unary._circuit import UnaryCircuit
 from qdensity.execution.unary._inputs import batch as _batch
 from qdensity.execution.unary._inputs import inputs as _inputs
+from qdensity.execution.unary._inputs import rows_values as _rows_values
 from qdensity.execution.unary._inputs import values as _values
 from qdensity.execution.unary._plan import reverse
 from qdensity.execution.unary._plan import rotate_columns as _rotate
@@ -241,9 +244,13 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     >>> y.tolist()
     [1.0, 0.0, 0.0, 0.0]
     """
-    compiled = compile_unary(circuit)
+    compiled = circuit if isinstance(circuit, UnaryCircuit) else compile_unary(circuit)
     if _on_torch.any_tensor(X, values):
         return _on_torch.forward(compiled, X, values)
+    if _kernels.available():  # one compiled call per block of rows: the whole circuit
+        Xr, v, single = _rows_values(compiled, X, values, declared=True)
+        Y = forward_rows(Xr, compiled, v)
+        return Y[0].copy() if single else Y
     Z, angles, single = _batch(compiled, X, values)
     if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
         Z = _rotate(np.eye(compiled.num_qubits), compiled, angles) @ Z
@@ -311,27 +318,36 @@ def vjp(
     >>> gv.round(12).tolist(), gx.round(12).tolist()
     ([1.0], [0.0, 1.0])
     """
-    compiled = compile_unary(circuit)
+    compiled = circuit if isinstance(circuit, UnaryCircuit) else compile_unary(circuit)
     if _on_torch.any_tensor(X, values, grad_Y, outputs):
         return _on_torch.vjp(compiled, X, values, grad_Y, reduce, outputs)
-    Z, angles, single = _batch(compiled, X, values)
-    n, B = Z.shape
+    Xr, v, single = _rows_values(compiled, X, values, declared=True)
+    B, n = Xr.shape
     gy = np.asarray(grad_Y, dtype=float)  # declared real and finite
     expected = (n,) if single else (B, n)
     if gy.shape != expected:
         raise ValueError(f"grad_Y must have the output's shape {expected}, got {gy.shape}")
+    if outputs is not None and np.shape(outputs) != expected:
+        raise ValueError(f"outputs must have the output's shape {expected}, got "
+                         f"{np.shape(outputs)}")
+    per_example = reduce == "none" and not single
+    if _kernels.available():  # forward and reverse pass in one compiled call per row block
+        src = Xr if outputs is None else np.ascontiguousarray(np.atleast_2d(outputs),
+                                                               dtype=float)
+        grad_p, gX = vjp_rows(src, np.ascontiguousarray(np.atleast_2d(gy), dtype=float),
+                              outputs is not None, compiled, v, per_example)
+        if single:
+            return grad_p, gX[0].copy()
+        return (np.ascontiguousarray(grad_p.T) if per_example else grad_p), gX
+    Z, angles = np.array(Xr.T, order="C"), compiled.angles(v)
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
     # forward to the outputs (or start from the caller's)
     if outputs is not None:
-        if np.shape(outputs) != expected:
-            raise ValueError(f"outputs must have the output's shape {expected}, got "
-                             f"{np.shape(outputs)}")
         Y = np.array(np.atleast_2d(outputs).T, dtype=float, order="C")
     elif angles.ndim == 1 and B > n:
         Y = _rotate(np.eye(n), compiled, angles) @ Z
     else:
         Y = _rotate(Z, compiled, angles)
-    per_example = reduce == "none" and not single
     grad_p = reverse(Y, G, compiled, angles, per_example)
     grad_X = G.T
     if single:

@@ -1,12 +1,28 @@
-"""Compiled layer loop of the unary engine (numba).
+"""Compiled kernels of the unary engine (numba): whole circuits in one call.
 
-The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` applied gate by
-gate, in circuit order, to the rows of ``Z`` (n, B) in place: ``Z[i], Z[j] <- c Z[i] - s Z[j],
-s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes; docs/design.md, "RBS"). A row is a
-contiguous run of ``B`` numbers, so each gate is one vectorised loop, with no per-layer
-gathers, scatters or sparse-matrix bookkeeping. Without numba (or with ``QDENSITY_NUMBA=0``)
-the engine keeps its numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which
-give the same numbers to rounding.
+The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` are applied gate by
+gate, in circuit order, to the rows of a work array ``Z`` (n, b) in place: ``Z[i], Z[j] <- c
+Z[i] - s Z[j], s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes, Supp. D eq. 8). A row
+is a contiguous run of ``b`` batch columns, so each gate is one vectorised loop over the
+columns, with no per-layer gathers, scatters or sparse-matrix bookkeeping, and no Python
+between the gates: one call runs a whole circuit on a block of columns.
+
+* :func:`forward_block`: inputs ``X`` (B, n) rows ``[lo, hi)`` in, outputs out, the
+  transposes to and from the work layout done inside the call.
+* :func:`vjp_block`: forward pass and reverse pass of the same columns in one call. The
+  reverse pass walks the gates backwards; for gate ``g`` on ``(i, j)`` with outputs ``u`` and
+  output gradients ``d`` it adds ``coefficient[g] * (d_j . u_i - d_i . u_j)`` to its parameter
+  (``dL/dtheta``, :func:`qdensity.execution.unary.vjp`), then rotates ``u`` and ``d`` back by
+  ``-theta`` (orthogonal: the activations are recovered, none is stored).
+
+Column blocks are independent, so the callers run blocks in threads (the kernels release the
+GIL); every column goes through the same arithmetic whatever the blocks, so outputs and
+``dL/dX`` are bit-for-bit those of one block (a summed parameter gradient adds the blocks'
+partial sums, so it may differ in the last bits). The work array of a block (``n x b``
+numbers, twice that in the reverse pass) stays in the core's L2 cache for ``b <= 64`` up to
+``n`` of a few thousand. Without numba (or with ``QDENSITY_NUMBA=0``) the engine keeps its
+numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which give the same numbers
+to rounding.
 """
 
 from __future__ import annotations
@@ -15,7 +31,7 @@ import numpy as np
 
 from qdensity.execution import _numba
 
-__all__ = ["available", "givens"]
+__all__ = ["available", "givens", "forward_block", "vjp_block", "forward_values", "vjp_values"]
 
 
 def available() -> bool:
@@ -26,7 +42,7 @@ def available() -> bool:
 if _numba.available():
     jit = _numba.jit
 
-    @jit()
+    @jit(nogil=True)
     def _shared(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):
@@ -40,7 +56,7 @@ if _numba.available():
                 zi[b] = c * a - s * d
                 zj[b] = s * a + c * d
 
-    @jit()
+    @jit(nogil=True)
     def _per_column(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):
@@ -54,6 +70,130 @@ if _numba.available():
                 zi[b] = cg[b] * a - sg[b] * d
                 zj[b] = sg[b] * a + cg[b] * d
 
+    @jit(nogil=True)
+    def _load(Z, X, lo, hi):  # Z (n, hi - lo) = X[lo:hi].T
+        n = Z.shape[0]
+        for b in range(hi - lo):
+            for k in range(n):
+                Z[k, b] = X[lo + b, k]
+
+    @jit(nogil=True)
+    def _store(out, Z, lo, hi):  # out[lo:hi] = Z.T
+        n = Z.shape[0]
+        for b in range(hi - lo):
+            for k in range(n):
+                out[lo + b, k] = Z[k, b]
+
+    @jit(nogil=True)
+    def _forward_block(X, lo, hi, first, second, cos, sin, per_column, out):
+        Z = np.empty((X.shape[1], hi - lo))
+        _load(Z, X, lo, hi)
+        if per_column:
+            _per_column(Z, first, second, cos[:, lo:hi], sin[:, lo:hi])
+        else:
+            _shared(Z, first, second, cos[:, 0], sin[:, 0])
+        _store(out, Z, lo, hi)
+
+    @jit(nogil=True)
+    def _trig_values(values, pidx, coef, offset):  # (G, 1) cosines and sines of shared angles
+        G = pidx.shape[0]
+        cos = np.empty((G, 1))
+        sin = np.empty((G, 1))
+        for g in range(G):
+            a = offset[g]
+            if pidx[g] >= 0:
+                a += coef[g] * values[pidx[g]]
+            cos[g, 0] = np.cos(a)
+            sin[g, 0] = np.sin(a)
+        return cos, sin
+
+    @jit(nogil=True)
+    def _forward_values(X, values, first, second, pidx, coef, offset, composed, out):
+        cos, sin = _trig_values(values, pidx, coef, offset)
+        if not composed:
+            _forward_block(X, 0, X.shape[0], first, second, cos, sin, False, out)
+            return
+        # O (n, n) from the identity, then out = X @ O^T, row by row (vectorised over k)
+        n = X.shape[1]
+        O = np.eye(n)
+        _shared(O, first, second, cos[:, 0], sin[:, 0])
+        OT = np.ascontiguousarray(O.T)
+        for b in range(X.shape[0]):
+            row = out[b]
+            row[:] = 0.0
+            for j in range(n):
+                x = X[b, j]
+                oj = OT[j]
+                for k in range(n):
+                    row[k] += x * oj[k]
+
+    @jit(nogil=True, fastmath={"reassoc", "nsz"})
+    def _dot_diff(ui, uj, gi, gj):  # sum_b g_j u_i - g_i u_j (reassociated: vectorised)
+        acc = 0.0
+        for b in range(ui.shape[0]):
+            acc += gj[b] * ui[b] - gi[b] * uj[b]
+        return acc
+
+    @jit(nogil=True)
+    def _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin,
+                   per_column, per_example, grad, grad_X):
+        n, m = X.shape[1], hi - lo
+        U = np.empty((n, m))
+        D = np.empty((n, m))
+        _load(U, X, lo, hi)
+        _load(D, GY, lo, hi)
+        if not from_outputs:
+            if per_column:
+                _per_column(U, first, second, cos[:, lo:hi], sin[:, lo:hi])
+            else:
+                _shared(U, first, second, cos[:, 0], sin[:, 0])
+        for g in range(first.shape[0] - 1, -1, -1):
+            ui = U[first[g]]
+            uj = U[second[g]]
+            gi = D[first[g]]
+            gj = D[second[g]]
+            p = pidx[g]
+            if p >= 0:
+                a = coef[g]
+                if per_example:  # grad (P, B): columns [lo, hi) are this block's
+                    row = grad[p]
+                    for b in range(m):
+                        row[lo + b] += a * (gj[b] * ui[b] - gi[b] * uj[b])
+                else:  # grad (P, 1): this block's own partial sums
+                    grad[p, 0] += a * _dot_diff(ui, uj, gi, gj)
+            if per_column:
+                cg = cos[g, lo:hi]
+                sg = sin[g, lo:hi]
+                for b in range(m):
+                    x = ui[b]
+                    y = uj[b]
+                    ui[b] = cg[b] * x + sg[b] * y
+                    uj[b] = cg[b] * y - sg[b] * x
+                    x = gi[b]
+                    y = gj[b]
+                    gi[b] = cg[b] * x + sg[b] * y
+                    gj[b] = cg[b] * y - sg[b] * x
+            else:
+                c = cos[g, 0]
+                s = sin[g, 0]
+                for b in range(m):
+                    x = ui[b]
+                    y = uj[b]
+                    ui[b] = c * x + s * y
+                    uj[b] = c * y - s * x
+                    x = gi[b]
+                    y = gj[b]
+                    gi[b] = c * x + s * y
+                    gj[b] = c * y - s * x
+        _store(grad_X, D, lo, hi)
+
+    @jit(nogil=True)
+    def _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, offset, grad,
+                    grad_X):
+        cos, sin = _trig_values(values, pidx, coef, offset)
+        _vjp_block(X, GY, from_outputs, 0, X.shape[0], first, second, pidx, coef, cos, sin,
+                   False, False, grad, grad_X)
+
 
 def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
     """``O(angles) @ Z`` in place on ``Z`` (n, B), C-contiguous float64, and returned.
@@ -64,8 +204,77 @@ def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
     compiled : UnaryCircuit
     angles : numpy.ndarray, shape (G,) shared by the columns, or (G, B) one per column
     """
-    first = np.ascontiguousarray(compiled.first, dtype=np.int64)
-    second = np.ascontiguousarray(compiled.second, dtype=np.int64)
     run = _shared if angles.ndim == 1 else _per_column
-    run(Z, first, second, np.cos(angles), np.sin(angles))
+    run(Z, compiled._gate_rows[0], compiled._gate_rows[1], np.cos(angles), np.sin(angles))
     return Z
+
+
+def _trig(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Cosines and sines as (G, 1) for shared angles (G,) or (G, B) for per-column ones."""
+    a = angles if angles.ndim == 2 else angles[:, None]
+    return np.cos(a), np.sin(a), angles.ndim == 2
+
+
+def forward_block(X: np.ndarray, lo: int, hi: int, compiled, trig, out: np.ndarray) -> None:
+    """``out[lo:hi] = (O @ X[lo:hi].T).T`` for inputs ``X`` (B, n) C-contiguous float64.
+
+    Parameters
+    ----------
+    X, out : numpy.ndarray, shape (B, n)
+    lo, hi : int
+        The block of batch rows.
+    compiled : UnaryCircuit
+    trig : tuple
+        :func:`_trig` of the gate angles.
+    """
+    first, second = compiled._gate_rows
+    _forward_block(X, lo, hi, first, second, trig[0], trig[1], trig[2], out)
+
+
+def vjp_block(X: np.ndarray, GY: np.ndarray, from_outputs: bool, lo: int, hi: int, compiled,
+              trig, per_example: bool, grad: np.ndarray, grad_X: np.ndarray) -> None:
+    """Reverse pass of the rows ``[lo, hi)`` (and their forward pass unless ``from_outputs``).
+
+    Parameters
+    ----------
+    X : numpy.ndarray, shape (B, n)
+        Inputs, or the outputs when ``from_outputs``.
+    GY : numpy.ndarray, shape (B, n)
+        ``dL/dY``.
+    compiled : UnaryCircuit
+    trig : tuple
+        :func:`_trig` of the gate angles.
+    per_example : bool
+        ``grad`` is (P, B) and gets columns ``[lo, hi)``; else (P, 1) and gets this block's
+        sum.
+    grad : numpy.ndarray, shape (P, B) or (P, 1)
+        Added to.
+    grad_X : numpy.ndarray, shape (B, n)
+        Rows ``[lo, hi)`` set to ``dL/dX``.
+    """
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, trig[0], trig[1],
+               trig[2], per_example, grad, grad_X)
+
+
+def forward_values(X: np.ndarray, values: np.ndarray, compiled, out: np.ndarray,
+                   composed: bool = False) -> None:
+    """:func:`forward_block` of all rows for values (P,) shared by the rows, the angles and
+    their cosines and sines computed in the same compiled call (small circuits: no numpy
+    calls between the arguments and the kernel). ``composed``: build ``O`` (n, n) from the
+    identity (``6 G n`` flops) and multiply (``2 n^2 B``) instead of rotating the rows
+    (``6 G B``)."""
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    _forward_values(X, values, first, second, pidx, coef, compiled._gate_offset, composed, out)
+
+
+def vjp_values(X: np.ndarray, GY: np.ndarray, from_outputs: bool, values: np.ndarray,
+               compiled, grad: np.ndarray, grad_X: np.ndarray) -> None:
+    """:func:`vjp_block` of all rows for values (P,) shared by the rows, summed gradient
+    ``grad`` (P, 1), the angles computed in the same compiled call."""
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, compiled._gate_offset,
+                grad, grad_X)
