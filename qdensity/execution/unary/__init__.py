@@ -49,8 +49,8 @@ from qdensity.analysis.gate_registry import GIVENS_GATES
 from qdensity.analysis.structure import parameter_of
 from qdensity.execution.unary import _kernels
 from qdensity.execution.unary import _torch as _on_torch
-from qdensity.execution.unary._compiled import forward_rows, vjp_rows
 from qdensity.execution.unary._circuit import UnaryCircuit
+from qdensity.execution.unary._compiled import forward_rows, vjp_rows
 from qdensity.execution.unary._inputs import batch as _batch
 from qdensity.execution.unary._inputs import inputs as _inputs
 from qdensity.execution.unary._inputs import rows_values as _rows_values
