@@ -30,12 +30,18 @@ Torch tensors (the optional ``torch`` extra): when an array argument of :func:`f
 :func:`vjp` or :func:`jacobian` is a ``torch.Tensor``, the same layers run on its device (CPU
 or CUDA) and dtype (float32 or float64) and the results are tensors there (:mod:`._torch`).
 
-Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
-per thread) runs the forward pass as contiguous column blocks in threads, with results
-bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
-environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1`` disables the threads;
-anything else raises ``ValueError``). The layer loop is scipy's sparse kernel, not numpy's
-BLAS, so BLAS thread settings do not multiply with these threads.
+Execution: with numba (a core dependency) one compiled call runs the whole circuit on a block
+of batch rows -- the forward pass, or the forward and reverse pass of :func:`vjp` -- with no
+Python between gates or layers (:mod:`._kernels`); without it (``QDENSITY_NUMBA=0``) the
+layers run as numpy / scipy sparse products (:mod:`._plan`), same numbers to rounding.
+
+Threads: a wide enough batch (about ``2**23`` multiply-adds per thread) is cut into contiguous
+row blocks run in threads, with outputs and input gradients bit-for-bit those of one thread
+(a summed parameter gradient adds the blocks' partial sums). The number is the usable cores
+(at most 8), or the environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1``
+disables the threads; anything else raises ``ValueError``). The kernels are plain loops, not
+numpy's BLAS (but for the product of a composed ``O``), so BLAS thread settings do not multiply
+with these threads.
 """
 
 from __future__ import annotations
@@ -232,9 +238,9 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
 
     Notes
     -----
-    Shared values: ``O`` is built once (``O(G n)``) and applied as one matrix product.
-    Per-row values: the Givens rotations are applied gate by gate to the whole batch,
-    ``O(G B)`` flops.
+    The Givens rotations are applied gate by gate to the batch, ``6 G B`` flops. With shared
+    values, ``O`` is built first (``6 G n``) and applied as one matrix product (``2 n^2 B``)
+    when that costs fewer (weighted) flops: a deep circuit on a batch much wider than ``n``.
 
     Examples
     --------
