@@ -20,9 +20,10 @@ __all__: list[str] = []
 # multiply-adds per column and gate: 4 in the forward pass, 4 more in the reverse pass's
 # rotations of the activations and 4 of the gradients (its dot products add 2)
 _FORWARD_WORK, _VJP_WORK = 4, 14
-# Gates up to which the angles' cosines and sines are computed inside the kernel call (scalar
-# libm calls, ~20 ns each) rather than by numpy's vectorised ufuncs (a few us per call, then
-# ~1 ns each): below this, the numpy calls cost more than they save.
+# Gates up to which a single block with shared values computes its angles inside the kernel
+# call (no numpy calls between the arguments and the kernel: a few us saved per call); larger
+# circuits compute them once with numpy and the compiled sin / cos (the same numbers), as the
+# threaded path must.
 _SMALL = 2048
 # Measured (round-robin circuits, batch 64, one core): building O and multiplying ran 1.2-1.5x
 # slower than rotating the rows at n = 8-48 for 0.8-1.2x the flops, so composing is chosen
@@ -53,13 +54,12 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
     (B, n), G = X.shape, compiled.num_gates
     out = np.empty_like(X)
     ranges = blocks(B, _FORWARD_WORK * G)
-    compose = values.ndim == 1 and composed_cheaper(n, G, B)
-    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
-        _kernels.forward_values(X, values, compiled, out, compose)
-        return out
-    if compose:  # O once (one thread), then BLAS
+    if values.ndim == 1 and composed_cheaper(n, G, B):  # O once (one thread), then BLAS
         O = _kernels.givens(np.eye(n), compiled, compiled.angles(values))
         return np.matmul(X, O.T, out=out)
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
+        _kernels.forward_values(X, values, compiled, out)
+        return out
     trig = _kernels._trig(compiled.angles(values))
     run_blocks(lambda lo, hi: _kernels.forward_block(X, lo, hi, compiled, trig, out), ranges)
     return out

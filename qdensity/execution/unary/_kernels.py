@@ -98,13 +98,17 @@ if _numba.available():
                 out[lo + b, k] = Z[k, b]
 
     @jit(nogil=True)
-    def _forward_block(X, lo, hi, first, second, cos, sin, per_column, out):
+    def _forward_shared(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G,)
         Z = np.empty((X.shape[1], hi - lo))
         _load(Z, X, lo, hi)
-        if per_column:
-            _per_column(Z, first, second, cos[:, lo:hi], sin[:, lo:hi])
-        else:
-            _shared(Z, first, second, cos[:, 0], sin[:, 0])
+        _shared(Z, first, second, cos, sin)
+        _store(out, Z, lo, hi)
+
+    @jit(nogil=True)
+    def _forward_cols(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G, B)
+        Z = np.empty((X.shape[1], hi - lo))
+        _load(Z, X, lo, hi)
+        _per_column(Z, first, second, cos[:, lo:hi], sin[:, lo:hi])
         _store(out, Z, lo, hi)
 
     @jit(nogil=True)
@@ -144,36 +148,21 @@ if _numba.available():
                 sin[k] = np.sin(a[k])
 
     @jit(nogil=True)
-    def _trig_values(values, pidx, coef, offset):  # (G, 1) cosines and sines of shared angles
+    def _trig_values(values, pidx, coef, offset):  # (G,) cosines and sines of shared angles
         G = pidx.shape[0]
         a = offset.copy()
         for g in range(G):
             if pidx[g] >= 0:
                 a[g] += coef[g] * values[pidx[g]]
-        cos = np.empty((G, 1))
-        sin = np.empty((G, 1))
-        _sincos(a, cos[:, 0], sin[:, 0])
+        cos = np.empty(G)
+        sin = np.empty(G)
+        _sincos(a, cos, sin)
         return cos, sin
 
     @jit(nogil=True)
-    def _forward_values(X, values, first, second, pidx, coef, offset, composed, out):
+    def _forward_values(X, values, first, second, pidx, coef, offset, out):
         cos, sin = _trig_values(values, pidx, coef, offset)
-        if not composed:
-            _forward_block(X, 0, X.shape[0], first, second, cos, sin, False, out)
-            return
-        # O (n, n) from the identity, then out = X @ O^T, row by row (vectorised over k)
-        n = X.shape[1]
-        O = np.eye(n)
-        _shared(O, first, second, cos[:, 0], sin[:, 0])
-        OT = np.ascontiguousarray(O.T)
-        for b in range(X.shape[0]):
-            row = out[b]
-            row[:] = 0.0
-            for j in range(n):
-                x = X[b, j]
-                oj = OT[j]
-                for k in range(n):
-                    row[k] += x * oj[k]
+        _forward_shared(X, 0, X.shape[0], first, second, cos, sin, out)
 
     @jit(nogil=True, fastmath={"reassoc", "nsz"})
     def _vjp_sum(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin, grad,
@@ -186,11 +175,11 @@ if _numba.available():
         _load(U, X, lo, hi)
         _load(D, GY, lo, hi)
         if not from_outputs:
-            _shared(U, first, second, cos[:, 0], sin[:, 0])
+            _shared(U, first, second, cos, sin)
         for g in range(first.shape[0] - 1, -1, -1):
             ui, uj = U[first[g]], U[second[g]]
             gi, gj = D[first[g]], D[second[g]]
-            c, s = cos[g, 0], sin[g, 0]
+            c, s = cos[g], sin[g]
             acc = 0.0
             for b in range(m):
                 x, y, r, t = ui[b], uj[b], gi[b], gj[b]
@@ -296,8 +285,9 @@ def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
 
 
 def _trig(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Cosines and sines as (G, 1) for shared angles (G,) or (G, B) for per-column ones."""
-    a = np.ascontiguousarray(angles if angles.ndim == 2 else angles[:, None], dtype=float)
+    """Cosines and sines, (G,) for shared angles or (G, B) for per-column ones; whether
+    per-column."""
+    a = np.ascontiguousarray(angles, dtype=float)
     cos, sin = np.empty(a.shape), np.empty(a.shape)
     _sincos(a.reshape(-1), cos.reshape(-1), sin.reshape(-1))
     return cos, sin, angles.ndim == 2
@@ -324,7 +314,8 @@ def forward_block(X: np.ndarray, lo: int, hi: int, compiled, trig, out: np.ndarr
         :func:`_trig` of the gate angles.
     """
     first, second = compiled._gate_rows
-    _forward_block(X, lo, hi, first, second, trig[0], trig[1], trig[2], out)
+    run = _forward_cols if trig[2] else _forward_shared
+    run(X, lo, hi, first, second, trig[0], trig[1], out)
 
 
 def vjp_block(X: np.ndarray, GY: np.ndarray, from_outputs: bool, lo: int, hi: int, compiled,
@@ -354,20 +345,18 @@ def vjp_block(X: np.ndarray, GY: np.ndarray, from_outputs: bool, lo: int, hi: in
         _vjp_sum(X, GY, from_outputs, lo, hi, first, second, pidx, coef, trig[0], trig[1], grad,
                  grad_X)
         return
-    _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, trig[0], trig[1],
-               trig[2], per_example, grad, grad_X)
+    cos, sin = (trig[0], trig[1]) if trig[2] else (trig[0][:, None], trig[1][:, None])
+    _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin, trig[2],
+               per_example, grad, grad_X)
 
 
-def forward_values(X: np.ndarray, values: np.ndarray, compiled, out: np.ndarray,
-                   composed: bool = False) -> None:
+def forward_values(X: np.ndarray, values: np.ndarray, compiled, out: np.ndarray) -> None:
     """:func:`forward_block` of all rows for values (P,) shared by the rows, the angles and
     their cosines and sines computed in the same compiled call (small circuits: no numpy
-    calls between the arguments and the kernel). ``composed``: build ``O`` (n, n) from the
-    identity (``6 G n`` flops) and multiply (``2 n^2 B``) instead of rotating the rows
-    (``6 G B``)."""
+    calls between the arguments and the kernel)."""
     first, second = compiled._gate_rows
     pidx, coef = compiled._gate_params
-    _forward_values(X, values, first, second, pidx, coef, compiled._gate_offset, composed, out)
+    _forward_values(X, values, first, second, pidx, coef, compiled._gate_offset, out)
 
 
 def vjp_values(X: np.ndarray, GY: np.ndarray, from_outputs: bool, values: np.ndarray,
