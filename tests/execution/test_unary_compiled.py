@@ -150,14 +150,16 @@ def test_row_blocks_in_threads(blocks_in_threads, k, per_row):
 
 
 def test_inputs_of_other_dtypes_and_layouts():
-    """Integer, Fortran-ordered and strided inputs take the checked path: same numbers."""
+    """Integer, Fortran-ordered, strided and read-only inputs: same numbers."""
     uc, pairs = circuit(5, seed=1)
     rng = np.random.default_rng(1)
     V = rng.normal(size=uc.num_parameters)
     Xi = rng.integers(-3, 4, size=(6, 5))
     expected = Xi @ dense(5, pairs, uc.angles(V)).T
+    frozen = Xi.astype(float)
+    frozen.setflags(write=False)
     for X in (Xi, np.asfortranarray(Xi, dtype=float), np.repeat(Xi.astype(float), 2, 0)[::2],
-              Xi.tolist()):
+              Xi.tolist(), frozen):
         np.testing.assert_allclose(forward(uc, X, V), expected, atol=TOL)
     np.testing.assert_allclose(forward(uc, Xi, V[::1].tolist()), expected, atol=TOL)
     np.testing.assert_allclose(forward(uc, Xi, np.repeat(V, 2)[::2]), expected, atol=TOL)

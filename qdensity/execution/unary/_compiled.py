@@ -28,13 +28,14 @@ _SMALL = 2048
 # Measured (round-robin circuits, batch 64, one core): building O and multiplying ran 1.2-1.5x
 # slower than rotating the rows at n = 8-48 for 0.8-1.2x the flops, so composing is chosen
 # only when its flops are below 1 / 1.5 of rotating's (a deep circuit, a batch much wider than
-# n). With batch 64 the rows are rotated at every width.
+# n). With batch 64 the rows are rotated at every width. (Measured with a compiled loop for
+# the product; BLAS's is faster, so the weight errs towards rotating.)
 COMPOSE_WEIGHT = 1.5
 
 
 def composed_cheaper(n: int, G: int, B: int) -> bool:
     """Whether building ``O`` (``6 G n`` flops) and multiplying (``2 n^2 B``) beats rotating
-    the ``B`` rows (``6 G B``), the product's flops weighted ``COMPOSE_WEIGHT``."""
+    the ``B`` rows (``6 G B``), the composed route's flops weighted ``COMPOSE_WEIGHT``."""
     return COMPOSE_WEIGHT * (6 * G * n + 2 * n * n * B) < 6 * G * B
 
 
