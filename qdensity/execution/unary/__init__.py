@@ -30,12 +30,18 @@ Torch tensors (the optional ``torch`` extra): when an array argument of :func:`f
 :func:`vjp` or :func:`jacobian` is a ``torch.Tensor``, the same layers run on its device (CPU
 or CUDA) and dtype (float32 or float64) and the results are tensors there (:mod:`._torch`).
 
-Threads: with values shared by the batch, a wide enough batch (about ``2**23`` multiply-adds
-per thread) runs the forward pass as contiguous column blocks in threads, with results
-bit-for-bit those of one thread. The number is the usable cores (at most 8), or the
-environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1`` disables the threads;
-anything else raises ``ValueError``). The layer loop is scipy's sparse kernel, not numpy's
-BLAS, so BLAS thread settings do not multiply with these threads.
+Execution: with numba (a core dependency) one compiled call runs the whole circuit on a block
+of batch rows -- the forward pass, or the forward and reverse pass of :func:`vjp` -- with no
+Python between gates or layers (:mod:`._kernels`); without it (``QDENSITY_NUMBA=0``) the
+layers run as numpy / scipy sparse products (:mod:`._plan`), same numbers to rounding.
+
+Threads: a wide enough batch (about ``2**23`` multiply-adds per thread) is cut into contiguous
+row blocks run in threads, with outputs and input gradients bit-for-bit those of one thread
+(a summed parameter gradient adds the blocks' partial sums). The number is the usable cores
+(at most 8), or the environment variable ``QDENSITY_NUM_THREADS`` (an integer >= 1; ``1``
+disables the threads; anything else raises ``ValueError``). The kernels are plain loops, not
+numpy's BLAS (but for the product of a composed ``O``), so BLAS thread settings do not multiply
+with these threads.
 """
 
 from __future__ import annotations
@@ -47,10 +53,13 @@ from qiskit.circuit import ParameterExpression, QuantumCircuit
 
 from qdensity.analysis.gate_registry import GIVENS_GATES
 from qdensity.analysis.structure import parameter_of
+from qdensity.execution.unary import _kernels
 from qdensity.execution.unary import _torch as _on_torch
 from qdensity.execution.unary._circuit import UnaryCircuit
+from qdensity.execution.unary._compiled import forward_rows, vjp_rows
 from qdensity.execution.unary._inputs import batch as _batch
 from qdensity.execution.unary._inputs import inputs as _inputs
+from qdensity.execution.unary._inputs import rows_values as _rows_values
 from qdensity.execution.unary._inputs import values as _values
 from qdensity.execution.unary._plan import reverse
 from qdensity.execution.unary._plan import rotate_columns as _rotate
@@ -229,9 +238,9 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
 
     Notes
     -----
-    Shared values: ``O`` is built once (``O(G n)``) and applied as one matrix product.
-    Per-row values: the Givens rotations are applied gate by gate to the whole batch,
-    ``O(G B)`` flops.
+    The Givens rotations are applied gate by gate to the batch, ``6 G B`` flops. With shared
+    values, ``O`` is built first (``6 G n``) and applied as one matrix product (``2 n^2 B``)
+    when that costs fewer (weighted) flops: a deep circuit on a batch much wider than ``n``.
 
     Examples
     --------
@@ -241,9 +250,13 @@ def forward(circuit: QuantumCircuit | UnaryCircuit, X, values=None) -> np.ndarra
     >>> y.tolist()
     [1.0, 0.0, 0.0, 0.0]
     """
-    compiled = compile_unary(circuit)
+    compiled = circuit if isinstance(circuit, UnaryCircuit) else compile_unary(circuit)
     if _on_torch.any_tensor(X, values):
         return _on_torch.forward(compiled, X, values)
+    if _kernels.available():  # one compiled call per block of rows: the whole circuit
+        Xr, v, single = _rows_values(compiled, X, values, declared=True)
+        Y = forward_rows(Xr, compiled, v)
+        return Y[0].copy() if single else Y
     Z, angles, single = _batch(compiled, X, values)
     if angles.ndim == 1 and Z.shape[1] > compiled.num_qubits:
         Z = _rotate(np.eye(compiled.num_qubits), compiled, angles) @ Z
@@ -311,27 +324,36 @@ def vjp(
     >>> gv.round(12).tolist(), gx.round(12).tolist()
     ([1.0], [0.0, 1.0])
     """
-    compiled = compile_unary(circuit)
+    compiled = circuit if isinstance(circuit, UnaryCircuit) else compile_unary(circuit)
     if _on_torch.any_tensor(X, values, grad_Y, outputs):
         return _on_torch.vjp(compiled, X, values, grad_Y, reduce, outputs)
-    Z, angles, single = _batch(compiled, X, values)
-    n, B = Z.shape
+    Xr, v, single = _rows_values(compiled, X, values, declared=True)
+    B, n = Xr.shape
     gy = np.asarray(grad_Y, dtype=float)  # declared real and finite
     expected = (n,) if single else (B, n)
     if gy.shape != expected:
         raise ValueError(f"grad_Y must have the output's shape {expected}, got {gy.shape}")
+    if outputs is not None and np.shape(outputs) != expected:
+        raise ValueError(f"outputs must have the output's shape {expected}, got "
+                         f"{np.shape(outputs)}")
+    per_example = reduce == "none" and not single
+    if _kernels.available():  # forward and reverse pass in one compiled call per row block
+        src = Xr if outputs is None else np.ascontiguousarray(np.atleast_2d(outputs),
+                                                               dtype=float)
+        grad_p, gX = vjp_rows(src, np.ascontiguousarray(np.atleast_2d(gy), dtype=float),
+                              outputs is not None, compiled, v, per_example)
+        if single:
+            return grad_p, gX[0].copy()
+        return (np.ascontiguousarray(grad_p.T) if per_example else grad_p), gX
+    Z, angles = np.array(Xr.T, order="C"), compiled.angles(v)
     G = np.array(np.atleast_2d(gy).T, dtype=float, order="C")
     # forward to the outputs (or start from the caller's)
     if outputs is not None:
-        if np.shape(outputs) != expected:
-            raise ValueError(f"outputs must have the output's shape {expected}, got "
-                             f"{np.shape(outputs)}")
         Y = np.array(np.atleast_2d(outputs).T, dtype=float, order="C")
     elif angles.ndim == 1 and B > n:
         Y = _rotate(np.eye(n), compiled, angles) @ Z
     else:
         Y = _rotate(Z, compiled, angles)
-    per_example = reduce == "none" and not single
     grad_p = reverse(Y, G, compiled, angles, per_example)
     grad_X = G.T
     if single:

@@ -157,6 +157,20 @@ class UnaryCircuit:
         return picked
 
     @cached_property
+    def _gate_rows(self) -> tuple[np.ndarray, np.ndarray]:  # first, second as int64 (kernels)
+        return (np.ascontiguousarray(self.first, dtype=np.int64),
+                np.ascontiguousarray(self.second, dtype=np.int64))
+
+    @cached_property
+    def _gate_params(self) -> tuple[np.ndarray, np.ndarray]:  # parameter index, coefficient
+        return (np.ascontiguousarray(self.parameter_index, dtype=np.int64),
+                np.ascontiguousarray(self.coefficient, dtype=np.float64))
+
+    @cached_property
+    def _gate_offset(self) -> np.ndarray:  # offsets as contiguous float64 (kernels)
+        return np.ascontiguousarray(self.offset, dtype=np.float64)
+
+    @cached_property
     def _angle_map(self) -> tuple[np.ndarray, np.ndarray]:  # parameter of each gate, scale
         free = self.parameter_index >= 0
         return np.where(free, self.parameter_index, 0), self.coefficient * free

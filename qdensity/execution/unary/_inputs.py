@@ -38,6 +38,26 @@ def inputs(compiled, X, name: str = "X") -> np.ndarray:
 
 def batch(compiled, X, values_, xname: str = "X"):
     """Columns (n, B) of inputs, angles (G,) or (G, B), whether the output is 1-d."""
+    x2, angles, single = rows(compiled, X, values_, xname)
+    return np.array(x2.T, dtype=float, order="C"), angles, single
+
+
+def rows(compiled, X, values_, xname: str = "X"):
+    """Rows (B, n) of inputs (C-contiguous float64), angles (G,) or (G, B), whether the output
+    is 1-d."""
+    x2, v, single = rows_values(compiled, X, values_, xname)
+    return x2, compiled.angles(v), single
+
+
+def rows_values(compiled, X, values_, xname: str = "X", declared: bool = False):
+    """Rows (B, n) of inputs (C-contiguous float64), values (P,) or (B, P), whether the output
+    is 1-d. ``declared``: the caller's declarations have checked that ``X`` and ``values_``
+    are real and finite (float64 arrays of the right widths then skip the checks here)."""
+    if (declared and type(X) is np.ndarray and type(values_) is np.ndarray
+            and X.dtype == np.float64 and values_.dtype == np.float64 and X.ndim == 2
+            and values_.ndim == 1 and X.shape[1] == compiled.num_qubits
+            and values_.shape[0] == compiled.num_parameters and X.flags.c_contiguous):
+        return X, values_, False
     x = inputs(compiled, X, xname)
     v = values(compiled, values_)
     single = x.ndim == 1 and v.ndim == 1
@@ -49,5 +69,4 @@ def batch(compiled, X, values_, xname: str = "X"):
                 f"values has {v.shape[0]} rows but {xname} has {x.shape[0]} rows; give one "
                 "parameter row per input, or values of shape (P,) shared by the batch"
             )
-    x2 = np.atleast_2d(x)
-    return np.array(x2.T, dtype=float, order="C"), compiled.angles(v), single
+    return np.ascontiguousarray(np.atleast_2d(x), dtype=float), v, single

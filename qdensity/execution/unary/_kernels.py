@@ -1,12 +1,28 @@
-"""Compiled layer loop of the unary engine (numba).
+"""Compiled kernels of the unary engine (numba): whole circuits in one call.
 
-The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` applied gate by
-gate, in circuit order, to the rows of ``Z`` (n, B) in place: ``Z[i], Z[j] <- c Z[i] - s Z[j],
-s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes; docs/design.md, "RBS"). A row is a
-contiguous run of ``B`` numbers, so each gate is one vectorised loop, with no per-layer
-gathers, scatters or sparse-matrix bookkeeping. Without numba (or with ``QDENSITY_NUMBA=0``)
-the engine keeps its numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which
-give the same numbers to rounding.
+The Givens rotations of a :class:`~qdensity.execution.unary.UnaryCircuit` are applied gate by
+gate, in circuit order, to the rows of a work array ``Z`` (n, b) in place: ``Z[i], Z[j] <- c
+Z[i] - s Z[j], s Z[i] + c Z[j]`` (the paper's RBS on unary amplitudes, Supp. D eq. 8). A row
+is a contiguous run of ``b`` batch columns, so each gate is one vectorised loop over the
+columns, with no per-layer gathers, scatters or sparse-matrix bookkeeping, and no Python
+between the gates: one call runs a whole circuit on a block of columns.
+
+* :func:`forward_block`: inputs ``X`` (B, n) rows ``[lo, hi)`` in, outputs out, the
+  transposes to and from the work layout done inside the call.
+* :func:`vjp_block`: forward pass and reverse pass of the same columns in one call. The
+  reverse pass walks the gates backwards; for gate ``g`` on ``(i, j)`` with outputs ``u`` and
+  output gradients ``d`` it adds ``coefficient[g] * (d_j . u_i - d_i . u_j)`` to its parameter
+  (``dL/dtheta``, :func:`qdensity.execution.unary.vjp`), then rotates ``u`` and ``d`` back by
+  ``-theta`` (orthogonal: the activations are recovered, none is stored).
+
+Column blocks are independent, so the callers run blocks in threads (the kernels release the
+GIL); every column goes through the same arithmetic whatever the blocks, so outputs and
+``dL/dX`` are bit-for-bit those of one block (a summed parameter gradient adds the blocks'
+partial sums, so it may differ in the last bits). The work array of a block (``n x b``
+numbers, twice that in the reverse pass) stays in the core's L2 cache for ``b <= 64`` up to
+``n`` of a few thousand. Without numba (or with ``QDENSITY_NUMBA=0``) the engine keeps its
+numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which give the same numbers
+to rounding.
 """
 
 from __future__ import annotations
@@ -15,7 +31,20 @@ import numpy as np
 
 from qdensity.execution import _numba
 
-__all__ = ["available", "givens"]
+__all__ = ["available", "givens", "forward_block", "vjp_block", "forward_values", "vjp_values"]
+
+# sin / cos of the gate angles (FreeBSD msun's argument reduction by pi/2 in three parts and
+# its sin / cos kernels on [-pi/4, pi/4], branch-free so the loop vectorises): within 1 ulp of
+# libm, about 8x faster than numpy's ufuncs. |angle| >= _TRIG_LIMIT goes to libm.
+_INVPIO2 = 6.36619772367581382433e-01
+_P1, _P1T = 1.57079632673412561417e+00, 6.07710050650619224932e-11
+_P2, _P2T = 6.07710050630396597660e-11, 2.02226624879595063154e-21
+_P3, _P3T = 2.02226624871116645580e-21, 8.47842766036889956997e-32
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_TRIG_LIMIT = 1.0e5
 
 
 def available() -> bool:
@@ -26,7 +55,7 @@ def available() -> bool:
 if _numba.available():
     jit = _numba.jit
 
-    @jit()
+    @jit(nogil=True)
     def _shared(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):
@@ -40,7 +69,7 @@ if _numba.available():
                 zi[b] = c * a - s * d
                 zj[b] = s * a + c * d
 
-    @jit()
+    @jit(nogil=True)
     def _per_column(Z, first, second, cos, sin):
         B = Z.shape[1]
         for g in range(first.shape[0]):
@@ -54,6 +83,191 @@ if _numba.available():
                 zi[b] = cg[b] * a - sg[b] * d
                 zj[b] = sg[b] * a + cg[b] * d
 
+    @jit(nogil=True)
+    def _load(Z, X, lo, hi):  # Z (n, hi - lo) = X[lo:hi].T
+        n = Z.shape[0]
+        for b in range(hi - lo):
+            for k in range(n):
+                Z[k, b] = X[lo + b, k]
+
+    @jit(nogil=True)
+    def _store(out, Z, lo, hi):  # out[lo:hi] = Z.T
+        n = Z.shape[0]
+        for b in range(hi - lo):
+            for k in range(n):
+                out[lo + b, k] = Z[k, b]
+
+    @jit(nogil=True)
+    def _forward_shared(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G,)
+        Z = np.empty((X.shape[1], hi - lo))
+        _load(Z, X, lo, hi)
+        _shared(Z, first, second, cos, sin)
+        _store(out, Z, lo, hi)
+
+    @jit(nogil=True)
+    def _forward_cols(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G, B)
+        Z = np.empty((X.shape[1], hi - lo))
+        _load(Z, X, lo, hi)
+        _per_column(Z, first, second, cos[:, lo:hi], sin[:, lo:hi])
+        _store(out, Z, lo, hi)
+
+    @jit(nogil=True)
+    def _sincos(a, cos, sin):  # cos, sin (same size as a, flat) of the angles a
+        for k in range(a.shape[0]):
+            x = a[k]
+            fn = np.rint(x * _INVPIO2)  # x = fn pi/2 + (y0 + y1), |y0| <= pi/4
+            r = x - fn * _P1
+            w = fn * _P1T
+            t = r
+            w = fn * _P2
+            r = t - w
+            w = fn * _P2T - ((t - r) - w)
+            t = r
+            w = fn * _P3
+            r = t - w
+            w = fn * _P3T - ((t - r) - w)
+            y0 = r - w
+            y1 = (r - y0) - w
+            z = y0 * y0
+            v = z * y0
+            rs = _S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))
+            sy = y0 - ((z * (0.5 * y1 - v * rs) - y1) - v * _S1)
+            rc = z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
+            hz = 0.5 * z
+            ww = 1.0 - hz
+            cy = ww + (((1.0 - ww) - hz) + (z * rc - y0 * y1))
+            q = np.int64(fn)  # quadrant: (cos, sin) = (cy, sy), (-sy, cy), (-cy, -sy), (sy, -cy)
+            odd = (q & 1) == 1
+            cc = sy if odd else cy
+            ss = cy if odd else sy
+            cos[k] = -cc if ((q + 1) & 2) != 0 else cc
+            sin[k] = -ss if (q & 2) != 0 else ss
+        for k in range(a.shape[0]):
+            if not abs(a[k]) < _TRIG_LIMIT:
+                cos[k] = np.cos(a[k])
+                sin[k] = np.sin(a[k])
+
+    @jit(nogil=True)
+    def _trig_values(values, pidx, coef, offset):  # (G,) cosines and sines of shared angles
+        G = pidx.shape[0]
+        a = offset.copy()
+        for g in range(G):
+            if pidx[g] >= 0:
+                a[g] += coef[g] * values[pidx[g]]
+        cos = np.empty(G)
+        sin = np.empty(G)
+        _sincos(a, cos, sin)
+        return cos, sin
+
+    @jit(nogil=True)
+    def _forward_values(X, values, first, second, pidx, coef, offset, out):
+        cos, sin = _trig_values(values, pidx, coef, offset)
+        _forward_shared(X, 0, X.shape[0], first, second, cos, sin, out)
+
+    @jit(nogil=True, fastmath={"reassoc", "nsz"})
+    def _vjp_sum(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin, grad,
+                 grad_X):
+        # _vjp_block for shared angles and a summed gradient (training's case) on its own:
+        # inside the general kernel, its flags' branches made this loop 2x slower
+        n, m = X.shape[1], hi - lo
+        U = np.empty((n, m))
+        D = np.empty((n, m))
+        _load(U, X, lo, hi)
+        _load(D, GY, lo, hi)
+        if not from_outputs:
+            _shared(U, first, second, cos, sin)
+        for g in range(first.shape[0] - 1, -1, -1):
+            ui, uj = U[first[g]], U[second[g]]
+            gi, gj = D[first[g]], D[second[g]]
+            c, s = cos[g], sin[g]
+            acc = 0.0
+            for b in range(m):
+                x, y, r, t = ui[b], uj[b], gi[b], gj[b]
+                acc += t * x - r * y
+                ui[b] = c * x + s * y
+                uj[b] = c * y - s * x
+                gi[b] = c * r + s * t
+                gj[b] = c * t - s * r
+            p = pidx[g]
+            if p >= 0:
+                grad[p, 0] += coef[g] * acc
+        _store(grad_X, D, lo, hi)
+
+    # The reverse pass, gate by gate backwards, on its rows u_i, u_j (activations) and g_i,
+    # g_j (gradients), in one sweep over the columns: the gate's dot g_j u_i - g_i u_j,
+    # summed (reassociated: vectorised) or per column into ``row``, then both pairs rotated
+    # back. The loops are written out here (not called): as separate functions they ran 2x
+    # slower.
+    @jit(nogil=True, fastmath={"reassoc", "nsz"})
+    def _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin,
+                   per_column, per_example, grad, grad_X):
+        n, m = X.shape[1], hi - lo
+        U = np.empty((n, m))
+        D = np.empty((n, m))
+        _load(U, X, lo, hi)
+        _load(D, GY, lo, hi)
+        if not from_outputs:
+            if per_column:
+                _per_column(U, first, second, cos[:, lo:hi], sin[:, lo:hi])
+            else:
+                _shared(U, first, second, cos[:, 0], sin[:, 0])
+        scratch = np.zeros(m)  # the dots of a fixed gate (per example), discarded
+        for g in range(first.shape[0] - 1, -1, -1):
+            ui, uj = U[first[g]], U[second[g]]
+            gi, gj = D[first[g]], D[second[g]]
+            p = pidx[g]
+            a = coef[g]
+            if per_example:  # grad (P, B): columns [lo, hi) are this block's
+                row = grad[p, lo:hi] if p >= 0 else scratch
+                if per_column:
+                    cb, sb = cos[g, lo:hi], sin[g, lo:hi]
+                    for b in range(ui.shape[0]):
+                        x, y, r, t = ui[b], uj[b], gi[b], gj[b]
+                        row[b] += a * (t * x - r * y)
+                        ui[b] = cb[b] * x + sb[b] * y
+                        uj[b] = cb[b] * y - sb[b] * x
+                        gi[b] = cb[b] * r + sb[b] * t
+                        gj[b] = cb[b] * t - sb[b] * r
+                else:
+                    c, s = cos[g, 0], sin[g, 0]
+                    for b in range(ui.shape[0]):
+                        x, y, r, t = ui[b], uj[b], gi[b], gj[b]
+                        row[b] += a * (t * x - r * y)
+                        ui[b] = c * x + s * y
+                        uj[b] = c * y - s * x
+                        gi[b] = c * r + s * t
+                        gj[b] = c * t - s * r
+            else:  # grad (P, 1): this block's own partial sums
+                acc = 0.0
+                if per_column:
+                    cb, sb = cos[g, lo:hi], sin[g, lo:hi]
+                    for b in range(ui.shape[0]):
+                        x, y, r, t = ui[b], uj[b], gi[b], gj[b]
+                        acc += t * x - r * y
+                        ui[b] = cb[b] * x + sb[b] * y
+                        uj[b] = cb[b] * y - sb[b] * x
+                        gi[b] = cb[b] * r + sb[b] * t
+                        gj[b] = cb[b] * t - sb[b] * r
+                else:
+                    c, s = cos[g, 0], sin[g, 0]
+                    for b in range(ui.shape[0]):
+                        x, y, r, t = ui[b], uj[b], gi[b], gj[b]
+                        acc += t * x - r * y
+                        ui[b] = c * x + s * y
+                        uj[b] = c * y - s * x
+                        gi[b] = c * r + s * t
+                        gj[b] = c * t - s * r
+                if p >= 0:
+                    grad[p, 0] += a * acc
+        _store(grad_X, D, lo, hi)
+
+    @jit(nogil=True)
+    def _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, offset, grad,
+                    grad_X):
+        cos, sin = _trig_values(values, pidx, coef, offset)
+        _vjp_sum(X, GY, from_outputs, 0, X.shape[0], first, second, pidx, coef, cos, sin, grad,
+                 grad_X)
+
 
 def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
     """``O(angles) @ Z`` in place on ``Z`` (n, B), C-contiguous float64, and returned.
@@ -64,8 +278,92 @@ def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
     compiled : UnaryCircuit
     angles : numpy.ndarray, shape (G,) shared by the columns, or (G, B) one per column
     """
-    first = np.ascontiguousarray(compiled.first, dtype=np.int64)
-    second = np.ascontiguousarray(compiled.second, dtype=np.int64)
     run = _shared if angles.ndim == 1 else _per_column
-    run(Z, first, second, np.cos(angles), np.sin(angles))
+    cos, sin = np.cos(angles), np.sin(angles)
+    run(Z, compiled._gate_rows[0], compiled._gate_rows[1], cos, sin)
     return Z
+
+
+def _trig(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Cosines and sines, (G,) for shared angles or (G, B) for per-column ones; whether
+    per-column."""
+    a = np.ascontiguousarray(angles, dtype=float)
+    cos, sin = np.empty(a.shape), np.empty(a.shape)
+    _sincos(a.reshape(-1), cos.reshape(-1), sin.reshape(-1))
+    return cos, sin, angles.ndim == 2
+
+
+def sincos(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(cos(angles), sin(angles))`` of a 1-d float64 array, by the compiled kernel."""
+    a = np.ascontiguousarray(angles, dtype=float)
+    cos, sin = np.empty(a.shape), np.empty(a.shape)
+    _sincos(a, cos, sin)
+    return cos, sin
+
+
+def forward_block(X: np.ndarray, lo: int, hi: int, compiled, trig, out: np.ndarray) -> None:
+    """``out[lo:hi] = (O @ X[lo:hi].T).T`` for inputs ``X`` (B, n) C-contiguous float64.
+
+    Parameters
+    ----------
+    X, out : numpy.ndarray, shape (B, n)
+    lo, hi : int
+        The block of batch rows.
+    compiled : UnaryCircuit
+    trig : tuple
+        :func:`_trig` of the gate angles.
+    """
+    first, second = compiled._gate_rows
+    run = _forward_cols if trig[2] else _forward_shared
+    run(X, lo, hi, first, second, trig[0], trig[1], out)
+
+
+def vjp_block(X: np.ndarray, GY: np.ndarray, from_outputs: bool, lo: int, hi: int, compiled,
+              trig, per_example: bool, grad: np.ndarray, grad_X: np.ndarray) -> None:
+    """Reverse pass of the rows ``[lo, hi)`` (and their forward pass unless ``from_outputs``).
+
+    Parameters
+    ----------
+    X : numpy.ndarray, shape (B, n)
+        Inputs, or the outputs when ``from_outputs``.
+    GY : numpy.ndarray, shape (B, n)
+        ``dL/dY``.
+    compiled : UnaryCircuit
+    trig : tuple
+        :func:`_trig` of the gate angles.
+    per_example : bool
+        ``grad`` is (P, B) and gets columns ``[lo, hi)``; else (P, 1) and gets this block's
+        sum.
+    grad : numpy.ndarray, shape (P, B) or (P, 1)
+        Added to.
+    grad_X : numpy.ndarray, shape (B, n)
+        Rows ``[lo, hi)`` set to ``dL/dX``.
+    """
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    if not trig[2] and not per_example:
+        _vjp_sum(X, GY, from_outputs, lo, hi, first, second, pidx, coef, trig[0], trig[1], grad,
+                 grad_X)
+        return
+    cos, sin = (trig[0], trig[1]) if trig[2] else (trig[0][:, None], trig[1][:, None])
+    _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin, trig[2],
+               per_example, grad, grad_X)
+
+
+def forward_values(X: np.ndarray, values: np.ndarray, compiled, out: np.ndarray) -> None:
+    """:func:`forward_block` of all rows for values (P,) shared by the rows, the angles and
+    their cosines and sines computed in the same compiled call (small circuits: no numpy
+    calls between the arguments and the kernel)."""
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    _forward_values(X, values, first, second, pidx, coef, compiled._gate_offset, out)
+
+
+def vjp_values(X: np.ndarray, GY: np.ndarray, from_outputs: bool, values: np.ndarray,
+               compiled, grad: np.ndarray, grad_X: np.ndarray) -> None:
+    """:func:`vjp_block` of all rows for values (P,) shared by the rows, summed gradient
+    ``grad`` (P, 1), the angles computed in the same compiled call."""
+    first, second = compiled._gate_rows
+    pidx, coef = compiled._gate_params
+    _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, compiled._gate_offset,
+                grad, grad_X)

@@ -1,7 +1,9 @@
-"""Threads for the unary engine's shared-angle forward pass (column blocks of the batch).
+"""Threads for the unary engine (column blocks of the batch).
 
-The forward pass with angles shared by the batch is one compiled sparse product per two
-layers (``scipy``'s CSR kernel, which releases the GIL). The batch columns are independent,
+With numba, the forward pass and the forward + reverse pass run one compiled call per block
+of batch rows (:mod:`._compiled`; the kernels release the GIL). Without it, the forward pass
+with angles shared by the batch is one compiled sparse product per two layers (``scipy``'s
+CSR kernel, which also releases the GIL). The batch columns are independent,
 so a wide enough batch is cut into contiguous column blocks, each run through the whole layer
 loop by one thread (the caller's thread among them); the cosines, sines and nonzeros before it
 are computed in slices the same way. Every number goes through the same arithmetic in the

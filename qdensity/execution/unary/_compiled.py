@@ -1,0 +1,111 @@
+"""Whole-circuit calls of the compiled kernels (:mod:`._kernels`), in column-block threads.
+
+:func:`forward_rows` and :func:`vjp_rows` are what :func:`qdensity.execution.unary.forward`
+and :func:`~qdensity.execution.unary.vjp` run when numba is available: the angles' cosines
+and sines computed once, then one compiled call per block of batch rows, each running the
+whole circuit (no Python loop over gates or layers). A batch worth threads
+(:func:`._threads.blocks`: about ``MIN_WORK`` multiply-adds per thread) is cut into contiguous
+row blocks run in the pool (the kernels release the GIL); otherwise one call does it all.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from qdensity.execution.unary import _kernels
+from qdensity.execution.unary._threads import blocks, run_blocks
+
+__all__: list[str] = []
+
+# multiply-adds per column and gate: 4 in the forward pass, 4 more in the reverse pass's
+# rotations of the activations and 4 of the gradients (its dot products add 2)
+_FORWARD_WORK, _VJP_WORK = 4, 14
+# Gates up to which a single block with shared values computes its angles inside the kernel
+# call (no numpy calls between the arguments and the kernel: a few us saved per call); larger
+# circuits compute them once with numpy and the compiled sin / cos (the same numbers), as the
+# threaded path must.
+_SMALL = 2048
+# Measured (round-robin circuits, batch 64, one core): building O and multiplying ran 1.2-1.5x
+# slower than rotating the rows at n = 8-48 for 0.8-1.2x the flops, so composing is chosen
+# only when its flops are below 1 / 1.5 of rotating's (a deep circuit, a batch much wider than
+# n). With batch 64 the rows are rotated at every width. (Measured with a compiled loop for
+# the product; BLAS's is faster, so the weight errs towards rotating.)
+COMPOSE_WEIGHT = 1.5
+
+
+def composed_cheaper(n: int, G: int, B: int) -> bool:
+    """Whether building ``O`` (``6 G n`` flops) and multiplying (``2 n^2 B``) beats rotating
+    the ``B`` rows (``6 G B``), the composed route's flops weighted ``COMPOSE_WEIGHT``."""
+    return COMPOSE_WEIGHT * (6 * G * n + 2 * n * n * B) < 6 * G * B
+
+
+def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
+    """``Y[b] = O(values_b) @ X[b]`` for rows ``X`` (B, n), C-contiguous float64.
+
+    Parameters
+    ----------
+    X : numpy.ndarray, shape (B, n)
+    compiled : UnaryCircuit
+    values : numpy.ndarray, shape (P,) shared by the rows, or (B, P) one row per input row
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, n)
+    """
+    (B, n), G = X.shape, compiled.num_gates
+    out = np.empty_like(X)
+    ranges = blocks(B, _FORWARD_WORK * G)
+    if values.ndim == 1 and composed_cheaper(n, G, B):  # O once (one thread), then BLAS
+        O = _kernels.givens(np.eye(n), compiled, compiled.angles(values))
+        return np.matmul(X, O.T, out=out)
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
+        _kernels.forward_values(X, values, compiled, out)
+        return out
+    trig = _kernels._trig(compiled.angles(values))
+    run_blocks(lambda lo, hi: _kernels.forward_block(X, lo, hi, compiled, trig, out), ranges)
+    return out
+
+
+def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values: np.ndarray,
+             per_example: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter gradient and ``dL/dX`` of ``L`` with ``dL/dY = GY`` (both (B, n) rows).
+
+    Parameters
+    ----------
+    X : numpy.ndarray, shape (B, n)
+        Inputs, or the forward pass's outputs when ``from_outputs`` (then not run again).
+    GY : numpy.ndarray, shape (B, n)
+    from_outputs : bool
+    compiled : UnaryCircuit
+    values : numpy.ndarray, shape (P,) or (B, P)
+    per_example : bool
+
+    Returns
+    -------
+    grad : numpy.ndarray, shape (P, B) when ``per_example`` else (P,)
+    grad_X : numpy.ndarray, shape (B, n)
+    """
+    B, P, G = X.shape[0], compiled.num_parameters, compiled.num_gates
+    ranges = blocks(B, _VJP_WORK * G)
+    grad_X = np.empty_like(X)
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and not per_example:
+        grad1 = np.zeros((P, 1))
+        _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
+        return grad1[:, 0], grad_X
+    trig = _kernels._trig(compiled.angles(values))
+    if per_example:
+        grad = np.zeros((P, B))
+        parts = [grad] * len(ranges)
+    else:
+        grad = np.zeros((len(ranges), P, 1))
+        parts = list(grad)
+    slot = {r: k for k, r in enumerate(ranges)}
+
+    def block(lo: int, hi: int) -> None:
+        _kernels.vjp_block(X, GY, from_outputs, lo, hi, compiled, trig, per_example,
+                           parts[slot[(lo, hi)]], grad_X)
+
+    run_blocks(block, ranges)
+    if per_example:
+        return grad, grad_X
+    return (grad[0, :, 0] if len(ranges) == 1 else grad.sum(axis=0)[:, 0]), grad_X
