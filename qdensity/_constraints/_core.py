@@ -71,6 +71,13 @@ class Constraint:
         declaration becomes the Python number it means; everything else as given)."""
         return value
 
+    def accept(self, value) -> tuple[bool, object]:
+        """``(True, normalise(value))`` for an accepted ``value``, else ``(False, value)``: one
+        check where :meth:`is_satisfied_by` then :meth:`normalise` would check twice."""
+        if self.is_satisfied_by(value):
+            return True, self.normalise(value)
+        return False, value
+
     def example(self) -> object:  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -318,6 +325,13 @@ class _AnyOf(Constraint):
             if m.is_satisfied_by(value):
                 return m.normalise(value)
         return value
+
+    def accept(self, value) -> tuple[bool, object]:
+        for m in self.members:
+            ok, out = m.accept(value)
+            if ok:
+                return True, out
+        return False, value
 
     def __str__(self) -> str:
         return " or ".join(str(m) for m in self.members)

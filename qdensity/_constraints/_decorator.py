@@ -38,8 +38,9 @@ def refuse(where: str, name: str, value, allowed, reason: str = "",
 
 def _check(where: str, name: str, constraint: Constraint, value):
     """``value`` as the body receives it (:meth:`Constraint.normalise`), or the refusal."""
-    if constraint.is_satisfied_by(value):
-        return constraint.normalise(value)
+    ok, accepted = constraint.accept(value)
+    if ok:
+        return accepted
     error = ValueError if constraint.type_ok(value) else TypeError
     raise refuse(where, name, value, constraint, constraint.reason(value), error)
 
