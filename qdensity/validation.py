@@ -409,7 +409,7 @@ def check_target(target, name: str = "target"):
     ``qdensity.hardware.targets`` builds each; this only refuses the wrong types, by name)."""
     if target is None or isinstance(target, (str, os.PathLike)):
         return target
-    if all(callable(getattr(target, a, None)) for a in ("sampler", "transpile")):
+    if all(callable(getattr(target, a, None)) for a in ("simulator", "transpile")):
         return target
     from qiskit.providers import BackendV2
     from qiskit.transpiler import Target

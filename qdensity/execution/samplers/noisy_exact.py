@@ -18,7 +18,7 @@ errors. :func:`supported` says whether a circuit and noise model are within that
 terminal measurements, no ``reset``, ``delay``, conditions or classical control, and no
 correlated (multi-qubit) readout error; anything else goes to Aer.
 
-Correctness oracle (``tests/hardware/test_noisy_exact.py``): the probabilities equal Aer's
+Correctness oracle (``tests/execution/test_noisy_exact.py``): the probabilities equal Aer's
 ``density_matrix`` method's to 1e-10, and the drawn counts pass a chi-square test.
 """
 
@@ -33,15 +33,15 @@ from qiskit.primitives import BaseSamplerV2, BitArray, DataBin, PrimitiveResult,
 from qiskit.primitives.containers import SamplerPub
 from qiskit_aer.noise import NoiseModel
 
-from qdensity.hardware._noisy_program import (
+from qdensity.execution.samplers._jobs import LocalJob
+from qdensity.execution.samplers._noise_tables import NoiseTables
+from qdensity.execution.samplers._noisy_program import (
     MAX_QUBITS,
-    NoiseTables,
     Program,
     active_count,
     exact_probabilities,
     supported,
 )
-from qdensity.hardware._sampler_jobs import LocalJob
 from qdensity.validation import MAX_SHOTS, Instance, Interval, validates
 
 __all__ = ["ExactNoisySampler", "ExactRoute", "NoiseTables", "supported",
@@ -112,8 +112,9 @@ class ExactNoisySampler(BaseSamplerV2):
         for i, pub in enumerate(coerced):
             if not self.supports(pub.circuit):
                 raise ValueError(f"pubs[{i}]: circuit {pub.circuit.name!r} is outside what "
-                                 f"ExactNoisySampler computes (see qdensity.hardware."
-                                 f"noisy_exact.supported; at most {MAX_QUBITS} active qubits)")
+                                 f"ExactNoisySampler computes (see qdensity.execution."
+                                 f"samplers.noisy_exact.supported; at most {MAX_QUBITS} "
+                                 f"active qubits)")
         return LocalJob(lambda: PrimitiveResult(self.sample(coerced, self._seed),
                                                 metadata={"version": 2}))
 
@@ -176,6 +177,11 @@ def exact_from(num_active: int) -> int:
     -------
     int
         ``ceil(5 * 2 ** (a - 6))``: 2 at 4 qubits, 5 at 6, 20 at 8, 80 at 10.
+
+    Examples
+    --------
+    >>> [exact_from(a) for a in (4, 6, 8, 10)]
+    [2, 5, 20, 80]
     """
     return int(np.ceil(5 * 2.0 ** (int(num_active) - 6)))
 
@@ -183,7 +189,7 @@ def exact_from(num_active: int) -> int:
 class ExactRoute:
     """The PUBs of a noisy Aer sampler's call that run as exact noisy distributions.
 
-    :class:`~qdensity.hardware.aer_samplers.AdaptiveSampler` hands every call's PUBs to
+    :class:`~qdensity.execution.samplers.aer.AdaptiveSampler` hands every call's PUBs to
     :meth:`take` first: a PUB on at most :data:`MAX_QUBITS` active qubits, within
     :func:`supported`, with at least :func:`exact_from` shots, is drawn here from its exact
     distribution under the simulators' noise model; the others go to Aer.
@@ -194,6 +200,26 @@ class ExactRoute:
         ``make_simulator(method) -> AerSimulator``; its ``options.noise_model`` is the noise.
     noisy : bool
         Whether those simulators carry noise (noiseless PUBs stay with Aer).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.primitives.containers import SamplerPub
+    >>> from qiskit_aer import AerSimulator
+    >>> from qiskit_aer.noise import depolarizing_error
+    >>> model = NoiseModel()
+    >>> model.add_all_qubit_quantum_error(depolarizing_error(0.05, 1), ["x"])
+    >>> route = ExactRoute(lambda m: AerSimulator(method=m, noise_model=model), noisy=True)
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.x(0)
+    >>> _ = qc.measure_all()
+    >>> out = [None]
+    >>> route.take([SamplerPub.coerce(qc, 100)], out, seed=1, overrides={})
+    {0}
+    >>> out[0].data.meas.num_shots
+    100
+    >>> route.take([SamplerPub.coerce(qc, 100)], [None], 1, {"method": "statevector"})
+    set()
     """
 
     def __init__(self, make_simulator, noisy: bool):

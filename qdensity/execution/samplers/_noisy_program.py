@@ -1,5 +1,5 @@
 """The exact noisy distribution of a circuit: the compiled program behind
-:mod:`qdensity.hardware.noisy_exact` (see there for what it computes and why).
+:mod:`qdensity.execution.samplers.noisy_exact` (see there for what it computes and why).
 
 Blocks of gates on at most two qubits, each gate followed by its error, are fused into one
 superoperator ``S`` acting on ``rho`` flattened as ``rho[l, m] -> l * d + m`` (``l``, ``m``
@@ -15,19 +15,18 @@ import os
 
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
-from qiskit.quantum_info import Kraus
-from qiskit_aer.noise import NoiseModel, QuantumError
 
 from qdensity.analysis.gate_registry import GATES
+from qdensity.execution.samplers._noise_tables import NoiseTables
 
-__all__ = ["MAX_QUBITS", "NoiseTables", "supported", "exact_probabilities", "Program",
+__all__ = ["MAX_QUBITS", "supported", "exact_probabilities", "Program",
            "active_count"]
 
 def _numba():
     """numba, imported on first use (importing it costs about a second of CPU, which a plan
     that never simulates a noisy circuit should not pay), or None where it is missing or
-    ``QDENSITY_NUMBA`` switches it off (the engines' switch; qdensity.execution._numba sits
-    above this layer)."""
+    ``QDENSITY_NUMBA`` switches it off (the engines' switch, read as
+    :mod:`qdensity.execution._numba` reads it; that module imports numba when imported)."""
     if os.environ.get("QDENSITY_NUMBA", "1").strip().lower() in ("0", "false", "no", "off"):
         return None
     try:
@@ -59,78 +58,6 @@ _REFUSED = frozenset({"reset", "delay", "initialize", "if_else", "while_loop", "
                       "switch_case", "box", "store"})
 
 
-class NoiseTables:
-    """The errors of a ``NoiseModel`` as Kraus superoperators, read once.
-
-    Parameters
-    ----------
-    noise_model : NoiseModel or None
-        None: noiseless.
-
-    Attributes
-    ----------
-    ok : bool
-        False when the model holds an error this module does not apply (see module).
-    """
-
-    def __init__(self, noise_model: NoiseModel | None):
-        self.local: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
-        self.all_qubit: dict[str, np.ndarray] = {}
-        self.readout: dict[int, np.ndarray] = {}
-        self.readout_all: np.ndarray | None = None
-        self.ok = True
-        if noise_model is None:
-            return
-        made: dict[int, np.ndarray] = {}
-        for e in noise_model.to_dict()["errors"]:
-            kind = e.get("type")
-            if kind == "qerror":
-                key = id(e["instructions"])
-                if key not in made:
-                    made[key] = _superop_of(QuantumError.from_dict(e))
-                sup = made[key]
-                for op in e["operations"]:
-                    if "gate_qubits" in e:
-                        for g in e["gate_qubits"]:
-                            k = (op, tuple(int(q) for q in g))
-                            self.local[k] = sup if k not in self.local else sup @ self.local[k]
-                    else:
-                        self.all_qubit[op] = (sup if op not in self.all_qubit
-                                              else sup @ self.all_qubit[op])
-            elif kind == "roerror":
-                probs = np.asarray(e["probabilities"], dtype=float)
-                if probs.shape != (2, 2):
-                    self.ok = False  # correlated readout: left to Aer
-                    return
-                if "gate_qubits" in e:
-                    for g in e["gate_qubits"]:
-                        self.readout[int(g[0])] = probs
-                else:
-                    self.readout_all = probs
-            else:
-                self.ok = False
-                return
-
-    def error(self, name: str, qubits: tuple[int, ...]) -> np.ndarray | None:
-        """The superoperator of the error after ``name`` on ``qubits`` (None: no error)."""
-        found = self.local.get((name, qubits))
-        return found if found is not None else self.all_qubit.get(name)
-
-    def readout_matrix(self, qubit: int) -> np.ndarray | None:
-        """``P[true, read]`` of ``qubit``'s readout error (None: none)."""
-        found = self.readout.get(qubit)
-        return found if found is not None else self.readout_all
-
-
-def _superop_of(error: QuantumError) -> np.ndarray:
-    """``sum_K K (x) conj(K)``: acts on ``rho`` flattened as ``rho[l, m] -> index l * d + m``."""
-    return _kraus_superop(Kraus(error.to_quantumchannel()).data)
-
-
-def _kraus_superop(kraus) -> np.ndarray:
-    return np.sum([np.kron(K, np.conj(K)) for K in kraus], axis=0)
-
-
 def _embed(mat: np.ndarray, where: int) -> np.ndarray:
     """A one-qubit operator (..., 2, 2) on local qubit ``where`` of a two-qubit block."""
     eye = np.eye(2)
@@ -160,7 +87,31 @@ def _unitary_superop(U: np.ndarray) -> np.ndarray:
 
 
 def supported(circuit: QuantumCircuit, tables: NoiseTables) -> bool:
-    """Whether :class:`ExactNoisySampler` computes ``circuit`` under ``tables`` (see module)."""
+    """Whether :class:`ExactNoisySampler` computes ``circuit`` under ``tables`` (see module).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+    tables : NoiseTables
+
+    Returns
+    -------
+    bool
+        False for a mid-circuit measurement, ``reset``, ``delay``, classical control, a gate
+        on more than two qubits or a noise model with an error not applied here.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.h(0)
+    >>> _ = qc.measure_all()
+    >>> supported(qc, NoiseTables(None))
+    True
+    >>> _ = qc.reset(0)
+    >>> supported(qc, NoiseTables(None))
+    False
+    """
     if not tables.ok or circuit.num_vars or circuit.num_stretches:
         return False
     measured: set = set()
@@ -402,10 +353,30 @@ def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) ->
 def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
     """Outcome probabilities of the measured qubits per row, readout errors applied.
 
+    Parameters
+    ----------
+    program : Program
+        The compiled circuit (``Program(circuit, tables)``).
+    values : numpy.ndarray, shape (R, P)
+        One row of the program's ``P`` parameter values per distribution (``P = 0``: an
+        unparametrised circuit, ``R`` copies of its distribution).
+
     Returns
     -------
     numpy.ndarray, shape (R, 2**m)
         Outcome ``o`` has bit ``i`` = the ``i``-th measurement's result.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.circuit import Parameter
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.ry(Parameter("t"), 0)
+    >>> _ = qc.measure_all()
+    >>> probs = exact_probabilities(Program(qc, NoiseTables(None)), np.array([[0.0], [np.pi]]))
+    >>> np.round(probs, 12).tolist()  # cos^2(t/2), sin^2(t/2)
+    [[1.0, 0.0], [0.0, 1.0]]
     """
     a = program.num_active
     R = values.shape[0]

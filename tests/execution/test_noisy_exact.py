@@ -1,4 +1,4 @@
-"""Exact noisy distributions (:mod:`qdensity.hardware.noisy_exact`) against Aer.
+"""Exact noisy distributions (:mod:`qdensity.execution.samplers.noisy_exact`) against Aer.
 
 Oracles: Aer's ``density_matrix`` method run on each bound circuit with its final
 measurements replaced by ``save_probabilities`` (the exact pre-readout distribution, to 1e-10),
@@ -19,7 +19,7 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel, ReadoutError, depolarizing_error, pauli_error
 from scipy import stats
 
-from qdensity.hardware.noisy_exact import (
+from qdensity.execution.samplers.noisy_exact import (
     ExactNoisySampler,
     ExactRoute,
     exact_from,
