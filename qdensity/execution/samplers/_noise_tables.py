@@ -42,29 +42,34 @@ class NoiseTables:
     """
 
     def __init__(self, noise_model: NoiseModel | None):
-        self.local: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
-        self.all_qubit: dict[str, np.ndarray] = {}
+        # quantum errors stay as read (their dicts) until a lookup needs one: a circuit on a
+        # few qubits of a large device converts only the errors of those qubits
+        self._errors: list[dict] = []
+        self._local: dict[tuple[str, tuple[int, ...]], list[int]] = {}
+        self._all_qubit: dict[str, list[int]] = {}
+        self._made: dict[int, np.ndarray] = {}
+        self._composed: dict[tuple[str, tuple[int, ...]], np.ndarray | None] = {}
         self.readout: dict[int, np.ndarray] = {}
         self.readout_all: np.ndarray | None = None
         self.ok = True
         if noise_model is None:
             return
-        made: dict[int, np.ndarray] = {}
+        index: dict[int, int] = {}
         for e in noise_model.to_dict()["errors"]:
             kind = e.get("type")
             if kind == "qerror":
                 key = id(e["instructions"])
-                if key not in made:
-                    made[key] = _superop_of(QuantumError.from_dict(e))
-                sup = made[key]
+                if key not in index:
+                    index[key] = len(self._errors)
+                    self._errors.append(e)
+                i = index[key]
                 for op in e["operations"]:
                     if "gate_qubits" in e:
                         for g in e["gate_qubits"]:
                             k = (op, tuple(int(q) for q in g))
-                            self.local[k] = sup if k not in self.local else sup @ self.local[k]
+                            self._local.setdefault(k, []).append(i)
                     else:
-                        self.all_qubit[op] = (sup if op not in self.all_qubit
-                                              else sup @ self.all_qubit[op])
+                        self._all_qubit.setdefault(op, []).append(i)
             elif kind == "roerror":
                 probs = np.asarray(e["probabilities"], dtype=float)
                 if probs.shape != (2, 2):
@@ -79,10 +84,23 @@ class NoiseTables:
                 self.ok = False
                 return
 
+    def _superop(self, i: int) -> np.ndarray:
+        if i not in self._made:
+            self._made[i] = _superop_of(QuantumError.from_dict(self._errors[i]))
+        return self._made[i]
+
     def error(self, name: str, qubits: tuple[int, ...]) -> np.ndarray | None:
-        """The superoperator of the error after ``name`` on ``qubits`` (None: no error)."""
-        found = self.local.get((name, qubits))
-        return found if found is not None else self.all_qubit.get(name)
+        """The superoperator of the error after ``name`` on ``qubits`` (None: no error): the
+        qubit-specific errors of the instruction in the model's order, else its all-qubit
+        ones (as Aer applies them)."""
+        key = (name, tuple(qubits))
+        if key not in self._composed:
+            found = self._local.get(key) or self._all_qubit.get(name) or []
+            sup = None
+            for i in found:  # a later error acts after an earlier one
+                sup = self._superop(i) if sup is None else self._superop(i) @ sup
+            self._composed[key] = sup
+        return self._composed[key]
 
     def readout_matrix(self, qubit: int) -> np.ndarray | None:
         """``P[true, read]`` of ``qubit``'s readout error (None: none)."""

@@ -36,6 +36,11 @@ def _numba():
     return numba
 
 
+#: numba's floating-point flags for the kernel: sums may be reassociated and fused (they
+#: vectorise); no assumption that values are finite.
+_FASTMATH = {"reassoc", "contract"}
+
+
 def _jit(func):
     """``numba.njit`` with the disk cache where numba can write one (a read-only install
     without a writable cache folder compiles in memory; ``QDENSITY_NUMBA_CACHE=0``: no cache)."""
@@ -44,10 +49,10 @@ def _jit(func):
     if os.environ.get("QDENSITY_NUMBA_CACHE", "1").strip().lower() not in ("0", "false", "no",
                                                                           "off"):
         try:
-            return numba.njit(cache=True)(func)
+            return numba.njit(cache=True, fastmath=_FASTMATH)(func)
         except RuntimeError:
             pass
-    return numba.njit(func)
+    return numba.njit(fastmath=_FASTMATH)(func)
 
 
 #: Widest circuit (active qubits) simulated here: a density matrix of ``16 * 4**a`` bytes a row.
@@ -304,16 +309,24 @@ def _apply_numpy(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: i
 
 
 def _apply_block(rho, sup, offsets):
-    """In place: every (row base, column base) block of ``rho`` through ``sup``."""
+    """In place: every (row base, column base) block of ``rho`` through ``sup``.
+
+    The products run on separate real and imaginary parts (compiled with reassociation
+    allowed, so the 16-term sums vectorise): about twice the rate of complex accumulation.
+    """
     R, D = rho.shape[0], rho.shape[1]
     L = offsets.shape[0]
+    LL = L * L
     mask = 0
     for t in range(L):
         mask |= offsets[t]
     per_row = sup.shape[0] > 1
-    v = np.empty(L * L, dtype=rho.dtype)
+    vr = np.empty(LL)
+    vi = np.empty(LL)
     for r in range(R):
         S = sup[r] if per_row else sup[0]
+        Sr = np.ascontiguousarray(S.real)
+        Si = np.ascontiguousarray(S.imag)
         for i0 in range(D):
             if i0 & mask:
                 continue
@@ -322,14 +335,18 @@ def _apply_block(rho, sup, offsets):
                     continue
                 for x in range(L):
                     for y in range(L):
-                        v[x * L + y] = rho[r, i0 + offsets[x], j0 + offsets[y]]
+                        c = rho[r, i0 + offsets[x], j0 + offsets[y]]
+                        vr[x * L + y] = c.real
+                        vi[x * L + y] = c.imag
                 for x in range(L):
                     for y in range(L):
-                        acc = 0j
                         row = x * L + y
-                        for z in range(L * L):
-                            acc += S[row, z] * v[z]
-                        rho[r, i0 + offsets[x], j0 + offsets[y]] = acc
+                        ar = 0.0
+                        ai = 0.0
+                        for z in range(LL):
+                            ar += Sr[row, z] * vr[z] - Si[row, z] * vi[z]
+                            ai += Sr[row, z] * vi[z] + Si[row, z] * vr[z]
+                        rho[r, i0 + offsets[x], j0 + offsets[y]] = complex(ar, ai)
     return rho
 
 
@@ -348,6 +365,29 @@ def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) ->
                         for l in range(2**k)], dtype=np.int64)
     sup3 = np.ascontiguousarray(sup.reshape(-1, 4**k, 4**k), dtype=complex)
     return _KERNEL[0](rho, sup3, offsets)
+
+
+def _block_superop(block: dict, program: Program, values: np.ndarray) -> np.ndarray | None:
+    """A block's superoperator: (4**k, 4**k) when it has no parameter, else one per row of
+    ``values`` (R, 4**k, 4**k); None for an empty block."""
+    R = values.shape[0]
+    qs = block["qubits"]
+    sup = block["fixed"]
+    for step in block["steps"]:
+        if step[0] == "fixed":
+            sup = step[1] if sup is None else step[1] @ sup
+            continue
+        _, iq, op, aff, err = step
+        U = _gate_matrices(op, _row_params(aff, values, program.parameters))
+        if len(qs) == 2 and len(iq) == 1:
+            U = _embed(U, qs.index(iq[0]))
+        elif len(iq) == 2 and iq != qs:
+            U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
+        s = _unitary_superop(U)
+        if err is not None:
+            s = err @ s
+        sup = s if sup is None else s @ sup
+    return sup
 
 
 def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
@@ -380,28 +420,33 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
     """
     a = program.num_active
     R = values.shape[0]
-    rho = np.zeros((R, 2**a, 2**a), dtype=complex)
-    rho[:, 0, 0] = 1.0
+    if R == 0:
+        return np.zeros((0, 2 ** len(program.measure)))
+    # rows that agree on every parameter so far share one density matrix (a parameter-shift
+    # PUB's rows differ from one gate on): states[owner[r]] is row r's
+    owner = np.zeros(R, dtype=np.int64)
+    states = np.zeros((1, 2**a, 2**a), dtype=complex)
+    states[0, 0, 0] = 1.0
     for block in program.blocks:
-        qs = block["qubits"]
-        sup = block["fixed"]
-        for step in block["steps"]:
-            if step[0] == "fixed":
-                sup = step[1] if sup is None else step[1] @ sup
-                continue
-            _, iq, op, aff, err = step
-            U = _gate_matrices(op, _row_params(aff, values, program.parameters))
-            if len(qs) == 2 and len(iq) == 1:
-                U = _embed(U, qs.index(iq[0]))
-            elif len(iq) == 2 and iq != qs:
-                U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
-            s = _unitary_superop(U)
-            if err is not None:
-                s = err @ s
-            sup = s if sup is None else s @ sup
+        block_values = values  # the parameter rows of the states, in their order
+        if any(step[0] == "param" for step in block["steps"]):
+            if states.shape[0] < R:  # rows that share a state may still share after it
+                key = np.concatenate([owner[:, None].astype(float)] + [
+                    _row_params(step[3], values, program.parameters)
+                    for step in block["steps"] if step[0] == "param"], axis=1)
+                _, first, inverse = np.unique(key, axis=0, return_index=True,
+                                              return_inverse=True)
+                states = states[owner[first]]
+                owner = inverse.reshape(-1)
+                block_values = values[first]
+            else:  # every row has its own state: owner is a permutation
+                row_of = np.empty(R, dtype=np.int64)
+                row_of[owner] = np.arange(R)
+                block_values = values[row_of]
+        sup = _block_superop(block, program, block_values)
         if sup is not None:
-            rho = _apply(rho, sup, qs, a)
-    diag = np.clip(np.real(np.einsum("rii->ri", rho)), 0.0, None)
+            states = _apply(states, sup, block["qubits"], a)
+    diag = np.clip(np.real(np.einsum("rii->ri", states)), 0.0, None)[owner]
     m = len(program.measure)
     probs = diag.reshape((R,) + (2,) * a)
     keep = [1 + (a - 1 - q) for q, _ in program.measure]  # measurement i -> axis
@@ -417,8 +462,6 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
         marg = np.moveaxis(np.tensordot(marg, P, axes=([axis], [0])), -1, axis)
     out = marg.reshape(R, 2**m)
     return out / out.sum(axis=1, keepdims=True)
-
-
 
 
 def active_count(circuit: QuantumCircuit) -> int:

@@ -47,6 +47,27 @@ from qdensity.validation import MAX_SHOTS, Instance, Interval, validates
 __all__ = ["ExactNoisySampler", "ExactRoute", "NoiseTables", "supported",
            "exact_probabilities", "exact_from", "MAX_QUBITS"]
 
+#: NoiseTables per live noise model (id -> (weak reference, what it held, tables)): the
+#: samplers of one target (a new one per engine and per reseeded engine) read its errors once.
+_TABLES: dict[int, tuple] = {}
+
+
+def _tables_of(noise_model: NoiseModel | None) -> NoiseTables:
+    """The model's tables, shared while the model lives and holds the same instructions and
+    qubits (a model given more errors afterwards is read again)."""
+    if noise_model is None:
+        return NoiseTables(None)
+    held = (tuple(noise_model.noise_instructions), tuple(noise_model.noise_qubits))
+    hit = _TABLES.get(id(noise_model))
+    if hit is not None and hit[0]() is noise_model and hit[1] == held:
+        return hit[2]
+    for key in [k for k, (ref, _, _) in _TABLES.items() if ref() is None]:
+        del _TABLES[key]  # models no longer alive
+    tables = NoiseTables(noise_model)
+    _TABLES[id(noise_model)] = (weakref.ref(noise_model), held, tables)
+    return tables
+
+
 @validates(noise_model=[Instance(NoiseModel), None], seed=[Interval(int, 0), None],
            default_shots=Interval(int, 1, MAX_SHOTS))
 class ExactNoisySampler(BaseSamplerV2):
@@ -75,10 +96,11 @@ class ExactNoisySampler(BaseSamplerV2):
 
     def __init__(self, noise_model: NoiseModel | None, seed: int | None = None,
                  default_shots: int = 1024):
-        self.tables = NoiseTables(noise_model)
+        self.tables = _tables_of(noise_model)
         self._seed = seed
         self._default_shots = int(default_shots)
         self._programs: dict[int, tuple] = {}
+        self._facts: dict[int, tuple] = {}
 
     @property
     def seed(self) -> int | None:
@@ -88,7 +110,19 @@ class ExactNoisySampler(BaseSamplerV2):
     def supports(self, circuit: QuantumCircuit) -> bool:
         """Whether this sampler computes ``circuit`` (:func:`supported`, at most
         :data:`MAX_QUBITS` active qubits)."""
-        return supported(circuit, self.tables) and active_count(circuit) <= MAX_QUBITS
+        active, ok = self.facts(circuit)
+        return ok and active <= MAX_QUBITS
+
+    def facts(self, circuit: QuantumCircuit) -> tuple[int, bool]:
+        """``(active qubits, supported(circuit))``, read once per circuit object while it
+        lives (a template runs once per training step)."""
+        key = id(circuit)
+        hit = self._facts.get(key)
+        if hit is not None and hit[0]() is circuit:
+            return hit[1]
+        facts = (active_count(circuit), supported(circuit, self.tables))
+        self._facts[key] = (weakref.ref(circuit), facts)
+        return facts
 
     def program(self, circuit: QuantumCircuit) -> Program:
         """``circuit`` compiled (once per circuit object while it lives)."""
@@ -103,6 +137,7 @@ class ExactNoisySampler(BaseSamplerV2):
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_programs"] = {}  # weak references do not pickle; compiled again on use
+        state["_facts"] = {}
         return state
 
     def run(self, pubs, *, shots: int | None = None) -> LocalJob:
@@ -248,12 +283,14 @@ class ExactRoute:
         """
         if not self._noisy or "method" in overrides:
             return set()
-        chosen = [i for i, pub in enumerate(pubs)
-                  if active_count(pub.circuit) <= MAX_QUBITS
-                  and pub.shots >= exact_from(active_count(pub.circuit))
-                  and supported(pub.circuit, self._exact().tables)]
+        exact = self._exact()
+        chosen = []
+        for i, pub in enumerate(pubs):
+            active, ok = exact.facts(pub.circuit)
+            if ok and active <= MAX_QUBITS and pub.shots >= exact_from(active):
+                chosen.append(i)
         if chosen:
-            results = self._exact().sample([pubs[i] for i in chosen], seed)
+            results = exact.sample([pubs[i] for i in chosen], seed)
             for i, res in zip(chosen, results, strict=True):
                 out[i] = res
         return set(chosen)
