@@ -221,7 +221,7 @@ class Program:
                     err = (err if len(qs) == 1 or (len(iq) == 2 and iq == qs) else
                            _swap_superop(err) if len(iq) == 2 else
                            _embed_superop(err, qs.index(iq[0])))
-                steps.append(("param", iq, op, aff, err))
+                steps.append(_fourier(("param", iq, op, aff, err), qs))
         # fold runs of fixed steps after the first parametrised one
         folded: list = []
         for s in steps:
@@ -367,25 +367,60 @@ def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) ->
     return _KERNEL[0](rho, sup3, offsets)
 
 
+def _step_superop(step: tuple, qs: tuple[int, ...], angles: np.ndarray) -> np.ndarray:
+    """A parametrised step's superoperator per row (R, 4**k, 4**k) on its block's qubits
+    ``qs``, its error included, for the gate parameters ``angles`` (R, p)."""
+    _, iq, op, _, err = step
+    R = angles.shape[0]
+    U = _gate_matrices(op, angles)
+    if len(qs) == 2 and len(iq) == 1:
+        U = _embed(U, qs.index(iq[0]))
+    elif len(iq) == 2 and iq != qs:
+        U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
+    s = _unitary_superop(U)
+    return s if err is None else err @ s
+
+
+def _fourier(step: tuple, qs: tuple[int, ...]) -> tuple:
+    """``("fourier", A0, A1, Am1, affine)`` for a one-parameter step whose superoperator is
+    ``A0 + A1 e^{i t} + Am1 e^{-i t}`` in its angle ``t`` (every rotation ``exp(-i t G / 2)``
+    with ``G**2 = 1``: rz, ry, rx, rzz, ...; the three terms from three angles, the form
+    checked at two more); the step as given otherwise. Rows then cost three array operations,
+    not a gate matrix, two Kronecker products and a matrix product each."""
+    op, aff = step[2], step[3]
+    if len(op.params) != 1 or not isinstance(aff[0], tuple):
+        return step
+    t = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
+    try:
+        S = _step_superop(step, qs, t[:, None])
+    except Exception:  # noqa: BLE001 - a gate without a matrix here: keep the general path
+        return step
+    z = np.exp(1j * t)[:, None, None]
+    terms = (S.mean(axis=0), (S * np.conj(z)).mean(axis=0), (S * z).mean(axis=0))
+    check = np.array([0.7317, 2.2])
+    zc = np.exp(1j * check)[:, None, None]
+    if not np.allclose(terms[0] + terms[1] * zc + terms[2] * np.conj(zc),
+                       _step_superop(step, qs, check[:, None]), atol=1e-12, rtol=0):
+        return step
+    return ("fourier", *terms, aff)
+
+
 def _block_superop(block: dict, program: Program, values: np.ndarray) -> np.ndarray | None:
     """A block's superoperator: (4**k, 4**k) when it has no parameter, else one per row of
     ``values`` (R, 4**k, 4**k); None for an empty block."""
-    R = values.shape[0]
     qs = block["qubits"]
     sup = block["fixed"]
     for step in block["steps"]:
         if step[0] == "fixed":
             sup = step[1] if sup is None else step[1] @ sup
             continue
-        _, iq, op, aff, err = step
-        U = _gate_matrices(op, _row_params(aff, values, program.parameters))
-        if len(qs) == 2 and len(iq) == 1:
-            U = _embed(U, qs.index(iq[0]))
-        elif len(iq) == 2 and iq != qs:
-            U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
-        s = _unitary_superop(U)
-        if err is not None:
-            s = err @ s
+        angles = _row_params(step[-1] if step[0] == "fourier" else step[3], values,
+                             program.parameters)
+        if step[0] == "fourier":
+            z = np.exp(1j * angles[:, 0])[:, None, None]
+            s = step[1] + step[2] * z + step[3] * np.conj(z)
+        else:
+            s = _step_superop(step, qs, angles)
         sup = s if sup is None else s @ sup
     return sup
 
@@ -429,11 +464,12 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
     states[0, 0, 0] = 1.0
     for block in program.blocks:
         block_values = values  # the parameter rows of the states, in their order
-        if any(step[0] == "param" for step in block["steps"]):
+        if any(step[0] != "fixed" for step in block["steps"]):
             if states.shape[0] < R:  # rows that share a state may still share after it
                 key = np.concatenate([owner[:, None].astype(float)] + [
-                    _row_params(step[3], values, program.parameters)
-                    for step in block["steps"] if step[0] == "param"], axis=1)
+                    _row_params(step[-1] if step[0] == "fourier" else step[3], values,
+                                program.parameters)
+                    for step in block["steps"] if step[0] != "fixed"], axis=1)
                 _, first, inverse = np.unique(key, axis=0, return_index=True,
                                               return_inverse=True)
                 states = states[owner[first]]
