@@ -66,19 +66,20 @@ def _clock(run) -> tuple[float, float]:
 def _prepare(make, compiled, values, shots, method):
     """(sampler, predicted CPU seconds per call, set-up seconds) after two pilots.
 
-    ``method`` is the one the sampler runs the cell with; a density-matrix pilot has the cell's
-    shots (so that an automatic rule picks the same method for it), a trajectory pilot at most
-    ``_PILOT_SHOTS``."""
+    ``method`` is the one the sampler runs the cell with; a density-matrix or exact pilot has
+    the cell's shots (so that an automatic rule picks the same route for it; their cost per row
+    does not grow with the shots), a trajectory pilot at most ``_PILOT_SHOTS``."""
     if method == "plain":  # Aer's automatic rule: the density matrix above 2 ** a shots
         method = "density_matrix" if shots > 2 ** active_qubits(compiled) else "statevector"
-    pilot_shots = shots if method == "density_matrix" else min(shots, _PILOT_SHOTS)
+    per_row = method in ("density_matrix", "exact")
+    pilot_shots = shots if per_row else min(shots, _PILOT_SHOTS)
     pilot = [(compiled, values[:1], pilot_shots)]
     t0 = time.process_time()
     sampler = make()
     sampler.run(pilot).result()
     first = time.process_time() - t0  # construction and first pilot
     second = _clock(lambda: sampler.run(pilot).result())[0]
-    scale = len(values) * (1 if method == "density_matrix" else shots / pilot_shots)
+    scale = len(values) * (1 if per_row else shots / pilot_shots)
     return sampler, second * scale, first - second
 
 
