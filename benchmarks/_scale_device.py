@@ -39,6 +39,7 @@ from qiskit.transpiler.passes import CheckMap, GatesInBasis
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution.samplers import target_sampler
 from qdensity.gradients import density_gradient_plan
 from qdensity.hardware.resources import resource_report
 from qdensity.hardware.targets import get_target
@@ -127,7 +128,7 @@ def _mps_table(target, n, widths, rows, shots, k: int = 2) -> list[dict]:
         plan = density_gradient_plan(model, X, method="commuting", shots=shots)
         if how == "device":  # the same device without its noise: compare with exact
             ideal = get_target(target.name, target.num_qubits, seed=0, noise=False)
-            engine = SamplerEngine(sampler=ideal.sampler(method="matrix_product_state",
+            engine = SamplerEngine(sampler=target_sampler(ideal, method="matrix_product_state",
                                                          seed=0, fast=False),
                                    target=ideal, seed=0, progress=False)
             width = target.num_qubits

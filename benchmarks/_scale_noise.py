@@ -3,7 +3,7 @@
 A density round-robin model's forward plan (16 rows) on a heavy-hex target, sampled through
 ``SamplerEngine(target=...)``. "plain" is Aer's SamplerV2 with its automatic method and no
 options; "branching" the previous default of ``target.sampler`` (``method="automatic"`` with
-:data:`qdensity.hardware.targets.FAST_SAMPLER_OPTIONS` and shot branching turned back on,
+:data:`qdensity.hardware.aer_sampling.FAST_SAMPLER_OPTIONS` and shot branching turned back on,
 for its timing only: with noise it samples wrong distributions in qiskit-aer 0.18.2); "auto"
 today's default (:mod:`qdensity.hardware.aer_sampling`: the method per PUB by active qubits
 and shots). Wall and CPU seconds (``getrusage``, Aer's threads included) per million shots.
@@ -21,6 +21,7 @@ import numpy as np
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
 from qdensity.circuits.ansatze import round_robin
+from qdensity.execution.samplers import target_sampler
 from qdensity.hardware.targets import get_target
 
 _KINDS = {"plain": {"method": "automatic", "fast": False},
@@ -37,7 +38,7 @@ def _cpu() -> float:
 def _per_million(n: int, rows: int, shots: int, noisy: bool, kind: str,
                  seed: int = 0) -> tuple[float, float]:
     target = get_target("heavy_hex", n, seed=seed, noise=noisy)
-    sampler = target.sampler(seed=seed, **_KINDS[kind])
+    sampler = target_sampler(target, seed=seed, **_KINDS[kind])
     model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
                        seed=seed)
     X = np.random.default_rng(seed).normal(size=(rows, n))

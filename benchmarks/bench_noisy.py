@@ -1,4 +1,4 @@
-"""Noisy sampling: the automatic Aer method choice (``HardwareTarget.sampler()``, what
+"""Noisy sampling: the automatic Aer method choice (``target_sampler(target)``, what
 ``SamplerEngine(target=...)`` uses) against every fixed Aer method and against plain
 ``SamplerV2.from_backend(AerSimulator.from_backend(backend))``, all on the same transpiled
 circuits (a unary loader and a round-robin sub-unitary, one PUB of ``rows`` parameter rows).
@@ -6,9 +6,9 @@ circuits (a unary loader and a round-robin sub-unitary, one PUB of ``rows`` para
 Goal (issue "Hardware as objects", item 4): the automatic choice within 10% of the best fixed
 method on every cell (issue 44, item 3: at least as cheap, 1x, now that few-qubit PUBs from
 ``exact_from(a)`` shots are drawn from their exact noisy distributions: method ``exact``,
-:mod:`qdensity.hardware.noisy_exact`), in CPU time of the process (Aer's threads included) per
-call, the fixed methods on one thread with ``--one-thread`` (their default, all threads, costs
-CPU on small states). Each sampler first runs a pilot (1 row; at most 32 shots for
+:mod:`qdensity.execution.samplers.noisy_exact`), in CPU time of the process (Aer's threads
+included) per call, the fixed methods on one thread with ``--one-thread`` (their default, all
+threads, costs CPU on small states). Each sampler first runs a pilot (1 row; at most 32 shots for
 trajectories, the cell's shots for the density matrix) twice: the first builds its simulators
 (``setup`` column: the auto sampler's first pilot less its second), the second predicts the
 cell's time (by rows x shots for trajectories, by rows for the density matrix). A sampler
@@ -46,8 +46,9 @@ from qiskit_aer.primitives import SamplerV2
 from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.loaders import unary_loader_template
 from qdensity.execution.plans import measured
+from qdensity.execution.samplers import target_sampler
+from qdensity.execution.samplers.noisy_exact import MAX_QUBITS, NoiseTables, exact_from, supported
 from qdensity.hardware.aer_sampling import DENSITY_MATRIX_MAX_QUBITS, active_qubits
-from qdensity.hardware.noisy_exact import MAX_QUBITS, NoiseTables, exact_from, supported
 from qdensity.hardware.targets import get_target
 
 FIXED = ("statevector", "density_matrix", "matrix_product_state")
@@ -65,35 +66,37 @@ def _clock(run) -> tuple[float, float]:
 def _prepare(make, compiled, values, shots, method):
     """(sampler, predicted CPU seconds per call, set-up seconds) after two pilots.
 
-    ``method`` is the one the sampler runs the cell with; a density-matrix pilot has the cell's
-    shots (so that an automatic rule picks the same method for it), a trajectory pilot at most
-    ``_PILOT_SHOTS``."""
+    ``method`` is the one the sampler runs the cell with; a density-matrix or exact pilot has
+    the cell's shots (so that an automatic rule picks the same route for it; their cost per row
+    does not grow with the shots), a trajectory pilot at most ``_PILOT_SHOTS``."""
     if method == "plain":  # Aer's automatic rule: the density matrix above 2 ** a shots
         method = "density_matrix" if shots > 2 ** active_qubits(compiled) else "statevector"
-    pilot_shots = shots if method == "density_matrix" else min(shots, _PILOT_SHOTS)
+    per_row = method in ("density_matrix", "exact")
+    pilot_shots = shots if per_row else min(shots, _PILOT_SHOTS)
     pilot = [(compiled, values[:1], pilot_shots)]
     t0 = time.process_time()
     sampler = make()
     sampler.run(pilot).result()
     first = time.process_time() - t0  # construction and first pilot
     second = _clock(lambda: sampler.run(pilot).result())[0]
-    scale = len(values) * (1 if method == "density_matrix" else shots / pilot_shots)
+    scale = len(values) * (1 if per_row else shots / pilot_shots)
     return sampler, second * scale, first - second
 
 
 def _measure(target, compiled, n, rows, shots, a):
     """{sampler: (min CPU s or None, min wall s or None, predicted s, set-up s)}, auto's options."""
     values = np.random.default_rng(rows).uniform(-np.pi, np.pi, (rows, compiled.num_parameters))
-    chosen = target.sampler(seed=3).choose(compiled, shots, rows)
+    chosen = target_sampler(target, seed=3).choose(compiled, shots, rows)
     a_n = active_qubits(compiled)
     if (target.is_noisy and a_n <= MAX_QUBITS and shots >= exact_from(a_n)
             and supported(compiled, NoiseTables(target.noise_model))):
         chosen = {"method": "exact", "max_parallel_threads": 1}  # noisy_exact takes the PUB
-    makers = {"auto": (lambda: target.sampler(seed=3), chosen["method"])}
+    makers = {"auto": (lambda: target_sampler(target, seed=3), chosen["method"])}
     for m in a.methods:
         if m == "density_matrix" and n > DENSITY_MATRIX_MAX_QUBITS:
             continue
-        makers[m] = (lambda m=m: target.sampler(seed=3, method=m, options=a.fixed_options), m)
+        makers[m] = (lambda m=m: target_sampler(target, seed=3, method=m,
+                                                options=a.fixed_options), m)
     if not a.no_plain:
         makers["plain"] = (lambda: SamplerV2.from_backend(
             AerSimulator.from_backend(target.backend), seed=3), "plain")
@@ -190,7 +193,8 @@ def main() -> None:
                             .compose(round_robin(n)))
             compiled = target.transpile(circ)
             one = np.zeros((1, compiled.num_parameters))
-            target.sampler(method="statevector").run([(compiled, one, 1)]).result()  # serialise
+            serial = target_sampler(target, method="statevector")
+            serial.run([(compiled, one, 1)]).result()  # serialise
             built = {(name, n): (target, compiled)}
         target, compiled = built[(name, n)]
         cell, chosen = _measure(target, compiled, n, rows, shots, a)

@@ -2,13 +2,13 @@
 
 For each width ``n`` a unary loader and a round-robin sub-unitary are transpiled for the
 seeded noisy heavy-hex device (``get_target("heavy_hex", n, seed=0)``) and one PUB of one
-parameter row at ``--shots`` shots is sampled by :class:`~qdensity.hardware.noisy_exact.
+parameter row at ``--shots`` shots is sampled by :class:`~qdensity.execution.samplers.noisy_exact.
 ExactNoisySampler` (the exact distribution, then draws) and by Aer's ``statevector``
 (trajectories) and ``density_matrix`` methods on one thread. CPU seconds per call (the least
 of ``--repeat`` calls after a warm-up call), with the active qubits, the exact program's fused
 blocks and the circuit's instructions. This measures the crossover
-:func:`~qdensity.hardware.noisy_exact.exact_from` encodes (the default sampler takes the exact
-route from that many shots a row).
+:func:`~qdensity.execution.samplers.noisy_exact.exact_from` encodes (the default sampler takes
+the exact route from that many shots a row).
 
     python benchmarks/bench_noisy_exact.py [--n 4 6 7 8 9] [--shots 16] [--repeat 2]
 """
@@ -23,8 +23,9 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.loaders import unary_loader_template
 from qdensity.execution.plans import measured
+from qdensity.execution.samplers import target_sampler
+from qdensity.execution.samplers.noisy_exact import ExactNoisySampler, exact_from
 from qdensity.hardware.aer_sampling import active_qubits
-from qdensity.hardware.noisy_exact import ExactNoisySampler, exact_from
 from qdensity.hardware.targets import get_target
 
 
@@ -54,7 +55,7 @@ def main() -> None:
         exact = ExactNoisySampler(target.noise_model, seed=1)
         times = [_cpu(exact, pub, a.repeat)]
         for method in ("statevector", "density_matrix"):
-            aer = target.sampler(seed=3, method=method,
+            aer = target_sampler(target, seed=3, method=method,
                                  options={"max_parallel_threads": 1, "max_parallel_shots": 1})
             times.append(_cpu(aer, pub, a.repeat))
         active = active_qubits(compiled)

@@ -36,7 +36,7 @@
 import numpy as np
 from qiskit.quantum_info import Statevector
 
-from qdensity import get_target, unary_loader
+from qdensity import get_target, target_sampler, unary_loader
 from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.tomography import (
     bridge_circuit,
@@ -62,7 +62,7 @@ ideal = get_target('ideal', n, seed=0)
 compiled = ideal.transpile(circuits)
 
 def sample(target, compiled, shots, seed):
-    result = target.sampler(seed=seed, shots=shots).run(compiled).result()
+    result = target_sampler(target, seed=seed, shots=shots).run(compiled).result()
     return [r.data.meas.get_counts() for r in result]
 
 def linf(estimate, exact):                                      # up to the global sign

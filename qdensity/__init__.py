@@ -47,6 +47,7 @@ _EXPORTS: dict[str, str] = {
     "SamplerEngine": "qdensity.execution.sampler.engine",
     "ShotLedger": "qdensity.execution.sampler.engine",
     "HammingWeightSampler": "qdensity.execution.samplers.hamming",
+    "target_sampler": "qdensity.execution.samplers.target",
     "get_target": "qdensity.hardware.targets",
     "known_targets": "qdensity.hardware.targets",
     "resource_report": "qdensity.hardware.resources",
@@ -82,6 +83,7 @@ __all__ = [
     "SamplerEngine",
     "ShotLedger",
     "HammingWeightSampler",
+    "target_sampler",
     "get_target",
     "known_targets",
     "resource_report",
@@ -108,6 +110,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from qdensity.execution.plans import Plan, expectation_plan, probabilities_plan
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.execution.samplers.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.target import target_sampler
     from qdensity.hardware.resources import compare_reports, resource_report
     from qdensity.hardware.targets import get_target, known_targets
     from qdensity.learning.estimators import QNNClassifier, QNNRegressor

@@ -162,8 +162,9 @@ def _data(cfg: DemoConfig):
 
 def _sampler_engine(target, seed: int, cfg: DemoConfig) -> SamplerEngine:
     """The target's default sampler (the method per circuit: these 6-qubit circuits at 16
-    shots are drawn from their exact noisy distributions, :mod:`qdensity.hardware.noisy_exact`),
-    with the configured mitigation and post-selection."""
+    shots are drawn from their exact noisy distributions,
+    :mod:`qdensity.execution.samplers.noisy_exact`), with the configured mitigation and
+    post-selection."""
     # the training bar reports circuits and shots; the engine's own bars would repeat it
     return SamplerEngine(target=target, seed=seed, progress=False, mitigation=cfg.mitigation,
                          postselect=cfg.postselect)

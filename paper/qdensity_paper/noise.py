@@ -46,6 +46,7 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.datasets.digits import load_digits_features
 from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.samplers import target_sampler
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import is_snapshot_name, snapshots_available
 from qdensity.hardware.targets import get_target
@@ -195,7 +196,7 @@ def _scores(est, X, y, engine, shots) -> tuple[dict, DeviceOutputs, np.ndarray]:
 
 def _sim_engine(target, seed: int, progress: bool = False, mitigation: str | None = None,
                 calibration_shots: int = 4000) -> SamplerEngine:
-    sampler = target.sampler(seed=seed, method="density_matrix")
+    sampler = target_sampler(target, seed=seed, method="density_matrix")
     return SamplerEngine(sampler, target=target, seed=seed, progress=progress,
                          mitigation=mitigation, calibration_shots=calibration_shots)
 

@@ -258,7 +258,7 @@ def check_target(target: _T, name: str = "target") -> _T:
     """
     if target is None or isinstance(target, (str, os.PathLike)):
         return target
-    if all(callable(getattr(target, a, None)) for a in ("sampler", "transpile")):
+    if all(callable(getattr(target, a, None)) for a in ("simulator", "transpile")):
         return target
     from qiskit.providers import BackendV2
     from qiskit.transpiler import Target

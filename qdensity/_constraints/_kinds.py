@@ -370,7 +370,7 @@ class TargetLike(Constraint):
     def is_satisfied_by(self, value) -> bool:
         if isinstance(value, (str, os.PathLike)):
             return bool(os.fspath(value))
-        if all(callable(getattr(value, a, None)) for a in ("sampler", "transpile")):
+        if all(callable(getattr(value, a, None)) for a in ("simulator", "transpile")):
             return True
         from qiskit.providers import BackendV2
         from qiskit.transpiler import Target

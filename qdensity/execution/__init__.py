@@ -22,6 +22,7 @@ __all__ = [
     "SamplerEngine",
     "ShotLedger",
     "HammingWeightSampler",
+    "target_sampler",
 ]
 
 #: public name -> the module that defines it, imported on first use (PEP 562)
@@ -36,6 +37,7 @@ _EXPORTS: dict[str, str] = {
     "SamplerEngine": "qdensity.execution.sampler.engine",
     "ShotLedger": "qdensity.execution.sampler.engine",
     "HammingWeightSampler": "qdensity.execution.samplers.hamming",
+    "target_sampler": "qdensity.execution.samplers.target",
     "AdjointEngine": "qdensity.execution.statevector.adjoint",
 }
 
@@ -51,6 +53,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     )
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.execution.samplers.hamming import HammingWeightSampler
+    from qdensity.execution.samplers.target import target_sampler
     from qdensity.execution.statevector.adjoint import AdjointEngine
 
 

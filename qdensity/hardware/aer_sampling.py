@@ -1,7 +1,7 @@
 """Aer simulation method and options chosen per PUB, by the qubits it uses and its shots.
 
-:meth:`qdensity.hardware.targets.HardwareTarget.sampler` returns an
-:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler` by default: a ``BaseSamplerV2`` that
+:func:`qdensity.execution.samplers.target_sampler` returns an
+:class:`~qdensity.execution.samplers.aer.AdaptiveSampler` by default: a ``BaseSamplerV2`` that
 looks at every PUB before it runs, picks the Aer method with :func:`aer_options` and runs each
 group of PUBs on qiskit-aer's public ``SamplerV2``. Aer simulates only the qubits a circuit
 acts on (its truncation; a 6-qubit model transpiled onto a 19-qubit heavy-hex device is a 6-qubit
@@ -107,7 +107,7 @@ _RANK_TWO = frozenset({"cx", "cy", "cz", "ch", "cp", "crx", "cry", "crz", "cs", 
 #: Widest circuit (active qubits) the default sampler simulates with the density matrix.
 DENSITY_MATRIX_MAX_QUBITS = 12
 
-#: Options of ``HardwareTarget.sampler(method=..., fast=True)`` with an explicit method:
+#: Options of ``target_sampler(target, method=..., fast=True)`` with an explicit method:
 #: parameter rows bound inside Aer, all cores. Shot branching stays off: with noise it gives
 #: wrong counts in qiskit-aer 0.18.2. A 4-qubit noisy GHZ-like circuit, two parameter rows,
 #: 2000 shots, one run per seed from 100: with runtime binding, row 0 got another row's
@@ -323,7 +323,7 @@ def check_memory(num_active: int, method: str, engine: str = "SamplerEngine",
         f"circuits whose two-qubit gates act only on neighbours of the line of their qubits "
         f"with a bond dimension provably at most {MPS_MAX_BOND} (mps_bond_bound), run as "
         f"matrix-product states automatically; another circuit can be sampled with "
-        f"sampler=target.sampler(method='matrix_product_state'); the unary engine computes "
+        f"sampler=target_sampler(target, method='matrix_product_state'); the unary engine computes "
         f"RBS circuits exactly at any width; or use fewer qubits")
 
 

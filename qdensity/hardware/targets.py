@@ -62,8 +62,7 @@ from qdensity.hardware._native import (
 from qdensity.hardware._objects import backend_fields, target_fields
 from qdensity.hardware._passmanagers import check_batch, transpile_with
 from qdensity.hardware._served_noise import ServedNoiseSimulator
-from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler, TargetSimulators
-from qdensity.hardware.aer_sampling import FAST_SAMPLER_OPTIONS, aer_seed
+from qdensity.hardware.aer_sampling import aer_seed
 from qdensity.hardware.snapshot_files import is_snapshot_path, load_snapshot
 from qdensity.hardware.snapshots import (
     is_snapshot_name,
@@ -79,7 +78,6 @@ from qdensity.validation import (
     SequenceOf,
     TargetLike,
     Unchecked,
-    check_positive_int,
     seed_int,
     validates,
 )
@@ -95,7 +93,6 @@ __all__ = [
     "RBS_NATIVE_NOISE",
     "RBS_NATIVE_BASIS",
     "SIMULATION_METHODS",
-    "FAST_SAMPLER_OPTIONS",
 ]
 
 #: Simulation methods accepted by :meth:`HardwareTarget.simulator`.
@@ -114,6 +111,11 @@ def known_targets() -> list[str]:
         ``["ideal", "all_to_all", "line", "ring", "heavy_hex", "rbs_native"]``, then the
         device snapshots (``"fake_manila"``, ``"fake_torino"``, ...) when the ``ibm`` extra is
         installed.
+
+    Examples
+    --------
+    >>> known_targets()[:6]
+    ['ideal', 'all_to_all', 'line', 'ring', 'heavy_hex', 'rbs_native']
     """
     return list(_TARGETS) + list(snapshot_names())
 
@@ -124,6 +126,11 @@ def target_help() -> str:
     Returns
     -------
     str
+
+    Examples
+    --------
+    >>> target_help().startswith("one of: ideal, all_to_all, line, ring, heavy_hex")
+    True
     """
     return (f"one of: {', '.join(_TARGETS)}, a calibrated device snapshot fake_manila, "
             f"fake_torino, ... (needs pip install 'qdensity[ibm]'), or the path of a snapshot "
@@ -136,6 +143,11 @@ def gpu_available() -> bool:
     Returns
     -------
     bool
+
+    Examples
+    --------
+    >>> isinstance(gpu_available(), bool)  # True only with qiskit-aer-gpu and a CUDA device
+    True
     """
     return "GPU" in AerSimulator().available_devices()
 
@@ -169,6 +181,14 @@ class HardwareTarget:
         What :meth:`transpile` compiles against (None for ``ideal``: basis only).
     seed : int or None
         Default seed of transpilation and simulation.
+
+    Examples
+    --------
+    >>> tgt = get_target("line", 4, seed=3)
+    >>> tgt.name, tgt.num_qubits, tgt.basis_gates, tgt.is_noisy
+    ('line', 4, ('cx', 'id', 'rz', 'sx', 'x'), True)
+    >>> sorted(tgt.coupling_map.get_edges())[:2]
+    [(0, 1), (1, 0)]
     """
 
     name: str
@@ -304,73 +324,6 @@ class HardwareTarget:
             ) from exc
         return out[0] if single else list(out)
 
-    def sampler(
-        self,
-        seed: SeedLike = None,
-        shots: int | None = None,
-        method: str = "auto",
-        device: str = "CPU",
-        fast: bool = True,
-        options: dict | None = None,
-    ) -> AdaptiveSampler | AerSampler:
-        """A seeded Aer sampler running on :meth:`simulator` (noise, coupling, seed).
-
-        Parameters
-        ----------
-        seed : int, numpy.random.Generator or None
-            Seed of every run (the sampler's ``seed``, which Aer uses as ``seed_simulator``);
-            None uses the target's seed. The same seed and PUBs give the same counts.
-        shots : int or None
-            Default shots per PUB; None means 1024.
-        method : {"auto", "automatic", "statevector", "density_matrix", "matrix_product_state"}
-            ``"auto"``: an :class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`, choosing
-            per PUB by the qubits it acts on and its shots (noisy: density matrix up to 12
-            active qubits from the measured crossover, 8 to 96 shots up to 8 qubits; otherwise one
-            trajectory per shot; the table is in :mod:`~qdensity.hardware.aer_sampling`).
-            Any other value fixes Aer's method, as :meth:`simulator`.
-        device : str
-            As :meth:`simulator`.
-        fast : bool
-            With a fixed ``method``: apply ``FAST_SAMPLER_OPTIONS`` (parameter rows bound
-            inside Aer, all threads; never shot branching, which samples wrong distributions
-            with noise in qiskit-aer 0.18.2). Counts repeat for a seed, not across it.
-        options : dict or None
-            Aer options set last, overriding the chosen ones (``{"max_parallel_threads": 1}``).
-
-        Returns
-        -------
-        AdaptiveSampler or AerSampler
-            ``BaseSamplerV2`` implementations on qiskit-aer's public ``SamplerV2``
-            (:mod:`qdensity.hardware.aer_samplers`): an :class:`AdaptiveSampler` for
-            ``method="auto"``, an :class:`AerSampler` on :meth:`simulator` otherwise. Aer
-            primitives do not transpile: submit circuits from :meth:`transpile`.
-
-        Examples
-        --------
-        >>> from qiskit import QuantumCircuit
-        >>> tgt = get_target("ring", 3, seed=2)
-        >>> qc = QuantumCircuit(3)
-        >>> _ = qc.h(0)
-        >>> _ = qc.measure_all()
-        >>> result = tgt.sampler(seed=5, shots=200).run([tgt.transpile(qc)]).result()
-        >>> result[0].data.meas.num_shots
-        200
-        """
-        sim_seed = self.seed if seed is None else seed_int(seed)
-        default_shots = 1024 if shots is None else check_positive_int(shots, "shots")
-        if options is not None and not isinstance(options, dict):
-            raise TypeError(f"options must be a dict of Aer options or None, got {options!r}")
-        if method == "auto":
-            make = TargetSimulators(self, device, sim_seed)
-            return AdaptiveSampler(make, self.is_noisy, seed=aer_seed(sim_seed),
-                                   default_shots=default_shots, options=options)
-        sim = self.simulator(method=method, device=device, seed=sim_seed)
-        if fast:
-            sim.set_options(**FAST_SAMPLER_OPTIONS)
-        if options:
-            sim.set_options(**options)
-        return AerSampler(sim, seed=aer_seed(sim_seed), default_shots=default_shots)
-
 
 HardwareTarget.noise_model = NoiseModelField("_noise_model")  # built on first read
 
@@ -483,6 +436,12 @@ def as_target(target, num_qubits: int | None = None, *, seed: SeedLike = 0,
     Returns
     -------
     HardwareTarget
+
+    Examples
+    --------
+    >>> tgt = get_target("ring", 3)
+    >>> as_target(tgt) is tgt, as_target("ring", 3).name
+    (True, 'ring')
     """
     if isinstance(target, HardwareTarget):
         if num_qubits is not None and num_qubits > target.num_qubits:

@@ -20,6 +20,7 @@ from sklearn.base import clone
 from qdensity.circuits.gates import RBSGate
 from qdensity.execution.plans import CircuitJob
 from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.samplers import target_sampler
 from qdensity.execution.samplers.hamming import HammingWeightSampler
 from qdensity.hardware.targets import get_target
 
@@ -109,7 +110,8 @@ def test_engine_round_trip_draws_the_same_shots_and_keeps_its_ledger(trip, used)
 @pytest.mark.parametrize("trip", sorted(ROUND_TRIPS))
 def test_noisy_target_engine_and_its_aer_samplers_round_trip(trip):
     target = get_target("ring", 3, seed=2)
-    for sampler in (target.sampler(seed=4), target.sampler(seed=4, method="statevector")):
+    for sampler in (target_sampler(target, seed=4),
+                    target_sampler(target, seed=4, method="statevector")):
         qc = target.transpile(_not_preserving())
         first = sampler.run([(qc, None, 64)]).result()  # used: simulators built and cached
         twin = ROUND_TRIPS[trip](sampler)

@@ -415,7 +415,7 @@ def _unary_circuit():
 
 
 def _hardware():
-    from qdensity.hardware.aer_samplers import AdaptiveSampler, AerSampler, NoiselessSimulators
+    from qdensity.execution.samplers.aer import AdaptiveSampler, AerSampler, NoiselessSimulators
     from qdensity.hardware.mitigation import ReadoutMitigator
     from qdensity.hardware.resources import resource_report
     from qdensity.hardware.snapshot_files import load_snapshot, save_snapshot
@@ -792,7 +792,7 @@ def _late_additions():
 
     from qdensity import validation as v
     from qdensity.execution.sampler.engine import ShotLedger
-    from qdensity.hardware.noisy_exact import ExactNoisySampler, ExactRoute, NoiseTables
+    from qdensity.execution.samplers.noisy_exact import ExactNoisySampler, ExactRoute, NoiseTables
     from qdensity.models.dropout import RandomisedPreparation
 
     def noise():

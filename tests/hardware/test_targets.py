@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 from qiskit import QuantumCircuit
 from qiskit.circuit import ParameterVector
 from qiskit.circuit.library import XXPlusYYGate
-from qiskit.primitives import BaseSamplerV2
 from qiskit.providers.fake_provider import GenericBackendV2
 from qiskit.quantum_info import Operator, Statevector
 from qiskit.transpiler import CouplingMap
@@ -299,25 +298,6 @@ def test_rbs_native_noisy_density_matches_hand_channel():
     assert not np.allclose(got, np.outer(ideal.data, ideal.data.conj()), atol=1e-4)
 
 
-def test_rbs_native_sampler_matches_exact_probabilities():
-    n = 3
-    qc = QuantumCircuit(n)
-    qc.x(0)
-    qc.append(RBSGate(0.9), [0, 1])
-    qc.append(RBSGate(-1.3), [1, 2])
-    qc.append(RBSGate(0.4), [0, 2])
-    exact = Statevector(qc).probabilities_dict()
-    meas = qc.copy()
-    meas.measure_all()
-    tgt = get_target("rbs_native", n, noise=False)
-    shots = 20000
-    result = tgt.sampler(seed=4, shots=shots).run([tgt.transpile(meas)]).result()
-    counts = result[0].data.meas.get_counts()
-    for key in set(exact) | set(counts):
-        p = exact.get(key, 0.0)
-        se = math.sqrt(max(p * (1 - p), 1e-12) / shots)
-        assert abs(counts.get(key, 0) / shots - p) <= 5 * se + 1e-9
-
 
 # ----------------------------------------------------------------------------------------------
 # simulators, samplers, seeds
@@ -344,58 +324,6 @@ def test_simulator_carries_noise_and_seed():
     assert get_target("ring", 3, noise=False).simulator().options.noise_model is None
 
 
-def test_nearby_seeds_give_independent_noisy_trajectories():
-    """Aer seeds shot i of a trajectory run with ``seed_simulator + i``: unhashed, seeds 8 and
-    9 drew the same shots shifted by one (every one of 2000 agreed). Hashed, at every shift
-    the fraction of equal outcomes is what two independent draws give, ``sum_x p(x)**2``."""
-    from qiskit import QuantumCircuit
-
-    tgt = get_target("heavy_hex", 4, seed=5)
-    qc = QuantumCircuit(4)
-    for q in range(4):
-        qc.ry(0.4 + 0.5 * q, q)
-    for q in range(3):
-        qc.cx(q, q + 1)
-    qc.measure_all()
-    compiled = tgt.transpile(qc)
-    shots = 2000
-    runs = []
-    for seed in (8, 9):
-        sampler = tgt.sampler(seed=seed, method="statevector", shots=shots)
-        runs.append(sampler.run([compiled]).result()[0].data.meas.array[:, 0])
-    a, b = runs
-    p = np.bincount(np.concatenate([a, b]), minlength=16) / (2 * shots)
-    collide = float(np.sum(p**2))
-    for shift in range(4):
-        m = shots - shift
-        agree = float(np.mean(a[shift:] == b[:m]))
-        # Bernoulli(collide) mean of m pairs within 6 standard errors: false failure
-        # < 4 x 2e-9 (normal approximation at m ~ 2000); 0.01 for collide's own estimate
-        assert abs(agree - collide) <= 6 * np.sqrt(collide * (1 - collide) / m) + 0.01, shift
-
-
-def test_sampler_is_reproducible_and_noisy():
-    tgt = get_target("line", 3, seed=2)
-    qc = QuantumCircuit(3)
-    qc.h(0)
-    qc.cx(0, 1)
-    qc.cx(1, 2)
-    qc.measure_all()
-    tqc = tgt.transpile(qc)
-    sampler = tgt.sampler(seed=21, shots=500)
-    assert isinstance(sampler, BaseSamplerV2)  # a primitive on qiskit-aer's public SamplerV2
-    first = sampler.run([tqc]).result()[0].data.meas
-    again = tgt.sampler(seed=21, shots=500).run([tqc]).result()[0].data.meas
-    other = tgt.sampler(seed=22, shots=500).run([tqc]).result()[0].data.meas
-    assert first.num_shots == 500
-    assert first.get_counts() == again.get_counts()
-    assert first.get_counts() != other.get_counts()
-    # GHZ under noise leaks outside {000, 111}; the ideal target never does
-    noisy = tgt.sampler(seed=1, shots=4000).run([tqc]).result()[0].data.meas.get_counts()
-    assert set(noisy) - {"000", "111"}
-    ideal = get_target("ideal", 3)
-    clean = ideal.sampler(seed=1, shots=4000).run([ideal.transpile(qc)]).result()[0]
-    assert set(clean.data.meas.get_counts()) == {"000", "111"}
 
 
 def test_simulator_rejects_bad_method_and_device(monkeypatch):
@@ -404,8 +332,6 @@ def test_simulator_rejects_bad_method_and_device(monkeypatch):
         tgt.simulator(method="stabiliser")
     with pytest.raises(ValueError, match="device"):
         tgt.simulator(device="TPU")
-    with pytest.raises(ValueError, match="shots"):
-        tgt.sampler(shots=0)
     monkeypatch.setattr(targets_mod, "gpu_available", lambda: False)
     with pytest.raises(ValueError, match="qiskit-aer-gpu"):
         tgt.simulator(device="GPU")

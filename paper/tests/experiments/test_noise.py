@@ -9,6 +9,7 @@ import pytest
 
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.sampler.engine import SamplerEngine
+from qdensity.execution.samplers import target_sampler
 from qdensity.hardware.targets import get_target
 from qdensity.models.decompositions import by_moments
 from qdensity.models.density import DensityQNN, Encoding
@@ -85,7 +86,7 @@ def test_device_outputs_on_a_noisy_snapshot_postselection_helps():
     model = _density_model()
     X = np.random.default_rng(4).normal(size=(8, 4))
     target = get_target("fake_manila", seed=0)
-    engine = SamplerEngine(target.sampler(seed=3, method="density_matrix"), target=target,
+    engine = SamplerEngine(target_sampler(target, seed=3, method="density_matrix"), target=target,
                            seed=3, progress=False)
     dev = device_outputs(model, X, engine=engine, shots=20_000)
     exact = model.predict(X)

@@ -29,11 +29,12 @@ from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler._jobs import PendingJob, assemble, sample_pending
 from qdensity.execution.sampler._packed_result import bitarray_to_bits, bitarray_to_probabilities
 from qdensity.execution.samplers._hamming_readout import readout_channel
+from qdensity.execution.samplers.aer import sampler_method
 from qdensity.execution.samplers.hamming import HammingWeightSampler
 from qdensity.execution.samplers.reseed import check_reseedable, reseeded
+from qdensity.execution.samplers.target import engine_sampler
 from qdensity.hardware._device import check_for_device, check_width, device_of
-from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
-from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY, active_qubits, aer_seed, check_memory
+from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY, active_qubits, check_memory
 from qdensity.hardware.mitigation import MITIGATIONS, POSTSELECTIONS
 from qdensity.hardware.targets import as_target
 from qdensity.progress import progress_bar, wait_for
@@ -162,7 +163,7 @@ class SamplerEngine:
     sampler : BaseSamplerV2, optional
         Any V2 sampler (a hardware provider's included). Default: qiskit-aer's, seeded with
         ``seed``, choosing Aer's method per PUB
-        (:class:`~qdensity.hardware.aer_samplers.AdaptiveSampler`: matrix-product states for
+        (:class:`~qdensity.execution.samplers.aer.AdaptiveSampler`: matrix-product states for
         wide Hamming-weight-1 circuits; a PUB whose state would not fit in memory is refused
         before Aer allocates it), noiseless unless a ``target`` is given. Templates that keep
         a fixed Hamming weight are sampled exactly in their subspace instead (see
@@ -274,8 +275,7 @@ class SamplerEngine:
         if target is not None:
             target = as_target(target, seed=0 if seed is None else seed)
         if sampler is None:
-            sampler = (target.sampler(seed=seed) if target is not None else
-                       AdaptiveSampler(NoiselessSimulators(seed), False, seed=aer_seed(seed)))
+            sampler = engine_sampler(target, seed)
         else:
             check_reseedable(sampler)
         self.sampler = sampler
@@ -330,9 +330,7 @@ class SamplerEngine:
         if seed is None:
             raise ValueError("seed must be an int or a numpy.random.Generator, got None")
         if self._own_sampler:
-            target = self.target
-            sampler = (target.sampler(seed=seed) if target is not None else
-                       AdaptiveSampler(NoiselessSimulators(seed), False, seed=aer_seed(seed)))
+            sampler = engine_sampler(self.target, seed)
         else:
             sampler = reseeded(self.sampler, seed)
             if sampler is None:

@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from qdensity.hardware.aer_samplers import derived_seed
+from qdensity.execution.samplers.aer import derived_seed
 from qdensity.validation import CallableC, Instance, Interval, SequenceOf, Unchecked, validates
 
 __all__ = ["reseeded", "check_reseedable", "run_independent"]

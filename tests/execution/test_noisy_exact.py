@@ -1,4 +1,4 @@
-"""Exact noisy distributions (:mod:`qdensity.hardware.noisy_exact`) against Aer.
+"""Exact noisy distributions (:mod:`qdensity.execution.samplers.noisy_exact`) against Aer.
 
 Oracles: Aer's ``density_matrix`` method run on each bound circuit with its final
 measurements replaced by ``save_probabilities`` (the exact pre-readout distribution, to 1e-10),
@@ -19,7 +19,7 @@ from qiskit_aer import AerSimulator
 from qiskit_aer.noise import NoiseModel, ReadoutError, depolarizing_error, pauli_error
 from scipy import stats
 
-from qdensity.hardware.noisy_exact import (
+from qdensity.execution.samplers.noisy_exact import (
     ExactNoisySampler,
     ExactRoute,
     exact_from,
@@ -88,6 +88,44 @@ def test_probabilities_equal_aer_density_matrix_on_a_noisy_device(device, kernel
     for r in range(3):
         np.testing.assert_allclose(got[r], _aer_probabilities(tc, values[r], device.noise_model),
                                    atol=1e-10)
+
+
+@pytest.mark.parametrize("kernel", ["numba", "numpy"])
+def test_rows_sharing_leading_parameters_equal_aer_row_by_row(device, kernel, monkeypatch):
+    """A parameter-shift PUB: rows equal to a base row but for one parameter (each of them
+    shifted by +-pi/2), repeated rows and a second base row. Rows that agree so far share one
+    density matrix inside; every row must still equal Aer's density matrix of that row."""
+    if kernel == "numpy":
+        monkeypatch.setenv("QDENSITY_NUMBA", "0")
+    tc = device.transpile(_circuit())
+    P = tc.num_parameters
+    rng = np.random.default_rng(4)
+    rows = []
+    for base in rng.uniform(-3, 3, size=(2, P)):
+        rows.append(base)
+        for j in range(P):
+            for shift in (np.pi / 2, -np.pi / 2):
+                row = base.copy()
+                row[j] += shift
+                rows.append(row)
+    rows.append(rows[3].copy())  # a repeated row
+    values = np.array(rows)
+    got = exact_probabilities(ExactNoisySampler(device.noise_model).program(tc), values)
+    assert got.shape == (len(rows), 2**4)
+    for r in range(0, len(rows), 3):  # every third row against Aer (the oracle costs)
+        np.testing.assert_allclose(got[r], _aer_probabilities(tc, values[r], device.noise_model),
+                                   atol=1e-10)
+    np.testing.assert_array_equal(got[-1], got[3])
+
+
+def test_samplers_of_one_noise_model_share_its_tables_until_it_changes():
+    noise = NoiseModel()
+    noise.add_all_qubit_quantum_error(depolarizing_error(0.1, 1), ["x"])
+    a, b = ExactNoisySampler(noise), ExactNoisySampler(noise)
+    assert a.tables is b.tables
+    noise.add_quantum_error(depolarizing_error(0.2, 1), ["sx"], [0])  # new instruction
+    c = ExactNoisySampler(noise)
+    assert c.tables is not a.tables and c.tables.error("sx", (0,)) is not None
 
 
 def test_local_errors_replace_all_qubit_errors_and_measure_errors_act_first():

@@ -1,55 +1,24 @@
 """The exact noisy distribution of a circuit: the compiled program behind
-:mod:`qdensity.hardware.noisy_exact` (see there for what it computes and why).
+:mod:`qdensity.execution.samplers.noisy_exact` (see there for what it computes and why).
 
 Blocks of gates on at most two qubits, each gate followed by its error, are fused into one
 superoperator ``S`` acting on ``rho`` flattened as ``rho[l, m] -> l * d + m`` (``l``, ``m``
 local indices, Qiskit's little-endian order on the block's qubits); a unitary contributes
-``U (x) conj(U)``, an error ``sum_K K (x) conj(K)`` of its Kraus operators. The compiled kernel
-applying a block to every row is numba's (core; ``QDENSITY_NUMBA=0`` switches it off here as in
-the engines, and numpy then computes the same numbers).
+``U (x) conj(U)``, an error ``sum_K K (x) conj(K)`` of its Kraus operators. The kernel that
+applies a block to every row is in :mod:`._noisy_kernels`.
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
-from qiskit.quantum_info import Kraus
-from qiskit_aer.noise import NoiseModel, QuantumError
 
 from qdensity.analysis.gate_registry import GATES
+from qdensity.execution.samplers._noise_tables import NoiseTables
+from qdensity.execution.samplers._noisy_kernels import apply_superop
 
-__all__ = ["MAX_QUBITS", "NoiseTables", "supported", "exact_probabilities", "Program",
+__all__ = ["MAX_QUBITS", "supported", "exact_probabilities", "Program",
            "active_count"]
-
-def _numba():
-    """numba, imported on first use (importing it costs about a second of CPU, which a plan
-    that never simulates a noisy circuit should not pay), or None where it is missing or
-    ``QDENSITY_NUMBA`` switches it off (the engines' switch; qdensity.execution._numba sits
-    above this layer)."""
-    if os.environ.get("QDENSITY_NUMBA", "1").strip().lower() in ("0", "false", "no", "off"):
-        return None
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a core dependency
-        return None
-    return numba
-
-
-def _jit(func):
-    """``numba.njit`` with the disk cache where numba can write one (a read-only install
-    without a writable cache folder compiles in memory; ``QDENSITY_NUMBA_CACHE=0``: no cache)."""
-    numba = _numba()
-    assert numba is not None  # callers check first
-    if os.environ.get("QDENSITY_NUMBA_CACHE", "1").strip().lower() not in ("0", "false", "no",
-                                                                          "off"):
-        try:
-            return numba.njit(cache=True)(func)
-        except RuntimeError:
-            pass
-    return numba.njit(func)
-
 
 #: Widest circuit (active qubits) simulated here: a density matrix of ``16 * 4**a`` bytes a row.
 MAX_QUBITS = 10
@@ -57,78 +26,6 @@ MAX_QUBITS = 10
 _SKIP = frozenset({"barrier"})
 _REFUSED = frozenset({"reset", "delay", "initialize", "if_else", "while_loop", "for_loop",
                       "switch_case", "box", "store"})
-
-
-class NoiseTables:
-    """The errors of a ``NoiseModel`` as Kraus superoperators, read once.
-
-    Parameters
-    ----------
-    noise_model : NoiseModel or None
-        None: noiseless.
-
-    Attributes
-    ----------
-    ok : bool
-        False when the model holds an error this module does not apply (see module).
-    """
-
-    def __init__(self, noise_model: NoiseModel | None):
-        self.local: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
-        self.all_qubit: dict[str, np.ndarray] = {}
-        self.readout: dict[int, np.ndarray] = {}
-        self.readout_all: np.ndarray | None = None
-        self.ok = True
-        if noise_model is None:
-            return
-        made: dict[int, np.ndarray] = {}
-        for e in noise_model.to_dict()["errors"]:
-            kind = e.get("type")
-            if kind == "qerror":
-                key = id(e["instructions"])
-                if key not in made:
-                    made[key] = _superop_of(QuantumError.from_dict(e))
-                sup = made[key]
-                for op in e["operations"]:
-                    if "gate_qubits" in e:
-                        for g in e["gate_qubits"]:
-                            k = (op, tuple(int(q) for q in g))
-                            self.local[k] = sup if k not in self.local else sup @ self.local[k]
-                    else:
-                        self.all_qubit[op] = (sup if op not in self.all_qubit
-                                              else sup @ self.all_qubit[op])
-            elif kind == "roerror":
-                probs = np.asarray(e["probabilities"], dtype=float)
-                if probs.shape != (2, 2):
-                    self.ok = False  # correlated readout: left to Aer
-                    return
-                if "gate_qubits" in e:
-                    for g in e["gate_qubits"]:
-                        self.readout[int(g[0])] = probs
-                else:
-                    self.readout_all = probs
-            else:
-                self.ok = False
-                return
-
-    def error(self, name: str, qubits: tuple[int, ...]) -> np.ndarray | None:
-        """The superoperator of the error after ``name`` on ``qubits`` (None: no error)."""
-        found = self.local.get((name, qubits))
-        return found if found is not None else self.all_qubit.get(name)
-
-    def readout_matrix(self, qubit: int) -> np.ndarray | None:
-        """``P[true, read]`` of ``qubit``'s readout error (None: none)."""
-        found = self.readout.get(qubit)
-        return found if found is not None else self.readout_all
-
-
-def _superop_of(error: QuantumError) -> np.ndarray:
-    """``sum_K K (x) conj(K)``: acts on ``rho`` flattened as ``rho[l, m] -> index l * d + m``."""
-    return _kraus_superop(Kraus(error.to_quantumchannel()).data)
-
-
-def _kraus_superop(kraus) -> np.ndarray:
-    return np.sum([np.kron(K, np.conj(K)) for K in kraus], axis=0)
 
 
 def _embed(mat: np.ndarray, where: int) -> np.ndarray:
@@ -160,7 +57,31 @@ def _unitary_superop(U: np.ndarray) -> np.ndarray:
 
 
 def supported(circuit: QuantumCircuit, tables: NoiseTables) -> bool:
-    """Whether :class:`ExactNoisySampler` computes ``circuit`` under ``tables`` (see module)."""
+    """Whether :class:`ExactNoisySampler` computes ``circuit`` under ``tables`` (see module).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+    tables : NoiseTables
+
+    Returns
+    -------
+    bool
+        False for a mid-circuit measurement, ``reset``, ``delay``, classical control, a gate
+        on more than two qubits or a noise model with an error not applied here.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.h(0)
+    >>> _ = qc.measure_all()
+    >>> supported(qc, NoiseTables(None))
+    True
+    >>> _ = qc.reset(0)
+    >>> supported(qc, NoiseTables(None))
+    False
+    """
     if not tables.ok or circuit.num_vars or circuit.num_stretches:
         return False
     measured: set = set()
@@ -265,7 +186,7 @@ class Program:
                     err = (err if len(qs) == 1 or (len(iq) == 2 and iq == qs) else
                            _swap_superop(err) if len(iq) == 2 else
                            _embed_superop(err, qs.index(iq[0])))
-                steps.append(("param", iq, op, aff, err))
+                steps.append(_fourier(("param", iq, op, aff, err), qs))
         # fold runs of fixed steps after the first parametrised one
         folded: list = []
         for s in steps:
@@ -336,101 +257,122 @@ def _gate_matrices(op, angles: np.ndarray) -> np.ndarray:
     return np.stack(mats)
 
 
-def _apply_numpy(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int
-                 ) -> np.ndarray:
-    """``rho`` (R, 2**a, 2**a) through a superoperator (4**k, 4**k), shared or per row."""
-    R, k = rho.shape[0], len(qubits)
-    t = rho.reshape((R,) + (2,) * (2 * a))
-    rows = [1 + (a - 1 - q) for q in reversed(qubits)]  # local index: last qubit most significant
-    cols = [1 + a + (a - 1 - q) for q in reversed(qubits)]
-    moved = np.moveaxis(t, rows + cols, list(range(1, 2 * k + 1)))
-    shape = moved.shape
-    flat = moved.reshape(R, 4**k, -1)
-    # einsum, not matmul: no BLAS threads on these small products
-    out = np.einsum("ij,rjk->rik" if sup.ndim == 2 else "rij,rjk->rik", sup, flat)
-    back = np.moveaxis(out.reshape(shape), list(range(1, 2 * k + 1)), rows + cols)
-    return np.ascontiguousarray(back).reshape(R, 2**a, 2**a)
+def _step_superop(step: tuple, qs: tuple[int, ...], angles: np.ndarray) -> np.ndarray:
+    """A parametrised step's superoperator per row (R, 4**k, 4**k) on its block's qubits
+    ``qs``, its error included, for the gate parameters ``angles`` (R, p)."""
+    _, iq, op, _, err = step
+    R = angles.shape[0]
+    U = _gate_matrices(op, angles)
+    if len(qs) == 2 and len(iq) == 1:
+        U = _embed(U, qs.index(iq[0]))
+    elif len(iq) == 2 and iq != qs:
+        U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
+    s = _unitary_superop(U)
+    return s if err is None else err @ s
 
 
-def _apply_block(rho, sup, offsets):
-    """In place: every (row base, column base) block of ``rho`` through ``sup``."""
-    R, D = rho.shape[0], rho.shape[1]
-    L = offsets.shape[0]
-    mask = 0
-    for t in range(L):
-        mask |= offsets[t]
-    per_row = sup.shape[0] > 1
-    v = np.empty(L * L, dtype=rho.dtype)
-    for r in range(R):
-        S = sup[r] if per_row else sup[0]
-        for i0 in range(D):
-            if i0 & mask:
-                continue
-            for j0 in range(D):
-                if j0 & mask:
-                    continue
-                for x in range(L):
-                    for y in range(L):
-                        v[x * L + y] = rho[r, i0 + offsets[x], j0 + offsets[y]]
-                for x in range(L):
-                    for y in range(L):
-                        acc = 0j
-                        row = x * L + y
-                        for z in range(L * L):
-                            acc += S[row, z] * v[z]
-                        rho[r, i0 + offsets[x], j0 + offsets[y]] = acc
-    return rho
+def _fourier(step: tuple, qs: tuple[int, ...]) -> tuple:
+    """``("fourier", A0, A1, Am1, affine)`` for a one-parameter step whose superoperator is
+    ``A0 + A1 e^{i t} + Am1 e^{-i t}`` in its angle ``t`` (every rotation ``exp(-i t G / 2)``
+    with ``G**2 = 1``: rz, ry, rx, rzz, ...; the three terms from three angles, the form
+    checked at two more); the step as given otherwise. Rows then cost three array operations,
+    not a gate matrix, two Kronecker products and a matrix product each."""
+    op, aff = step[2], step[3]
+    if len(op.params) != 1 or not isinstance(aff[0], tuple):
+        return step
+    t = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])
+    try:
+        S = _step_superop(step, qs, t[:, None])
+    except Exception:  # noqa: BLE001 - a gate without a matrix here: keep the general path
+        return step
+    z = np.exp(1j * t)[:, None, None]
+    terms = (S.mean(axis=0), (S * np.conj(z)).mean(axis=0), (S * z).mean(axis=0))
+    check = np.array([0.7317, 2.2])
+    zc = np.exp(1j * check)[:, None, None]
+    if not np.allclose(terms[0] + terms[1] * zc + terms[2] * np.conj(zc),
+                       _step_superop(step, qs, check[:, None]), atol=1e-12, rtol=0):
+        return step
+    return ("fourier", *terms, aff)
 
 
-#: The compiled ``_apply_block``, made on first use (None until then).
-_KERNEL: list = []
-
-
-def _apply(rho: np.ndarray, sup: np.ndarray, qubits: tuple[int, ...], a: int) -> np.ndarray:
-    """``rho`` (R, 2**a, 2**a) through a superoperator (4**k, 4**k), shared or per row."""
-    if _numba() is None:
-        return _apply_numpy(rho, sup, qubits, a)
-    if not _KERNEL:
-        _KERNEL.append(_jit(_apply_block))
-    k = len(qubits)
-    offsets = np.array([sum(((l >> b) & 1) << qubits[b] for b in range(k))
-                        for l in range(2**k)], dtype=np.int64)
-    sup3 = np.ascontiguousarray(sup.reshape(-1, 4**k, 4**k), dtype=complex)
-    return _KERNEL[0](rho, sup3, offsets)
+def _block_superop(block: dict, program: Program, values: np.ndarray) -> np.ndarray | None:
+    """A block's superoperator: (4**k, 4**k) when it has no parameter, else one per row of
+    ``values`` (R, 4**k, 4**k); None for an empty block."""
+    qs = block["qubits"]
+    sup = block["fixed"]
+    for step in block["steps"]:
+        if step[0] == "fixed":
+            sup = step[1] if sup is None else step[1] @ sup
+            continue
+        angles = _row_params(step[-1] if step[0] == "fourier" else step[3], values,
+                             program.parameters)
+        if step[0] == "fourier":
+            z = np.exp(1j * angles[:, 0])[:, None, None]
+            s = step[1] + step[2] * z + step[3] * np.conj(z)
+        else:
+            s = _step_superop(step, qs, angles)
+        sup = s if sup is None else s @ sup
+    return sup
 
 
 def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
     """Outcome probabilities of the measured qubits per row, readout errors applied.
 
+    Parameters
+    ----------
+    program : Program
+        The compiled circuit (``Program(circuit, tables)``).
+    values : numpy.ndarray, shape (R, P)
+        One row of the program's ``P`` parameter values per distribution (``P = 0``: an
+        unparametrised circuit, ``R`` copies of its distribution).
+
     Returns
     -------
     numpy.ndarray, shape (R, 2**m)
         Outcome ``o`` has bit ``i`` = the ``i``-th measurement's result.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.circuit import Parameter
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.ry(Parameter("t"), 0)
+    >>> _ = qc.measure_all()
+    >>> probs = exact_probabilities(Program(qc, NoiseTables(None)), np.array([[0.0], [np.pi]]))
+    >>> np.round(probs, 12).tolist()  # cos^2(t/2), sin^2(t/2)
+    [[1.0, 0.0], [0.0, 1.0]]
     """
     a = program.num_active
     R = values.shape[0]
-    rho = np.zeros((R, 2**a, 2**a), dtype=complex)
-    rho[:, 0, 0] = 1.0
+    if R == 0:
+        return np.zeros((0, 2 ** len(program.measure)))
+    # rows that agree on every parameter so far share one density matrix (a parameter-shift
+    # PUB's rows differ from one gate on): states[owner[r]] is row r's
+    owner = np.zeros(R, dtype=np.int64)
+    states = np.zeros((1, 2**a, 2**a), dtype=complex)
+    states[0, 0, 0] = 1.0
     for block in program.blocks:
-        qs = block["qubits"]
-        sup = block["fixed"]
-        for step in block["steps"]:
-            if step[0] == "fixed":
-                sup = step[1] if sup is None else step[1] @ sup
-                continue
-            _, iq, op, aff, err = step
-            U = _gate_matrices(op, _row_params(aff, values, program.parameters))
-            if len(qs) == 2 and len(iq) == 1:
-                U = _embed(U, qs.index(iq[0]))
-            elif len(iq) == 2 and iq != qs:
-                U = U.reshape(R, 2, 2, 2, 2).transpose(0, 2, 1, 4, 3).reshape(R, 4, 4)
-            s = _unitary_superop(U)
-            if err is not None:
-                s = err @ s
-            sup = s if sup is None else s @ sup
+        block_values = values  # the parameter rows of the states, in their order
+        if any(step[0] != "fixed" for step in block["steps"]):
+            if states.shape[0] < R:  # rows that share a state may still share after it
+                key = np.concatenate([owner[:, None].astype(float)] + [
+                    _row_params(step[-1] if step[0] == "fourier" else step[3], values,
+                                program.parameters)
+                    for step in block["steps"] if step[0] != "fixed"], axis=1)
+                _, first, inverse = np.unique(key, axis=0, return_index=True,
+                                              return_inverse=True)
+                states = states[owner[first]]
+                owner = inverse.reshape(-1)
+                block_values = values[first]
+            else:  # every row has its own state: owner is a permutation
+                row_of = np.empty(R, dtype=np.int64)
+                row_of[owner] = np.arange(R)
+                block_values = values[row_of]
+        sup = _block_superop(block, program, block_values)
         if sup is not None:
-            rho = _apply(rho, sup, qs, a)
-    diag = np.clip(np.real(np.einsum("rii->ri", rho)), 0.0, None)
+            states = apply_superop(states, sup, block["qubits"], a)
+    diag = np.clip(np.real(np.einsum("rii->ri", states)), 0.0, None)[owner]
     m = len(program.measure)
     probs = diag.reshape((R,) + (2,) * a)
     keep = [1 + (a - 1 - q) for q, _ in program.measure]  # measurement i -> axis
@@ -446,8 +388,6 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
         marg = np.moveaxis(np.tensordot(marg, P, axes=([axis], [0])), -1, axis)
     out = marg.reshape(R, 2**m)
     return out / out.sum(axis=1, keepdims=True)
-
-
 
 
 def active_count(circuit: QuantumCircuit) -> int:

@@ -20,7 +20,8 @@ from qiskit.primitives.containers import SamplerPub
 from qiskit_aer import AerSimulator
 from qiskit_aer.primitives import SamplerV2
 
-from qdensity.hardware._sampler_jobs import LocalJob
+from qdensity.execution.samplers._jobs import LocalJob
+from qdensity.execution.samplers.noisy_exact import ExactRoute
 from qdensity.hardware.aer_sampling import (
     HAMMING_WEIGHT_KEY,
     MPS_MAX_BOND,
@@ -31,7 +32,6 @@ from qdensity.hardware.aer_sampling import (
     check_memory,
     mps_bond_bound,
 )
-from qdensity.hardware.noisy_exact import ExactRoute
 
 __all__ = ["AdaptiveSampler", "AerSampler", "NoiselessSimulators", "derived_seed",
            "sampler_method"]
@@ -49,6 +49,14 @@ def derived_seed(seed: int, *words: int) -> int:
     Returns
     -------
     int
+        In ``[0, 2**32)``; the same arguments give the same seed.
+
+    Examples
+    --------
+    >>> derived_seed(5, 1) == derived_seed(5, 1), derived_seed(5, 1) == derived_seed(5, 2)
+    (True, False)
+    >>> 0 <= derived_seed(5, 1) < 2**32
+    True
     """
     seq = np.random.SeedSequence([int(seed) % 2**63, *map(int, words)])
     return int(seq.generate_state(1, dtype=np.uint32)[0])
@@ -75,6 +83,18 @@ class AerSampler(BaseSamplerV2):
         Carries the method, the noise and the options.
     seed : int or None
     default_shots : int
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.x(0)
+    >>> _ = qc.measure_all()
+    >>> sampler = AerSampler(AerSimulator(method="statevector"), seed=3, default_shots=50)
+    >>> sampler.run([qc]).result()[0].data.meas.get_counts()
+    {'1': 50}
+    >>> sampler.with_seed(4).seed
+    4
     """
 
     def __init__(self, simulator: AerSimulator, seed: int | None = None,
@@ -128,6 +148,19 @@ class AdaptiveSampler(BaseSamplerV2):
     options : dict or None
         Aer options applied to every group after the chosen ones (e.g.
         ``{"max_parallel_threads": 1}``); a ``method`` key fixes the method.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.h(0)
+    >>> _ = qc.cx(0, 1)
+    >>> _ = qc.measure_all()
+    >>> sampler = AdaptiveSampler(NoiselessSimulators(seed=1), noisy=False, seed=1)
+    >>> sampler.choose(qc, shots=100)["method"]
+    'automatic'
+    >>> sorted(sampler.run([qc], shots=100).result()[0].data.meas.get_counts())
+    ['00', '11']
     """
 
     def __init__(self, make_simulator: Callable[[str], AerSimulator], noisy: bool,
@@ -139,7 +172,7 @@ class AdaptiveSampler(BaseSamplerV2):
         self._default_shots = int(default_shots)
         self._overrides = dict(options or {})
         self._simulators: dict = {}
-        # exact noisy distributions for few-qubit PUBs (qdensity.hardware.noisy_exact)
+        # exact noisy distributions for few-qubit PUBs (.noisy_exact)
         self._exact = ExactRoute(make_simulator, self._noisy)
 
     def __getstate__(self) -> dict:
@@ -246,6 +279,13 @@ def sampler_method(sampler) -> str | None:
         ``AerSampler``: its simulator's ``method``; qiskit-aer's ``SamplerV2``: the ``method``
         of its ``backend_options`` (``"automatic"`` when unset); anything else (an
         :class:`AdaptiveSampler`, which checks each PUB itself, or a provider's): None.
+
+    Examples
+    --------
+    >>> sampler_method(AerSampler(AerSimulator(method="density_matrix")))
+    'density_matrix'
+    >>> sampler_method(SamplerV2()), sampler_method(object()) is None
+    ('automatic', True)
     """
     if isinstance(sampler, AerSampler):
         return str(sampler.simulator.options.method)
@@ -261,6 +301,13 @@ class NoiselessSimulators:
     Parameters
     ----------
     seed : int or None
+        Hashed into ``seed_simulator`` (:func:`~qdensity.hardware.aer_sampling.aer_seed`).
+
+    Examples
+    --------
+    >>> sim = NoiselessSimulators(seed=3)("statevector")
+    >>> sim.options.method, sim.options.noise_model is None
+    ('statevector', True)
     """
 
     def __init__(self, seed: int | None = None):
@@ -268,21 +315,3 @@ class NoiselessSimulators:
 
     def __call__(self, method: str) -> AerSimulator:
         return AerSimulator(method=method, seed_simulator=aer_seed(self.seed))
-
-
-class TargetSimulators:
-    """``make_simulator`` of a hardware target's :class:`AdaptiveSampler`: the target's Aer
-    simulator for a method, on ``device`` with ``seed`` (picklable, so the sampler is).
-
-    Parameters
-    ----------
-    target : qdensity.hardware.targets.HardwareTarget
-    device : {"CPU", "GPU"}
-    seed : int or None
-    """
-
-    def __init__(self, target, device: str, seed: int | None):
-        self.target, self.device, self.seed = target, device, seed
-
-    def __call__(self, method: str) -> AerSimulator:
-        return self.target.simulator(method=method, device=self.device, seed=self.seed)

@@ -18,7 +18,7 @@ errors. :func:`supported` says whether a circuit and noise model are within that
 terminal measurements, no ``reset``, ``delay``, conditions or classical control, and no
 correlated (multi-qubit) readout error; anything else goes to Aer.
 
-Correctness oracle (``tests/hardware/test_noisy_exact.py``): the probabilities equal Aer's
+Correctness oracle (``tests/execution/test_noisy_exact.py``): the probabilities equal Aer's
 ``density_matrix`` method's to 1e-10, and the drawn counts pass a chi-square test.
 """
 
@@ -33,19 +33,40 @@ from qiskit.primitives import BaseSamplerV2, BitArray, DataBin, PrimitiveResult,
 from qiskit.primitives.containers import SamplerPub
 from qiskit_aer.noise import NoiseModel
 
-from qdensity.hardware._noisy_program import (
+from qdensity.execution.samplers._jobs import LocalJob
+from qdensity.execution.samplers._noise_tables import NoiseTables
+from qdensity.execution.samplers._noisy_program import (
     MAX_QUBITS,
-    NoiseTables,
     Program,
     active_count,
     exact_probabilities,
     supported,
 )
-from qdensity.hardware._sampler_jobs import LocalJob
 from qdensity.validation import MAX_SHOTS, Instance, Interval, validates
 
 __all__ = ["ExactNoisySampler", "ExactRoute", "NoiseTables", "supported",
            "exact_probabilities", "exact_from", "MAX_QUBITS"]
+
+#: NoiseTables per live noise model (id -> (weak reference, what it held, tables)): the
+#: samplers of one target (a new one per engine and per reseeded engine) read its errors once.
+_TABLES: dict[int, tuple] = {}
+
+
+def _tables_of(noise_model: NoiseModel | None) -> NoiseTables:
+    """The model's tables, shared while the model lives and holds the same instructions and
+    qubits (a model given more errors afterwards is read again)."""
+    if noise_model is None:
+        return NoiseTables(None)
+    held = (tuple(noise_model.noise_instructions), tuple(noise_model.noise_qubits))
+    hit = _TABLES.get(id(noise_model))
+    if hit is not None and hit[0]() is noise_model and hit[1] == held:
+        return hit[2]
+    for key in [k for k, (ref, _, _) in _TABLES.items() if ref() is None]:
+        del _TABLES[key]  # models no longer alive
+    tables = NoiseTables(noise_model)
+    _TABLES[id(noise_model)] = (weakref.ref(noise_model), held, tables)
+    return tables
+
 
 @validates(noise_model=[Instance(NoiseModel), None], seed=[Interval(int, 0), None],
            default_shots=Interval(int, 1, MAX_SHOTS))
@@ -75,10 +96,11 @@ class ExactNoisySampler(BaseSamplerV2):
 
     def __init__(self, noise_model: NoiseModel | None, seed: int | None = None,
                  default_shots: int = 1024):
-        self.tables = NoiseTables(noise_model)
+        self.tables = _tables_of(noise_model)
         self._seed = seed
         self._default_shots = int(default_shots)
         self._programs: dict[int, tuple] = {}
+        self._facts: dict[int, tuple] = {}
 
     @property
     def seed(self) -> int | None:
@@ -88,7 +110,19 @@ class ExactNoisySampler(BaseSamplerV2):
     def supports(self, circuit: QuantumCircuit) -> bool:
         """Whether this sampler computes ``circuit`` (:func:`supported`, at most
         :data:`MAX_QUBITS` active qubits)."""
-        return supported(circuit, self.tables) and active_count(circuit) <= MAX_QUBITS
+        active, ok = self.facts(circuit)
+        return ok and active <= MAX_QUBITS
+
+    def facts(self, circuit: QuantumCircuit) -> tuple[int, bool]:
+        """``(active qubits, supported(circuit))``, read once per circuit object while it
+        lives (a template runs once per training step)."""
+        key = id(circuit)
+        hit = self._facts.get(key)
+        if hit is not None and hit[0]() is circuit:
+            return hit[1]
+        facts = (active_count(circuit), supported(circuit, self.tables))
+        self._facts[key] = (weakref.ref(circuit), facts)
+        return facts
 
     def program(self, circuit: QuantumCircuit) -> Program:
         """``circuit`` compiled (once per circuit object while it lives)."""
@@ -103,6 +137,7 @@ class ExactNoisySampler(BaseSamplerV2):
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_programs"] = {}  # weak references do not pickle; compiled again on use
+        state["_facts"] = {}
         return state
 
     def run(self, pubs, *, shots: int | None = None) -> LocalJob:
@@ -112,8 +147,9 @@ class ExactNoisySampler(BaseSamplerV2):
         for i, pub in enumerate(coerced):
             if not self.supports(pub.circuit):
                 raise ValueError(f"pubs[{i}]: circuit {pub.circuit.name!r} is outside what "
-                                 f"ExactNoisySampler computes (see qdensity.hardware."
-                                 f"noisy_exact.supported; at most {MAX_QUBITS} active qubits)")
+                                 f"ExactNoisySampler computes (see qdensity.execution."
+                                 f"samplers.noisy_exact.supported; at most {MAX_QUBITS} "
+                                 f"active qubits)")
         return LocalJob(lambda: PrimitiveResult(self.sample(coerced, self._seed),
                                                 metadata={"version": 2}))
 
@@ -176,6 +212,11 @@ def exact_from(num_active: int) -> int:
     -------
     int
         ``ceil(5 * 2 ** (a - 6))``: 2 at 4 qubits, 5 at 6, 20 at 8, 80 at 10.
+
+    Examples
+    --------
+    >>> [exact_from(a) for a in (4, 6, 8, 10)]
+    [2, 5, 20, 80]
     """
     return int(np.ceil(5 * 2.0 ** (int(num_active) - 6)))
 
@@ -183,7 +224,7 @@ def exact_from(num_active: int) -> int:
 class ExactRoute:
     """The PUBs of a noisy Aer sampler's call that run as exact noisy distributions.
 
-    :class:`~qdensity.hardware.aer_samplers.AdaptiveSampler` hands every call's PUBs to
+    :class:`~qdensity.execution.samplers.aer.AdaptiveSampler` hands every call's PUBs to
     :meth:`take` first: a PUB on at most :data:`MAX_QUBITS` active qubits, within
     :func:`supported`, with at least :func:`exact_from` shots, is drawn here from its exact
     distribution under the simulators' noise model; the others go to Aer.
@@ -194,6 +235,26 @@ class ExactRoute:
         ``make_simulator(method) -> AerSimulator``; its ``options.noise_model`` is the noise.
     noisy : bool
         Whether those simulators carry noise (noiseless PUBs stay with Aer).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.primitives.containers import SamplerPub
+    >>> from qiskit_aer import AerSimulator
+    >>> from qiskit_aer.noise import depolarizing_error
+    >>> model = NoiseModel()
+    >>> model.add_all_qubit_quantum_error(depolarizing_error(0.05, 1), ["x"])
+    >>> route = ExactRoute(lambda m: AerSimulator(method=m, noise_model=model), noisy=True)
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.x(0)
+    >>> _ = qc.measure_all()
+    >>> out = [None]
+    >>> route.take([SamplerPub.coerce(qc, 100)], out, seed=1, overrides={})
+    {0}
+    >>> out[0].data.meas.num_shots
+    100
+    >>> route.take([SamplerPub.coerce(qc, 100)], [None], 1, {"method": "statevector"})
+    set()
     """
 
     def __init__(self, make_simulator, noisy: bool):
@@ -222,12 +283,14 @@ class ExactRoute:
         """
         if not self._noisy or "method" in overrides:
             return set()
-        chosen = [i for i, pub in enumerate(pubs)
-                  if active_count(pub.circuit) <= MAX_QUBITS
-                  and pub.shots >= exact_from(active_count(pub.circuit))
-                  and supported(pub.circuit, self._exact().tables)]
+        exact = self._exact()
+        chosen = []
+        for i, pub in enumerate(pubs):
+            active, ok = exact.facts(pub.circuit)
+            if ok and active <= MAX_QUBITS and pub.shots >= exact_from(active):
+                chosen.append(i)
         if chosen:
-            results = self._exact().sample([pubs[i] for i in chosen], seed)
+            results = exact.sample([pubs[i] for i in chosen], seed)
             for i, res in zip(chosen, results, strict=True):
                 out[i] = res
         return set(chosen)
