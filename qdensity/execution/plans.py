@@ -89,7 +89,13 @@ class CircuitJob:
     label: str = ""
 
     def __post_init__(self) -> None:
-        vals = as_parameter_rows(self.values, self.circuit.num_parameters, "values")
+        self._check_rows(self.circuit.num_parameters)
+        if self.circuit.num_clbits == 0:
+            raise ValueError("a CircuitJob circuit must measure into classical bits")
+
+    def _check_rows(self, num_parameters: int) -> None:
+        """``values`` as ``(rows, num_parameters)`` rows, at least one; ``shots`` bounded."""
+        vals = as_parameter_rows(self.values, num_parameters, "values")
         if vals.shape[0] == 0:
             raise ValueError("values must have at least one parameter row, got shape "
                              f"{vals.shape} (a job with zero rows runs nothing)")
@@ -97,13 +103,20 @@ class CircuitJob:
         if self.shots is not None:  # the measured bits of every shot are held in memory
             check_positive_int(self.shots, "shots", maximum=MAX_DENSE_ENTRIES // vals.shape[0],
                                why=f"{vals.shape[0]} rows x shots <= {MAX_DENSE_ENTRIES}")
-        if self.circuit.num_clbits == 0:
-            raise ValueError("a CircuitJob circuit must measure into classical bits")
 
     @property
     def rows(self) -> int:
         """Number of parameter rows (circuit executions)."""
         return int(self.values.shape[0])
+
+    @property
+    def num_qubits(self) -> int:
+        """Width of the template (``circuit.num_qubits``)."""
+        return self.circuit.num_qubits
+
+    def with_shots(self, shots: int | None) -> CircuitJob:
+        """The same job with ``shots`` per row."""
+        return replace(self, shots=shots)
 
 
 @validates(
@@ -178,7 +191,7 @@ class Plan:
         """The same plan with every job's shots per row set to ``shots``."""
         if shots is not None:
             check_positive_int(shots, "shots")
-        return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
+        return replace(self, jobs=[job.with_shots(shots) for job in self.jobs])
 
     def run(self, engine) -> Any:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""

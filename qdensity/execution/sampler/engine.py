@@ -32,7 +32,7 @@ from qdensity.execution.sampler._packed_result import (
     bitarray_to_probabilities,
 )
 from qdensity.execution.samplers._hamming_readout import readout_channel
-from qdensity.execution.samplers.hamming import HammingWeightSampler
+from qdensity.execution.samplers.hamming import HammingWeightSampler, ProgramItem
 from qdensity.execution.samplers.reseed import check_reseedable, reseeded
 from qdensity.hardware._device import check_for_device, check_width, device_of
 from qdensity.hardware.aer_samplers import AdaptiveSampler, NoiselessSimulators, sampler_method
@@ -461,9 +461,9 @@ class SamplerEngine:
                 label = job.label or job.circuit.name
                 if self._device is not None:
                     check_width(job.circuit, self._device, label)
-                if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
+                if self.target is not None and job.num_qubits > self.target.num_qubits:
                     raise ValueError(
-                        f"job {label!r} needs {job.circuit.num_qubits} qubits but target "
+                        f"job {label!r} needs {job.num_qubits} qubits but target "
                         f"{self.target.name!r} has {self.target.num_qubits}; use a wider "
                         f"device or a smaller model")
                 shots = job.shots if job.shots is not None else self.default_shots
@@ -472,6 +472,10 @@ class SamplerEngine:
         return out
 
     def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
+        program = getattr(job, "program", None)  # a LazyCircuitJob's: sampled without circuit
+        if program is not None and self._correction is None and self._hamming() is not None:
+            return PendingJob(job, label, shots, ProgramItem(program, job.values, shots), None,
+                              True)
         template = self._hamming_template(job.circuit, label)
         if template is not None:
             # exact in the weight-k subspace: no transpilation, no Aer

@@ -1,0 +1,89 @@
+"""A compiled template's program for :class:`~.hamming.HammingWeightSampler`: the unary
+engine's circuit (weight 1, RBS / FBS gates) or the subspace's index tables
+(:mod:`._hamming_subspace`), built from a :class:`~._hamming_compile.HammingTemplate` or from a
+job's precompiled :class:`~qdensity.execution._lazy_jobs.UnaryProgram` (no circuit read).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from functools import partial
+
+import numpy as np
+
+from qdensity.execution.samplers._hamming_compile import HammingTemplate
+from qdensity.execution.samplers._hamming_subspace import SubspaceProgram
+
+__all__: list[str] = []
+
+
+class _Compiled:
+    """A template's program: the unary engine's circuit (weight 1, RBS / FBS) or the subspace's
+    index tables."""
+
+    def __init__(self, template: HammingTemplate):
+        self.template = template
+        self.unary = None
+        self.program = None
+        self.fresh = False  # run the unary program on a copy (its layers not kept on it)
+        if template.unary:
+            from qdensity.execution.unary import UnaryCircuit
+
+            gates = template.gates
+            self.unary = UnaryCircuit.from_gates(
+                template.num_qubits,
+                [(g.qubits[0], g.qubits[-1]) for g in gates] or np.zeros((0, 2), dtype=int),
+                [g.angles[0].index if g.angles[0].kind == "linear" else -1 for g in gates],
+                [g.angles[0].coefficient for g in gates],
+                [g.angles[0].offset for g in gates],
+                parameters=template.parameters,  # the circuit's own: no new Parameters
+            )
+        else:
+            self.program = SubspaceProgram(template)
+
+    @classmethod
+    def from_program(cls, program) -> _Compiled:
+        """From a job's :class:`~qdensity.execution._lazy_jobs.UnaryProgram`: the template
+        :func:`~._hamming_compile.compile_template` would give its measured circuit (every
+        qubit ``j`` into clbit ``j``), without its gate list, and the program's rotations."""
+        n, unary = program.num_qubits, program.unary
+        out = cls.__new__(cls)
+        out.template = HammingTemplate(n, (program.occupied,), [], list(range(n)),
+                                       tuple(unary.parameters), program.name)
+        out.unary, out.program, out.fresh = unary, None, True
+        return out
+
+    def probabilities(self, values: np.ndarray) -> np.ndarray:
+        """(B, D) outcome probabilities for rows (B, P)."""
+        return self.probabilities_function()(values)
+
+    def probabilities_function(self):
+        """:meth:`probabilities` as a function that holds the program alone (not the
+        template's gate list): what a deferred drawing keeps."""
+        if self.unary is not None:
+            x = np.zeros(self.template.num_qubits)
+            x[self.template.occupied[0]] = 1.0
+            return partial(_unary_probabilities, self.unary, x, fresh=self.fresh)
+        assert self.program is not None  # the subspace path
+        return self.program.probabilities
+
+    def outcome_qubits(self) -> np.ndarray:
+        """(D, k) the qubits set in each outcome."""
+        if self.unary is not None:
+            return np.arange(self.template.num_qubits)[:, None]
+        assert self.program is not None  # the subspace path
+        return self.program.space.states
+
+
+def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray, *, fresh: bool = False
+                         ) -> np.ndarray:
+    """(B, n) outcome probabilities of a weight-1 template: the unary engine on ``x``
+    (``fresh``: on a copy of ``unary``, whose layers, cached on first use, then go with it and
+    not onto a program that a deferred drawing holds until read: at n = 1024 about 0.5 MB a
+    template)."""
+    from qdensity.execution.unary import forward
+
+    if unary.num_gates == 0:
+        return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
+    x = np.broadcast_to(x, (values.shape[0], x.size))
+    return forward(replace(unary) if fresh else unary, x, values) ** 2
