@@ -472,10 +472,9 @@ class SamplerEngine:
         return out
 
     def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
-        program = getattr(job, "program", None)  # a LazyCircuitJob's: sampled without circuit
-        if program is not None and self._correction is None and self._hamming() is not None:
-            return PendingJob(job, label, shots, ProgramItem(program, job.values, shots), None,
-                              True)
+        item = ProgramItem(getattr(job, "program", None), job.values, shots)  # a LazyCircuitJob's
+        if item.program is not None and self._correction is None and self._hamming() is not None:
+            return PendingJob(job, label, shots, item, None, True)  # sampled without a circuit
         template = self._hamming_template(job.circuit, label)
         if template is not None:
             # exact in the weight-k subspace: no transpilation, no Aer
