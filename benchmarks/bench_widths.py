@@ -9,7 +9,8 @@ threads): ``total`` is the whole process (interpreter, imports, work and the exa
 follows it), ``result`` the process until the gradient is in hand (= ``import`` + ``work``),
 ``import`` the interpreter start and imports, ``work`` = ``build`` (the gradient plan) +
 ``sample`` (``engine.run``) + ``post`` (``plan.postprocess``); then peak resident memory up
-to the gradient (``res MB``) and of the whole process, exact check included (``peak MB``); max |z|
+to the gradient (``res MB``) and of the whole process, exact check included (``peak MB``; the
+plan, its results and the engine are dropped first: the check needs the gradient alone); max |z|
 compares the sampled outputs with the exact unary probabilities (binomial errors of the exact
 values, floor ``1 / shots``: a rough scale, heavy-tailed where ``shots x p`` is near 1, as at
 ``n = 1024``); ``Bonf. p`` is the calibrated check: every output is a count of ``shots``
