@@ -146,3 +146,21 @@ def test_lazy_job_checks_its_arguments():
         LazyCircuitJob(build, 2, 2, np.zeros((0, 2)), 10)
     with pytest.raises(TypeError, match="label"):
         LazyCircuitJob(build, 2, 0, np.zeros((1, 0)), 10, 3)  # type: ignore[arg-type]
+
+
+def test_a_deferred_program_keeps_no_layers_after_a_draw():
+    """A program held until its shots are read drops what the unary engine caches on it (the
+    names checked against UnaryCircuit's cached properties themselves)."""
+    from functools import cached_property
+
+    from qdensity.execution.samplers._hamming_program import _CACHED
+    from qdensity.execution.unary import UnaryCircuit
+
+    assert set(_CACHED) == {k for k, v in vars(UnaryCircuit).items()
+                            if isinstance(v, cached_property)}
+    model = _model(5)
+    progs = unary_programs(model.circuit(0), [(0, 1)])
+    assert progs is not None
+    comp = _Compiled.from_program(progs[0])
+    comp.probabilities(np.zeros((2, progs[0].unary.num_parameters)))
+    assert not set(_CACHED) & set(vars(progs[0].unary))

@@ -6,7 +6,6 @@ job's precompiled :class:`~qdensity.execution._lazy_jobs.UnaryProgram` (no circu
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -25,7 +24,7 @@ class _Compiled:
         self.template = template
         self.unary = None
         self.program = None
-        self.fresh = False  # run the unary program on a copy (its layers not kept on it)
+        self.fresh = False  # drop the unary program's cached layers after each use
         if template.unary:
             from qdensity.execution.unary import UnaryCircuit
 
@@ -78,12 +77,21 @@ class _Compiled:
 def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray, *, fresh: bool = False
                          ) -> np.ndarray:
     """(B, n) outcome probabilities of a weight-1 template: the unary engine on ``x``
-    (``fresh``: on a copy of ``unary``, whose layers, cached on first use, then go with it and
-    not onto a program that a deferred drawing holds until read: at n = 1024 about 0.5 MB a
+    (``fresh``: the layers ``unary`` caches on first use are dropped afterwards, so a program
+    that a deferred drawing holds until read does not keep them: at n = 1024 about 0.5 MB a
     template)."""
     from qdensity.execution.unary import forward
 
     if unary.num_gates == 0:
         return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
     x = np.broadcast_to(x, (values.shape[0], x.size))
-    return forward(replace(unary) if fresh else unary, x, values) ** 2
+    try:
+        return forward(unary, x, values) ** 2
+    finally:
+        if fresh:  # its cached properties (functools.cached_property keeps them in __dict__)
+            for name in _CACHED:
+                vars(unary).pop(name, None)
+
+
+#: UnaryCircuit's cached properties (its layers, their kernels' plan, the angle map).
+_CACHED = ("layers", "_plan", "_angle_map")
