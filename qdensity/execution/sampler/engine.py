@@ -475,24 +475,24 @@ class SamplerEngine:
         item = ProgramItem(getattr(job, "program", None), job.values, shots)  # a LazyCircuitJob's
         if item.program is not None and self._correction is None and self._hamming() is not None:
             return PendingJob(job, label, shots, item, None, True)  # sampled without a circuit
-        template = self._hamming_template(job.circuit, label)
-        if template is not None:
-            # exact in the weight-k subspace: no transpilation, no Aer
+        circuit = job.circuit  # read once: a LazyCircuitJob builds it on each read
+        template = self._hamming_template(circuit, label)
+        if template is not None:  # exact in the weight-k subspace: no transpilation, no Aer
             marker = None  # what the correction reads of a compiled circuit: its weight
             if self._correction is not None:
                 marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
-                self._correction.check(job.circuit, marker, label)
-            pub = ((job.circuit, job.values, shots) if job.circuit.num_parameters
-                   else (job.circuit, None, shots * job.rows))
+                self._correction.check(circuit, marker, label)
+            pub = ((circuit, job.values, shots) if circuit.num_parameters
+                   else (circuit, None, shots * job.rows))
             return PendingJob(job, label, shots, pub, marker, True)
-        compiled = self._cache(job.circuit)
+        compiled = self._cache(circuit)
         if self._device is not None:
             check_for_device(compiled, self._device, label)
         self._check_plain_aer(compiled)
         if self._correction is not None:
-            self._correction.check(job.circuit, compiled, label)
+            self._correction.check(circuit, compiled, label)
         if compiled.num_parameters:
-            pub = (compiled, job.values[:, _columns_for(job.circuit, compiled)], shots)
+            pub = (compiled, job.values[:, _columns_for(circuit, compiled)], shots)
         else:
             # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
             # sample rows * shots at once and split them into rows below.
