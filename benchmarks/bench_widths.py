@@ -9,7 +9,8 @@ threads): ``total`` is the whole process (interpreter, imports, work and the exa
 follows it), ``result`` the process until the gradient is in hand (= ``import`` + ``work``),
 ``import`` the interpreter start and imports, ``work`` = ``build`` (the gradient plan) +
 ``sample`` (``engine.run``) + ``post`` (``plan.postprocess``); then peak resident memory up
-to the gradient (``res MB``) and of the whole process, exact check included (``peak MB``); max |z|
+to the gradient (``res MB``) and of the whole process, exact check included (``peak MB``; the
+plan, its results and the engine are dropped first: the check needs the gradient alone); max |z|
 compares the sampled outputs with the exact unary probabilities (binomial errors of the exact
 values, floor ``1 / shots``: a rough scale, heavy-tailed where ``shots x p`` is near 1, as at
 ``n = 1024``); ``Bonf. p`` is the calibrated check: every output is a count of ``shots``
@@ -43,6 +44,7 @@ alone, to measure the sampler at widths where the plan takes long to build.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import resource
@@ -81,6 +83,20 @@ def _subs(n: int, sub: int, direct: bool) -> list:
     return subs[:sub] if sub else subs
 
 
+def _exact_outputs(model, X):
+    """``model.expert_outputs(X, method="unary")`` one sub-unitary at a time: each compiled
+    for the unary engine and dropped (the model's own keeps all K compiled circuits, 2.5 GB
+    at n = 1024), so the check costs little beside the gradient. (rows, K, n)."""
+    import numpy as np
+
+    from qdensity.execution.unary import compile_unary, forward
+
+    Xn = X / np.linalg.norm(X, axis=1, keepdims=True)
+    return np.stack([forward(compile_unary(sub), Xn,
+                             model.theta[model.subunitary_parameter_indices(k)]) ** 2
+                     for k, sub in enumerate(model.sub_unitaries)], axis=1)
+
+
 def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
           direct: bool = False, jacobian: str = "auto") -> dict:
     import numpy as np
@@ -102,7 +118,11 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
     grad = plan.postprocess(results)
     t3 = time.process_time()
     result_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # before the check
-    exact = model.expert_outputs(X, method="unary")  # (rows, K, n) exact unary probabilities
+    samplers = sorted({e.sampler for e in engine.ledger.entries})
+    circuits, shots_spent = engine.ledger.total_circuits, engine.ledger.total_shots
+    del plan, results, engine  # the check needs the gradient alone
+    gc.collect()
+    exact = _exact_outputs(model, X)  # (rows, K, n) exact unary probabilities
     if readout:  # outcome e_j read as itself, or e_i (i != j) with both bits flipped
         q = readout
         exact = (1 - q) ** n * exact + q**2 * (1 - q) ** (n - 2) * (1 - exact)
@@ -117,10 +137,8 @@ def _case(n: int, readout: float, sub: int, rows: int, shots: int, hamming: str,
     tail = np.minimum(1.0, 2.0 * np.minimum(stats.binom.cdf(k, shots, p),
                                             stats.binom.sf(k - 1, shots, p)))
     bonferroni = float(min(1.0, tail.min() * tail.size))
-    samplers = sorted({e.sampler for e in engine.ledger.entries})
     return {"import_s": t0, "build_s": t1 - t0, "sample_s": t2 - t1, "post_s": t3 - t2,
-            "result_s": t3, "circuits": engine.ledger.total_circuits,
-            "shots": engine.ledger.total_shots,
+            "result_s": t3, "circuits": circuits, "shots": shots_spent,
             "max_z": err, "bonferroni_p": bonferroni, "samplers": samplers, "sub": len(subs),
             "result_mb": result_mb}
 

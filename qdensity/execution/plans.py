@@ -20,12 +20,13 @@ from typing import Generic, TypeVar, cast
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
-from qiskit.quantum_info import PauliList, SparsePauliOp
+from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.analysis.pauli import ZStringTable
 from qdensity.circuits.measure import measured
 from qdensity.execution.intervals import shot_mean, wilson_standard_error
 from qdensity.execution.job_results import JobResult, bits_to_probabilities, unary_frequencies
+from qdensity.execution.observables import basis_rotation, check_observable
 from qdensity.validation import (
     MAX_DENSE_ENTRIES,
     MAX_PLAN_SHOTS,
@@ -45,9 +46,8 @@ from qdensity.validation import (
 )
 
 __all__ = [
-    "CircuitJob", "JobResult", "Plan", "Estimate", "measured", "z_parities", "diagonal_values",
-    "basis_rotation", "expectation_plan", "probabilities_plan", "check_observable",
-    "postselect_hamming_weight", "bits_to_probabilities", "unary_frequencies",
+    "CircuitJob", "JobResult", "Plan", "Estimate", "measured", "expectation_plan",
+    "probabilities_plan", "postselect_hamming_weight", "bits_to_probabilities", "unary_frequencies",
 ]
 _T = TypeVar("_T")  # what a plan's post-processing returns
 
@@ -84,7 +84,13 @@ class CircuitJob:
     label: str = ""
 
     def __post_init__(self) -> None:
-        vals = as_parameter_rows(self.values, self.circuit.num_parameters, "values")
+        self._check_rows(self.circuit.num_parameters)
+        if self.circuit.num_clbits == 0:
+            raise ValueError("a CircuitJob circuit must measure into classical bits")
+
+    def _check_rows(self, num_parameters: int) -> None:
+        """``values`` as ``(rows, num_parameters)`` rows, at least one; ``shots`` bounded."""
+        vals = as_parameter_rows(self.values, num_parameters, "values")
         if vals.shape[0] == 0:
             raise ValueError("values must have at least one parameter row, got shape "
                              f"{vals.shape} (a job with zero rows runs nothing)")
@@ -92,13 +98,20 @@ class CircuitJob:
         if self.shots is not None:  # the measured bits of every shot are held in memory
             check_positive_int(self.shots, "shots", maximum=MAX_DENSE_ENTRIES // vals.shape[0],
                                why=f"{vals.shape[0]} rows x shots <= {MAX_DENSE_ENTRIES}")
-        if self.circuit.num_clbits == 0:
-            raise ValueError("a CircuitJob circuit must measure into classical bits")
 
     @property
     def rows(self) -> int:
         """Number of parameter rows (circuit executions)."""
         return int(self.values.shape[0])
+
+    @property
+    def num_qubits(self) -> int:
+        """Width of the template (``circuit.num_qubits``)."""
+        return self.circuit.num_qubits
+
+    def with_shots(self, shots: int | None) -> CircuitJob:
+        """The same job with ``shots`` per row."""
+        return replace(self, shots=shots)
 
 
 @validates(value=Array(ndim=None, min_size=0, finite=False),
@@ -182,7 +195,7 @@ class Plan(Generic[_T]):
         """The same plan with every job's shots per row set to ``shots``."""
         if shots is not None:
             check_positive_int(shots, "shots")
-        return replace(self, jobs=[replace(job, shots=shots) for job in self.jobs])
+        return replace(self, jobs=[job.with_shots(shots) for job in self.jobs])
 
     def run(self, engine) -> _T:
         """Execute on ``engine`` (anything with ``run(jobs) -> list[JobResult]``); post-process."""
@@ -231,123 +244,6 @@ def _expectation_post(num_rows, constant, diagonals, results: list[JobResult]) -
 
 def _first_result(results: list[JobResult]) -> JobResult:
     return results[0]
-
-
-def z_parities(z_masks: np.ndarray, num_bits: int) -> np.ndarray:
-    """Signs ``(-1)^{popcount(b & mask)}`` for every outcome ``b`` and every mask.
-
-    Parameters
-    ----------
-    z_masks : numpy.ndarray of int, shape (T,)
-        Bit masks of the Z supports.
-    num_bits : int
-
-    Returns
-    -------
-    numpy.ndarray, shape (T, 2**num_bits), entries +-1
-
-    Examples
-    --------
-    >>> z_parities(np.array([0b01, 0b11]), 2).tolist()  # Z_0 and Z_0 Z_1 on b = 0, 1, 2, 3
-    [[1.0, -1.0, 1.0, -1.0], [1.0, -1.0, -1.0, 1.0]]
-    """
-    check_width(num_bits, engine="z_parities (a dense 2**n table)", rows=max(np.size(z_masks), 1),
-                alternative="the measured bits' parities (sampling)")
-    outcomes = np.arange(2**num_bits, dtype=np.int64)
-    anded = outcomes[None, :] & np.asarray(z_masks, dtype=np.int64)[:, None]
-    parity = np.zeros_like(anded)
-    for bit in range(num_bits):
-        parity ^= (anded >> bit) & 1
-    return 1.0 - 2.0 * parity
-
-
-def diagonal_values(paulis: PauliList, coeffs: np.ndarray, num_bits: int) -> np.ndarray:
-    """Eigenvalue of ``sum_t c_t P_t`` on each outcome, for diagonal (I/Z, phase +-1) ``P_t``.
-
-    Parameters
-    ----------
-    paulis : PauliList
-        Z-type Paulis (no X part); their phases are included.
-    coeffs : numpy.ndarray, shape (T,)
-        Real coefficients.
-    num_bits : int
-
-    Returns
-    -------
-    numpy.ndarray, shape (2**num_bits,)
-
-    Examples
-    --------
-    >>> diagonal_values(PauliList(["IZ", "ZZ"]), np.array([1.0, 0.5]), 2).tolist()
-    [1.5, -1.5, 0.5, -0.5]
-    """
-    if np.any(paulis.x):
-        raise ValueError("diagonal_values needs Z-type Paulis (no X or Y part)")
-    masks = (paulis.z.astype(np.int64) * (1 << np.arange(paulis.num_qubits))).sum(axis=1)
-    signs = (-1j) ** paulis.phase
-    coeff = np.real(np.asarray(coeffs) * signs)
-    return coeff @ z_parities(masks, num_bits)
-
-
-def basis_rotation(paulis: PauliList) -> tuple[QuantumCircuit, PauliList]:
-    """Single-qubit rotations that map qubit-wise commuting Paulis to Z strings.
-
-    Parameters
-    ----------
-    paulis : PauliList
-        Qubit-wise commuting Paulis.
-
-    Returns
-    -------
-    (QuantumCircuit, PauliList)
-        The rotation (H for X, Sdg then H for Y) and the Z-type images.
-
-    Examples
-    --------
-    >>> rotation, images = basis_rotation(PauliList(["XI", "XZ"]))
-    >>> dict(rotation.count_ops()), images.to_labels()
-    ({'h': 1}, ['ZI', 'ZZ'])
-    """
-    n = paulis.num_qubits
-    qc = QuantumCircuit(n)
-    xs, zs = paulis.x.any(axis=0), paulis.z.any(axis=0)
-    for q in range(n):
-        kinds = {(bool(x), bool(z)) for x, z in zip(paulis.x[:, q], paulis.z[:, q], strict=True)}
-        kinds.discard((False, False))
-        if len(kinds) > 1:
-            raise ValueError(f"Paulis are not qubit-wise commuting on qubit {q}")
-        if xs[q] and zs[q]:
-            qc.sdg(q)
-            qc.h(q)
-        elif xs[q]:
-            qc.h(q)
-    images = PauliList.from_symplectic(paulis.x | paulis.z, np.zeros_like(paulis.x))
-    return qc, images
-
-
-def check_observable(observable, num_qubits: int, name: str = "observable") -> SparsePauliOp:
-    """A Hermitian ``SparsePauliOp`` on ``num_qubits`` qubits, or a ``ValueError``.
-
-    Examples
-    --------
-    >>> check_observable("ZZ", 3)
-    Traceback (most recent call last):
-    ValueError: observable acts on 2 qubits but the circuit has 3
-    """
-    if not isinstance(observable, SparsePauliOp):
-        try:
-            observable = SparsePauliOp(observable)
-        except Exception as exc:
-            raise TypeError(
-                f"{name} must be a SparsePauliOp or a Pauli label, got {observable!r}"
-            ) from exc
-    if observable.num_qubits != num_qubits:
-        raise ValueError(
-            f"{name} acts on {observable.num_qubits} qubits but the circuit has {num_qubits}"
-        )
-    if not np.allclose(observable.coeffs.imag, 0.0, atol=1e-12):
-        raise ValueError(f"{name} must be Hermitian (real Pauli coefficients)")
-    return observable
 
 
 @validates(

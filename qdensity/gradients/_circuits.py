@@ -19,7 +19,7 @@ from qiskit.quantum_info import SparsePauliOp
 from qdensity.analysis.blocks import _ATOL, _check_parameters
 from qdensity.analysis.pauli import ZStringTable
 from qdensity.execution.intervals import shot_mean, wilson_standard_error
-from qdensity.execution.plans import check_observable
+from qdensity.execution.observables import check_observable
 from qdensity.gradients._sparse import add_sparse, outputs_to_sparse, support_to_sparse
 from qdensity.validation import check_circuit, check_rows_sum_to_one
 
@@ -114,8 +114,9 @@ class _GradientCircuits:
         -------
         (numpy.ndarray, numpy.ndarray), each shape (rows, P)
         """
-        if not isinstance(bits, (list, tuple)) or len(bits) != len(self.circuits):
-            raise ValueError(f"bits must be a list of {len(self.circuits)} arrays, one per "
+        count = self.num_gradient_circuits
+        if not isinstance(bits, (list, tuple)) or len(bits) != count:
+            raise ValueError(f"bits must be a list of {count} arrays, one per "
                              "circuit in `circuits` order")
         value: float | np.ndarray = 0.0
         var: float | np.ndarray = 0.0
@@ -141,11 +142,12 @@ class _GradientCircuits:
         return np.asarray(value), np.sqrt(var)
 
     def _as_list(self, probs) -> list[np.ndarray]:
-        if len(self.circuits) == 1 and not isinstance(probs, (list, tuple)):
+        count = self.num_gradient_circuits
+        if count == 1 and not isinstance(probs, (list, tuple)):
             probs = [probs]
-        if not isinstance(probs, (list, tuple)) or len(probs) != len(self.circuits):
+        if not isinstance(probs, (list, tuple)) or len(probs) != count:
             raise ValueError(
-                f"probs must be a list of {len(self.circuits)} arrays, one per circuit in "
+                f"probs must be a list of {count} arrays, one per circuit in "
                 "`circuits` order (a single array is accepted when there is one circuit)"
             )
         arrs = [

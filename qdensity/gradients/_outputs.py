@@ -22,6 +22,8 @@ times more (about 25 ms a block at ``n = 256``).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from qiskit.circuit import Parameter
@@ -40,7 +42,8 @@ __all__ = ["rbs_output_tables", "rbs_output_gradients", "OutputTables", "OutputG
 
 
 def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: PauliList,
-                         weights: np.ndarray, params: Sequence[Parameter]):
+                         weights: np.ndarray, params: Sequence[Parameter], *,
+                         measure: bool = True):
     """The one gradient circuit and per-output estimators of a block of RBS gates on disjoint
     pairs (:func:`rbs_output_tables`), or None when they do not apply.
 
@@ -49,6 +52,9 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
     and one measured circuit (``circuit``, the layer, measurements) serves every output; no
     ``SparsePauliOp`` per parameter is built (the whole-register analysis,
     :func:`~qdensity.gradients.commuting.commuting_gradient` on ``sum_t terms[t]``, builds two).
+
+    ``measure=False`` builds no circuit: the shared object's ``circuits`` are empty and its
+    ``layer_pairs`` name the layer, for the caller to build the measured circuit on read.
 
     Returns
     -------
@@ -62,14 +68,29 @@ def rbs_output_gradients(circuit, trainables: Sequence[_Trainable], terms: Pauli
     tables = _tables_on(trainables, terms, weights, params, pairs)
     if tables is None:
         return None
-    circuits = [_measured_rbs(circuit, pairs)]
+    circuits = [_measured_rbs(circuit, pairs)] if measure else []
+    shared = (partial(_GradientCircuits, circuits) if measure
+              else partial(LayerToBuild, circuits, layer_pairs=list(pairs)))
     names = list(params)  # one list for the block's outputs (read only), not one each
     if isinstance(tables, OutputTables):
-        return (_GradientCircuits(circuits, list(params), _Whole(tables)),
-                OutputGradients(circuits, names, tables))
+        return (shared(list(params), _Whole(tables)),
+                OutputGradients(circuits, names, tables, None if measure else list(pairs)))
     total = _whole(tables)
-    return (_GradientCircuits(circuits, list(params), [total]),
-            [_GradientCircuits(circuits, names, [t]) for t in tables])
+    return (shared(list(params), [total]), [shared(names, [t]) for t in tables])
+
+
+@dataclass
+class LayerToBuild(_GradientCircuits):
+    """A block's estimators whose one measured circuit (the block's circuit, an ``RBS(pi/4)``
+    layer on ``layer_pairs``, measurements) is left to the caller to build on read:
+    ``circuits`` is empty and the analysis holds no circuit."""
+
+    layer_pairs: list[tuple[int, int]] = field(default_factory=list)
+
+    @property
+    def num_gradient_circuits(self) -> int:
+        """One circuit per data point (not built here)."""
+        return 1
 
 
 class OutputTables(Sequence):
@@ -164,8 +185,10 @@ class OutputGradients(Sequence):
     ``_GradientCircuits`` built on read from :class:`OutputTables`): ``n`` objects a block
     are never held (about a million over the round-robin model at ``n = 1024``)."""
 
-    def __init__(self, circuits: list, parameters: list, tables: OutputTables) -> None:
+    def __init__(self, circuits: list, parameters: list, tables: OutputTables,
+                 layer_pairs: list | None = None) -> None:
         self.circuits, self.parameters, self.tables = circuits, parameters, tables
+        self.layer_pairs = layer_pairs  # the circuit left to build (LayerToBuild), or None
 
     def __len__(self) -> int:
         return len(self.tables)
@@ -173,6 +196,9 @@ class OutputGradients(Sequence):
     def __getitem__(self, o):
         if isinstance(o, slice):
             return [self[i] for i in range(*o.indices(len(self)))]
+        if self.layer_pairs is not None:
+            return LayerToBuild(self.circuits, self.parameters, [self.tables[o]],
+                                layer_pairs=self.layer_pairs)
         return _GradientCircuits(self.circuits, self.parameters, [self.tables[o]])
 
 

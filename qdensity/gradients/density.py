@@ -30,15 +30,16 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.circuits._copying import gc_paused
 from qdensity.execution._compile import circuit_fingerprint
-from qdensity.execution.plans import (
-    CircuitJob,
-    Estimate,
-    Plan,
-    probabilities_plan,
-    unary_frequencies,
-)
+from qdensity.execution.plans import Plan, _first_result, probabilities_plan
 from qdensity.gradients import _analysis, _sparse
-from qdensity.gradients._circuits import gradients_from_results
+from qdensity.gradients._density_jobs import (
+    _commuting_post,
+    _forward_observable_post,
+    _forward_unary_post,
+    _shift_observable_post,
+    commuting_jobs,
+    forward_job,
+)
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients._outputs import rbs_output_gradients
 from qdensity.gradients.commuting import (
@@ -237,7 +238,7 @@ def _analyse(model, circ, params):
     total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
     checked, obs, trainables = _one_block(circ, total, params, "auto")
     # one RBS(pi/4) layer: every output's table from one pass over the block's strings
-    found = rbs_output_gradients(circ, trainables, terms, weights, checked)
+    found = rbs_output_gradients(circ, trainables, terms, weights, checked, measure=False)
     if found is not None:
         return found
     shared = _direct_gradient(circ, trainables, obs, checked, "auto")
@@ -267,24 +268,27 @@ def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
 def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
                     sparse: bool = False) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
-    jobs = [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
-            for i, c in enumerate(shared.circuits)]
-
+    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots)  # lazy: built on read
     return Plan(jobs, partial(_commuting_post, grads, shots, sparse=sparse),
-                f"commuting gradient of sub-unitary {k}", {"gradient": shared})
+                f"commuting gradient of sub-unitary {k}",
+                {"gradient": shared, "forward_program": forward})
 
 
 def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
-                  owned: bool = False) -> Plan:
+                  owned: bool = False, program=None) -> Plan:
     """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
     when already made; ``owned``: ``circuit`` is a copy made for this plan, measured in place
-    instead of copied again)."""
-    if model.readout == "observable":
+    instead of copied again; ``program``: its job built on read, sampled from ``program``)."""
+    if program is not None and circuit is not None and rows is not None:
+        inner = Plan([forward_job(model, k, circuit, rows, shots, program)], _first_result,
+                     f"P(b) of {circuit.name}")
+    elif model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
         return Plan(inner.jobs, partial(_forward_observable_post, inner), inner.description)
-    inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
-                               model.rows(k, X) if rows is None else rows, shots=shots,
-                               label=f"forward_k{k}", inplace=owned and circuit is not None)
+    else:
+        inner = probabilities_plan(model.circuit(k) if circuit is None else circuit,
+                                   model.rows(k, X) if rows is None else rows, shots=shots,
+                                   label=f"forward_k{k}", inplace=owned and circuit is not None)
     post_p = partial(_forward_unary_post, inner, 1 << np.arange(model.num_qubits))
     return Plan(inner.jobs, post_p, inner.description)
 
@@ -346,7 +350,8 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 # circuit (measured in place); without one it is U_k itself, copied
                 same = model.encoding is not None
                 fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
-                                               owned=same))
+                                               owned=same, program=jac_plans[-1].meta.get(
+                                                   "forward_program")))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B, layout == "sparse")
@@ -443,47 +448,6 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray
     grad_alpha = np.einsum("bm,bkm->bk", upstream, grad.outputs)
     g_mix = model.mixture.vjp(X, grad_alpha)
     return g_theta, g_mix
-
-
-# Post-processing functions at module level, bound with functools.partial, so plans pickle.
-def _shift_observable_post(inner, results):
-    est = inner.postprocess(results)
-    return Estimate(est.value[:, None, :], est.standard_error[:, None, :])
-
-
-def _commuting_post(grads, shots, results, *, sparse: bool = False):
-    if shots is not None and all(r.has_bits for r in results):
-        # sampled: estimator values on the observed bits, never a 2**n array
-        # (every output's table on each circuit's shots read once)
-        found = gradients_from_results(grads, results, sparse=sparse)
-        return found if sparse else Estimate(*found)
-    probs = [r.probabilities for r in results]
-    if sparse:
-        return _sparse.from_probabilities(grads, probs, shots)
-    if len(grads) == 1:
-        val = grads[0].gradient_from_probabilities(probs)[:, None, :]
-        err = (grads[0].standard_error(probs, shots)[:, None, :] if shots is not None
-               else np.zeros_like(val))
-        return Estimate(val, err)
-    # one RBS(pi/4) layer on every pair serves every output j: the per-output estimators
-    # only read the bits of their own pair, whose distribution the shared circuit reproduces
-    val = np.stack([g.gradient_from_probabilities(probs) for g in grads], axis=1)
-    err = (np.stack([g.standard_error(probs, shots) for g in grads], axis=1)
-           if shots is not None else np.zeros_like(val))
-    return Estimate(val, err)
-
-
-def _forward_observable_post(inner, results):
-    est = inner.postprocess(results)
-    return Estimate(est.value[:, None], est.standard_error[:, None])
-
-
-def _forward_unary_post(inner, unary, results):
-    res = inner.postprocess(results)
-    # from the observed outcomes when sampled; errors binomial over the (effective) shots, or
-    # a mitigated row's delta method over its shots and the calibration
-    p, _, se = unary_frequencies(res, return_std=True)
-    return Estimate(p, se)
 
 
 def _density_post(combined, K, B, sparse, results):

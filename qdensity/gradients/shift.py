@@ -32,10 +32,10 @@ from qiskit.quantum_info import PauliList, SparsePauliOp
 from qdensity.analysis.gate_registry import GATES
 from qdensity.analysis.structure import instruction_generator, parameter_of
 from qdensity.execution.intervals import binomial_standard_error
+from qdensity.execution.observables import check_observable
 from qdensity.execution.plans import (
     Estimate,
     Plan,
-    check_observable,
     expectation_plan,
     probabilities_plan,
     unary_frequencies,

@@ -48,7 +48,7 @@ def _exact_outputs(model, probs: np.ndarray) -> np.ndarray:
     n = model.num_qubits
     if model.readout == "unary_probabilities":
         return probs[:, 1 << np.arange(n)]
-    from qdensity.execution.plans import diagonal_values
+    from qdensity.execution.observables import diagonal_values
 
     values = diagonal_values(model.observable.paulis, np.real(model.observable.coeffs), n)
     return (probs @ values)[:, None]

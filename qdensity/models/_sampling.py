@@ -142,7 +142,7 @@ def sample(model, x, budget: int, *, scheduler: str = "per_shot", engine=None, t
 def _prepare(model, x, budget, scheduler, engine, target, seed, mitigation, postselect,
              ledger) -> _Call:
     """Check every argument (before any shot) and read the observable's values."""
-    from qdensity.execution.plans import diagonal_values
+    from qdensity.execution.observables import diagonal_values
     from qdensity.execution.sampler.engine import SamplerEngine, ShotLedger
     from qdensity.validation import check_positive_int
 

@@ -1,10 +1,9 @@
 """Density QNN models (paper eq. 1, eq. 2, eq. 3).
 
-``rho(theta, alpha, x) = sum_k alpha_k(x) U_k(theta_k) rho(x) U_k(theta_k)^dagger`` with a data
-encoding ``rho(x) = V(x)|0><0|V(x)^dagger``; the model's output is
-``f(x) = sum_k alpha_k(x) f_k(x)``, ``f_k = Tr(O U_k rho(x) U_k^dagger)`` for an observable
-readout, or the mixture of the sub-unitaries' unary probability (or amplitude) vectors. The
-encoding ``V(x)`` (:class:`Encoding`, :mod:`qdensity.models.encoding`) is re-exported here.
+``rho(theta, alpha, x) = sum_k alpha_k(x) U_k(theta_k) rho(x) U_k(theta_k)^dagger``, ``rho(x) =
+V(x)|0><0|V(x)^dagger`` (:class:`Encoding`, re-exported here); the output ``f(x) = sum_k alpha_k(x)
+f_k(x)``: ``f_k = Tr(O U_k rho(x) U_k^dagger)`` (observable readout) or the mixture of the
+sub-unitaries' unary probability (or amplitude) vectors.
 """
 
 from __future__ import annotations
@@ -16,7 +15,8 @@ from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.circuits._copying import concatenate
-from qdensity.execution.plans import Plan, check_observable, expectation_plan
+from qdensity.execution.observables import check_observable
+from qdensity.execution.plans import Plan, expectation_plan
 from qdensity.models._derived import DerivedStore, structure_key
 from qdensity.models._rows import bind_rows, model_rows
 from qdensity.models.decompositions import DATA_PREFIX, trainable_parameters

@@ -23,15 +23,13 @@ from scipy.stats import binom
 from qdensity.circuits.ansatze import hardware_efficient
 from qdensity.circuits.gates import RBSGate
 from qdensity.execution.exact import ExactEngine
+from qdensity.execution.observables import basis_rotation, diagonal_values, z_parities
 from qdensity.execution.plans import (
     CircuitJob,
     Plan,
-    basis_rotation,
-    diagonal_values,
     expectation_plan,
     measured,
     probabilities_plan,
-    z_parities,
 )
 from qdensity.execution.sampler.engine import SamplerEngine
 

@@ -129,13 +129,20 @@ def test_analyses_are_kept_outside_the_model_and_shared_by_equal_structures():
     subs = by_moments(round_robin(n)).sub_unitaries
     one = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=0)
     two = DensityQNN(subs, encoding=Encoding.unary(n), readout="unary_probabilities", seed=1)
+    from qdensity.gradients import _analysis
+
     X = RNG.normal(size=(1, n))
-    a = density_gradient_plan(one, X, method="commuting")
-    b = density_gradient_plan(two, X, method="commuting")
+    _analysis._CACHE.clear()
+    density_gradient_plan(one, X, method="commuting")
+    first = dict(_analysis._CACHE)
+    assert len(first) == one.num_subunitaries  # one analysis per sub-unitary structure
+    density_gradient_plan(two, X, method="commuting")
     assert not any("cache" in key for key in vars(one))
-    # the second model's gradient circuits are the first's (derived once per structure)
-    assert all(ja.circuit is jb.circuit for ja, jb in zip(a.jobs, b.jobs, strict=True)
-               if ja.label.startswith("commuting"))
+    # the second model's analyses are the first's (derived once per structure), and they
+    # hold no gradient circuit (the jobs build theirs on read)
+    assert len(_analysis._CACHE) == len(first)
+    assert all(_analysis._CACHE[key] is hit for key, hit in first.items())
+    assert all(not shared.circuits for shared, _ in first.values())
 
 
 def test_raw_shot_estimates_on_distinct_outcomes_equal_the_per_shot_mean_and_variance():

@@ -18,7 +18,8 @@ from scipy.stats import norm
 
 from qdensity.circuits.ansatze import pyramid, round_robin
 from qdensity.circuits.loaders import unary_loader
-from qdensity.execution.plans import diagonal_values, measured
+from qdensity.execution.observables import diagonal_values
+from qdensity.execution.plans import measured
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.execution.sampler.mitigated import mitigated_expectation
 from qdensity.hardware.mitigation import ReadoutMitigator, _measured_qubits, hamming_weights

@@ -24,8 +24,9 @@ __all__: list[str] = []
 
 @dataclass
 class PendingJob:
-    """One prepared job: its PUB, and what assembly reads (the compiled circuit, or for the
-    Hamming-weight sampler the weight marker the correction reads)."""
+    """One prepared job: its PUB (or, for the Hamming-weight sampler, a ``ProgramItem``), and
+    what assembly reads (the compiled circuit, or for the Hamming-weight sampler the weight
+    marker the correction reads)."""
 
     job: CircuitJob
     label: str
@@ -45,7 +46,8 @@ def sample_pending(pending: list[PendingJob], hamming_sampler, sampler,
     if hw:
         # drawn when read (each PUB from its own stream): without a correction to weigh
         # them now, when the post-processing reads them, one job at a time
-        for i, res in zip(hw, hamming_sampler.defer([pending[i].pub for i in hw]),
+        # (a LazyCircuitJob's precompiled program in place of its PUB: no circuit built)
+        for i, res in zip(hw, hamming_sampler.defer_programs([pending[i].pub for i in hw]),
                           strict=True):
             raw[i] = res
     if aer:

@@ -3,9 +3,8 @@
 :class:`SamplerEngine` runs a plan's jobs through qiskit-aer's sampler by default, or a
 hardware provider's primitive unchanged: one PUB per template with a parameter array, never
 one job per row; each template is transpiled once and reused; every run is written to a
-:class:`ShotLedger`. It keeps the measured bits (``JobResult.bits``,
-``(rows, shots, num_clbits)``): estimates come from parities and observed outcomes with memory
-``O(rows x shots)`` whatever the width.
+:class:`ShotLedger`. It keeps the measured bits (``JobResult.bits``, ``(rows, shots,
+num_clbits)``): estimates come from parities and outcomes, memory ``O(rows x shots)``.
 """
 
 from __future__ import annotations
@@ -30,7 +29,7 @@ from qdensity.execution.sampler._jobs import PendingJob, assemble, sample_pendin
 from qdensity.execution.sampler._packed_result import bitarray_to_bits, bitarray_to_probabilities
 from qdensity.execution.samplers._hamming_readout import readout_channel
 from qdensity.execution.samplers.aer import sampler_method
-from qdensity.execution.samplers.hamming import HammingWeightSampler
+from qdensity.execution.samplers.hamming import HammingWeightSampler, ProgramItem
 from qdensity.execution.samplers.reseed import check_reseedable, reseeded
 from qdensity.execution.samplers.target import engine_sampler
 from qdensity.hardware._device import check_for_device, check_width, device_of
@@ -462,9 +461,9 @@ class SamplerEngine:
                 label = job.label or job.circuit.name
                 if self._device is not None:
                     check_width(job.circuit, self._device, label)
-                if self.target is not None and job.circuit.num_qubits > self.target.num_qubits:
+                if self.target is not None and job.num_qubits > self.target.num_qubits:
                     raise ValueError(
-                        f"job {label!r} needs {job.circuit.num_qubits} qubits but target "
+                        f"job {label!r} needs {job.num_qubits} qubits but target "
                         f"{self.target.name!r} has {self.target.num_qubits}; use a wider "
                         f"device or a smaller model")
                 shots = job.shots if job.shots is not None else self.default_shots
@@ -473,24 +472,27 @@ class SamplerEngine:
         return out
 
     def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
-        template = self._hamming_template(job.circuit, label)
-        if template is not None:
-            # exact in the weight-k subspace: no transpilation, no Aer
+        item = ProgramItem(getattr(job, "program", None), job.values, shots)  # a LazyCircuitJob's
+        if item.program is not None and self._correction is None and self._hamming() is not None:
+            return PendingJob(job, label, shots, item, None, True)  # sampled without a circuit
+        circuit = job.circuit  # read once: a LazyCircuitJob builds it on each read
+        template = self._hamming_template(circuit, label)
+        if template is not None:  # exact in the weight-k subspace: no transpilation, no Aer
             marker = None  # what the correction reads of a compiled circuit: its weight
             if self._correction is not None:
                 marker = QuantumCircuit(metadata={HAMMING_WEIGHT_KEY: template.weight})
-                self._correction.check(job.circuit, marker, label)
-            pub = ((job.circuit, job.values, shots) if job.circuit.num_parameters
-                   else (job.circuit, None, shots * job.rows))
+                self._correction.check(circuit, marker, label)
+            pub = ((circuit, job.values, shots) if circuit.num_parameters
+                   else (circuit, None, shots * job.rows))
             return PendingJob(job, label, shots, pub, marker, True)
-        compiled = self._cache(job.circuit)
+        compiled = self._cache(circuit)
         if self._device is not None:
             check_for_device(compiled, self._device, label)
         self._check_plain_aer(compiled)
         if self._correction is not None:
-            self._correction.check(job.circuit, compiled, label)
+            self._correction.check(circuit, compiled, label)
         if compiled.num_parameters:
-            pub = (compiled, job.values[:, _columns_for(job.circuit, compiled)], shots)
+            pub = (compiled, job.values[:, _columns_for(circuit, compiled)], shots)
         else:
             # Aer samples only one row of a parameter-free PUB with a (rows, 0) array:
             # sample rows * shots at once and split them into rows below.

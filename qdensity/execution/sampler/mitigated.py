@@ -26,7 +26,8 @@ import numpy as np
 from qiskit.circuit import QuantumCircuit
 from qiskit.quantum_info import SparsePauliOp
 
-from qdensity.execution.plans import CircuitJob, check_observable, diagonal_values, measured
+from qdensity.execution.observables import check_observable, diagonal_values
+from qdensity.execution.plans import CircuitJob, measured
 from qdensity.execution.sampler._correction import ReadoutCorrection
 from qdensity.execution.sampler.engine import SamplerEngine
 from qdensity.hardware.aer_sampling import HAMMING_WEIGHT_KEY

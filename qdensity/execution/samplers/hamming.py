@@ -21,6 +21,7 @@ import warnings
 import weakref
 from collections.abc import Iterable
 from functools import partial
+from typing import Any, NamedTuple
 
 import numpy as np
 from qiskit.circuit import QuantumCircuit
@@ -41,8 +42,8 @@ from qdensity.execution.samplers._hamming_compile import (
     compile_template,
 )
 from qdensity.execution.samplers._hamming_draw import DeferredSamples, Draw
+from qdensity.execution.samplers._hamming_program import _Compiled
 from qdensity.execution.samplers._hamming_readout import ReadoutChannel, readout_channel
-from qdensity.execution.samplers._hamming_subspace import SubspaceProgram
 from qdensity.validation import (
     MAX_SHOTS,
     Interval,
@@ -94,58 +95,13 @@ class _DoneJob(BasePrimitiveJob):
         return None
 
 
-class _Compiled:
-    """A template's program: the unary engine's circuit (weight 1, RBS / FBS) or the subspace's
-    index tables."""
+class ProgramItem(NamedTuple):
+    """A precompiled job for :meth:`HammingWeightSampler.defer_programs`: its program, its
+    rows ``(rows, P)`` in the program's parameter order, and its shots per row."""
 
-    def __init__(self, template: HammingTemplate):
-        self.template = template
-        self.unary = None
-        self.program = None
-        if template.unary:
-            from qdensity.execution.unary import UnaryCircuit
-
-            gates = template.gates
-            self.unary = UnaryCircuit.from_gates(
-                template.num_qubits,
-                [(g.qubits[0], g.qubits[-1]) for g in gates] or np.zeros((0, 2), dtype=int),
-                [g.angles[0].index if g.angles[0].kind == "linear" else -1 for g in gates],
-                [g.angles[0].coefficient for g in gates],
-                [g.angles[0].offset for g in gates],
-                parameters=template.parameters,  # the circuit's own: no new Parameters
-            )
-        else:
-            self.program = SubspaceProgram(template)
-
-    def probabilities(self, values: np.ndarray) -> np.ndarray:
-        """(B, D) outcome probabilities for rows (B, P)."""
-        return self.probabilities_function()(values)
-
-    def probabilities_function(self):
-        """:meth:`probabilities` as a function that holds the program alone (not the
-        template's gate list): what a deferred drawing keeps."""
-        if self.unary is not None:
-            x = np.zeros(self.template.num_qubits)
-            x[self.template.occupied[0]] = 1.0
-            return partial(_unary_probabilities, self.unary, x)
-        assert self.program is not None  # the subspace path
-        return self.program.probabilities
-
-    def outcome_qubits(self) -> np.ndarray:
-        """(D, k) the qubits set in each outcome."""
-        if self.unary is not None:
-            return np.arange(self.template.num_qubits)[:, None]
-        assert self.program is not None  # the subspace path
-        return self.program.space.states
-
-
-def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """(B, n) outcome probabilities of a weight-1 template: the unary engine on ``x``."""
-    from qdensity.execution.unary import forward
-
-    if unary.num_gates == 0:
-        return np.broadcast_to(x**2, (values.shape[0], x.size)).copy()
-    return forward(unary, np.broadcast_to(x, (values.shape[0], x.size)), values) ** 2
+    program: Any
+    values: np.ndarray
+    shots: int
 
 
 def _values_of(bindings, params: tuple) -> np.ndarray:
@@ -413,19 +369,45 @@ class HammingWeightSampler(BaseSamplerV2):
             As :meth:`run`, before anything is drawn.
         """
         coerced, compiled = self._checked(pubs, shots)
+        # the rows read on each draw from the PUB's own bindings (no reordered copy held)
+        return self._deferred([(comp, partial(_values_of, pub.parameter_values,
+                                              comp.template.parameters),
+                                pub.parameter_values.shape, pub.shots)
+                               for pub, comp in zip(coerced, compiled, strict=True)])
+
+    def defer_programs(self, items: list) -> list[DeferredSamples]:
+        """:meth:`defer` of PUBs and precompiled jobs together: each item a PUB, or a
+        :class:`ProgramItem` (a job's :class:`~qdensity.execution._lazy_jobs.UnaryProgram`,
+        its rows in the program's parameter order and its shots), sampled without a circuit.
+        Item ``i`` draws from the stream :meth:`defer` gives PUB ``i``: a program draws the
+        shots its circuit would."""
+        at = [i for i, item in enumerate(items) if not isinstance(item, ProgramItem)]
+        coerced, compiled = self._checked([items[i] for i in at], None)
+        entries: list = [None] * len(items)
+        for i, pub, comp in zip(at, coerced, compiled, strict=True):
+            entries[i] = (comp, partial(_values_of, pub.parameter_values,
+                                        comp.template.parameters),
+                          pub.parameter_values.shape, pub.shots)
+        for i, item in enumerate(items):
+            if entries[i] is None:
+                values = np.asarray(item.values, dtype=float)
+                entries[i] = (_Compiled.from_program(item.program), values,
+                              values.shape[:1], check_positive_int(item.shots, "shots"))
+        return self._deferred(entries)
+
+    def _deferred(self, entries: list) -> list[DeferredSamples]:
+        """One :class:`DeferredSamples` per ``(compiled, values, shape, shots)``, each from
+        its own stream (see :meth:`defer`)."""
         seed = self._seed
         if seed is None:
             seed = np.random.default_rng()
         out = []
-        for i, (pub, comp) in enumerate(zip(coerced, compiled, strict=True)):
+        for i, (comp, values, shape, shots) in enumerate(entries):
             # an integer seed: run's stream for PUB i itself (the same shots as run's)
             stream = (np.random.SeedSequence(int(seed.integers(2**63)))
                       if isinstance(seed, np.random.Generator) else _stream_for(seed, i))
-            shape = pub.parameter_values.shape
             rows = int(np.prod(shape, dtype=int))
-            # the rows read on each draw from the PUB's own bindings (no reordered copy held)
-            values = partial(_values_of, pub.parameter_values, comp.template.parameters)
-            out.append(DeferredSamples(Draw(comp, values, rows, pub.shots, self._readout),
+            out.append(DeferredSamples(Draw(comp, values, rows, shots, self._readout),
                                        stream, shape))
         return out
 

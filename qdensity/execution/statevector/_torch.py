@@ -20,7 +20,7 @@ import numpy as np
 from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution._torch import cache_of, check_fits, is_tensor, resolve_device, torch
-from qdensity.execution.plans import check_observable
+from qdensity.execution.observables import check_observable
 
 __all__: list[str] = []
 

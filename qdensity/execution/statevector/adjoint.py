@@ -40,7 +40,8 @@ from qiskit.quantum_info import SparsePauliOp
 from qdensity.execution import _numba
 from qdensity.execution._compile import _measurement_map, circuit_fingerprint
 from qdensity.execution._torch import is_tensor
-from qdensity.execution.plans import CircuitJob, JobResult, check_observable
+from qdensity.execution.observables import check_observable
+from qdensity.execution.plans import CircuitJob, JobResult
 from qdensity.execution.statevector import _kernels
 from qdensity.execution.statevector import _torch as _on_torch
 from qdensity.execution.statevector._cache_keys import _outline, _same_terms, _terms

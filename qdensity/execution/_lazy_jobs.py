@@ -1,0 +1,187 @@
+"""Jobs whose circuits are built when read, with the compact program the Hamming-weight sampler
+runs instead of the circuit.
+
+A density gradient at device widths is thousands of templates that each differ from the
+model's own circuits only by a layer and the measurements: ``n = 1024`` would hold 2,046
+measured circuits of about 3,000 instructions each (6.3 million Qiskit instructions, several
+GB). A :class:`LazyCircuitJob` holds how to build its circuit, not the circuit: reading
+``job.circuit`` builds a ``QuantumCircuit`` (kept only while something else holds it), and
+what a weight-1 template of RBS / FBS gates needs for sampling is held as a
+:class:`UnaryProgram`: its Givens rotations as ``O(gates)`` integer and float arrays, the
+exact gate list :func:`~qdensity.execution.samplers._hamming_compile.compile_template` would
+read off the circuit, so the same rows and seed draw the same shots.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import TYPE_CHECKING
+
+import numpy as np
+from qiskit.circuit import ParameterVector, QuantumCircuit
+
+from qdensity.execution.plans import CircuitJob
+from qdensity.execution.samplers._hamming_compile import compile_template
+
+if TYPE_CHECKING:
+    from qdensity.execution.unary import UnaryCircuit
+
+__all__ = ["LazyCircuitJob", "UnaryProgram", "unary_programs"]
+
+
+@dataclass(frozen=True)
+class UnaryProgram:
+    """A measured weight-1 template of RBS / FBS gates, compiled: what the Hamming-weight
+    sampler needs of it (and nothing of the circuit).
+
+    Attributes
+    ----------
+    unary : UnaryCircuit
+        The Givens rotations in circuit order. Their parameter indices are columns of the
+        circuit's rows (``circuit.parameters`` order); ``unary.parameters`` are stand-ins, one
+        ``ParameterVector`` shared by every program with as many parameters (the circuit's own
+        would be ``P`` Python objects a program: 1.6 million over a plan at ``n = 1024``).
+    occupied : int
+        The qubit the input's X gate sets (the weight-1 input ``e_occupied``).
+    name : str
+        The circuit's name.
+
+    Every qubit ``j`` is measured into clbit ``j`` (the plans' convention).
+    """
+
+    unary: UnaryCircuit
+    occupied: int
+    name: str = ""
+
+    @property
+    def num_qubits(self) -> int:
+        """``n``: qubits, clbits and unary amplitudes."""
+        return self.unary.num_qubits
+
+
+def unary_programs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]
+                   ) -> tuple[UnaryProgram, UnaryProgram] | None:
+    """The programs of ``circuit`` followed by an ``RBS(pi/4)`` layer on ``pairs`` and of
+    ``circuit`` alone, both measured (qubit ``j`` into clbit ``j``), or None when ``circuit``
+    is not a weight-1 template of RBS / FBS gates with angles linear in one parameter.
+
+    The second program's arrays are views of the first's (its gates are a prefix).
+
+    Parameters
+    ----------
+    circuit : QuantumCircuit
+        Unmeasured: X on one qubit of ``|0...0>``, then RBS / FBS gates.
+    pairs : sequence of (int, int)
+        The layer's qubit pairs, in order.
+
+    Returns
+    -------
+    (UnaryProgram, UnaryProgram) or None
+    """
+    from qdensity.execution.unary import UnaryCircuit  # the compiled kernels, on first use
+
+    template = compile_template(circuit)
+    if not template.unary or template.flipped:
+        return None
+    gates = template.gates
+    g = len(gates)
+    size = g + len(pairs)
+    first = np.empty(size, dtype=np.int64)
+    second = np.empty(size, dtype=np.int64)
+    index = np.full(size, -1, dtype=np.int64)
+    coefficient = np.zeros(size)
+    offset = np.full(size, np.pi / 4)  # the layer's fixed angle
+    for i, gate in enumerate(gates):  # as hamming._Compiled reads a compiled template
+        angle = gate.angles[0]
+        first[i], second[i] = gate.qubits[0], gate.qubits[-1]
+        index[i] = angle.index if angle.kind == "linear" else -1
+        coefficient[i], offset[i] = angle.coefficient, angle.offset
+    if pairs:
+        first[g:], second[g:] = np.asarray(pairs, dtype=np.int64).T
+    n, params, occupied = template.num_qubits, template.parameters, template.occupied[0]
+
+    def program(stop: int) -> UnaryProgram:
+        unary = UnaryCircuit.from_gates(
+            n, np.stack([first[:stop], second[:stop]], axis=1), index[:stop],
+            coefficient[:stop], offset[:stop], parameters=_stand_ins(len(params)))
+        return UnaryProgram(unary, occupied, circuit.name)
+
+    return program(size), program(g)
+
+
+@lru_cache(maxsize=64)
+def _stand_ins(count: int) -> ParameterVector:
+    """``count`` parameters that stand for a circuit's columns (shared, never bound)."""
+    return ParameterVector("column", count)
+
+
+class LazyCircuitJob(CircuitJob):
+    """A :class:`~qdensity.execution.plans.CircuitJob` whose circuit is built when read.
+
+    ``job.circuit`` is a ``QuantumCircuit`` as for any job (the same object while something
+    else holds it, else built again); the job itself holds only ``build``, its rows and, for
+    the Hamming-weight sampler, an optional :class:`UnaryProgram` (``program``) that
+    :class:`~qdensity.execution.sampler.SamplerEngine` samples without building the circuit.
+
+    Parameters
+    ----------
+    build : callable
+        ``build() -> QuantumCircuit``: the measured template (qubit ``j`` -> clbit ``j``).
+    num_qubits, num_parameters : int
+        The template's width and ``circuit.num_parameters``.
+    values : array_like, shape (rows, P)
+    shots : int, optional
+    label : str
+    program : UnaryProgram, optional
+    """
+
+    _build: Callable[[], QuantumCircuit]
+    _num_qubits: int
+    _num_parameters: int
+    program: UnaryProgram | None
+
+    def __init__(self, build: Callable[[], QuantumCircuit], num_qubits: int,
+                 num_parameters: int, values, shots: int | None = None, label: str = "",
+                 program: UnaryProgram | None = None) -> None:
+        if not callable(build):
+            raise TypeError(f"build must be a callable () -> QuantumCircuit, got "
+                            f"{type(build).__name__}")
+        if not isinstance(label, str):
+            raise TypeError(f"label must be a str, got {type(label).__name__}")
+        state = {"_build": build, "_num_qubits": int(num_qubits), "_held": None,
+                 "_num_parameters": int(num_parameters), "values": values, "shots": shots,
+                 "label": label, "program": program}
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        self._check_rows(int(num_parameters))
+
+    @property
+    def circuit(self) -> QuantumCircuit:
+        """The measured template, built on read (held by the job only weakly)."""
+        held = self.__dict__["_held"]
+        circuit = held() if held is not None else None
+        if circuit is None:
+            circuit = self._build()
+            object.__setattr__(self, "_held", weakref.ref(circuit))
+        return circuit
+
+    @property
+    def num_qubits(self) -> int:
+        """Width of the template, without building it."""
+        return self._num_qubits
+
+    def with_shots(self, shots: int | None) -> LazyCircuitJob:
+        """The same job with ``shots`` per row (still built on read)."""
+        return LazyCircuitJob(self._build, self._num_qubits, self._num_parameters,
+                              self.values, shots, self.label, self.program)
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_held"] = None  # a weak reference does not pickle
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
