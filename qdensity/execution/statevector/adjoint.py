@@ -22,10 +22,9 @@ and state); a wider one is refused before anything is allocated.
 
 ``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
 
-:class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities of
-the
-measured templates), so it can stand in for :class:`~qdensity.execution.engines.ExactEngine`
-without Aer.
+:class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities
+of the measured templates), so it can stand in for
+:class:`~qdensity.execution.engines.ExactEngine` without Aer.
 """
 
 from __future__ import annotations
@@ -98,6 +97,14 @@ class _Observable:
                 diag = diag + g.diagonal()
         if np.any(diag):
             self.diagonal = diag
+
+    def apply_planar(self, state: np.ndarray, out: np.ndarray) -> None:
+        """``O psi`` on planar states (2, R, 2**n) (real, imaginary parts) into ``out``."""
+        if not self.terms and self.diagonal is not None:  # a Hermitian diagonal: real
+            np.multiply(state, self.diagonal.real, out=out)
+        else:
+            full = self.apply(state[0] + 1j * state[1])
+            out[0], out[1] = full.real, full.imag
 
     def apply(self, state: np.ndarray) -> np.ndarray:
         out = state * self.diagonal if self.diagonal is not None else np.zeros_like(state)
@@ -450,16 +457,16 @@ class AdjointEngine:
         n, M, R = prog.num_qubits, len(obs), vals.shape[0]
         theta = prog.angles(vals) * prog.scales
         cos, sin = np.cos(theta), np.sin(theta)
-        phi = np.empty((R, 2**n), dtype=complex)
+        phi = np.empty((2, R, 2**n))  # planar: real parts, imaginary parts
         _kernels.forward(phi, n, cos, sin, tab)
-        lam = np.empty((R, M, 2**n), dtype=complex)
+        lam = np.empty((2, R, M, 2**n))
         for m, o in enumerate(obs):
-            lam[:, m] = o.apply(phi)
-        values = real_dot(phi[:, None, :], lam)
+            o.apply_planar(phi, lam[:, :, m])
+        values = np.einsum("crk,crmk->rm", phi, lam)  # Re <phi|lam> = re.re + im.im
         if not chain.sources.size:
             return values, np.zeros((R, M, chain.num_targets))
         dtheta = np.zeros((R, M, len(prog.rotations)))
-        stop = int(tab.rot_pos[chain.sources.min()])
+        stop = int(tab.rot_pos[chain.sources].min())
         _kernels.backward(phi, lam, n, cos, sin, needs, stop, dtheta, tab)
         return values, chain(dtheta)
 
