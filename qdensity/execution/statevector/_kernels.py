@@ -39,8 +39,11 @@ MAX_DENSE = 3
 #: Most qubits of a fused block (:func:`fuse_blocks`): a tile of ``2**5 x 16`` amplitudes is
 #: 8 KiB per state, so ``phi`` and one ``lam`` stay in the first-level cache.
 FUSE_QUBITS = 5
-#: Narrower circuits run gate by gate (their state is cached anyway).
-FUSE_MIN_QUBITS = 12
+#: Fewest gates in a block: loading and storing a tile costs about two gates' passes.
+FUSE_MIN_GATES = 4
+#: Narrower circuits run gate by gate (and so does any circuit narrower than
+#: ``2 FUSE_LOW_BITS + FUSE_QUBITS``, whose layout cannot keep the low bits free).
+FUSE_MIN_QUBITS = 17
 #: Bits a fused circuit's layout keeps free of gates: a tile row is then ``2**6`` contiguous
 #: amplitudes (:data:`._kernels_fused.LOG_V`), long enough for the vector loops.
 FUSE_LOW_BITS = 6
@@ -79,7 +82,12 @@ class Tables:
 
         ops = _fuse(prog.ops)
         n = prog.num_qubits
-        fused = n >= FUSE_MIN_QUBITS
+        # fused only where the moving layout keeps every block off the FUSE_LOW_BITS lowest
+        # bits (tile rows of 2**LOG_V amplitudes); with short rows a block costs more than
+        # its gates one by one
+        widest = max((bin(_touched(op)).count("1") for op in ops), default=0)
+        fused = (n >= max(FUSE_MIN_QUBITS, _layout.MIN_QUBITS)
+                 and n >= 2 * FUSE_LOW_BITS + max(FUSE_QUBITS, widest))
         items = fuse_blocks(ops, FUSE_QUBITS) if fused else list(range(len(ops)))
         masks = [_touched(ops[it]) if isinstance(it, int)
                  else _union(_touched(ops[j]) for j in it) for it in items]
@@ -232,7 +240,8 @@ def _local_mask(mask: int, bits: list[int]) -> int:
 
 def fuse_blocks(ops: list, width: int) -> list:
     """Operations grouped into blocks of Pauli rotations and fixed Pauli strings on at most
-    ``width`` qubits, each block applied in one pass (:mod:`._kernels_fused`).
+    ``width`` qubits (and at least :data:`FUSE_MIN_GATES` gates), each block applied in one
+    pass (:mod:`._kernels_fused`).
 
     Greedy over the circuit: a block starts at the first operation left and takes every later
     Pauli operation that keeps it within ``width`` qubits and touches no qubit of an operation
@@ -274,8 +283,12 @@ def fuse_blocks(ops: list, width: int) -> list:
                                        and bin(mask).count("1") == width):
                     rest.extend(left[at + 1:])  # nothing further can join
                     break
-        out.append(members if len(members) > 1 else first)
-        left = rest
+        if len(members) >= FUSE_MIN_GATES:
+            out.append(members)
+            left = rest
+        else:  # too few to pay for a tile's load and store: the first one alone
+            out.append(first)
+            left = left[1:]
     return out
 
 
