@@ -16,6 +16,8 @@ separate real and imaginary parts so that the loops vectorise:
 * the backward sweep of adjoint differentiation visits a rotation once: the derivative
   ``2 c Im <lam_m| Pi P |phi>`` of every observable and the undoing of the gate on ``phi`` and
   every ``lam_m`` happen in the same loop over amplitude pairs;
+* from :data:`FUSE_MIN_QUBITS` qubits, runs of Pauli operations on at most :data:`FUSE_QUBITS`
+  qubits are fused into blocks, each one pass over the state (:mod:`._kernels_fused`);
 * a permutation of the amplitudes that moves qubits between bits (one pass through a buffer):
   from 10 qubits on, the circuit runs in a moving layout that keeps every gate off the four
   lowest bits, where blocks are too short to vectorise (:mod:`._layout`).
@@ -41,6 +43,9 @@ MAX_DENSE = 3
 FUSE_QUBITS = 5
 #: Fewest gates in a block: loading and storing a tile costs about two gates' passes.
 FUSE_MIN_GATES = 4
+#: A fused circuit keeps its blocks only if it makes at most this fraction of the passes of
+#: its gates one by one (its layout keeps more low bits free, so its permutations cost more).
+FUSE_GAIN = 0.75
 #: Narrower circuits run gate by gate (and so does any circuit narrower than
 #: ``2 FUSE_LOW_BITS + FUSE_QUBITS``, whose layout cannot keep the low bits free).
 FUSE_MIN_QUBITS = 17
@@ -56,7 +61,8 @@ class Tables:
     kind : int64 (O,)
         0 rotation, 1 fixed Pauli string, 2 fixed dense gate, 3 a permutation of the bits (the
         moving layout of :mod:`qdensity.execution.statevector._layout`; masks and positions of every
-        operation are in the layout current at it).
+        operation are in the layout current at it), 4 a fused block's header (its bits in
+        ``pos``; its ``span`` member rows follow, see :func:`fuse_blocks`).
     xmask, zmask, cmask : int64 (O,)
     phase : complex128 (O,)
         The string's scalar ``(-i)^{#Y}``.
@@ -76,7 +82,7 @@ class Tables:
         that stay, the tile size ``D``, the entries' offsets and their sources.
     """
 
-    def __init__(self, prog):
+    def __init__(self, prog, fuse: bool = True):
         from qdensity.execution.statevector import _layout
         from qdensity.execution.statevector._program import Fixed, Rotation
 
@@ -86,7 +92,7 @@ class Tables:
         # bits (tile rows of 2**LOG_V amplitudes); with short rows a block costs more than
         # its gates one by one
         widest = max((bin(_touched(op)).count("1") for op in ops), default=0)
-        fused = (n >= max(FUSE_MIN_QUBITS, _layout.MIN_QUBITS)
+        fused = (fuse and n >= max(FUSE_MIN_QUBITS, _layout.MIN_QUBITS)
                  and n >= 2 * FUSE_LOW_BITS + max(FUSE_QUBITS, widest))
         items = fuse_blocks(ops, FUSE_QUBITS) if fused else list(range(len(ops)))
         masks = [_touched(ops[it]) if isinstance(it, int)
@@ -315,6 +321,9 @@ def tables(prog) -> Tables | None:
     tab = prog.__dict__.get("_tables")
     if tab is None:
         tab = Tables(prog)
+        passes = int(np.count_nonzero(tab.head < 0))
+        if np.any(tab.kind == 4) and passes > FUSE_GAIN * len(prog.ops):
+            tab = Tables(prog, fuse=False)  # few blocks (all-to-all couplings): gate by gate
         prog.__dict__["_tables"] = tab
     return tab if tab.ok else None
 
