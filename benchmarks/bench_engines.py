@@ -10,7 +10,11 @@ Two sections:
   to call it). The peer's circuits are translated gate by gate from Qiskit's own transpilation
   of the same circuit to {rx, ry, rz, cx, cz, crx, cry, crz, rxx, ryy, rzz, x, h}, and its
   gate-angle derivatives are chained to the circuit parameters with Qiskit's own
-  ``ParameterExpression.gradient``: nothing of qdensity's compiler is reused.
+  ``ParameterExpression.gradient``: nothing of qdensity's compiler is reused. Each row also
+  gives qdensity's effective bandwidth (the bytes its passes over the state read and write,
+  a fused block counting once, over its median wall time) beside a copy of as many bytes on
+  the same number of threads (``numpy.copyto`` on one thread, a numba ``prange`` on more).
+  The n = 20, batch 16 case: ``--widths 20 --batches 16``.
 * **unary**: the round-robin orthogonal layer, batch 64, forward and reverse gradient, against
   a ``jax.jit`` Givens-rotation peer written from the paper's RBS definition
   (``benchmarks/_scale_unary.py``), with flop rates (6 flops per rotation and column).
@@ -178,6 +182,51 @@ def interleaved(fns: dict, calls: int, budget: float, min_calls: int = 5) -> dic
                 float(np.median(cpu[k]))) for k, v in times.items()}
 
 
+def sweep_bytes(engine, circuit, observables: int, rows: int) -> tuple[int, int]:
+    """``(bytes, threads)`` of one ``value_and_gradient`` call on the compiled kernels: every
+    pass reads and writes a state of ``16 x 2**n`` bytes per row (the forward sweep one state,
+    the backward sweep ``phi`` and every ``lam``; a fused block is one pass), and the threads
+    the engine's rows run on."""
+    from qdensity.execution.statevector import _kernels
+
+    prog = engine.compile(circuit)
+    tab = _kernels.tables(prog)
+    if tab is None:
+        return 0, 1
+    passes = int(np.count_nonzero(tab.head < 0))  # top-level rows: a block is one pass
+    state = 16 * 2**prog.num_qubits
+    per_row = 2 * state * passes * (1 + (observables + 1)) + 4 * state * observables
+    par = _kernels._parallel(rows, prog.num_qubits, tab.kind.size)
+    return per_row * rows, (_numba.threads() if par else 1)
+
+
+def copy_rate(rows: int, n: int, threads: int, repeats: int = 5) -> float:
+    """Bytes per second (read + write) of copying ``rows`` states of ``2**n`` complex128 on
+    ``threads`` threads: ``numpy.copyto`` on one, a numba ``prange`` over rows on more."""
+    src = np.ones((rows, 2**n), dtype=complex)
+    dst = np.empty_like(src)
+    if threads > 1 and _numba.available():
+        from numba import njit, prange
+
+        @njit(parallel=True)
+        def copy(d, s):
+            for r in prange(s.shape[0]):
+                d[r] = s[r]
+
+        def run():
+            copy(dst, src)
+    else:
+        def run():
+            np.copyto(dst, src)
+    run()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - t)
+    return 2 * src.nbytes / float(np.median(times))
+
+
 def _ms(t: float) -> str:
     return f"{1e3 * t:9.3f}"
 
@@ -185,9 +234,11 @@ def _ms(t: float) -> str:
 def adjoint_section(families, widths, batches, calls, budget, min_calls=5) -> None:
     print("\n## adjoint: values and gradients of <Z_0> w.r.t. every parameter (ms per call)")
     print(f"kernels: {'numba' if _numba.available() else 'numpy'}")
+    print("GB/s: bytes the engine's passes read and write / its median wall time; copy: the "
+          "same bytes copied on the same threads (thr)")
     print(f"{'family':8} {'n':>3} {'B':>3} {'P':>4} | {'qd med':>9} {'qd p95':>9} "
           f"{'p95/med':>7} | {'light med':>9} {'light p95':>9} | {'light/qd':>8} {'cpu':>8} | "
-          f"{'max diff':>8} {'calls':>5}")
+          f"{'max diff':>8} {'calls':>5} | {'GB/s':>6} {'copy':>6} {'thr':>3}")
     obs = None
     for fam in families:
         for n in widths:
@@ -206,9 +257,12 @@ def adjoint_section(families, widths, batches, calls, budget, min_calls=5) -> No
                                    "pl": lambda p=peer, v=vals: p(v)}, calls, budget,
                                   min_calls)
                 (qm, q95, cnt, qc_cpu), (pm, p95, _, pc_cpu) = res["qd"], res["pl"]
+                nbytes, threads = sweep_bytes(engine, qc, 1, B)
+                copy = copy_rate(B, n, threads) / 1e9
                 print(f"{fam:8} {n:3d} {B:3d} {qc.num_parameters:4d} | {_ms(qm)} {_ms(q95)} "
                       f"{q95 / qm:7.2f} | {_ms(pm)} {_ms(p95)} | {pm / qm:8.2f} "
-                      f"{pc_cpu / qc_cpu:8.2f} | {diff:8.1e} {cnt:5d}", flush=True)
+                      f"{pc_cpu / qc_cpu:8.2f} | {diff:8.1e} {cnt:5d} | "
+                      f"{nbytes / qm / 1e9:6.1f} {copy:6.1f} {threads:3d}", flush=True)
 
 
 def unary_section(widths, batch, calls, budget) -> None:

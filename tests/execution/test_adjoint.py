@@ -245,7 +245,8 @@ def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypat
     whole = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)
     seen = []
     forward = _kernels.forward
-    monkeypatch.setattr(_kernels, "forward", lambda phi, *a: (seen.append(len(phi)),
+    # rows: axis -2 of a complex (R, 2**n) or planar (2, R, 2**n) state
+    monkeypatch.setattr(_kernels, "forward", lambda phi, *a: (seen.append(phi.shape[-2]),
                                                                forward(phi, *a)))
     monkeypatch.setattr(adjoint_module, "CACHE_BUDGET", 16 * 8 * 4 * 2)  # 2 rows of 4 copies
     chunked = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)

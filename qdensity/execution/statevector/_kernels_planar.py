@@ -11,9 +11,6 @@ Z bit outside X lies below it (``rzx``-like strings, taken one amplitude at a ti
 
 from __future__ import annotations
 
-import numpy as np
-from numba import prange
-
 from qdensity.execution._numba import jit
 
 #: Blocks shorter than this go by index (a slice costs more than it saves there).
@@ -374,99 +371,3 @@ def step_back(pr, pi, lr, li, n, x, z, cm, pos, npos, c, mr, mi, want, accr, acc
                     accr[mm] += dr
                     acci[mm] += di
         k = (k - free) & free
-
-
-@jit(fastmath=True)
-def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
-                 offs, mat, inv, ptab, buf):
-    re[:] = 0.0
-    im[:] = 0.0
-    re[0] = 1.0
-    br = np.empty(ptab.shape[1])
-    bi = np.empty(ptab.shape[1])
-    for i in range(kind.shape[0]):
-        if kind[i] == 3:
-            permute(re, im, n, ptab[rot[i]], br, bi)
-        elif kind[i] == 2:
-            dense(re, im, n, pos[i], npos[i], offs[i], mat[i], buf)
-        elif kind[i] == 1:
-            apply(re, im, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], 0.0,
-                  phase[i].real, phase[i].imag)
-        else:
-            g = rot[i]
-            m = -1j * sin[g] * phase[i]
-            apply(re, im, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], cos[g], m.real,
-                  m.imag)
-
-
-@jit(parallel=True, fastmath=True)
-def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
-                 offs, mat, inv, ptab):
-    for r in prange(re.shape[0]):
-        buf = np.empty(offs.shape[1], dtype=np.complex128)
-        _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
-                     rot, pos, npos, offs, mat, inv, ptab, buf)
-
-
-@jit(fastmath=True)
-def forward_serial(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
-                   npos, offs, mat, inv, ptab):
-    buf = np.empty(offs.shape[1], dtype=np.complex128)
-    for r in range(re.shape[0]):
-        _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
-                     rot, pos, npos, offs, mat, inv, ptab, buf)
-
-
-@jit(fastmath=True)
-def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmask, zmask,
-                  cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab, buf, accr, acci):
-    M = lr.shape[0]
-    br = np.empty(ptab.shape[1])
-    bi = np.empty(ptab.shape[1])
-    for i in range(kind.shape[0] - 1, stop - 1, -1):
-        if kind[i] == 3:  # undo a permutation (its inverse's row follows it)
-            permute(pr, pi, n, ptab[rot[i] + 1], br, bi)
-            for mm in range(M):
-                permute(lr[mm], li[mm], n, ptab[rot[i] + 1], br, bi)
-        elif kind[i] == 2:
-            dense(pr, pi, n, pos[i], npos[i], offs[i], inv[i], buf)
-            for mm in range(M):
-                dense(lr[mm], li[mm], n, pos[i], npos[i], offs[i], inv[i], buf)
-        elif kind[i] == 1:
-            step_back(pr, pi, lr, li, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], 0.0,
-                      phase[i].real, phase[i].imag, False, accr, acci)
-        else:
-            g = rot[i]
-            accr[:] = 0.0
-            acci[:] = 0.0
-            m = 1j * sin[r, g] * phase[i]
-            step_back(pr, pi, lr, li, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i],
-                      cos[r, g], m.real, m.imag, need[g], accr, acci)
-            if need[g]:
-                for mm in range(M):
-                    acc = accr[mm] + 1j * acci[mm]
-                    dtheta[r, mm, g] = 2.0 * scale[i] * (phase[i] * acc).imag
-
-
-@jit(parallel=True, fastmath=True)
-def backward_rows(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
-                  phase, scale, rot, pos, npos, offs, mat, inv, ptab):
-    for r in prange(pr.shape[0]):
-        buf = np.empty(offs.shape[1], dtype=np.complex128)
-        accr = np.zeros(lr.shape[1])
-        acci = np.zeros(lr.shape[1])
-        _row_backward(pr[r], pi[r], lr[r], li[r], r, n, cos, sin, need, stop, dtheta, kind,
-                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab,
-                      buf, accr, acci)
-
-
-@jit(fastmath=True)
-def backward_serial(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
-                    phase, scale, rot, pos, npos, offs, mat, inv, ptab):
-    buf = np.empty(offs.shape[1], dtype=np.complex128)
-    accr = np.zeros(lr.shape[1])
-    acci = np.zeros(lr.shape[1])
-    for r in range(pr.shape[0]):
-        _row_backward(pr[r], pi[r], lr[r], li[r], r, n, cos, sin, need, stop, dtheta, kind,
-                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab,
-                      buf, accr, acci)

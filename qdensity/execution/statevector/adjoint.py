@@ -9,23 +9,22 @@ backward sweep::
         d f / d theta_g = 2 c_g Im <lam| G_g |phi>,   phi <- U_g^dag phi,   lam <- U_g^dag lam
 
 so a gradient costs ``O(gates x 2^n)`` per data row, with no per-parameter circuits and no
-stored activations. Parameters enter gate angles linearly (``angle = a p + b``; a parameter may
-appear in many gates), so ``d f / d p = sum_g a_g d f / d theta_g``. The derivatives are with
-respect to *every* circuit parameter: trainable angles and data-uploading angles alike.
+stored activations. Parameters enter gate angles linearly (``angle = a p + b``, a parameter in
+any number of gates): ``d f / d p = sum_g a_g d f / d theta_g``, for *every* circuit
+parameter, trainable and data-uploading alike.
 
-Rows of parameter values are simulated together as one array (batched over data rows); rows
-are processed in chunks that keep the working memory under ``memory_budget`` bytes.
-Supported gates and the compiled form are described in :mod:`._program`.
+Rows of parameter values are simulated together (batched over data rows), in chunks that keep
+the working memory under ``memory_budget`` bytes; supported gates: :mod:`._program`.
 
 The widest circuit accepted is ``max_qubits`` (default :data:`MAX_QUBITS` = 20, 16 MiB per row
-and state); a wider one is refused before anything is allocated.
+and state); a wider one is refused before anything is allocated. From 17 qubits, runs of
+rotations on at most 5 qubits are applied as fused blocks (:mod:`._kernels_fused`).
 
 ``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
 
-:class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities of
-the
-measured templates), so it can stand in for :class:`~qdensity.execution.engines.ExactEngine`
-without Aer.
+:class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities
+of the measured templates), so it can stand in for
+:class:`~qdensity.execution.engines.ExactEngine` without Aer.
 """
 
 from __future__ import annotations
@@ -99,6 +98,14 @@ class _Observable:
                 diag = diag + g.diagonal()
         if np.any(diag):
             self.diagonal = diag
+
+    def apply_planar(self, state: np.ndarray, out: np.ndarray) -> None:
+        """``O psi`` on planar states (2, R, 2**n) (real, imaginary parts) into ``out``."""
+        if not self.terms and self.diagonal is not None:  # a Hermitian diagonal: real
+            np.multiply(state, self.diagonal.real, out=out)
+        else:
+            full = self.apply(state[0] + 1j * state[1])
+            out[0], out[1] = full.real, full.imag
 
     def apply(self, state: np.ndarray) -> np.ndarray:
         out = state * self.diagonal if self.diagonal is not None else np.zeros_like(state)
@@ -451,16 +458,16 @@ class AdjointEngine:
         n, M, R = prog.num_qubits, len(obs), vals.shape[0]
         theta = prog.angles(vals) * prog.scales
         cos, sin = np.cos(theta), np.sin(theta)
-        phi = np.empty((R, 2**n), dtype=complex)
+        phi = np.empty((2, R, 2**n))  # planar: real parts, imaginary parts
         _kernels.forward(phi, n, cos, sin, tab)
-        lam = np.empty((R, M, 2**n), dtype=complex)
+        lam = np.empty((2, R, M, 2**n))
         for m, o in enumerate(obs):
-            lam[:, m] = o.apply(phi)
-        values = real_dot(phi[:, None, :], lam)
+            o.apply_planar(phi, lam[:, :, m])
+        values = np.einsum("crk,crmk->rm", phi, lam)  # Re <phi|lam> = re.re + im.im
         if not chain.sources.size:
             return values, np.zeros((R, M, chain.num_targets))
         dtheta = np.zeros((R, M, len(prog.rotations)))
-        stop = int(tab.rot_pos[chain.sources.min()])
+        stop = int(tab.rot_pos[chain.sources].min())
         _kernels.backward(phi, lam, n, cos, sin, needs, stop, dtheta, tab)
         return values, chain(dtheta)
 
