@@ -21,10 +21,8 @@ and state); a wider one is refused before anything is allocated. From 17 qubits,
 rotations on at most 5 qubits are applied as fused blocks (:mod:`._kernels_fused`).
 
 ``backend="torch"`` runs the same sweep on torch tensors on a CPU or CUDA device (:mod:`._torch`).
-
 :class:`AdjointEngine` also runs :class:`~qdensity.execution.plans.Plan` s (exact probabilities
-of the measured templates), so it can stand in for
-:class:`~qdensity.execution.engines.ExactEngine` without Aer.
+of the measured templates): it can stand in for :class:`~qdensity.execution.engines.ExactEngine`.
 """
 
 from __future__ import annotations
