@@ -32,11 +32,13 @@ from qdensity.hardware.aer_sampling import (
     check_memory,
     mps_bond_bound,
 )
+from qdensity.validation import CallableC, Instance, Interval, Shots, Unchecked, validates
 
 __all__ = ["AdaptiveSampler", "AerSampler", "NoiselessSimulators", "derived_seed",
            "sampler_method"]
 
 
+@validates(seed=Interval(int))
 def derived_seed(seed: int, *words: int) -> int:
     """A seed for a group of PUBs, derived from a sampler's ``seed`` (uint32, reproducible).
 
@@ -69,6 +71,8 @@ def _by_shots(pubs: list[SamplerPub]) -> dict[int, list[int]]:
     return groups
 
 
+@validates(simulator=Instance(AerSimulator), seed=[Interval(int), None],
+           default_shots=Shots())
 class AerSampler(BaseSamplerV2):
     """A seeded qiskit-aer sampler on a given ``AerSimulator``, built on public API only.
 
@@ -99,8 +103,6 @@ class AerSampler(BaseSamplerV2):
 
     def __init__(self, simulator: AerSimulator, seed: int | None = None,
                  default_shots: int = 1024):
-        if not isinstance(simulator, AerSimulator):
-            raise TypeError(f"simulator must be an AerSimulator, got {type(simulator).__name__}")
         self.simulator = simulator
         self._seed = seed
         self._default_shots = int(default_shots)
@@ -126,6 +128,9 @@ class AerSampler(BaseSamplerV2):
         return aer.run(pubs, shots=shots)
 
 
+@validates(make_simulator=CallableC("a callable method -> AerSimulator"),
+           noisy=Instance((bool, np.bool_), "bool"), seed=[Interval(int), None],
+           default_shots=Shots(), options=[Instance(dict, "a dict of Aer options"), None])
 class AdaptiveSampler(BaseSamplerV2):
     """A seeded Aer sampler whose Aer method and options follow each PUB.
 
@@ -266,6 +271,7 @@ class AdaptiveSampler(BaseSamplerV2):
         return PrimitiveResult(out, metadata={"version": 2})
 
 
+@validates(sampler=Unchecked("any sampler: None unless it is a fixed-method Aer sampler"))
 def sampler_method(sampler) -> str | None:
     """The Aer method of a fixed-method Aer sampler, read through public API (None otherwise).
 
@@ -294,6 +300,7 @@ def sampler_method(sampler) -> str | None:
     return None
 
 
+@validates(seed=[Interval(int), None])
 class NoiselessSimulators:
     """``make_simulator`` of a noiseless :class:`AdaptiveSampler`: ``AerSimulator(method=m)``
     seeded (a module-level class, so samplers pickle).
