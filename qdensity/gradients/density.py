@@ -28,8 +28,9 @@ from typing import Any
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.circuits._copying import gc_paused
+from qdensity.circuits._copying import concatenated_view, gc_paused
 from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._lazy_jobs import LazyCircuitJob
 from qdensity.execution.plans import Plan, _first_result, probabilities_plan
 from qdensity.gradients import _analysis, _sparse
 from qdensity.gradients._density_jobs import (
@@ -114,10 +115,16 @@ def _check_method(model, method: str) -> None:
                          "unary_amplitudes are trained on the unary engine")
 
 
-def _circuit_of(model, k: int):
+def _circuit_of(model, k: int, view: bool = False):
     """``V(x) U_k`` (``U_k`` itself, not a copy, without an encoding: the analyses only read it
-    and gradient circuits are copies) and ``U_k``'s trainable parameters."""
-    circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
+    and gradient circuits are copies; ``view``: sharing the model's gates, to be read only)
+    and ``U_k``'s trainable parameters."""
+    if model.encoding is None:
+        circ = model.sub_unitaries[k]
+    elif view:
+        circ = concatenated_view(model.encoding.circuit, model.sub_unitaries[k])
+    else:
+        circ = model.circuit(k)
     return circ, trainable_parameters(model.sub_unitaries[k])
 
 
@@ -335,15 +342,24 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     total_p = sum(len(model.subunitary_parameter_indices(k)) for k in range(K))  # sum_k P_k
     with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
-            circ, params = _circuit_of(model, k)
+            # V(x) U_k sharing the model's gates (read only): kept only when the plan's jobs
+            # are all built on read (nothing holds it); else made again as a copy
+            circ, params = _circuit_of(model, k, view=True)
             # model.rows(k, X), in circ's parameter order read off circ itself
             rows = model_rows(model, k, X, None, circ, encoded)
             if k == 0:
                 B = rows.shape[0]
                 layout = _sparse.choose_layout(jacobian, B, m, total_p)
-            jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
-                                            _fingerprint_of(model, k, enc_key),
-                                            layout == "sparse"))
+            fingerprint = _fingerprint_of(model, k, enc_key)
+            plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
+                                  layout == "sparse")
+            if model.encoding is not None and not (
+                    plan.meta.get("forward_program") is not None
+                    and all(isinstance(j, LazyCircuitJob) for j in plan.jobs)):
+                circ, _ = _circuit_of(model, k)
+                plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
+                                      layout == "sparse")
+            jac_plans.append(plan)
             if forward:
                 # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
                 # analysis only read it and its circuits are copies, so it becomes the forward
