@@ -24,7 +24,7 @@ import numpy as np
 from qiskit.circuit import ParameterVector, QuantumCircuit
 
 from qdensity.execution.plans import CircuitJob
-from qdensity.execution.samplers._hamming_compile import compile_template
+from qdensity.execution.samplers._hamming_compile import CompiledPrefix, compile_template
 
 if TYPE_CHECKING:
     from qdensity.execution.unary import UnaryCircuit
@@ -62,7 +62,8 @@ class UnaryProgram:
         return self.unary.num_qubits
 
 
-def unary_programs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]
+def unary_programs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]],
+                   prefix: CompiledPrefix | None = None
                    ) -> tuple[UnaryProgram, UnaryProgram] | None:
     """The programs of ``circuit`` followed by an ``RBS(pi/4)`` layer on ``pairs`` and of
     ``circuit`` alone, both measured (qubit ``j`` into clbit ``j``), or None when ``circuit``
@@ -76,6 +77,10 @@ def unary_programs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]
         Unmeasured: X on one qubit of ``|0...0>``, then RBS / FBS gates.
     pairs : sequence of (int, int)
         The layer's qubit pairs, in order.
+    prefix : CompiledPrefix, optional
+        The walk of ``circuit``'s first instructions (a shared loader ``V(x)``), done once
+        for every circuit that begins with them (see
+        :class:`~qdensity.execution.samplers._hamming_compile.CompiledPrefix`).
 
     Returns
     -------
@@ -84,7 +89,7 @@ def unary_programs(circuit: QuantumCircuit, pairs: Sequence[tuple[int, int]]
     from qdensity.execution.unary import UnaryCircuit  # the compiled kernels, on first use
     from qdensity.execution.unary._layers import check_gate_list
 
-    template = compile_template(circuit)
+    template = compile_template(circuit, prefix=prefix)
     if not template.unary or template.flipped:
         return None
     gates = template.gates
