@@ -154,6 +154,25 @@ def concatenate(first: QuantumCircuit, second: QuantumCircuit) -> QuantumCircuit
     return extend(first.copy(), second)
 
 
+def concatenated_view(first: QuantumCircuit, second: QuantumCircuit) -> QuantumCircuit:
+    """:func:`concatenate` ``(first, second)`` sharing the gate objects of both: a read-only
+    view (for analyses and compilation that only read it; never bound, assigned or handed to
+    a job), without copying a symbolic gate (at ``n = 1024`` the copy is about 40 ms of a
+    1,500-gate ``V(x) U_k``). Circuits with classical bits or variables are copied as
+    :func:`concatenate` does."""
+    if not (_plain(first) and _plain(second)) or second.num_qubits > first.num_qubits:
+        return concatenate(first, second)
+    out = empty_like(first)
+    for inst in first.data:
+        out._append(inst)
+    where = dict(zip(second.qubits, out.qubits, strict=False))
+    for inst in second.data:
+        out._append(CircuitInstruction(inst.operation, tuple([where[q] for q in inst.qubits])))
+    if second.global_phase != 0:
+        out.global_phase = out.global_phase + second.global_phase
+    return out
+
+
 _OBJECT_REDUCE_EX: object = object.__reduce_ex__
 _OBJECT_REDUCE: object = object.__reduce__
 

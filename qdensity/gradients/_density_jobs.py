@@ -42,19 +42,21 @@ def _forward_circuit(model, k: int) -> object:
     return measured(model.circuit(k), inplace=model.encoding is not None)
 
 
-def commuting_jobs(model, k: int, circ, shared, rows, shots
+def commuting_jobs(model, k: int, circ, shared, rows, shots, prefix=None
                    ) -> tuple[list[CircuitJob], UnaryProgram | None]:
     """Sub-unitary ``k``'s commuting-gradient jobs and, when they are built on read and
     sampled, the forward circuit's program (for :func:`forward_job`).
 
     ``shared`` is the analysis' shared estimator: its measured circuits, or a
     :class:`~qdensity.gradients._outputs.LayerToBuild` (no circuit: a lazy job, with the
-    unary programs when ``shots`` is given and ``circ`` is a weight-1 RBS / FBS template)."""
+    unary programs when ``shots`` is given and ``circ`` is a weight-1 RBS / FBS template;
+    ``prefix``: the encoding's :class:`~qdensity.execution.samplers._hamming_compile.
+    CompiledPrefix`, walked once per plan)."""
     if not isinstance(shared, LayerToBuild):
         return [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
                 for i, c in enumerate(shared.circuits)], None
     pairs = tuple(shared.layer_pairs)
-    programs = unary_programs(circ, pairs) if shots is not None else None
+    programs = unary_programs(circ, pairs, prefix) if shots is not None else None
     job = LazyCircuitJob(partial(_jacobian_circuit, model, k, pairs), circ.num_qubits,
                          circ.num_parameters, rows, shots, f"commuting_k{k}[0]",
                          programs[0] if programs else None)

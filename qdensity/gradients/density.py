@@ -28,9 +28,11 @@ from typing import Any
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.circuits._copying import gc_paused
+from qdensity.circuits._copying import concatenated_view, gc_paused
 from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._lazy_jobs import LazyCircuitJob
 from qdensity.execution.plans import Plan, _first_result, probabilities_plan
+from qdensity.execution.samplers._hamming_compile import CompiledPrefix
 from qdensity.gradients import _analysis, _sparse
 from qdensity.gradients._density_jobs import (
     _commuting_post,
@@ -114,10 +116,16 @@ def _check_method(model, method: str) -> None:
                          "unary_amplitudes are trained on the unary engine")
 
 
-def _circuit_of(model, k: int):
+def _circuit_of(model, k: int, view: bool = False):
     """``V(x) U_k`` (``U_k`` itself, not a copy, without an encoding: the analyses only read it
-    and gradient circuits are copies) and ``U_k``'s trainable parameters."""
-    circ = model.sub_unitaries[k] if model.encoding is None else model.circuit(k)
+    and gradient circuits are copies; ``view``: sharing the model's gates, to be read only)
+    and ``U_k``'s trainable parameters."""
+    if model.encoding is None:
+        circ = model.sub_unitaries[k]
+    elif view:
+        circ = concatenated_view(model.encoding.circuit, model.sub_unitaries[k])
+    else:
+        circ = model.circuit(k)
     return circ, trainable_parameters(model.sub_unitaries[k])
 
 
@@ -164,14 +172,17 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
 
 
 def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
-                   fingerprint: tuple | None = None, sparse: bool = False) -> Plan:
+                   fingerprint: tuple | None = None, sparse: bool = False,
+                   prefix=None) -> Plan:
     """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made
     (``fingerprint``: :func:`_fingerprint_of` ``(model, k)`` when already taken; ``sparse``: a
     commuting plan's post-processing returns the ``(value, error)`` pair in
-    :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`)."""
+    :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`;
+    ``prefix``: ``V(x)``'s walk for the sampler's compiler, done once per plan)."""
     if method in ("auto", "commuting"):
         try:
-            plan = _commuting_plan(model, circ, params, rows, shots, k, fingerprint, sparse)
+            plan = _commuting_plan(model, circ, params, rows, shots, k, fingerprint, sparse,
+                                   prefix)
         except ValueError:
             if method == "commuting":
                 raise
@@ -266,9 +277,9 @@ def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
 
 
 def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
-                    sparse: bool = False) -> Plan:
+                    sparse: bool = False, prefix=None) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
-    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots)  # lazy: built on read
+    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots, prefix)  # built on read
     return Plan(jobs, partial(_commuting_post, grads, shots, sparse=sparse),
                 f"commuting gradient of sub-unitary {k}",
                 {"gradient": shared, "forward_program": forward})
@@ -333,17 +344,29 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                else circuit_fingerprint(model.encoding.circuit))
     m = 1 if model.readout == "observable" else model.num_qubits
     total_p = sum(len(model.subunitary_parameter_indices(k)) for k in range(K))  # sum_k P_k
+    # V(x)'s walk for the sampler's compiler, once: every V(x) U_k begins with it
+    prefix = (None if model.encoding is None or shots is None
+              else CompiledPrefix(model.encoding.circuit))
     with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
-            circ, params = _circuit_of(model, k)
+            # V(x) U_k sharing the model's gates (read only): kept only when the plan's jobs
+            # are all built on read (nothing holds it); else made again as a copy
+            circ, params = _circuit_of(model, k, view=True)
             # model.rows(k, X), in circ's parameter order read off circ itself
             rows = model_rows(model, k, X, None, circ, encoded)
             if k == 0:
                 B = rows.shape[0]
                 layout = _sparse.choose_layout(jacobian, B, m, total_p)
-            jac_plans.append(_jacobian_plan(model, k, circ, params, rows, method, shots,
-                                            _fingerprint_of(model, k, enc_key),
-                                            layout == "sparse"))
+            fingerprint = _fingerprint_of(model, k, enc_key)
+            plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
+                                  layout == "sparse", prefix)
+            if model.encoding is not None and not (
+                    plan.meta.get("forward_program") is not None
+                    and all(isinstance(j, LazyCircuitJob) for j in plan.jobs)):
+                circ, _ = _circuit_of(model, k)
+                plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
+                                      layout == "sparse", prefix)
+            jac_plans.append(plan)
             if forward:
                 # with an encoding circ is model.circuit(k), a copy made here: the Jacobian's
                 # analysis only read it and its circuits are copies, so it becomes the forward

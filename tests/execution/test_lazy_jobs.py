@@ -12,13 +12,16 @@ from functools import partial
 import numpy as np
 import pytest
 from qiskit import ClassicalRegister, QuantumCircuit
+from qiskit.circuit import Parameter
 from qiskit.quantum_info import Statevector
 
 from qdensity import DensityQNN, Encoding, SamplerEngine, by_moments
+from qdensity.circuits._copying import concatenated_view
 from qdensity.circuits.ansatze import round_robin
 from qdensity.circuits.gates import RBSGate
 from qdensity.execution._lazy_jobs import LazyCircuitJob, unary_programs
 from qdensity.execution.plans import CircuitJob, Plan
+from qdensity.execution.samplers._hamming_compile import CompiledPrefix, compile_template
 from qdensity.execution.samplers._hamming_program import _Compiled
 from qdensity.gradients import density_gradient_plan
 
@@ -72,15 +75,22 @@ def test_sampled_plan_jobs_are_built_on_read_and_are_the_measured_templates():
         assert jac.values.shape == (3, jac.circuit.num_parameters)
 
 
+@pytest.mark.parametrize("prefixed", [False, True])
 @pytest.mark.parametrize("n", [4, 7])
-def test_unary_program_probabilities_are_the_statevector_of_the_circuit(n):
-    """Oracle: qiskit's Statevector of the (unmeasured) circuit, read on the weight-1 states."""
+def test_unary_program_probabilities_are_the_statevector_of_the_circuit(n, prefixed):
+    """Oracle: qiskit's Statevector of the (unmeasured) circuit, read on the weight-1 states;
+    ``prefixed``: the program compiled after the loader's walk done once (and the circuit a
+    view sharing the model's gates), as a density gradient plan compiles it."""
     model = _model(n)
     rng = np.random.default_rng(n)
     k = 1
     circ = model.circuit(k)
     pairs = [(0, 1), (2, 3)]
-    progs = unary_programs(circ, pairs)
+    if prefixed:
+        view = concatenated_view(model.encoding.circuit, model.sub_unitaries[k])
+        progs = unary_programs(view, pairs, CompiledPrefix(model.encoding.circuit))
+    else:
+        progs = unary_programs(circ, pairs)
     assert progs is not None
     with_layer, alone = progs
     values = rng.uniform(-np.pi, np.pi, (3, circ.num_parameters))
@@ -94,6 +104,50 @@ def test_unary_program_probabilities_are_the_statevector_of_the_circuit(n):
             probs = Statevector(bound).probabilities()
             want = probs[1 << np.arange(n)]
             np.testing.assert_allclose(got[r], want, atol=1e-12)
+
+
+def _gate_list(template) -> list:
+    return [(g.name, g.qubits, g.angles, g.matrix is None, g.operation, g.position)
+            for g in template.gates]
+
+
+@pytest.mark.parametrize("n", [3, 6])
+def test_a_template_compiled_after_a_prefix_is_the_whole_walk(n):
+    """Every V(x) U_k compiled after the loader's walk gives the gate list, angles (parameter
+    columns renumbered to the whole circuit's), input and measurements of walking it whole."""
+    model = _model(n)
+    prefix = CompiledPrefix(model.encoding.circuit)
+    assert prefix.ok
+    for k in range(model.num_subunitaries):
+        circ = model.circuit(k)
+        circ.measure_all()
+        whole, after = compile_template(circ), compile_template(circ, prefix=prefix)
+        assert _gate_list(after) == _gate_list(whole)
+        assert after.parameters == whole.parameters and after.occupied == whole.occupied
+        assert after.measured == whole.measured and after.flipped == whole.flipped
+
+
+def test_a_prefix_it_cannot_cover_is_walked_with_the_rest():
+    """A prefix with a flip still pending, or one a circuit does not hold the parameters of,
+    leaves the whole walk to compile_template: the same template as without it."""
+    pending = QuantumCircuit(2)
+    pending.x(0)
+    pending.append(RBSGate(0.2), [0, 1])
+    pending.x(1)  # a relabelling pending on qubit 1
+    assert not CompiledPrefix(pending).ok
+    theta = Parameter("t")
+    loader = QuantumCircuit(2)
+    loader.x(0)
+    loader.append(RBSGate(theta), [0, 1])
+    prefix = CompiledPrefix(loader)
+    assert prefix.ok
+    other = QuantumCircuit(2)  # the same shape, another parameter: not this prefix's circuit
+    other.x(0)
+    other.append(RBSGate(Parameter("s")), [0, 1])
+    other.append(RBSGate(0.4), [0, 1])
+    other.measure_all()
+    assert _gate_list(compile_template(other, prefix=prefix)) == _gate_list(
+        compile_template(other))
 
 
 def test_engine_draws_from_the_program_the_shots_of_the_circuit():

@@ -220,10 +220,11 @@ class _Walker:
         self.flipped: set[int] = set()  # clbits that read a flipped qubit
 
     def walk(self, circuit: QuantumCircuit, qmap: list[int], cmap: list[int] | None,
-             top: str | None = None) -> None:
+             top: str | None = None, start: int = 0) -> None:
         qindex = {q: i for i, q in enumerate(circuit.qubits)}  # find_bit, once per bit
         cindex = {c: i for i, c in enumerate(circuit.clbits)}
-        for index, inst in enumerate(circuit.data):
+        data = circuit.data if not start else circuit.data[start:]
+        for index, inst in enumerate(data, start):
             if top is None:
                 self.top_index = index
             op = inst.operation
@@ -332,7 +333,8 @@ class _Walker:
         return True
 
 
-def compile_template(circuit: QuantumCircuit, label: str | None = None) -> HammingTemplate:
+def compile_template(circuit: QuantumCircuit, label: str | None = None, *,
+                     prefix: CompiledPrefix | None = None) -> HammingTemplate:
     """Compile ``circuit`` for the Hamming-weight sampler (gate list, angles, measurements).
 
     Parameters
@@ -355,8 +357,66 @@ def compile_template(circuit: QuantumCircuit, label: str | None = None) -> Hammi
     if not isinstance(circuit, QuantumCircuit):
         raise TypeError(f"circuit must be a QuantumCircuit, got {type(circuit).__name__}")
     w = _Walker(circuit, label or circuit.name)
-    w.walk(circuit, list(range(circuit.num_qubits)), list(range(circuit.num_clbits)))
+    start = 0
+    if prefix is not None and prefix.resume(w):
+        start = prefix.size
+    w.walk(circuit, list(range(circuit.num_qubits)), list(range(circuit.num_clbits)),
+           start=start)
     occupied = tuple(q for q in range(circuit.num_qubits)
                      if w.bits[q] == 1 or (w.bits[q] is None and q in w.initial))
     return HammingTemplate(circuit.num_qubits, occupied, w.gates, w.measured,
                            w.parameters, label or circuit.name, tuple(sorted(w.flipped)))
+
+
+class CompiledPrefix:
+    """The walk of a circuit's first instructions done once, for templates that all begin with
+    them: a density gradient plan compiles ``V(x) U_k`` for every ``k``, and at ``n = 1024``
+    the loader ``V(x)`` is 1,023 of its 1,535 gates. :func:`compile_template` ``(circuit,
+    prefix=...)`` resumes after them, the prefix's gates taken with their parameter columns
+    renumbered to ``circuit.parameters``, and walks the rest: the same template as the whole
+    walk.
+
+    Parameters
+    ----------
+    prefix : QuantumCircuit
+        Without classical bits. The caller guarantees that every circuit compiled with it
+        begins with these instructions, on the same qubits.
+
+    A prefix this does not cover (gates judged by their matrices, angles not linear in one
+    parameter, bit flips still pending, a refused instruction) is walked with the rest.
+    """
+
+    def __init__(self, prefix: QuantumCircuit):
+        self.size = len(prefix.data)
+        self.num_qubits = prefix.num_qubits
+        self.ok = False
+        if prefix.num_clbits or prefix.num_vars:
+            return
+        w = _Walker(prefix, prefix.name)
+        try:
+            w.walk(prefix, list(range(prefix.num_qubits)), [])
+        except ValueError:
+            return
+        self.parameters = w.parameters
+        self.bits, self.initial, self.gates = tuple(w.bits), frozenset(w.initial), w.gates
+        self.ok = not (w.pending or w.done or w.flipped) and all(
+            g.operation is None and all(a.kind != "expr" for a in g.angles) for g in w.gates)
+
+    def resume(self, w: _Walker) -> bool:
+        """Put the walker ``w`` (of a circuit that begins with the prefix) where the walk
+        of the prefix leaves it; False (``w`` untouched) where this prefix cannot."""
+        if not self.ok or w.n != self.num_qubits:
+            return False
+        try:
+            column = [w.position[p] for p in self.parameters]
+        except KeyError:
+            return False
+        gates = []
+        for g in self.gates:
+            angles = tuple(a if a.kind != "linear" else (
+                _parameter_angle(column[a.index]) if a.coefficient == 1.0 and a.offset == 0.0
+                else Angle("linear", a.offset, column[a.index], a.coefficient))
+                for a in g.angles)
+            gates.append(GateOp(g.name, g.qubits, angles, g.matrix, None, g.position))
+        w.bits, w.initial, w.gates = list(self.bits), set(self.initial), gates
+        return True
