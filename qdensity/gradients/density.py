@@ -1,21 +1,16 @@
-"""Gradients of density QNNs (paper Prop. 1, Cor. 1, Cor. 2; Supp. B.1).
+"""Gradients of density QNNs ``f(x) = sum_k alpha_k(x) f_k(x)`` (paper Prop. 1, Cor. 1, 2; B.1):
 
-For ``f(x) = sum_k alpha_k(x) f_k(x)``:
-
-* ``d f / d theta_p = sum_k alpha_k d f_k / d theta_p``: each sub-unitary contributes the
-  gradient of its own circuit w.r.t. its own parameters. Independent parameters (Cor. 1) mean
-  each parameter has one contributing k; shared parameters (Prop. 1) are summed over every k
-  that uses them. The circuits are the sum over k of each sub-unitary's gradient circuits.
+* ``d f / d theta_p = sum_k alpha_k d f_k / d theta_p``: sub-unitary k's own circuit's gradient
+  w.r.t. its own parameters, one k per independent parameter (Cor. 1), shared ones summed over
+  every k that uses them (Prop. 1); the circuits are the sum over k of each one's circuits.
 * ``d f / d alpha_k = f_k`` (forward values), chained through the mixture (softmax logits or
   the mixture-of-experts gate) by :meth:`qdensity.models.mixtures.Mixture.vjp`.
 
 Each sub-unitary's Jacobian is a plan: ``"shift"`` (parameter shift, Supp. E), ``"commuting"``
-or ``"auto"``. ``"commuting"`` measures a sub-unitary made of one commuting block with one
-circuit and a diagonalising layer (Bowles et al.'s Thm. 1, Supp. F.3); a sub-unitary of
-``B_k`` commuting blocks read out by one observable with :func:`commuting_block_gradient`'s
-observable shifts, ``2 B_k - 1`` circuits for a Pauli observable, so the whole model needs
-``sum_k (2 B_k - 1) = 2 sum_k B_k - K`` (Cor. 2). ``"auto"`` takes the one-block circuit where
-it applies, else the block circuits when fewer than the parameter-shift ones, else parameter shift.
+(one commuting block: one circuit and a diagonalising layer, Bowles et al.'s Thm. 1, Supp. F.3;
+``B_k`` blocks read out by a Pauli observable: ``2 B_k - 1`` circuits by
+:func:`commuting_block_gradient`, ``2 sum_k B_k - K`` in all, Cor. 2) or ``"auto"`` (one block's
+circuit where it applies, else block circuits when fewer than parameter shifts, else shifts).
 """
 
 from __future__ import annotations
@@ -26,14 +21,18 @@ from functools import partial
 from typing import Any
 
 import numpy as np
-from qiskit.quantum_info import PauliList, SparsePauliOp
 
 from qdensity.circuits._copying import concatenated_view, gc_paused
 from qdensity.execution._compile import circuit_fingerprint
 from qdensity.execution._lazy_jobs import LazyCircuitJob
 from qdensity.execution.plans import Plan, _first_result, probabilities_plan
 from qdensity.execution.samplers._hamming_compile import CompiledPrefix
-from qdensity.gradients import _analysis, _sparse
+from qdensity.gradients import _sparse
+from qdensity.gradients._density_analysis import (
+    _auto_prefers_commuting,
+    _commuting_analysis,
+    _fingerprint_of,
+)
 from qdensity.gradients._density_jobs import (
     _commuting_post,
     _forward_observable_post,
@@ -42,13 +41,7 @@ from qdensity.gradients._density_jobs import (
     commuting_jobs,
     forward_job,
 )
-from qdensity.gradients._direct import _direct_gradient
-from qdensity.gradients._outputs import rbs_output_gradients
 from qdensity.gradients.commuting import (
-    CommutingBlockGradient,
-    _one_block,
-    commuting_block_gradient,
-    commuting_gradient,
     commuting_gradient_count,
 )
 from qdensity.gradients.shift import parameter_shift_plan, shift_circuit_count
@@ -85,27 +78,28 @@ class DensityGradient:
     outputs : numpy.ndarray, shape (B, K, m)
         ``f_k`` per data row (m = 1 for an observable, n for unary probabilities).
     jacobians : list of numpy.ndarray, each (B, m, P_k), or of scipy.sparse.csr_array
-        ``d f_k / d theta_k`` in sub-unitary k's parameter order. In the sparse layout
-        (``density_gradient_plan``'s ``jacobian``) each is a ``csr_array`` of shape
-        ``(B * m, P_k)``, row ``b * m + j`` = output ``j`` of data row ``b`` (the dense array
-        reshaped; entries left out are exactly zero).
+        ``d f_k / d theta_k`` in sub-unitary k's parameter order; in the sparse layout
+        (``density_gradient_plan``'s ``jacobian``) the dense array reshaped to ``(B * m, P_k)``
+        (row ``b * m + j``: output ``j`` of data row ``b``; entries left out are exactly zero).
     output_errors, jacobian_errors : standard errors, same shapes and layout (zeros when
         exact; a sparse Jacobian's errors share its sparsity pattern).
+
+    Examples
+    --------
+    >>> from qdensity import DensityQNN, Encoding, by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.execution import AdjointEngine
+    >>> from qdensity.gradients import density_gradient_plan
+    >>> model = DensityQNN(by_moments(round_robin(4)).sub_unitaries, encoding=Encoding.unary(4))
+    >>> grad = density_gradient_plan(model, [[1., 2., 3., 4.]]).run(AdjointEngine())  # <Z_0>
+    >>> grad.outputs.shape, [jac.shape for jac in grad.jacobians]  # (B, K, m), (B, m, P_k)
+    ((1, 3, 1), [(1, 1, 2), (1, 1, 2), (1, 1, 2)])
     """
 
     outputs: np.ndarray
     output_errors: np.ndarray
     jacobians: list[np.ndarray]
     jacobian_errors: list[np.ndarray]
-
-
-def _readout_observables(model) -> list[SparsePauliOp]:
-    n = model.num_qubits
-    if model.readout == "observable":
-        return [model.observable]
-    # unary probability p_j = <(I - Z_j)/2> on Hamming-weight-1 states
-    return [SparsePauliOp.from_sparse_list([("", [], 0.5), ("Z", [j], -0.5)], n)
-            for j in range(n)]
 
 
 def _check_method(model, method: str) -> None:
@@ -127,18 +121,6 @@ def _circuit_of(model, k: int, view: bool = False):
     else:
         circ = model.circuit(k)
     return circ, trainable_parameters(model.sub_unitaries[k])
-
-
-def _fingerprint_of(model, k: int, encoding_key: tuple | None = None) -> tuple:
-    """A key determining the structure of :func:`_circuit_of` ``(model, k)``'s circuit:
-    ``U_k``'s fingerprint, with the encoding's (``encoding_key``: taken once by the caller for
-    every ``k``) when ``model.circuit(k)`` puts ``V(x)`` before it."""
-    sub = circuit_fingerprint(model.sub_unitaries[k])
-    if model.encoding is None:
-        return sub
-    if encoding_key is None:
-        encoding_key = circuit_fingerprint(model.encoding.circuit)
-    return ("encoded", encoding_key, sub)
 
 
 @validates(
@@ -165,6 +147,15 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
     Plan
         Post-processing returns an :class:`~qdensity.execution.plans.Estimate` of shape (B, m, P_k).
         ``plan.meta["method"]`` says which method was used.
+
+    Examples
+    --------
+    >>> from qdensity import DensityQNN, by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.gradients import subunitary_jacobian_plan
+    >>> model = DensityQNN(by_moments(round_robin(4)).sub_unitaries)  # 3 layers of 2 RBS
+    >>> [subunitary_jacobian_plan(model, 1, method=m).num_circuits for m in ("shift", "auto")]
+    [8, 1]
     """
     _check_method(model, method)
     circ, params = _circuit_of(model, k)
@@ -206,76 +197,6 @@ def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
     return plan
 
 
-def _readout_key(model) -> tuple:
-    """The readout, hashable: what an analysis depends on besides the circuit."""
-    if model.readout == "observable":
-        obs = model.observable
-        return ("observable", tuple(obs.paulis.to_labels()), obs.coeffs.tobytes())
-    return (model.readout, model.num_qubits)
-
-
-def _commuting_analysis(model, circ, params, k, fingerprint: tuple | None = None):
-    """Gradient observables and diagonalising circuits of sub-unitary ``k``.
-
-    They depend only on the circuit, the parameters and the readout, not on data or angles,
-    so they are derived once per structure and kept (failures too, so ``method="auto"``
-    decides once): see :mod:`qdensity.gradients._analysis`.
-    """
-    if fingerprint is None:
-        fingerprint = _fingerprint_of(model, k)
-    key = _analysis.structure_key("commuting", circ, params, _readout_key(model), fingerprint)
-    return _analysis.cached(key, partial(_analyse, model, circ, params))
-
-
-def _unary_terms(n: int) -> tuple[PauliList, np.ndarray]:
-    """``Z_0 .. Z_{n-1}`` and the weights ``-1/2`` of ``p_j = 1/2 - Z_j / 2`` on them (the
-    terms of :func:`_readout_observables` for unary probabilities)."""
-    return (PauliList.from_symplectic(np.eye(n, dtype=bool), np.zeros((n, n), dtype=bool)),
-            -0.5 * np.eye(n))
-
-
-def _analyse(model, circ, params):
-    if model.readout == "observable":
-        try:
-            grads: list = [commuting_gradient(circ, model.observable, params)]
-        except ValueError as one_block:
-            try:  # several commuting blocks: observable shifts (Cor. 2)
-                grads = [commuting_block_gradient(circ, model.observable, None, params)]
-            except ValueError:
-                raise one_block from None
-        return grads[0], grads
-    n = model.num_qubits
-    terms, weights = _unary_terms(n)
-    total = SparsePauliOp(terms, np.ones(n))  # sum_j Z_j
-    checked, obs, trainables = _one_block(circ, total, params, "auto")
-    # one RBS(pi/4) layer: every output's table from one pass over the block's strings
-    found = rbs_output_gradients(circ, trainables, terms, weights, checked, measure=False)
-    if found is not None:
-        return found
-    shared = _direct_gradient(circ, trainables, obs, checked, "auto")
-    grads = [commuting_gradient(circ, o, params) for o in _readout_observables(model)]
-    same_layer = (shared.diagonaliser == "rbs" and len(shared.circuits) == 1
-                  and all(g.diagonaliser == "rbs" and len(g.circuits) == 1 for g in grads))
-    if not same_layer:
-        raise ValueError("unary readout outputs need different diagonalising circuits")
-    return shared, grads
-
-
-def _auto_prefers_commuting(model, circ, params, k, gradient) -> bool:
-    """``method="auto"``: one-block circuits always; block circuits when they are no more than
-    the parameter-shift circuits per data point (decided once per structure)."""
-    if not isinstance(gradient, CommutingBlockGradient):
-        return True
-    key = _analysis.structure_key("auto", circ, params, _readout_key(model))
-
-    def decide() -> bool:
-        row = np.zeros((1, circ.num_parameters))
-        shift = parameter_shift_plan(circ, model.observable, row, parameters=params)
-        return gradient.num_gradient_circuits <= shift.num_circuits
-
-    return _analysis.cached(key, decide)
-
-
 def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
                     sparse: bool = False, prefix=None) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
@@ -287,9 +208,8 @@ def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
 
 def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
                   owned: bool = False, program=None) -> Plan:
-    """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)`` and ``model.rows(k, X)``
-    when already made; ``owned``: ``circuit`` is a copy made for this plan, measured in place
-    instead of copied again; ``program``: its job built on read, sampled from ``program``)."""
+    """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)``, ``model.rows(k, X)`` if made;
+    ``owned``: ``circuit`` is this plan's copy, measured in place; ``program``: sampled from it)."""
     if program is not None and circuit is not None and rows is not None:
         inner = Plan([forward_job(model, k, circuit, rows, shots, program)], _first_result,
                      f"P(b) of {circuit.name}")
@@ -325,16 +245,23 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
         Include the forward circuits (``f_k``, needed for ``d f / d alpha``).
     jacobian : {"auto", "dense", "sparse"}
         :attr:`DensityGradient.jacobians` and ``jacobian_errors`` as dense ``(B, m, P_k)``
-        arrays or ``scipy.sparse.csr_array`` ``(B * m, P_k)`` (:mod:`~qdensity.gradients.
-        _sparse`) (round-robin moments at ``n = 256``: 2.1 GB dense). ``"auto"``: dense up to
-        64 MiB (``16 B m sum_k P_k`` bytes), sparse above, as ``plan.meta["jacobian"]`` says.
+        arrays or ``scipy.sparse.csr_array`` ``(B * m, P_k)`` (round-robin moments, n = 256:
+        2.1 GB dense); ``"auto"``: dense to 64 MiB (``16 B m sum_k P_k`` bytes), as plan.meta says.
 
     Returns
     -------
     Plan
-        Post-processing returns a :class:`DensityGradient`.
-        ``plan.meta["gradient_circuits"]`` is the number of gradient circuits per data point
-        (forward excluded), summed over sub-unitaries.
+        Post-processing returns a :class:`DensityGradient`; ``plan.meta["gradient_circuits"]``
+        is the gradient circuits per data point (forward excluded), summed over sub-unitaries.
+
+    Examples
+    --------
+    >>> from qdensity import DensityQNN, Encoding, by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.gradients import density_gradient_plan
+    >>> model = DensityQNN(by_moments(round_robin(4)).sub_unitaries, encoding=Encoding.unary(4))
+    >>> density_gradient_plan(model, [[1., 2., 3., 4.]]).meta["gradient_circuits"]  # Table 1
+    3
     """
     _check_method(model, method)
     K = model.num_subunitaries
@@ -388,12 +315,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
 def gradient_circuit_count(model, *, method: str = "auto") -> int:
     """``density_gradient_plan(model, method=method).meta["gradient_circuits"]``, counted.
 
-    Gradient circuits per data point (forward excluded), summed over the sub-unitaries, from
-    the same analyses and method choice as the plan, but without building its circuits or
-    parameter rows: a one-block commuting gradient is counted by
-    :func:`~qdensity.gradients.commuting.commuting_gradient_count`, a parameter-shift one by
-    :func:`~qdensity.gradients.shift.shift_circuit_count` (the others, several blocks or
-    unary outputs, by the plan's own analysis). Table 1 comes from it.
+    Gradient circuits per data point (forward excluded), summed over the sub-unitaries (Table
+    1), from the plan's analyses and method choice without building its circuits or parameter
+    rows (one commuting block: :func:`~qdensity.gradients.commuting.commuting_gradient_count`;
+    shift: :func:`~qdensity.gradients.shift.shift_circuit_count`; else the plan's analysis).
 
     Parameters
     ----------
@@ -403,6 +328,15 @@ def gradient_circuit_count(model, *, method: str = "auto") -> int:
     Returns
     -------
     int
+
+    Examples
+    --------
+    >>> from qdensity import DensityQNN, by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.gradients import gradient_circuit_count
+    >>> model = DensityQNN(by_moments(round_robin(4)).sub_unitaries)  # n = 4: 6 RBS angles
+    >>> gradient_circuit_count(model), gradient_circuit_count(model, method="shift")  # Table 1
+    (3, 24)
     """
     _check_method(model, method)
     total = 0
@@ -458,6 +392,22 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray
     -------
     (numpy.ndarray (P,), numpy.ndarray (M,))
         Gradients w.r.t. :attr:`DensityQNN.theta` and the mixture parameters (summed over B).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity import DensityQNN, Encoding, by_moments
+    >>> from qdensity.circuits.ansatze import round_robin
+    >>> from qdensity.execution import AdjointEngine
+    >>> from qdensity.gradients import chain_rule, density_gradient_plan
+    >>> model = DensityQNN(by_moments(round_robin(4)).sub_unitaries, encoding=Encoding.unary(4),
+    ...                    readout="unary_probabilities", seed=0)  # K = 3 layers of 2 RBS
+    >>> grad = density_gradient_plan(model, X := [[1., 2., 3., 4.]]).run(AdjointEngine())
+    >>> g_theta, g_mix = chain_rule(model, X, grad, [[1., 0., 0., 0.]])  # dL / df for L = p_0
+    >>> f = lambda theta: model.predict(X, theta)[0, 0]  # against central differences
+    >>> fd = [(f(model.theta + s) - f(model.theta - s)) / 2e-6 for s in 1e-6 * np.eye(6)]
+    >>> bool(np.allclose(g_theta, fd)), g_mix.shape  # a FixedMixture has no parameters
+    (True, (0,))
     """
     upstream = np.atleast_2d(upstream)
     alpha = model.alpha(X)

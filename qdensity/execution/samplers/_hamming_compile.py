@@ -27,7 +27,22 @@ from qdensity.analysis.gate_registry import FBS, GATES, GIVENS_GATES
 class UnsupportedInstructionError(QiskitError, ValueError):
     """An instruction the Hamming-weight sampler cannot sample: a ``QiskitError`` (what
     qiskit's own samplers raise for an instruction they cannot run) and a ``ValueError``
-    (qdensity's bad-input error)."""
+    (qdensity's bad-input error).
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.execution.samplers import HammingWeightSampler
+    >>> from qdensity.execution.samplers.hamming import UnsupportedInstructionError
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.h(0)  # a superposition of Hamming weights 0 and 1
+    >>> qc.measure_all()
+    >>> try:
+    ...     HammingWeightSampler(seed=1).run([qc])
+    ... except UnsupportedInstructionError as err:
+    ...     print(isinstance(err, ValueError), "does not preserve Hamming weight" in str(err))
+    True True
+    """
 
     def __str__(self) -> str:  # the message itself (QiskitError shows its repr)
         return str(self.message)

@@ -119,6 +119,25 @@ class DeferredSamples:
         Shots per parameter row.
     num_bits : int
         The circuit's clbits.
+
+    Examples
+    --------
+    >>> from qiskit import QuantumCircuit
+    >>> from qdensity.execution.samplers import HammingWeightSampler
+    >>> qc = QuantumCircuit(2)
+    >>> _ = qc.x(0)
+    >>> qc.measure_all()
+    >>> sampler = HammingWeightSampler(seed=1)
+    >>> deferred, = sampler.defer([qc], shots=5)
+    >>> deferred
+    DeferredSamples(shape=(), num_shots=5, num_bits=2)
+    >>> deferred.packed().shape  # 5 shots of one byte
+    (5, 1)
+    >>> deferred.bitarray().get_counts()
+    {'01': 5}
+    >>> run = sampler.run([qc], shots=5).result()[0].data.meas
+    >>> bool((run.array == deferred.bitarray().array).all())  # run's shots
+    True
     """
 
     __slots__ = ("_draw", "_seed", "shape", "num_shots", "num_bits")

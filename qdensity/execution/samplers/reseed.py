@@ -26,11 +26,15 @@ around the engine).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from qdensity.execution.samplers.aer import derived_seed
 from qdensity.validation import CallableC, Instance, Interval, SequenceOf, Unchecked, validates
+
+if TYPE_CHECKING:
+    from qiskit.primitives import BaseSamplerV2
 
 __all__ = ["reseeded", "check_reseedable", "run_independent"]
 
@@ -90,6 +94,20 @@ def check_reseedable(sampler, name: str = "sampler") -> None:
     ------
     TypeError
         A sampler with an integer ``seed`` and neither ``with_seed`` nor a known constructor.
+
+    Examples
+    --------
+    >>> from qiskit.primitives import StatevectorSampler
+    >>> from qdensity.execution.samplers import check_reseedable
+    >>> check_reseedable(StatevectorSampler(seed=3))  # rebuilt from its constructor
+    >>> class Fixed:  # seeded, without with_seed
+    ...     seed = 3
+    ...     def run(self, pubs, shots=None): ...
+    >>> try:
+    ...     check_reseedable(Fixed())
+    ... except TypeError as err:
+    ...     print(str(err).split(":")[0])
+    sampler Fixed has an integer seed but no with_seed(seed) method
     """
     if _integer_seed(sampler) is None or callable(getattr(sampler, "with_seed", None)):
         return
@@ -103,7 +121,7 @@ def check_reseedable(sampler, name: str = "sampler") -> None:
 
 
 @validates(sampler=_SAMPLER, seed=Interval(int, 0, None))
-def reseeded(sampler, seed: int):
+def reseeded(sampler, seed: int) -> BaseSamplerV2 | None:
     """A copy of ``sampler`` that draws from ``seed``, or None when it is not seeded.
 
     Parameters
@@ -122,6 +140,16 @@ def reseeded(sampler, seed: int):
     ------
     TypeError
         As :func:`check_reseedable`.
+
+    Examples
+    --------
+    >>> from qiskit.primitives import StatevectorSampler
+    >>> from qdensity.execution.samplers import reseeded
+    >>> copy = reseeded(StatevectorSampler(seed=3, default_shots=100), 7)
+    >>> type(copy).__name__, copy.seed, copy.default_shots
+    ('StatevectorSampler', 7, 100)
+    >>> reseeded(StatevectorSampler(), 7) is None  # unseeded: nothing to reseed
+    True
     """
     if _integer_seed(sampler) is None:
         return None
@@ -159,6 +187,20 @@ def run_independent(sampler, pubs: Sequence[tuple], wait: Callable | None = None
     -------
     list
         One PUB result per PUB, in the order of ``pubs``.
+
+    Examples
+    --------
+    Two shot counts, so two jobs (the second from a seed derived from 0):
+
+    >>> from qiskit import QuantumCircuit
+    >>> from qiskit.primitives import StatevectorSampler
+    >>> from qdensity.execution.samplers import run_independent
+    >>> qc = QuantumCircuit(1)
+    >>> _ = qc.x(0)
+    >>> qc.measure_all()
+    >>> results = run_independent(StatevectorSampler(seed=0), [(qc, None, 10), (qc, None, 20)])
+    >>> [r.data.meas.get_counts() for r in results]
+    [{'1': 10}, {'1': 20}]
     """
     wait = wait if wait is not None else (lambda job: job.result())
     pubs = list(pubs)

@@ -44,6 +44,18 @@ class UnaryCircuit:
         Index into ``parameters``, or ``-1`` for a fixed angle.
     coefficient, offset : numpy.ndarray of float, shape (G,)
         Angle ``= coefficient * value + offset``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from qdensity.circuits.ansatze import pyramid
+    >>> from qdensity.execution.unary import compile_unary, orthogonal_matrix
+    >>> unary = compile_unary(pyramid(4))  # n (n - 1) / 2 = 6 RBS gates, one angle each
+    >>> unary.num_qubits, unary.num_gates, unary.num_parameters, len(unary.layers)
+    (4, 6, 6, 5)
+    >>> O = orthogonal_matrix(unary, np.linspace(0.1, 0.6, 6))
+    >>> O.shape, bool(np.allclose(O.T @ O, np.eye(4)))
+    ((4, 4), True)
     """
 
     num_qubits: int
