@@ -321,10 +321,7 @@ class _AnyOf(Constraint):
         return ""
 
     def normalise(self, value):
-        for m in self.members:
-            if m.is_satisfied_by(value):
-                return m.normalise(value)
-        return value
+        return self.accept(value)[1]
 
     def accept(self, value) -> tuple[bool, object]:
         for m in self.members:
