@@ -47,27 +47,6 @@ from qdensity.validation import MAX_SHOTS, Instance, Interval, validates
 __all__ = ["ExactNoisySampler", "ExactRoute", "NoiseTables", "supported",
            "exact_probabilities", "exact_from", "MAX_QUBITS"]
 
-#: NoiseTables per live noise model (id -> (weak reference, what it held, tables)): the
-#: samplers of one target (a new one per engine and per reseeded engine) read its errors once.
-_TABLES: dict[int, tuple] = {}
-
-
-def _tables_of(noise_model: NoiseModel | None) -> NoiseTables:
-    """The model's tables, shared while the model lives and holds the same instructions and
-    qubits (a model given more errors afterwards is read again)."""
-    if noise_model is None:
-        return NoiseTables(None)
-    held = (tuple(noise_model.noise_instructions), tuple(noise_model.noise_qubits))
-    hit = _TABLES.get(id(noise_model))
-    if hit is not None and hit[0]() is noise_model and hit[1] == held:
-        return hit[2]
-    for key in [k for k, (ref, _, _) in _TABLES.items() if ref() is None]:
-        del _TABLES[key]  # models no longer alive
-    tables = NoiseTables(noise_model)
-    _TABLES[id(noise_model)] = (weakref.ref(noise_model), held, tables)
-    return tables
-
-
 @validates(noise_model=[Instance(NoiseModel), None], seed=[Interval(int, 0), None],
            default_shots=Interval(int, 1, MAX_SHOTS))
 class ExactNoisySampler(BaseSamplerV2):
@@ -96,7 +75,7 @@ class ExactNoisySampler(BaseSamplerV2):
 
     def __init__(self, noise_model: NoiseModel | None, seed: int | None = None,
                  default_shots: int = 1024):
-        self.tables = _tables_of(noise_model)
+        self.tables = NoiseTables(noise_model)  # read when first needed, as the model is then
         self._seed = seed
         self._default_shots = int(default_shots)
         self._programs: dict[int, tuple] = {}
