@@ -27,8 +27,23 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     Returns ``N = ceil((1 + 4 sqrt 2)^2 ln(6 n / p_fail) / delta^2)``
     (about ``44.3 ln(6n/p_fail) / delta^2``; Supp. F, Kerenidis-Prakash ``O(log(n)/delta^2)``).
 
-    Derivation
+    Parameters
     ----------
+    delta : float
+        Target l-infinity error, ``> 0``.
+    num_qubits : int
+        ``n >= 2``.
+    p_fail : float
+        Allowed failure probability, in ``(0, 1)``.
+
+    Returns
+    -------
+    int
+        Shots for each of the three circuits.
+
+    Notes
+    -----
+    **Derivation.**
     *Square-root concentration.* For ``N`` shots and an outcome of probability ``p`` with
     frequency ``p_hat``, the Chernoff bound ``P(p_hat >= q) <= exp(-N KL(q||p))`` (``q > p``,
     similarly for ``q < p``) and ``KL(q||p) >= -2 ln(1 - H^2) >= 2 H^2 >= (sqrt q - sqrt p)^2``
@@ -52,20 +67,6 @@ def shots_for_error(delta: float, num_qubits: int, p_fail: float = 0.01) -> int:
     that matches them, their error is ``<= t``. Every other index has ``|y_j| <= kappa``,
     so even with the wrong sign its error is ``<= |y_hat_j| + |y_j| <= 2 kappa + t = delta``.
     Post-selection replaces ``N`` by the kept shots (the bound holds conditionally on them).
-
-    Parameters
-    ----------
-    delta : float
-        Target l-infinity error, ``> 0``.
-    num_qubits : int
-        ``n >= 2``.
-    p_fail : float
-        Allowed failure probability, in ``(0, 1)``.
-
-    Returns
-    -------
-    int
-        Shots for each of the three circuits.
 
     Examples
     --------
