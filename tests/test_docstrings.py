@@ -35,9 +35,8 @@ def test_docstring_examples(name):
     module = importlib.import_module(name)
     # doctest's debugger reset walks linecache.checkcache(): a garbage collection inside that
     # walk can run SQLAlchemy's finalizers (optuna's storages, earlier tests), which delete
-    # their generated-code entries mid-walk (KeyError in linecache). Collect first, and keep
-    # the collector off while the examples run.
-    gc.collect()
+    # their generated-code entries mid-walk (KeyError in linecache). Keep the collector off
+    # while the examples run (a full collection before each module cost about a second).
     gc.disable()
     try:
         result = doctest.testmod(module,
