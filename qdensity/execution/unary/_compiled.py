@@ -14,6 +14,7 @@ import numpy as np
 
 from qdensity.execution.unary import _kernels
 from qdensity.execution.unary._threads import blocks, run_blocks
+from qdensity.execution.unary._tiles import tiled
 
 __all__: list[str] = []
 
@@ -61,6 +62,7 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
     if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
         _kernels.forward_values(X, values, compiled, out)
         return out
+    compiled = tiled(compiled, 8 * max(hi - lo for lo, hi in ranges), B)
     trig = _kernels._trig(compiled.angles(values))
     run_blocks(lambda lo, hi: _kernels.forward_block(X, lo, hi, compiled, trig, out), ranges)
     return out
@@ -92,6 +94,7 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
         grad1 = np.zeros((P, 1))
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
+    compiled = tiled(compiled, 16 * max(hi - lo for lo, hi in ranges), B)
     trig = _kernels._trig(compiled.angles(values))
     if per_example:
         grad = np.zeros((P, B))
