@@ -10,14 +10,15 @@ row the same rotations in the same order, hence the same numbers bit for bit (a 
 shared by several gates sums its gate gradients in another order: last bits); this module
 picks one that works in tiles of at most ``R`` rows.
 
-A tile grows from the ready gate (all earlier gates on its rows done) of lowest (ASAP layer,
-index). Each step adds the rows of one more ready gate -- the lowest adjacent one (one row
-already in the tile), else the lowest ready gate of all -- and then runs every gate that
-becomes ready with both rows in the tile, until the tile holds ``R`` rows. For a round-robin
-circuit at ``R = 64`` about one row in eight gates comes from L2 (two per gate in circuit
-order); a random gate list keeps about one in one. Computing the order costs about the work
-of a few hundred batch columns through the circuit, so :func:`tiled` computes it once a
-circuit has carried :data:`AFTER` columns and keeps it with the circuit.
+A tile grows from the gate of lowest (ASAP layer, index) not yet run (it is ready: all
+earlier gates on its rows have run). Each step adds the rows of one more ready gate -- the
+first found of those with one row in the tile (a queue), else the lowest gate not run --
+and then runs every gate that becomes ready with both rows in the tile, until the tile holds
+``R`` rows. For a round-robin circuit at ``n = 1024``, ``R = 64``, a cache of 80 rows loads
+about one row per ten gates (two per gate in circuit order); a random gate list keeps
+about one per gate. Computing the order costs about the work of a few hundred batch columns
+through the circuit (0.05 s at ``n = 1024``), so :func:`tiled` computes it once a circuit
+has carried :data:`AFTER` columns, and keeps it with the circuit.
 """
 
 from __future__ import annotations
@@ -32,9 +33,9 @@ __all__: list[str] = []
 # stream through the rest); 32 KB is 64 rows of 64 doubles.
 TILE_BYTES = 32 * 1024
 # Batch columns a circuit carries (summed over its calls) before its tiled order is computed:
-# the order costs about as much as 500 columns through the untiled kernels, so a circuit run
+# the order costs about as much as 200 columns through the untiled kernels, so a circuit run
 # once is not slowed, and one run often pays it back within a few calls.
-AFTER = 512
+AFTER = 256
 MIN_ROWS = 8  # smallest tile worth reordering for
 
 
@@ -101,132 +102,123 @@ def reorder(compiled, order: np.ndarray):
 if _numba.available():
     jit = _numba.jit
 
-    @jit(nogil=True)
-    def _push(heap, size, key):  # binary min-heap of int64 keys in heap[:size]
-        i = size
-        heap[i] = key
-        while i > 0:
-            up = (i - 1) >> 1
-            if heap[up] <= heap[i]:
-                break
-            heap[up], heap[i] = heap[i], heap[up]
-            i = up
-        return size + 1
-
-    @jit(nogil=True)
-    def _pop(heap, size):  # the smallest key and the new size
-        top = heap[0]
-        size -= 1
-        heap[0] = heap[size]
-        i = 0
-        while True:
-            c = 2 * i + 1
-            if c >= size:
-                break
-            if c + 1 < size and heap[c + 1] < heap[c]:
-                c += 1
-            if heap[i] <= heap[c]:
-                break
-            heap[c], heap[i] = heap[i], heap[c]
-            i = c
-        return top, size
-
+    # (Loops rather than numpy calls on slices, np.full or bool arrays: those tripled the
+    # compile time.)
     @jit(nogil=True)
     def _order(n, first, second, R):
         G = first.shape[0]
-        # key = ASAP layer * G + index (the heaps' order); each row's gates in circuit order
         depth = np.zeros(n, np.int64)
-        key = np.empty(G, np.int64)
-        start = np.zeros(n + 1, np.int64)
+        level = np.empty(G, np.int64)  # ASAP layer
+        start = np.zeros(n + 1, np.int64)  # row r's gates: on_row[start[r]:start[r + 1]]
         for g in range(G):
             a, b = first[g], second[g]
             lv = max(depth[a], depth[b])
-            key[g] = lv * G + g
+            level[g] = lv
             depth[a] = lv + 1
             depth[b] = lv + 1
             start[a + 1] += 1
             start[b + 1] += 1
-        start = np.cumsum(start)
-        on_row = np.empty(2 * G, np.int64)
-        nxt = start[:-1].copy()  # per row: position in on_row of its next gate to run
+        for r in range(n):
+            start[r + 1] += start[r]
+        # the gates by (layer, index), a counting sort: the first one not done is ready
+        at = np.zeros(G + 2, np.int64)
         for g in range(G):
-            for r in (first[g], second[g]):
+            at[level[g] + 1] += 1
+        for k in range(G):
+            at[k + 1] += at[k]
+        by_level = np.empty(G, np.int64)
+        for g in range(G):
+            by_level[at[level[g]]] = g
+            at[level[g]] += 1
+        on_row = np.empty(2 * G, np.int64)
+        nxt = np.empty(n, np.int64)  # per row: where in on_row its next gate to run is
+        for r in range(n):
+            nxt[r] = start[r]
+        for g in range(G):
+            for k in range(2):
+                r = first[g] if k == 0 else second[g]
                 on_row[nxt[r]] = g
                 nxt[r] += 1
-        nxt[:] = start[:-1]
-        state = np.zeros(G, np.int8)  # 0 waiting, 1 ready, 2 done
-        ready = np.empty(G, np.int64)  # heap of the ready gates' keys (stale ones skipped)
-        near = np.empty(G + 2 * n, np.int64)  # heap: ready gates with one row in the tile
-        todo = np.empty(G + 2 * n, np.int64)  # stack: ready gates with both rows in the tile
-        tile_of = np.full(n, -1, np.int64)  # the tile a row was last taken into
-        order = np.empty(G, np.int64)
-        n_ready = 0
+        tile_of = np.empty(n, np.int64)  # the tile a row was last taken into
+        for r in range(n):
+            nxt[r] = start[r]
+            tile_of[r] = -1
+        queued = np.empty(G, np.int64)  # the tile whose queue last took the gate
         for g in range(G):
-            a, b = first[g], second[g]
-            if on_row[nxt[a]] == g and nxt[b] < start[b + 1] and on_row[nxt[b]] == g:
-                state[g] = 1
-                n_ready = _push(ready, n_ready, key[g])
+            queued[g] = -1
+        done_at = np.zeros(G, np.int64)  # 1 once the gate is in the order
+        near = np.empty(G + 2 * n, np.int64)  # queue: ready gates with one row in the tile
+        todo = np.empty(G + 2, np.int64)  # stack: ready gates with both rows in the tile
+        order = np.empty(G, np.int64)
         done = 0
+        lowest = 0
         tile = 0
         while done < G:
-            n_near = 0
+            head = 0
+            tail = 0
             size = 0
             pick = -1
             while True:
-                if pick < 0:  # nothing adjacent: the lowest ready gate
-                    while n_ready > 0 and state[ready[0] % G] != 1:
-                        _, n_ready = _pop(ready, n_ready)
-                    pick = ready[0] % G
+                if pick < 0:  # nothing adjacent: the lowest gate not done
+                    while done_at[by_level[lowest]]:
+                        lowest += 1
+                    pick = by_level[lowest]
                 new = (tile_of[first[pick]] != tile) + (tile_of[second[pick]] != tile)
                 if size + new > R:
                     break
                 top = 0
-                for r in (first[pick], second[pick]):
+                for k in range(2):  # its rows join the tile; their ready gates queue
+                    r = first[pick] if k == 0 else second[pick]
                     if tile_of[r] == tile:
                         continue
                     tile_of[r] = tile
                     size += 1
-                    if nxt[r] < start[r + 1]:
-                        h = on_row[nxt[r]]
-                        if state[h] == 1:
-                            other = second[h] if first[h] == r else first[h]
-                            if tile_of[other] == tile:
-                                todo[top] = h
-                                top += 1
-                            else:
-                                n_near = _push(near, n_near, key[h])
-                while top > 0:  # run what the tile's rows allow
+                    if nxt[r] == start[r + 1]:
+                        continue
+                    h = on_row[nxt[r]]
+                    other = second[h] if first[h] == r else first[h]
+                    if on_row[nxt[other]] != h:
+                        continue  # not ready
+                    if tile_of[other] == tile:
+                        todo[top] = h
+                        top += 1
+                    elif queued[h] != tile:
+                        queued[h] = tile
+                        near[tail] = h
+                        tail += 1
+                while top > 0:  # run every gate the tile's rows allow
                     top -= 1
                     g = todo[top]
-                    if state[g] != 1:
+                    if done_at[g]:
                         continue
-                    state[g] = 2
+                    done_at[g] = 1
                     order[done] = g
                     done += 1
-                    a, b = first[g], second[g]
-                    nxt[a] += 1
-                    nxt[b] += 1
-                    for r in (a, b):
+                    nxt[first[g]] += 1
+                    nxt[second[g]] += 1
+                    for k in range(2):
+                        r = first[g] if k == 0 else second[g]
                         if nxt[r] == start[r + 1]:
                             continue
                         h = on_row[nxt[r]]
                         other = second[h] if first[h] == r else first[h]
-                        if state[h] == 0 and on_row[nxt[other]] == h:
-                            state[h] = 1
-                            n_ready = _push(ready, n_ready, key[h])
-                            inside = (tile_of[r] == tile) + (tile_of[other] == tile)
-                            if inside == 2:
-                                todo[top] = h
-                                top += 1
-                            elif inside == 1:
-                                n_near = _push(near, n_near, key[h])
+                        if on_row[nxt[other]] != h or (k == 1 and other == first[g]):
+                            continue  # not ready, or g's other row found it already
+                        if tile_of[other] == tile:
+                            todo[top] = h
+                            top += 1
+                        elif queued[h] != tile:
+                            queued[h] = tile
+                            near[tail] = h
+                            tail += 1
                 if size >= R or done == G:
                     break
                 pick = -1
-                while n_near > 0:
-                    k, n_near = _pop(near, n_near)
-                    if state[k % G] == 1:
-                        pick = k % G
+                while head < tail:  # the first adjacent gate still to run
+                    h = near[head]
+                    head += 1
+                    if not done_at[h]:
+                        pick = h
                         break
             tile += 1
         return order
