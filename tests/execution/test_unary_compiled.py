@@ -190,10 +190,11 @@ def test_kernel_sine_and_cosine_within_one_ulp_of_libm():
     np.testing.assert_array_equal(sincos(np.array([0.0]))[0], [1.0])
 
 
-@pytest.mark.parametrize("B", [32, 64])
+@pytest.mark.parametrize("B", [32, 64, 150])
 def test_literal_block_widths(monkeypatch, B):
-    """Blocks of 64 and 32 columns (the kernels' loops of literal length): outputs and dL/dX
-    against the dense product, the summed gradient against the per-example kernel's sum."""
+    """Blocks of 64 and 32 columns (the kernels' loops of literal length), and 150 columns in
+    calls of 64, 64 and 22: outputs and dL/dX against the dense product, the summed gradient
+    against the per-example kernel's sum."""
     monkeypatch.setenv(_unary_threads.ENV, "1")
     monkeypatch.setattr(_compiled, "_SMALL", 0)
     uc, pairs = circuit(9, seed=B)

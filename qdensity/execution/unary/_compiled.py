@@ -32,6 +32,21 @@ _SMALL = 2048
 # n). With batch 64 the rows are rotated at every width. (Measured with a compiled loop for
 # the product; BLAS's is faster, so the weight errs towards rotating.)
 COMPOSE_WEIGHT = 1.5
+# Batch columns per kernel call: a wider block (one thread's share of a wide batch) runs in
+# calls of WIDTH columns, each with work rows of 512 bytes that the tiled gate order (._tiles)
+# keeps in L1 (a row of 1000 columns would be 8 KB: a few rows fill L1)
+WIDTH = 64
+
+
+def _runs(lo: int, hi: int) -> list[tuple[int, int]]:
+    """A thread's columns ``[lo, hi)`` in kernel calls of ``WIDTH`` columns (the last one
+    shorter)."""
+    return [(a, min(a + WIDTH, hi)) for a in range(lo, hi, WIDTH)]
+
+
+def _width(ranges: list[tuple[int, int]]) -> int:
+    """Columns of the widest kernel call over ``ranges`` (the tiles are sized for it)."""
+    return min(WIDTH, max(hi - lo for lo, hi in ranges))
 
 
 def composed_cheaper(n: int, G: int, B: int) -> bool:
@@ -59,12 +74,17 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
     if values.ndim == 1 and composed_cheaper(n, G, B):  # O once (one thread), then BLAS
         O = _kernels.givens(np.eye(n), compiled, compiled.angles(values))
         return np.matmul(X, O.T, out=out)
-    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and B <= WIDTH:
         _kernels.forward_values(X, values, compiled, out)
         return out
-    compiled = tiled(compiled, 8 * max(hi - lo for lo, hi in ranges), B)
+    compiled = tiled(compiled, 8 * _width(ranges), B)
     trig = _kernels._trig(compiled.angles(values))
-    run_blocks(lambda lo, hi: _kernels.forward_block(X, lo, hi, compiled, trig, out), ranges)
+
+    def block(lo: int, hi: int) -> None:
+        for a, b in _runs(lo, hi):
+            _kernels.forward_block(X, a, b, compiled, trig, out)
+
+    run_blocks(block, ranges)
     return out
 
 
@@ -90,11 +110,11 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
     B, P, G = X.shape[0], compiled.num_parameters, compiled.num_gates
     ranges = blocks(B, _VJP_WORK * G)
     grad_X = np.empty_like(X)
-    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and not per_example:
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and not per_example and B <= WIDTH:
         grad1 = np.zeros((P, 1))
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
-    compiled = tiled(compiled, 16 * max(hi - lo for lo, hi in ranges), B)
+    compiled = tiled(compiled, 16 * _width(ranges), B)
     trig = _kernels._trig(compiled.angles(values))
     if per_example:
         grad = np.zeros((P, B))
@@ -105,8 +125,9 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
     slot = {r: k for k, r in enumerate(ranges)}
 
     def block(lo: int, hi: int) -> None:
-        _kernels.vjp_block(X, GY, from_outputs, lo, hi, compiled, trig, per_example,
-                           parts[slot[(lo, hi)]], grad_X)
+        for a, b in _runs(lo, hi):  # the partial sums of a thread's runs add up in its part
+            _kernels.vjp_block(X, GY, from_outputs, a, b, compiled, trig, per_example,
+                               parts[slot[(lo, hi)]], grad_X)
 
     run_blocks(block, ranges)
     if per_example:
