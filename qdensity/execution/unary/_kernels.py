@@ -19,10 +19,12 @@ Column blocks are independent, so the callers run blocks in threads (the kernels
 GIL); every column goes through the same arithmetic whatever the blocks, so outputs and
 ``dL/dX`` are bit-for-bit those of one block (a summed parameter gradient adds the blocks'
 partial sums, so it may differ in the last bits). The work array of a block (``n x b``
-numbers, twice that in the reverse pass) stays in the core's L2 cache for ``b <= 64`` up to
-``n`` of a few thousand. Without numba (or with ``QDENSITY_NUMBA=0``) the engine keeps its
-numpy/scipy layer kernels (:mod:`qdensity.execution.unary._plan`), which give the same numbers
-to rounding.
+numbers, twice that in the reverse pass; ``b <= 64``) stays in the core's L2 cache up to
+``n`` of a few thousand, and the callers pass the gates in a cache-tiled order
+(:mod:`._tiles`) that keeps the rows in use in L1. Each rotation is a multiply and a fused
+multiply-add per output, in 512-bit vectors on AVX-512 CPUs. Without numba (or with
+``QDENSITY_NUMBA=0``) the engine keeps its numpy/scipy layer kernels
+(:mod:`qdensity.execution.unary._plan`), which give the same numbers to rounding.
 """
 
 from __future__ import annotations
