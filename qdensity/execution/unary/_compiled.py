@@ -80,7 +80,7 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
         _kernels.forward_values(X, values, compiled, out)
         return out
     compiled = tiled(compiled, 8 * _width(ranges), B)
-    trig = _kernels._trig(compiled.angles(values))
+    trig = _kernels.trig_of(compiled, values)
 
     def block(lo: int, hi: int) -> None:
         for a, b in _runs(lo, hi):
@@ -117,7 +117,7 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
     compiled = tiled(compiled, 16 * _width(ranges), B)
-    trig = _kernels._trig(compiled.angles(values))
+    trig = _kernels.trig_of(compiled, values)
     if per_example:
         grad = np.zeros((P, B))
         parts = [grad] * len(ranges)

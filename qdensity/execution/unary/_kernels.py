@@ -139,6 +139,7 @@ if _numba.available():
 
     @jit(nogil=True)
     def _sincos(a, cos, sin):  # cos, sin (same size as a, flat) of the angles a
+        _wide()
         for k in range(a.shape[0]):
             x = a[k]
             fn = np.rint(x * _INVPIO2)  # x = fn pi/2 + (y0 + y1), |y0| <= pi/4
@@ -327,6 +328,16 @@ def _trig(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     cos, sin = np.empty(a.shape), np.empty(a.shape)
     _sincos(a.reshape(-1), cos.reshape(-1), sin.reshape(-1))
     return cos, sin, angles.ndim == 2
+
+
+def trig_of(compiled, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """:func:`_trig` of ``compiled.angles(values)``; for values (P,) shared by the columns,
+    the angles and their cosines and sines in one compiled pass (no (G,) temporaries)."""
+    if values.ndim == 2:
+        return _trig(compiled.angles(values))
+    pidx, coef = compiled._gate_params
+    cos, sin = _trig_values(values, pidx, coef, compiled._gate_offset)
+    return cos, sin, False
 
 
 def sincos(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
