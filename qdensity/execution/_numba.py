@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
-__all__ = ["available", "threads", "numba", "cache_enabled", "jit", "wide_vectors"]
+__all__ = ["available", "threads", "numba", "cache_enabled", "jit"]
 
 _OFF = ("0", "false", "no", "off")
 
@@ -71,26 +71,3 @@ def jit(**options: Any) -> Callable[[Callable], Callable]:
     return decorate
 
 
-if numba is not None:
-    from numba.core.extending import intrinsic
-
-    def _wide_vectors(typingctx):
-        """Let LLVM vectorise the calling kernel with 512-bit registers where the CPU has them.
-
-        LLVM's x86 tuning prefers 256-bit vectors on AVX-512 CPUs (``prefer-256-bit``: some
-        cores lower their clock on 512-bit instructions), so a numba loop gets ``ymm``
-        registers only; this call (no operation at run time) sets the enclosing function's
-        ``"prefer-vector-width"="512"`` attribute, which LLVM reads per function. Without
-        AVX-512 the attribute changes nothing. Call it in each kernel whose loops should use
-        it (a loop inlined into another function follows that function's attribute).
-        """
-        def codegen(context, builder, signature, args):
-            # llvmlite lists only flag attributes as known; a key="value" attribute is
-            # written out as given (the set's own add, past the name check)
-            set.add(builder.function.attributes, '"prefer-vector-width"="512"')
-            return context.get_dummy_value()
-
-        return numba.types.none(), codegen
-
-    # typed as what a kernel calls: no arguments, nothing returned
-    wide_vectors = cast(Callable[[], None], intrinsic(_wide_vectors))

@@ -22,8 +22,8 @@ partial sums, so it may differ in the last bits). The work array of a block (``n
 numbers, twice that in the reverse pass; ``b <= 64``) stays in the core's L2 cache up to
 ``n`` of a few thousand, and the callers pass the gates in a cache-tiled order
 (:mod:`._tiles`) that keeps the rows in use in L1. Each rotation is a multiply and a fused
-multiply-add per output, in 512-bit vectors on AVX-512 CPUs. Without numba (or with
-``QDENSITY_NUMBA=0``) the engine keeps its numpy/scipy layer kernels
+multiply-add per output, vectorised at LLVM's preferred width for the CPU. Without numba (or
+with ``QDENSITY_NUMBA=0``) the engine keeps its numpy/scipy layer kernels
 (:mod:`qdensity.execution.unary._plan`), which give the same numbers to rounding.
 """
 
@@ -56,10 +56,9 @@ def available() -> bool:
 
 if _numba.available():
     jit = _numba.jit
-    _wide = _numba.wide_vectors
 
-    # The rotations: c a - s d as one multiply and one fused multiply-add ("contract"), in
-    # 512-bit vectors (_wide), on rows that start on 64-byte boundaries (_work). The usual
+    # The rotations: c a - s d as one multiply and one fused multiply-add ("contract"), on
+    # rows that start on 64-byte boundaries (_work). The usual
     # block widths (64 columns; 32 in two threads) get loops of a literal length (inlined
     # where called), unrolled into whole vectors: 1.1-1.2x on rows in L1.
     @jit(nogil=True, fastmath={"contract"}, inline="always")
@@ -77,7 +76,6 @@ if _numba.available():
 
     @jit(nogil=True, fastmath={"contract"})
     def _shared(Z, first, second, cos, sin):
-        _wide()
         B = Z.shape[1]
         if B == 64:
             _rotations(Z, first, second, cos, sin, 64)
@@ -88,7 +86,6 @@ if _numba.available():
 
     @jit(nogil=True, fastmath={"contract"})
     def _per_column(Z, first, second, cos, sin):
-        _wide()
         B = Z.shape[1]
         for g in range(first.shape[0]):
             zi = Z[first[g]]
@@ -123,7 +120,6 @@ if _numba.available():
 
     @jit(nogil=True, fastmath={"contract"})
     def _forward_shared(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G,)
-        _wide()
         Z = _work(X.shape[1], hi - lo)
         _load(Z, X, lo, hi)
         _shared(Z, first, second, cos, sin)
@@ -131,7 +127,6 @@ if _numba.available():
 
     @jit(nogil=True, fastmath={"contract"})
     def _forward_cols(X, lo, hi, first, second, cos, sin, out):  # cos, sin (G, B)
-        _wide()
         Z = _work(X.shape[1], hi - lo)
         _load(Z, X, lo, hi)
         _per_column(Z, first, second, cos[:, lo:hi], sin[:, lo:hi])
@@ -139,7 +134,6 @@ if _numba.available():
 
     @jit(nogil=True)
     def _sincos(a, cos, sin):  # cos, sin (same size as a, flat) of the angles a
-        _wide()
         for k in range(a.shape[0]):
             x = a[k]
             fn = np.rint(x * _INVPIO2)  # x = fn pi/2 + (y0 + y1), |y0| <= pi/4
@@ -188,7 +182,6 @@ if _numba.available():
 
     @jit(nogil=True)
     def _forward_values(X, values, first, second, pidx, coef, offset, out):
-        _wide()
         cos, sin = _trig_values(values, pidx, coef, offset)
         _forward_shared(X, 0, X.shape[0], first, second, cos, sin, out)
 
@@ -216,7 +209,6 @@ if _numba.available():
                  grad_X):
         # _vjp_block for shared angles and a summed gradient (training's case) on its own:
         # inside the general kernel, its flags' branches made this loop 2x slower
-        _wide()
         n, m = X.shape[1], hi - lo
         U = _work(n, m)
         D = _work(n, m)
@@ -235,8 +227,6 @@ if _numba.available():
     @jit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
     def _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin,
                    per_column, per_example, grad, grad_X):
-        # (256-bit vectors: 512-bit ones doubled this kernel's compile time, for calls that
-        # are not training's summed gradient)
         n, m = X.shape[1], hi - lo
         U = _work(n, m)
         D = _work(n, m)
@@ -300,7 +290,6 @@ if _numba.available():
     @jit(nogil=True)
     def _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, offset, grad,
                     grad_X):
-        _wide()
         cos, sin = _trig_values(values, pidx, coef, offset)
         _vjp_sum(X, GY, from_outputs, 0, X.shape[0], first, second, pidx, coef, cos, sin, grad,
                  grad_X)
