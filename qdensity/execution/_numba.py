@@ -69,3 +69,5 @@ def jit(**options: Any) -> Callable[[Callable], Callable]:
                 pass
         return numba.njit(**options)(func)
     return decorate
+
+

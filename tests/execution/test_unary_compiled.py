@@ -188,3 +188,23 @@ def test_kernel_sine_and_cosine_within_one_ulp_of_libm():
         ulp = np.spacing(np.maximum(np.abs(want), np.finfo(float).tiny))
         assert np.all(np.abs(got - want) <= ulp)
     np.testing.assert_array_equal(sincos(np.array([0.0]))[0], [1.0])
+
+
+@pytest.mark.parametrize("B", [32, 64, 150])
+def test_literal_block_widths(monkeypatch, B):
+    """Blocks of 64 and 32 columns (the kernels' loops of literal length), and 150 columns in
+    calls of 64, 64 and 22: outputs and dL/dX against the dense product, the summed gradient
+    against the per-example kernel's sum."""
+    monkeypatch.setenv(_unary_threads.ENV, "1")
+    monkeypatch.setattr(_compiled, "_SMALL", 0)
+    uc, pairs = circuit(9, seed=B)
+    rng = np.random.default_rng(B)
+    X, GY = rng.normal(size=(B, 9)), rng.normal(size=(B, 9))
+    V = rng.normal(size=uc.num_parameters)
+    O = dense(9, pairs, uc.angles(V))
+    np.testing.assert_allclose(forward(uc, X, V), X @ O.T, atol=TOL)
+    g_sum, g_x = vjp(uc, X, V, GY, reduce="sum")
+    g_each, g_x_each = vjp(uc, X, V, GY)
+    np.testing.assert_allclose(g_x, GY @ O, atol=TOL)
+    np.testing.assert_array_equal(g_x, g_x_each)
+    np.testing.assert_allclose(g_sum, g_each.sum(axis=0), atol=TOL)

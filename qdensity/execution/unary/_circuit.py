@@ -13,6 +13,7 @@ from qiskit.circuit import Parameter, ParameterVector
 
 from qdensity.execution.unary._layers import Layer, check_gate_list, schedule
 from qdensity.execution.unary._plan import Plan, make_plan
+from qdensity.execution.unary._tiles import Tilings
 from qdensity.validation import Array, Instance, Qubits, SequenceOf, validates
 
 __all__ = ["UnaryCircuit"]
@@ -199,6 +200,10 @@ class UnaryCircuit:
     @cached_property
     def _gate_offset(self) -> np.ndarray:  # offsets as contiguous float64 (kernels)
         return np.ascontiguousarray(self.offset, dtype=np.float64)
+
+    @cached_property
+    def _tilings(self) -> Tilings:  # its gates in cache-tiled orders, when used (._tiles)
+        return Tilings()
 
     @cached_property
     def _angle_map(self) -> tuple[np.ndarray, np.ndarray]:  # parameter of each gate, scale

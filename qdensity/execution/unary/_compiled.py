@@ -5,7 +5,9 @@ and :func:`~qdensity.execution.unary.vjp` run when numba is available: the angle
 and sines computed once, then one compiled call per block of batch rows, each running the
 whole circuit (no Python loop over gates or layers). A batch worth threads
 (:func:`._threads.blocks`: about ``MIN_WORK`` multiply-adds per thread) is cut into contiguous
-row blocks run in the pool (the kernels release the GIL); otherwise one call does it all.
+row blocks run in the pool (the kernels release the GIL); each thread runs its rows in calls
+of at most ``WIDTH`` columns. Once a large circuit has carried a few hundred columns, the
+calls run its gates in the cache-tiled order of :mod:`._tiles` (the same numbers).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import numpy as np
 
 from qdensity.execution.unary import _kernels
 from qdensity.execution.unary._threads import blocks, run_blocks
+from qdensity.execution.unary._tiles import tiled
 
 __all__: list[str] = []
 
@@ -31,6 +34,21 @@ _SMALL = 2048
 # n). With batch 64 the rows are rotated at every width. (Measured with a compiled loop for
 # the product; BLAS's is faster, so the weight errs towards rotating.)
 COMPOSE_WEIGHT = 1.5
+# Batch columns per kernel call: a wider block (one thread's share of a wide batch) runs in
+# calls of WIDTH columns, each with work rows of 512 bytes that the tiled gate order (._tiles)
+# keeps in L1 (a row of 1000 columns would be 8 KB: a few rows fill L1)
+WIDTH = 64
+
+
+def _runs(lo: int, hi: int) -> list[tuple[int, int]]:
+    """A thread's columns ``[lo, hi)`` in kernel calls of ``WIDTH`` columns (the last one
+    shorter)."""
+    return [(a, min(a + WIDTH, hi)) for a in range(lo, hi, WIDTH)]
+
+
+def _width(ranges: list[tuple[int, int]]) -> int:
+    """Columns of the widest kernel call over ``ranges`` (the tiles are sized for it)."""
+    return min(WIDTH, max(hi - lo for lo, hi in ranges))
 
 
 def composed_cheaper(n: int, G: int, B: int) -> bool:
@@ -58,11 +76,17 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
     if values.ndim == 1 and composed_cheaper(n, G, B):  # O once (one thread), then BLAS
         O = _kernels.givens(np.eye(n), compiled, compiled.angles(values))
         return np.matmul(X, O.T, out=out)
-    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL:
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and B <= WIDTH:
         _kernels.forward_values(X, values, compiled, out)
         return out
-    trig = _kernels._trig(compiled.angles(values))
-    run_blocks(lambda lo, hi: _kernels.forward_block(X, lo, hi, compiled, trig, out), ranges)
+    compiled = tiled(compiled, 8 * _width(ranges), B)
+    trig = _kernels.trig_of(compiled, values)
+
+    def block(lo: int, hi: int) -> None:
+        for a, b in _runs(lo, hi):
+            _kernels.forward_block(X, a, b, compiled, trig, out)
+
+    run_blocks(block, ranges)
     return out
 
 
@@ -88,11 +112,12 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
     B, P, G = X.shape[0], compiled.num_parameters, compiled.num_gates
     ranges = blocks(B, _VJP_WORK * G)
     grad_X = np.empty_like(X)
-    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and not per_example:
+    if len(ranges) == 1 and values.ndim == 1 and G <= _SMALL and not per_example and B <= WIDTH:
         grad1 = np.zeros((P, 1))
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
-    trig = _kernels._trig(compiled.angles(values))
+    compiled = tiled(compiled, 16 * _width(ranges), B)
+    trig = _kernels.trig_of(compiled, values)
     if per_example:
         grad = np.zeros((P, B))
         parts = [grad] * len(ranges)
@@ -102,8 +127,9 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
     slot = {r: k for k, r in enumerate(ranges)}
 
     def block(lo: int, hi: int) -> None:
-        _kernels.vjp_block(X, GY, from_outputs, lo, hi, compiled, trig, per_example,
-                           parts[slot[(lo, hi)]], grad_X)
+        for a, b in _runs(lo, hi):  # the partial sums of a thread's runs add up in its part
+            _kernels.vjp_block(X, GY, from_outputs, a, b, compiled, trig, per_example,
+                               parts[slot[(lo, hi)]], grad_X)
 
     run_blocks(block, ranges)
     if per_example:
