@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from qdensity.circuits._copying import concatenated_view, gc_paused
-from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._compile import circuit_digest
 from qdensity.execution._lazy_jobs import LazyCircuitJob
 from qdensity.execution.plans import Plan, _first_result, probabilities_plan
 from qdensity.execution.samplers._hamming_compile import CompiledPrefix
@@ -268,7 +268,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     jac_plans, fwd_plans = [], []
     encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     enc_key = (None if model.encoding is None  # V(x)'s structure, fingerprinted once
-               else circuit_fingerprint(model.encoding.circuit))
+               else circuit_digest(model.encoding.circuit))
     m = 1 if model.readout == "observable" else model.num_qubits
     total_p = sum(len(model.subunitary_parameter_indices(k)) for k in range(K))  # sum_k P_k
     # V(x)'s walk for the sampler's compiler, once: every V(x) U_k begins with it

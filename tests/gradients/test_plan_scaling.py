@@ -203,3 +203,51 @@ def test_compact_output_stack_estimates_equal_the_per_shot_mean_and_variance():
         var = per_shot.var(axis=1, ddof=1)
         np.testing.assert_allclose(se[:, o], np.sqrt(var / shots + R**2 / (4 * shots**2)),
                                    atol=1e-12)
+
+
+def _variants() -> list[QuantumCircuit]:
+    """Circuits that differ from each other in one structural item each, and rebuilt twins."""
+    theta, phi = Parameter("θ"), Parameter("φ")
+    out = []
+    for _build in range(2):  # every variant twice: equal structure, distinct objects
+        for pairs, angles, extra in [([(0, 1), (1, 2)], (theta, phi), None),
+                                     ([(1, 0), (1, 2)], (theta, phi), None),  # qubit order
+                                     ([(0, 1), (1, 2)], (phi, theta), None),  # parameters
+                                     ([(0, 1), (1, 2)], (theta, 2 * phi), None),  # expression
+                                     ([(0, 1), (1, 2)], (theta, 0.25), None),  # a number
+                                     ([(0, 1), (1, 2)], (theta, phi), "x"),  # one more gate
+                                     ([(0, 1)], (theta,), None)]:
+            qc = QuantumCircuit(3)
+            for pair, angle in zip(pairs, angles, strict=True):
+                qc.append(RBSGate(angle), pair)
+            if extra:
+                qc.x(2)
+            out.append(qc)
+    return out
+
+
+def test_circuit_digest_is_equal_exactly_when_the_fingerprint_is():
+    from qdensity.execution._compile import circuit_digest, circuit_fingerprint
+
+    circuits = _variants()
+    for a in circuits:
+        assert len(circuit_digest(a)) == 32
+        for b in circuits:
+            assert (circuit_digest(a) == circuit_digest(b)) == (
+                circuit_fingerprint(a) == circuit_fingerprint(b))
+    assert len({circuit_fingerprint(c) for c in circuits}) == len(circuits) // 2
+
+
+def test_analysis_keys_are_digests_not_gate_tuples():
+    from qdensity.gradients import _analysis
+
+    n = 6
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    _analysis._CACHE.clear()
+    density_gradient_plan(model, RNG.normal(size=(1, n)), method="commuting", shots=10)
+    for kind, fingerprint, params, _ in _analysis._CACHE:
+        assert kind == "commuting" and fingerprint[0] == "encoded"
+        assert all(isinstance(part, bytes) and len(part) == 32 for part in fingerprint[1:])
+        assert len(params) == n // 2
+
