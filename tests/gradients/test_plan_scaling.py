@@ -251,3 +251,14 @@ def test_analysis_keys_are_digests_not_gate_tuples():
         assert all(isinstance(part, bytes) and len(part) == 32 for part in fingerprint[1:])
         assert len(params) == n // 2
 
+
+def test_forward_stack_equals_numpy_stack_and_drops_each_part():
+    from qdensity.execution.plans import Estimate
+    from qdensity.gradients.density import _stacked
+
+    fwd = [Estimate(RNG.normal(size=(3, 5)), RNG.random((3, 5))) for _ in range(4)]
+    parts = ["jacobian 0", "jacobian 1", *fwd]
+    outputs, errors = _stacked(parts, 2)
+    assert np.array_equal(outputs, np.stack([f.value for f in fwd], axis=1))
+    assert np.array_equal(errors, np.stack([f.standard_error for f in fwd], axis=1))
+    assert parts == ["jacobian 0", "jacobian 1", None, None, None, None]
