@@ -40,6 +40,7 @@ from qdensity.gradients._density_jobs import (
     _shift_observable_post,
     commuting_jobs,
     forward_job,
+    shared_loader_rows,
 )
 from qdensity.gradients.commuting import (
     commuting_gradient_count,
@@ -164,16 +165,18 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
 
 def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
                    fingerprint: tuple | None = None, sparse: bool = False,
-                   prefix=None) -> Plan:
+                   prefix=None, job_rows=None) -> Plan:
     """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made
     (``fingerprint``: :func:`_fingerprint_of` ``(model, k)`` when already taken; ``sparse``: a
     commuting plan's post-processing returns the ``(value, error)`` pair in
     :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`;
-    ``prefix``: ``V(x)``'s walk for the sampler's compiler, done once per plan)."""
+    ``prefix``: ``V(x)``'s walk for the sampler's compiler, done once per plan; ``job_rows``:
+    ``rows`` as the jobs built on read hold them, e.g. a
+    :class:`~qdensity.execution._lazy_jobs.SharedRows`)."""
     if method in ("auto", "commuting"):
         try:
             plan = _commuting_plan(model, circ, params, rows, shots, k, fingerprint, sparse,
-                                   prefix)
+                                   prefix, job_rows)
         except ValueError:
             if method == "commuting":
                 raise
@@ -198,20 +201,22 @@ def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
 
 
 def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
-                    sparse: bool = False, prefix=None) -> Plan:
+                    sparse: bool = False, prefix=None, job_rows=None) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
-    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots, prefix)  # built on read
+    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots, prefix,  # built on read
+                                   job_rows)
     return Plan(jobs, partial(_commuting_post, grads, shots, sparse=sparse),
                 f"commuting gradient of sub-unitary {k}",
                 {"gradient": shared, "forward_program": forward})
 
 
 def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
-                  owned: bool = False, program=None) -> Plan:
+                  owned: bool = False, program=None, job_rows=None) -> Plan:
     """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)``, ``model.rows(k, X)`` if made;
     ``owned``: ``circuit`` is this plan's copy, measured in place; ``program``: sampled from it)."""
     if program is not None and circuit is not None and rows is not None:
-        inner = Plan([forward_job(model, k, circuit, rows, shots, program)], _first_result,
+        inner = Plan([forward_job(model, k, circuit, rows if job_rows is None else job_rows,
+                                  shots, program)], _first_result,
                      f"P(b) of {circuit.name}")
     elif model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
@@ -274,6 +279,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     # V(x)'s walk for the sampler's compiler, once: every V(x) U_k begins with it
     prefix = (None if model.encoding is None or shots is None
               else CompiledPrefix(model.encoding.circuit))
+    loader = None  # V(x)'s columns of every sub-unitary's rows, once (shared_loader_rows)
     with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
             # V(x) U_k sharing the model's gates (read only): kept only when the plan's jobs
@@ -285,8 +291,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 B = rows.shape[0]
                 layout = _sparse.choose_layout(jacobian, B, m, total_p)
             fingerprint = _fingerprint_of(model, k, enc_key)
+            # the jobs built on read hold V(x)'s columns once per plan (loader: its block)
+            job_rows, loader = shared_loader_rows(model, circ, rows, encoded, loader)
             plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
-                                  layout == "sparse", prefix)
+                                  layout == "sparse", prefix, job_rows)
             if model.encoding is not None and not (
                     plan.meta.get("forward_program") is not None
                     and all(isinstance(j, LazyCircuitJob) for j in plan.jobs)):
@@ -301,7 +309,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 same = model.encoding is not None
                 fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
                                                owned=same, program=jac_plans[-1].meta.get(
-                                                   "forward_program")))
+                                                   "forward_program"), job_rows=job_rows))
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B, layout == "sparse")
