@@ -280,11 +280,12 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     prefix = (None if model.encoding is None or shots is None
               else CompiledPrefix(model.encoding.circuit))
     loader = None  # V(x)'s columns of every sub-unitary's rows, once (shared_loader_rows)
-    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
+    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (each view cleared)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
             # V(x) U_k sharing the model's gates (read only): kept only when the plan's jobs
             # are all built on read (nothing holds it); else made again as a copy
             circ, params = _circuit_of(model, k, view=True)
+            view = model.encoding is not None  # a circuit of this loop's own (not U_k)
             # model.rows(k, X), in circ's parameter order read off circ itself
             rows = model_rows(model, k, X, None, circ, encoded)
             if k == 0:
@@ -299,6 +300,7 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                     plan.meta.get("forward_program") is not None
                     and all(isinstance(j, LazyCircuitJob) for j in plan.jobs)):
                 circ, _ = _circuit_of(model, k)
+                view = False  # the copy becomes the forward circuit
                 plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
                                       layout == "sparse", prefix)
             jac_plans.append(plan)
@@ -310,6 +312,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
                                                owned=same, program=jac_plans[-1].meta.get(
                                                    "forward_program"), job_rows=job_rows))
+            if view:  # read by the analyses alone, held by nothing: its instructions freed
+                # now (a QuantumCircuit is a reference cycle, left to the collector, which is
+                # paused here: at n = 1024 the 1,023 views of 1,535 gates would pile up)
+                circ.clear()
     combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
 
     post = partial(_density_post, combined, K, B, layout == "sparse")

@@ -262,3 +262,32 @@ def test_forward_stack_equals_numpy_stack_and_drops_each_part():
     assert np.array_equal(outputs, np.stack([f.value for f in fwd], axis=1))
     assert np.array_equal(errors, np.stack([f.standard_error for f in fwd], axis=1))
     assert parts == ["jacobian 0", "jacobian 1", None, None, None, None]
+
+
+def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
+    """The plan's views of ``V(x) U_k`` are cleared once read (a QuantumCircuit is a
+    reference cycle, so they would hold their instructions until the next collection); the
+    model's own circuits are untouched and the jobs still build their circuits."""
+    import gc
+
+    n = 6
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    sizes = [len(c.data) for c in (model.encoding.circuit, *model.sub_unitaries)]
+    gc.collect()
+    was = gc.isenabled()
+    gc.disable()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        plan = density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting",
+                                     shots=10)
+        gc.collect()
+        left = [o for o in gc.garbage if isinstance(o, QuantumCircuit)]
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+        if was:
+            gc.enable()
+    assert all(len(c.data) == 0 for c in left)
+    assert [len(c.data) for c in (model.encoding.circuit, *model.sub_unitaries)] == sizes
+    assert all(len(job.circuit.data) > sizes[0] for job in plan.jobs)
