@@ -316,9 +316,10 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 # now (a QuantumCircuit is a reference cycle, left to the collector, which is
                 # paused here: at n = 1024 the 1,023 views of 1,535 gates would pile up)
                 circ.clear()
-    combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
-
-    post = partial(_density_post, combined, K, B, layout == "sparse")
+    plans = jac_plans + fwd_plans
+    combined = Plan.combine(plans, "density gradient")
+    bounds = np.cumsum([0] + [len(p.jobs) for p in plans]).tolist()  # each plan's results
+    post = partial(_density_post, plans, bounds, K, B, layout == "sparse")
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
     return Plan(combined.jobs, post, "density gradient",
                 {"gradient_circuits": per_point, "jacobian": layout,
@@ -437,33 +438,40 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray
     return g_theta, g_mix
 
 
-def _density_post(combined, K, B, sparse, results):
-    parts = combined.postprocess(results)
-    jacs, fwds = [tuple(j) for j in parts[:K]], len(parts) > K
+def _density_post(plans, bounds, K, B, sparse, results):
+    """The :class:`DensityGradient` from ``results``: ``plans[:K]`` the Jacobians' (``plans[K:]``
+    the forward ones), plan ``i`` reading ``results[bounds[i]:bounds[i + 1]]``."""
+    jacs = [tuple(plans[k].postprocess(results[bounds[k]:bounds[k + 1]])) for k in range(K)]
     if sparse:  # parameter-shift plans answer dense: converted one sub-unitary at a time
         jacs = [_sparse.dense_to_sparse(*j) if isinstance(j[0], np.ndarray) else j for j in jacs]
-    if fwds:
-        outputs, errors = _stacked(parts, K)
+    if len(plans) > K:
+        outputs, errors = _forward_stack(plans[K:], bounds[K:], results)
     else:
         m = jacs[0][0].shape[0] // B if sparse else jacs[0][0].shape[1]
         outputs = errors = np.full((B, K, m), np.nan)
     return DensityGradient(outputs, errors, [v for v, _ in jacs], [e for _, e in jacs])
 
 
-def _stacked(parts: list, K: int) -> tuple[np.ndarray, np.ndarray]:
-    """The forward estimates ``parts[K:]`` (each ``(B, m)``) as ``(B, K', m)`` values and
-    errors, as ``np.stack`` along axis 1 would make them, each part dropped from ``parts`` once
-    copied: ``np.stack`` would hold every part and both stacks at once (at ``n = 1024``, 16
-    rows: 268 MB more at the peak)."""
-    fwd = parts[K:]
-    shape = (fwd[0].value.shape[0], len(fwd)) + fwd[0].value.shape[1:]
-    if any(f.value.shape != fwd[0].value.shape or f.standard_error.shape != fwd[0].value.shape
-           for f in fwd):
-        raise ValueError("forward estimates of different shapes")
-    outputs = np.empty(shape, dtype=np.result_type(*{f.value.dtype for f in fwd}))
-    errors = np.empty(shape, dtype=np.result_type(*{f.standard_error.dtype for f in fwd}))
-    del fwd
-    for i in range(K, len(parts)):
-        outputs[:, i - K], errors[:, i - K] = parts[i].value, parts[i].standard_error
-        parts[i] = None  # this part's arrays are freed now, not after the loop
+def _forward_stack(plans, bounds, results) -> tuple[np.ndarray, np.ndarray]:
+    """The forward plans' estimates (each ``(B, m)``, plan ``i`` reading ``results[bounds[i]:
+    bounds[i + 1]]``) as ``(B, K', m)`` values and errors, what ``np.stack`` of them along axis
+    1 gives, each written in as soon as it is estimated: all of them held at once before a
+    stack would be a second ``(B, K', m)`` pair at the peak (268 MB at ``n = 1024``, 16 rows,
+    which the allocator keeps once freed)."""
+    outputs = errors = np.empty(0)
+    for i, plan in enumerate(plans):
+        est = plan.postprocess(results[bounds[i]:bounds[i + 1]])
+        value, error = np.asarray(est.value), np.asarray(est.standard_error)
+        if i == 0:
+            shape = (value.shape[0], len(plans)) + value.shape[1:]
+            outputs, errors = np.empty(shape, value.dtype), np.empty(shape, error.dtype)
+        if value.shape != outputs[:, i].shape or error.shape != value.shape:
+            raise ValueError(f"forward estimate {i} has shape {value.shape}, expected "
+                             f"{outputs[:, i].shape}")
+        if np.result_type(outputs, value) != outputs.dtype:  # as np.stack would promote
+            outputs = outputs.astype(np.result_type(outputs, value))
+        if np.result_type(errors, error) != errors.dtype:
+            errors = errors.astype(np.result_type(errors, error))
+        outputs[:, i], errors[:, i] = value, error
+        del est, value, error
     return outputs, errors

@@ -252,16 +252,22 @@ def test_analysis_keys_are_digests_not_gate_tuples():
         assert len(params) == n // 2
 
 
-def test_forward_stack_equals_numpy_stack_and_drops_each_part():
-    from qdensity.execution.plans import Estimate
-    from qdensity.gradients.density import _stacked
+def test_forward_stack_equals_numpy_stack_of_the_plans_estimates():
+    from qdensity.execution.plans import Estimate, Plan
+    from qdensity.gradients.density import _forward_stack
 
     fwd = [Estimate(RNG.normal(size=(3, 5)), RNG.random((3, 5))) for _ in range(4)]
-    parts = ["jacobian 0", "jacobian 1", *fwd]
-    outputs, errors = _stacked(parts, 2)
-    assert np.array_equal(outputs, np.stack([f.value for f in fwd], axis=1))
-    assert np.array_equal(errors, np.stack([f.standard_error for f in fwd], axis=1))
-    assert parts == ["jacobian 0", "jacobian 1", None, None, None, None]
+    fwd[2] = Estimate(fwd[2].value.astype(np.float32), fwd[2].standard_error)  # promoted
+    plans = [Plan([], lambda r, f=f: f) for f in fwd]
+    outputs, errors = _forward_stack(plans, [0, 0, 0, 0, 0], [])
+    for got, want in ((outputs, np.stack([f.value for f in fwd], axis=1)),
+                      (errors, np.stack([f.standard_error for f in fwd], axis=1))):
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError, match="shape"):
+        _forward_stack([plans[0], Plan([], lambda r: Estimate(np.zeros((3, 4)),
+                                                              np.zeros((3, 4))))],
+                       [0, 0, 0], [])
 
 
 def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
