@@ -227,7 +227,7 @@ class LazyCircuitJob(CircuitJob):
     values : array_like, shape (rows, P), or SharedRows
         The rows; a :class:`SharedRows` is kept as it is (``job.values`` places its blocks
         into a new array on each read; the Hamming-weight sampler reads its blocks through
-        :attr:`parameter_rows`).
+        :attr:`held_rows`).
     shots : int, optional
     label : str
     program : UnaryProgram, optional
@@ -270,7 +270,7 @@ class LazyCircuitJob(CircuitJob):
         return rows.full() if isinstance(rows, SharedRows) else rows
 
     @property
-    def parameter_rows(self) -> np.ndarray | SharedRows:
+    def held_rows(self) -> np.ndarray | SharedRows:
         """The rows as held: an array, or the :class:`SharedRows` given."""
         return self.__dict__["_rows"]
 
@@ -297,7 +297,7 @@ class LazyCircuitJob(CircuitJob):
     def with_shots(self, shots: int | None) -> LazyCircuitJob:
         """The same job with ``shots`` per row (still built on read)."""
         return LazyCircuitJob(self._build, self._num_qubits, self._num_parameters,
-                              self.parameter_rows, shots, self.label, self.program)
+                              self.held_rows, shots, self.label, self.program)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)

@@ -72,7 +72,7 @@ def test_plan_jobs_share_the_loader_block_and_read_back_the_model_rows(n):
     X = RNG.normal(size=(3, n))
     plan = density_gradient_plan(model, X, method="commuting", shots=50)
     K = model.num_subunitaries
-    held = [job.parameter_rows for job in plan.jobs]
+    held = [job.held_rows for job in plan.jobs]
     assert all(isinstance(rows, SharedRows) for rows in held)
     assert len({id(rows.shared) for rows in held}) == 1  # one loader block per plan
     assert held[0].shared.shape == (3, n - 1)  # V(x): n - 1 angles
@@ -82,7 +82,7 @@ def test_plan_jobs_share_the_loader_block_and_read_back_the_model_rows(n):
             assert job.rows == 3
     for job in (copy.deepcopy(plan.jobs[0]), plan.jobs[0].with_shots(9),
                 pickle.loads(pickle.dumps(plan.jobs[0]))):
-        assert isinstance(job.parameter_rows, SharedRows)
+        assert isinstance(job.held_rows, SharedRows)
         np.testing.assert_array_equal(job.values, model.rows(0, X))
 
 
@@ -93,7 +93,7 @@ def test_shots_drawn_from_shared_rows_are_those_of_plain_rows():
     plan = density_gradient_plan(model, X, method="commuting", shots=40)
     plain = [LazyCircuitJob(j._build, j.num_qubits, j._num_parameters, j.values, j.shots,
                             j.label, j.program) for j in plan.jobs]
-    assert not any(isinstance(j.parameter_rows, SharedRows) for j in plain)
+    assert not any(isinstance(j.held_rows, SharedRows) for j in plain)
     for hamming in ("auto", "never"):
         shared = SamplerEngine(seed=4, progress=False, hamming_weight=hamming).run(plan.jobs)
         own = SamplerEngine(seed=4, progress=False, hamming_weight=hamming).run(plain)

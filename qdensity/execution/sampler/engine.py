@@ -472,9 +472,7 @@ class SamplerEngine:
         return out
 
     def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
-        program = getattr(job, "program", None)  # a LazyCircuitJob's, with its rows as held
-        rows = getattr(job, "parameter_rows", None) if program is not None else None
-        item = ProgramItem(program, job.values if rows is None else rows, shots)
+        item = ProgramItem(getattr(job, "program", None), getattr(job, "held_rows", None), shots)
         if item.program is not None and self._correction is None and self._hamming() is not None:
             return PendingJob(job, label, shots, item, None, True)  # sampled without a circuit
         circuit = job.circuit  # read once: a LazyCircuitJob builds it on each read
