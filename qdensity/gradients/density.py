@@ -15,6 +15,7 @@ circuit where it applies, else block circuits when fewer than parameter shifts, 
 
 from __future__ import annotations
 
+import gc
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -316,6 +317,8 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 # now (a QuantumCircuit is a reference cycle, left to the collector, which is
                 # paused here: at n = 1024 the 1,023 views of 1,535 gates would pile up)
                 circ.clear()
+            if k % 16 == 15:  # the cleared views' bits too: collected while young (cheap)
+                gc.collect(0)
     plans = jac_plans + fwd_plans
     combined = Plan.combine(plans, "density gradient")
     bounds = np.cumsum([0] + [len(p.jobs) for p in plans]).tolist()  # each plan's results

@@ -297,3 +297,28 @@ def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
     assert all(len(c.data) == 0 for c in left)
     assert [len(c.data) for c in (model.encoding.circuit, *model.sub_unitaries)] == sizes
     assert all(len(job.circuit.data) > sizes[0] for job in plan.jobs)
+
+
+def test_the_plan_collects_its_views_while_building():
+    """The cleared views are collected every 16 sub-unitaries (while young), not all left to
+    the end of the build: of 17, at most the last two are garbage when the plan returns."""
+    import gc
+
+    n = 18  # 17 round-robin moments
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    gc.collect()
+    was = gc.isenabled()
+    gc.disable()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting", shots=10)
+        during = sum(isinstance(o, QuantumCircuit) for o in gc.garbage)  # found by the build
+        gc.collect()
+        left = sum(isinstance(o, QuantumCircuit) for o in gc.garbage) - during
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+        if was:
+            gc.enable()
+    assert model.num_subunitaries == 17 and during >= 15 and left <= 2
