@@ -90,14 +90,8 @@ class CircuitJob:
 
     def _check_rows(self, num_parameters: int) -> None:
         """``values`` as ``(rows, num_parameters)`` rows, at least one; ``shots`` bounded."""
-        vals = as_parameter_rows(self.values, num_parameters, "values")
-        if vals.shape[0] == 0:
-            raise ValueError("values must have at least one parameter row, got shape "
-                             f"{vals.shape} (a job with zero rows runs nothing)")
-        object.__setattr__(self, "values", vals)
-        if self.shots is not None:  # the measured bits of every shot are held in memory
-            check_positive_int(self.shots, "shots", maximum=MAX_DENSE_ENTRIES // vals.shape[0],
-                               why=f"{vals.shape[0]} rows x shots <= {MAX_DENSE_ENTRIES}")
+        object.__setattr__(self, "values", checked_rows(self.values, num_parameters,
+                                                        self.shots))
 
     @property
     def rows(self) -> int:
@@ -112,6 +106,20 @@ class CircuitJob:
     def with_shots(self, shots: int | None) -> CircuitJob:
         """The same job with ``shots`` per row."""
         return replace(self, shots=shots)
+
+
+def checked_rows(values, num_parameters: int, shots: int | None) -> np.ndarray:
+    """:class:`CircuitJob`'s checks of its rows: ``values`` as ``(rows, num_parameters)``
+    rows, at least one, and ``shots`` bounded by the rows (the measured bits of every shot
+    are held in memory)."""
+    vals = as_parameter_rows(values, num_parameters, "values")
+    if vals.shape[0] == 0:
+        raise ValueError("values must have at least one parameter row, got shape "
+                         f"{vals.shape} (a job with zero rows runs nothing)")
+    if shots is not None:
+        check_positive_int(shots, "shots", maximum=MAX_DENSE_ENTRIES // vals.shape[0],
+                           why=f"{vals.shape[0]} rows x shots <= {MAX_DENSE_ENTRIES}")
+    return vals
 
 
 @validates(value=Array(ndim=None, min_size=0, finite=False),

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Callable
 
-from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._compile import circuit_digest
 
 __all__ = ["cached", "structure_key", "MAX_ENTRIES"]
 
@@ -28,10 +28,11 @@ def structure_key(kind: str, circuit, params, readout: tuple,
     """What an analysis of ``circuit`` w.r.t. ``params`` under ``readout`` depends on.
 
     ``fingerprint``: a key that determines ``circuit``'s structure, when the caller has one
-    (``("encoded", fingerprint of V, fingerprint of U_k)`` for ``V(x) U_k``, the encoding's
-    fingerprint taken once per model rather than once per sub-unitary); default
-    ``circuit_fingerprint(circuit)``."""
-    return (kind, circuit_fingerprint(circuit) if fingerprint is None else fingerprint,
+    (``("encoded", digest of V, digest of U_k)`` for ``V(x) U_k``, the encoding's digest
+    taken once per model rather than once per sub-unitary); default ``("plain",
+    circuit_digest(circuit))`` (:func:`~qdensity.execution._compile.circuit_digest`: 32
+    bytes, not the fingerprint's tuples)."""
+    return (kind, ("plain", circuit_digest(circuit)) if fingerprint is None else fingerprint,
             tuple(params), readout)
 
 

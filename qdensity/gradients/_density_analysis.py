@@ -11,7 +11,7 @@ from functools import partial
 import numpy as np
 from qiskit.quantum_info import PauliList, SparsePauliOp
 
-from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._compile import circuit_digest
 from qdensity.gradients import _analysis
 from qdensity.gradients._direct import _direct_gradient
 from qdensity.gradients._outputs import rbs_output_gradients
@@ -33,14 +33,15 @@ def _readout_observables(model) -> list[SparsePauliOp]:
             for j in range(n)]
 
 
-def _fingerprint_of(model, k: int, encoding_key: tuple | None = None) -> tuple:
-    """The structure key of :func:`_circuit_of` ``(model, k)``: ``U_k``'s fingerprint, with the
-    encoding's (``encoding_key``, taken once by the caller) when ``V(x)`` comes before it."""
-    sub = circuit_fingerprint(model.sub_unitaries[k])
+def _fingerprint_of(model, k: int, encoding_key: bytes | None = None) -> tuple:
+    """The structure key of :func:`_circuit_of` ``(model, k)``: ``U_k``'s
+    :func:`~qdensity.execution._compile.circuit_digest`, with the encoding's (``encoding_key``,
+    taken once by the caller) when ``V(x)`` comes before it."""
+    sub = circuit_digest(model.sub_unitaries[k])
     if model.encoding is None:
-        return sub
+        return ("plain", sub)
     if encoding_key is None:
-        encoding_key = circuit_fingerprint(model.encoding.circuit)
+        encoding_key = circuit_digest(model.encoding.circuit)
     return ("encoded", encoding_key, sub)
 
 

@@ -17,7 +17,12 @@ from functools import partial
 import numpy as np
 
 from qdensity.circuits.measure import measured
-from qdensity.execution._lazy_jobs import LazyCircuitJob, UnaryProgram, unary_programs
+from qdensity.execution._lazy_jobs import (
+    LazyCircuitJob,
+    SharedRows,
+    UnaryProgram,
+    unary_programs,
+)
 from qdensity.execution.plans import CircuitJob, Estimate, unary_frequencies
 from qdensity.gradients import _sparse
 from qdensity.gradients._circuits import gradients_from_results
@@ -42,7 +47,7 @@ def _forward_circuit(model, k: int) -> object:
     return measured(model.circuit(k), inplace=model.encoding is not None)
 
 
-def commuting_jobs(model, k: int, circ, shared, rows, shots, prefix=None
+def commuting_jobs(model, k: int, circ, shared, rows, shots, prefix=None, job_rows=None
                    ) -> tuple[list[CircuitJob], UnaryProgram | None]:
     """Sub-unitary ``k``'s commuting-gradient jobs and, when they are built on read and
     sampled, the forward circuit's program (for :func:`forward_job`).
@@ -51,16 +56,47 @@ def commuting_jobs(model, k: int, circ, shared, rows, shots, prefix=None
     :class:`~qdensity.gradients._outputs.LayerToBuild` (no circuit: a lazy job, with the
     unary programs when ``shots`` is given and ``circ`` is a weight-1 RBS / FBS template;
     ``prefix``: the encoding's :class:`~qdensity.execution.samplers._hamming_compile.
-    CompiledPrefix`, walked once per plan)."""
+    CompiledPrefix`, walked once per plan; ``job_rows``: the rows a lazy job holds, default
+    ``rows``)."""
     if not isinstance(shared, LayerToBuild):
         return [CircuitJob(c, rows, shots, f"commuting_k{k}[{i}]")
                 for i, c in enumerate(shared.circuits)], None
     pairs = tuple(shared.layer_pairs)
     programs = unary_programs(circ, pairs, prefix) if shots is not None else None
     job = LazyCircuitJob(partial(_jacobian_circuit, model, k, pairs), circ.num_qubits,
-                         circ.num_parameters, rows, shots, f"commuting_k{k}[0]",
+                         circ.num_parameters, rows if job_rows is None else job_rows, shots,
+                         f"commuting_k{k}[0]",
                          programs[0] if programs else None)
     return [job], programs[1] if programs else None
+
+
+def shared_loader_rows(model, circ, rows: np.ndarray, encoded: dict, loader):
+    """``rows`` of ``V(x) U_k`` (``circ``) for the jobs built on read: a
+    :class:`~qdensity.execution._lazy_jobs.SharedRows` holding ``V(x)``'s columns as one
+    block shared by every sub-unitary of the plan, or ``rows`` itself (no encoding, no data,
+    or the block not found in ``rows`` exactly).
+
+    ``loader``: None on the first call, then what it returned: ``(block, {parameter: column of
+    block})``, ``V(x)``'s ``(B, L)`` columns from :func:`~qdensity.models._rows.
+    encoding_columns` (``encoded``). Returns ``(job rows, loader)``."""
+    if model.encoding is None or not encoded:
+        return rows, loader
+    if loader is None:
+        enc = list(model.encoding.circuit.parameters)
+        block = np.empty((rows.shape[0], len(enc)))
+        for j, p in enumerate(enc):
+            block[:, j] = encoded[p]
+        loader = (block, {p: j for j, p in enumerate(enc)})
+    block, index = loader
+    at = np.full(block.shape[1], -1, dtype=np.intp)
+    for i, p in enumerate(circ.parameters):
+        j = index.get(p)
+        if j is not None:
+            at[j] = i
+    if (at < 0).any():  # V(x) not all in this circuit: its own rows
+        return rows, loader
+    split = SharedRows.split(rows, block, at)
+    return (rows if split is None else split), loader
 
 
 def forward_job(model, k: int, circ, rows, shots, program: UnaryProgram) -> LazyCircuitJob:

@@ -15,6 +15,7 @@ circuit where it applies, else block circuits when fewer than parameter shifts, 
 
 from __future__ import annotations
 
+import gc
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -23,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from qdensity.circuits._copying import concatenated_view, gc_paused
-from qdensity.execution._compile import circuit_fingerprint
+from qdensity.execution._compile import circuit_digest
 from qdensity.execution._lazy_jobs import LazyCircuitJob
 from qdensity.execution.plans import Plan, _first_result, probabilities_plan
 from qdensity.execution.samplers._hamming_compile import CompiledPrefix
@@ -40,6 +41,7 @@ from qdensity.gradients._density_jobs import (
     _shift_observable_post,
     commuting_jobs,
     forward_job,
+    shared_loader_rows,
 )
 from qdensity.gradients.commuting import (
     commuting_gradient_count,
@@ -164,16 +166,18 @@ def subunitary_jacobian_plan(model, k: int, X=None, *, method: str = "auto",
 
 def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
                    fingerprint: tuple | None = None, sparse: bool = False,
-                   prefix=None) -> Plan:
+                   prefix=None, job_rows=None) -> Plan:
     """:func:`subunitary_jacobian_plan` on the circuit and parameter rows already made
     (``fingerprint``: :func:`_fingerprint_of` ``(model, k)`` when already taken; ``sparse``: a
     commuting plan's post-processing returns the ``(value, error)`` pair in
     :mod:`qdensity.gradients._sparse`'s layout instead of a dense :class:`Estimate`;
-    ``prefix``: ``V(x)``'s walk for the sampler's compiler, done once per plan)."""
+    ``prefix``: ``V(x)``'s walk for the sampler's compiler, done once per plan; ``job_rows``:
+    ``rows`` as the jobs built on read hold them, e.g. a
+    :class:`~qdensity.execution._lazy_jobs.SharedRows`)."""
     if method in ("auto", "commuting"):
         try:
             plan = _commuting_plan(model, circ, params, rows, shots, k, fingerprint, sparse,
-                                   prefix)
+                                   prefix, job_rows)
         except ValueError:
             if method == "commuting":
                 raise
@@ -198,20 +202,22 @@ def _jacobian_plan(model, k: int, circ, params, rows, method: str, shots,
 
 
 def _commuting_plan(model, circ, params, rows, shots, k, fingerprint=None,
-                    sparse: bool = False, prefix=None) -> Plan:
+                    sparse: bool = False, prefix=None, job_rows=None) -> Plan:
     shared, grads = _commuting_analysis(model, circ, params, k, fingerprint)
-    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots, prefix)  # built on read
+    jobs, forward = commuting_jobs(model, k, circ, shared, rows, shots, prefix,  # built on read
+                                   job_rows)
     return Plan(jobs, partial(_commuting_post, grads, shots, sparse=sparse),
                 f"commuting gradient of sub-unitary {k}",
                 {"gradient": shared, "forward_program": forward})
 
 
 def _forward_plan(model, k: int, X, shots, circuit=None, rows=None, *,
-                  owned: bool = False, program=None) -> Plan:
+                  owned: bool = False, program=None, job_rows=None) -> Plan:
     """``f_k``'s plan (``circuit``, ``rows``: ``model.circuit(k)``, ``model.rows(k, X)`` if made;
     ``owned``: ``circuit`` is this plan's copy, measured in place; ``program``: sampled from it)."""
     if program is not None and circuit is not None and rows is not None:
-        inner = Plan([forward_job(model, k, circuit, rows, shots, program)], _first_result,
+        inner = Plan([forward_job(model, k, circuit, rows if job_rows is None else job_rows,
+                                  shots, program)], _first_result,
                      f"P(b) of {circuit.name}")
     elif model.readout == "observable":
         inner = model.expectation_plan(k, X, shots=shots)
@@ -268,29 +274,34 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
     jac_plans, fwd_plans = [], []
     encoded = encoding_columns(model, X)  # V(x)'s angles: the same for every sub-unitary
     enc_key = (None if model.encoding is None  # V(x)'s structure, fingerprinted once
-               else circuit_fingerprint(model.encoding.circuit))
+               else circuit_digest(model.encoding.circuit))
     m = 1 if model.readout == "observable" else model.num_qubits
     total_p = sum(len(model.subunitary_parameter_indices(k)) for k in range(K))  # sum_k P_k
     # V(x)'s walk for the sampler's compiler, once: every V(x) U_k begins with it
     prefix = (None if model.encoding is None or shots is None
               else CompiledPrefix(model.encoding.circuit))
-    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (no garbage cycles)
+    loader = None  # V(x)'s columns of every sub-unitary's rows, once (shared_loader_rows)
+    with gc_paused():  # about 1,400 gates a sub-unitary at n = 256 (each view cleared)
         for k in range(K):  # each sub-unitary's circuit and rows made once, for both plans
             # V(x) U_k sharing the model's gates (read only): kept only when the plan's jobs
             # are all built on read (nothing holds it); else made again as a copy
             circ, params = _circuit_of(model, k, view=True)
+            view = model.encoding is not None  # a circuit of this loop's own (not U_k)
             # model.rows(k, X), in circ's parameter order read off circ itself
             rows = model_rows(model, k, X, None, circ, encoded)
             if k == 0:
                 B = rows.shape[0]
                 layout = _sparse.choose_layout(jacobian, B, m, total_p)
             fingerprint = _fingerprint_of(model, k, enc_key)
+            # the jobs built on read hold V(x)'s columns once per plan (loader: its block)
+            job_rows, loader = shared_loader_rows(model, circ, rows, encoded, loader)
             plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
-                                  layout == "sparse", prefix)
+                                  layout == "sparse", prefix, job_rows)
             if model.encoding is not None and not (
                     plan.meta.get("forward_program") is not None
                     and all(isinstance(j, LazyCircuitJob) for j in plan.jobs)):
                 circ, _ = _circuit_of(model, k)
+                view = False  # the copy becomes the forward circuit
                 plan = _jacobian_plan(model, k, circ, params, rows, method, shots, fingerprint,
                                       layout == "sparse", prefix)
             jac_plans.append(plan)
@@ -301,10 +312,17 @@ def density_gradient_plan(model, X=None, *, method: str = "auto", shots: int | N
                 same = model.encoding is not None
                 fwd_plans.append(_forward_plan(model, k, X, shots, circ if same else None, rows,
                                                owned=same, program=jac_plans[-1].meta.get(
-                                                   "forward_program")))
-    combined = Plan.combine(jac_plans + fwd_plans, "density gradient")
-
-    post = partial(_density_post, combined, K, B, layout == "sparse")
+                                                   "forward_program"), job_rows=job_rows))
+            if view:  # read by the analyses alone, held by nothing: its instructions freed
+                # now (a QuantumCircuit is a reference cycle, left to the collector, which is
+                # paused here: at n = 1024 the 1,023 views of 1,535 gates would pile up)
+                circ.clear()
+            if k % 16 == 15:  # the cleared views' bits too: collected while young (cheap)
+                gc.collect(0)
+    plans = jac_plans + fwd_plans
+    combined = Plan.combine(plans, "density gradient")
+    bounds = np.cumsum([0] + [len(p.jobs) for p in plans]).tolist()  # each plan's results
+    post = partial(_density_post, plans, bounds, K, B, layout == "sparse")
     per_point = sum(p.num_circuits for p in jac_plans) // max(B, 1)
     return Plan(combined.jobs, post, "density gradient",
                 {"gradient_circuits": per_point, "jacobian": layout,
@@ -423,15 +441,40 @@ def chain_rule(model, X, grad: DensityGradient, upstream: np.ndarray
     return g_theta, g_mix
 
 
-def _density_post(combined, K, B, sparse, results):
-    parts = combined.postprocess(results)
-    jacs, fwds = [tuple(j) for j in parts[:K]], parts[K:]
+def _density_post(plans, bounds, K, B, sparse, results):
+    """The :class:`DensityGradient` from ``results``: ``plans[:K]`` the Jacobians' (``plans[K:]``
+    the forward ones), plan ``i`` reading ``results[bounds[i]:bounds[i + 1]]``."""
+    jacs = [tuple(plans[k].postprocess(results[bounds[k]:bounds[k + 1]])) for k in range(K)]
     if sparse:  # parameter-shift plans answer dense: converted one sub-unitary at a time
         jacs = [_sparse.dense_to_sparse(*j) if isinstance(j[0], np.ndarray) else j for j in jacs]
-    if fwds:
-        outputs = np.stack([f.value for f in fwds], axis=1)
-        errors = np.stack([f.standard_error for f in fwds], axis=1)
+    if len(plans) > K:
+        outputs, errors = _forward_stack(plans[K:], bounds[K:], results)
     else:
         m = jacs[0][0].shape[0] // B if sparse else jacs[0][0].shape[1]
         outputs = errors = np.full((B, K, m), np.nan)
     return DensityGradient(outputs, errors, [v for v, _ in jacs], [e for _, e in jacs])
+
+
+def _forward_stack(plans, bounds, results) -> tuple[np.ndarray, np.ndarray]:
+    """The forward plans' estimates (each ``(B, m)``, plan ``i`` reading ``results[bounds[i]:
+    bounds[i + 1]]``) as ``(B, K', m)`` values and errors, what ``np.stack`` of them along axis
+    1 gives, each written in as soon as it is estimated: all of them held at once before a
+    stack would be a second ``(B, K', m)`` pair at the peak (268 MB at ``n = 1024``, 16 rows,
+    which the allocator keeps once freed)."""
+    outputs = errors = np.empty(0)
+    for i, plan in enumerate(plans):
+        est = plan.postprocess(results[bounds[i]:bounds[i + 1]])
+        value, error = np.asarray(est.value), np.asarray(est.standard_error)
+        if i == 0:
+            shape = (value.shape[0], len(plans)) + value.shape[1:]
+            outputs, errors = np.empty(shape, value.dtype), np.empty(shape, error.dtype)
+        if value.shape != outputs[:, i].shape or error.shape != value.shape:
+            raise ValueError(f"forward estimate {i} has shape {value.shape}, expected "
+                             f"{outputs[:, i].shape}")
+        if np.result_type(outputs, value) != outputs.dtype:  # as np.stack would promote
+            outputs = outputs.astype(np.result_type(outputs, value))
+        if np.result_type(errors, error) != errors.dtype:
+            errors = errors.astype(np.result_type(errors, error))
+        outputs[:, i], errors[:, i] = value, error
+        del est, value, error
+    return outputs, errors

@@ -134,3 +134,32 @@ def test_compiled_templates_live_as_long_as_their_circuits():
     gc.collect()
     assert gone() is None
     assert len(sampler._compiled) == 0 and len(kept) == 3
+
+
+def test_program_drawings_share_read_only_outcome_tables_equal_to_the_general_ones():
+    """Drawings of precompiled programs (every qubit j into clbit j) hold one read-only set of
+    outcome tables per width: equal to those the general path reads off the measured list,
+    and the same arrays for every program of that width."""
+    from qdensity import DensityQNN, Encoding, by_moments
+    from qdensity.circuits.ansatze import round_robin
+    from qdensity.execution.samplers._hamming_bits import clbits_of_qubits
+    from qdensity.execution.samplers._hamming_draw import Draw
+    from qdensity.execution.samplers._hamming_program import _Compiled
+    from qdensity.gradients import density_gradient_plan
+
+    n = 6
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    plan = density_gradient_plan(model, np.ones((2, n)), method="commuting", shots=10)
+    draws = [Draw(_Compiled.from_program(job.program), job.values, 2, 10, None)
+             for job in plan.jobs]
+    for d in draws:
+        np.testing.assert_array_equal(d.cols, np.arange(n))
+        np.testing.assert_array_equal(d.table, clbits_of_qubits(list(range(n)), n))
+        np.testing.assert_array_equal(d.outcome_qubits, np.arange(n)[:, None])
+        for arr in (d.cols, d.table, d.outcome_qubits, d.probabilities.args[1]):
+            assert not arr.flags.writeable
+        assert d.cols is draws[0].cols and d.table is draws[0].table
+    x = draws[0].probabilities.args[1]  # the input e_occupied, shared too
+    np.testing.assert_array_equal(x, np.eye(n)[plan.jobs[0].program.occupied])
+    assert all(d.probabilities.args[1] is x for d in draws)

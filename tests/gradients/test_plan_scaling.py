@@ -203,3 +203,122 @@ def test_compact_output_stack_estimates_equal_the_per_shot_mean_and_variance():
         var = per_shot.var(axis=1, ddof=1)
         np.testing.assert_allclose(se[:, o], np.sqrt(var / shots + R**2 / (4 * shots**2)),
                                    atol=1e-12)
+
+
+def _variants() -> list[QuantumCircuit]:
+    """Circuits that differ from each other in one structural item each, and rebuilt twins."""
+    theta, phi = Parameter("θ"), Parameter("φ")
+    out = []
+    for _build in range(2):  # every variant twice: equal structure, distinct objects
+        for pairs, angles, extra in [([(0, 1), (1, 2)], (theta, phi), None),
+                                     ([(1, 0), (1, 2)], (theta, phi), None),  # qubit order
+                                     ([(0, 1), (1, 2)], (phi, theta), None),  # parameters
+                                     ([(0, 1), (1, 2)], (theta, 2 * phi), None),  # expression
+                                     ([(0, 1), (1, 2)], (theta, 0.25), None),  # a number
+                                     ([(0, 1), (1, 2)], (theta, phi), "x"),  # one more gate
+                                     ([(0, 1)], (theta,), None)]:
+            qc = QuantumCircuit(3)
+            for pair, angle in zip(pairs, angles, strict=True):
+                qc.append(RBSGate(angle), pair)
+            if extra:
+                qc.x(2)
+            out.append(qc)
+    return out
+
+
+def test_circuit_digest_is_equal_exactly_when_the_fingerprint_is():
+    from qdensity.execution._compile import circuit_digest, circuit_fingerprint
+
+    circuits = _variants()
+    for a in circuits:
+        assert len(circuit_digest(a)) == 32
+        for b in circuits:
+            assert (circuit_digest(a) == circuit_digest(b)) == (
+                circuit_fingerprint(a) == circuit_fingerprint(b))
+    assert len({circuit_fingerprint(c) for c in circuits}) == len(circuits) // 2
+
+
+def test_analysis_keys_are_digests_not_gate_tuples():
+    from qdensity.gradients import _analysis
+
+    n = 6
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    _analysis._CACHE.clear()
+    density_gradient_plan(model, RNG.normal(size=(1, n)), method="commuting", shots=10)
+    for kind, fingerprint, params, _ in _analysis._CACHE:
+        assert kind == "commuting" and fingerprint[0] == "encoded"
+        assert all(isinstance(part, bytes) and len(part) == 32 for part in fingerprint[1:])
+        assert len(params) == n // 2
+
+
+def test_forward_stack_equals_numpy_stack_of_the_plans_estimates():
+    from qdensity.execution.plans import Estimate, Plan
+    from qdensity.gradients.density import _forward_stack
+
+    fwd = [Estimate(RNG.normal(size=(3, 5)), RNG.random((3, 5))) for _ in range(4)]
+    fwd[2] = Estimate(fwd[2].value.astype(np.float32), fwd[2].standard_error)  # promoted
+    plans = [Plan([], lambda r, f=f: f) for f in fwd]
+    outputs, errors = _forward_stack(plans, [0, 0, 0, 0, 0], [])
+    for got, want in ((outputs, np.stack([f.value for f in fwd], axis=1)),
+                      (errors, np.stack([f.standard_error for f in fwd], axis=1))):
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError, match="shape"):
+        _forward_stack([plans[0], Plan([], lambda r: Estimate(np.zeros((3, 4)),
+                                                              np.zeros((3, 4))))],
+                       [0, 0, 0], [])
+
+
+def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
+    """The plan's views of ``V(x) U_k`` are cleared once read (a QuantumCircuit is a
+    reference cycle, so they would hold their instructions until the next collection); the
+    model's own circuits are untouched and the jobs still build their circuits."""
+    import gc
+
+    n = 6
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    sizes = [len(c.data) for c in (model.encoding.circuit, *model.sub_unitaries)]
+    gc.collect()
+    was = gc.isenabled()
+    gc.disable()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        plan = density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting",
+                                     shots=10)
+        gc.collect()
+        left = [o for o in gc.garbage if isinstance(o, QuantumCircuit)]
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+        if was:
+            gc.enable()
+    assert all(len(c.data) == 0 for c in left)
+    assert [len(c.data) for c in (model.encoding.circuit, *model.sub_unitaries)] == sizes
+    assert all(len(job.circuit.data) > sizes[0] for job in plan.jobs)
+
+
+def test_the_plan_collects_its_views_while_building():
+    """The cleared views are collected every 16 sub-unitaries (while young), not all left to
+    the end of the build: of 17, at most the last two are garbage when the plan returns."""
+    import gc
+
+    n = 18  # 17 round-robin moments
+    model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
+                       readout="unary_probabilities", seed=0)
+    gc.collect()
+    was = gc.isenabled()
+    gc.disable()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting", shots=10)
+        during = sum(isinstance(o, QuantumCircuit) for o in gc.garbage)  # found by the build
+        gc.collect()
+        left = sum(isinstance(o, QuantumCircuit) for o in gc.garbage) - during
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+        if was:
+            gc.enable()
+    assert model.num_subunitaries == 17 and during >= 15 and left <= 2

@@ -472,7 +472,7 @@ class SamplerEngine:
         return out
 
     def _prepared_job(self, job: CircuitJob, label: str, shots: int) -> PendingJob:
-        item = ProgramItem(getattr(job, "program", None), job.values, shots)  # a LazyCircuitJob's
+        item = ProgramItem(getattr(job, "program", None), getattr(job, "held_rows", None), shots)
         if item.program is not None and self._correction is None and self._hamming() is not None:
             return PendingJob(job, label, shots, item, None, True)  # sampled without a circuit
         circuit = job.circuit  # read once: a LazyCircuitJob builds it on each read

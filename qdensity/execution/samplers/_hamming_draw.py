@@ -23,6 +23,7 @@ from qdensity.execution.samplers._hamming_bits import (
     flip_readout,
     pack_outcomes,
 )
+from qdensity.execution.samplers._hamming_program import identity_clbits
 
 __all__ = ["Draw", "DeferredSamples"]
 
@@ -56,10 +57,13 @@ class Draw:
         self.values = values
         self.rows, self.shots = int(rows), int(shots)
         self.num_clbits = len(template.measured)
-        self.cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
-                             dtype=np.int64)
+        if getattr(compiled, "identity", False):  # a program's: shared per width, read-only
+            self.cols, self.table = identity_clbits(template.num_qubits)
+        else:
+            self.cols = np.array([c for c, q in enumerate(template.measured) if q is not None],
+                                 dtype=np.int64)
+            self.table = clbits_of_qubits(template.measured, template.num_qubits)
         self.outcome_qubits = compiled.outcome_qubits() if self.cols.size else None
-        self.table = clbits_of_qubits(template.measured, template.num_qubits)
         # clbits read through a final bit flip (a relabelling): XORed into every shot
         self.flip = None
         if template.flipped:

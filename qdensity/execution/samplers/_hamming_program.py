@@ -6,7 +6,7 @@ job's precompiled :class:`~qdensity.execution._lazy_jobs.UnaryProgram` (no circu
 
 from __future__ import annotations
 
-from functools import cache, cached_property, partial
+from functools import cache, cached_property, lru_cache, partial
 
 import numpy as np
 
@@ -25,6 +25,7 @@ class _Compiled:
         self.unary = None
         self.program = None
         self.fresh = False  # drop the unary program's cached layers after each use
+        self.identity = False  # qubit j measured into clbit j, no other clbit (a program's)
         if template.unary:
             from qdensity.execution.unary import UnaryCircuit
 
@@ -50,6 +51,7 @@ class _Compiled:
         out.template = HammingTemplate(n, (program.occupied,), [], list(range(n)),
                                        tuple(unary.parameters), program.name)
         out.unary, out.program, out.fresh = unary, None, True
+        out.identity = True
         return out
 
     def probabilities(self, values: np.ndarray) -> np.ndarray:
@@ -60,8 +62,7 @@ class _Compiled:
         """:meth:`probabilities` as a function that holds the program alone (not the
         template's gate list): what a deferred drawing keeps."""
         if self.unary is not None:
-            x = np.zeros(self.template.num_qubits)
-            x[self.template.occupied[0]] = 1.0
+            x = _basis_state(self.template.num_qubits, self.template.occupied[0])
             return partial(_unary_probabilities, self.unary, x, fresh=self.fresh)
         assert self.program is not None  # the subspace path
         return self.program.probabilities
@@ -69,9 +70,39 @@ class _Compiled:
     def outcome_qubits(self) -> np.ndarray:
         """(D, k) the qubits set in each outcome."""
         if self.unary is not None:
-            return np.arange(self.template.num_qubits)[:, None]
+            return _qubit_column(self.template.num_qubits)
         assert self.program is not None  # the subspace path
         return self.program.space.states
+
+
+@lru_cache(maxsize=64)
+def _basis_state(n: int, occupied: int) -> np.ndarray:
+    """``e_occupied`` of length ``n``, read-only: one array for every program of that width
+    and input (a deferred drawing holds it until read: 2,046 of 8 KB at ``n = 1024``)."""
+    x = np.zeros(n)
+    x[occupied] = 1.0
+    x.flags.writeable = False
+    return x
+
+
+@lru_cache(maxsize=64)
+def _qubit_column(n: int) -> np.ndarray:
+    """``arange(n)[:, None]`` read-only: the unary outcomes' qubits, one array per width."""
+    out = np.arange(n)[:, None]
+    out.flags.writeable = False
+    return out
+
+
+@lru_cache(maxsize=64)
+def identity_clbits(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A program's measured clbits (every qubit ``j`` into clbit ``j``): the clbits read
+    (``arange(n)``) and :func:`~._hamming_bits.clbits_of_qubits`' table (``arange(n)[:, None]``),
+    read-only, one pair per width."""
+    cols = np.arange(n, dtype=np.int64)
+    table = cols[:, None].copy()
+    cols.flags.writeable = False
+    table.flags.writeable = False
+    return cols, table
 
 
 def _unary_probabilities(unary, x: np.ndarray, values: np.ndarray, *, fresh: bool = False

@@ -97,10 +97,12 @@ class _DoneJob(BasePrimitiveJob):
 
 class ProgramItem(NamedTuple):
     """A precompiled job for :meth:`HammingWeightSampler.defer_programs`: its program, its
-    rows ``(rows, P)`` in the program's parameter order, and its shots per row."""
+    rows ``(rows, P)`` in the program's parameter order (an array, or a
+    :class:`~qdensity.execution._lazy_jobs.SharedRows` placed only when drawn), and its shots
+    per row."""
 
     program: Any
-    values: np.ndarray
+    values: Any
     shots: int
 
 
@@ -388,11 +390,14 @@ class HammingWeightSampler(BaseSamplerV2):
             entries[i] = (comp, partial(_values_of, pub.parameter_values,
                                         comp.template.parameters),
                           pub.parameter_values.shape, pub.shots)
+        from qdensity.execution._lazy_jobs import SharedRows  # (it imports this package)
+
         for i, item in enumerate(items):
-            if entries[i] is None:
-                values = np.asarray(item.values, dtype=float)
+            if entries[i] is None:  # SharedRows are placed when drawn (Draw calls full)
+                values = (item.values.full if isinstance(item.values, SharedRows)
+                          else np.asarray(item.values, dtype=float))
                 entries[i] = (_Compiled.from_program(item.program), values,
-                              values.shape[:1], check_positive_int(item.shots, "shots"))
+                              item.values.shape[:1], check_positive_int(item.shots, "shots"))
         return self._deferred(entries)
 
     def _deferred(self, entries: list) -> list[DeferredSamples]:
