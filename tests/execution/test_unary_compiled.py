@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _givens import dense
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
 from qdensity.execution import _numba
@@ -21,15 +22,6 @@ pytestmark = pytest.mark.skipif(not _numba.available(), reason="numba switched o
 
 TOL = 1e-11
 
-
-def dense(n, pairs, angles):
-    """``O = R_G ... R_1`` from explicit rotation matrices (Supp. D eq. 8)."""
-    O = np.eye(n)
-    for (i, j), a in zip(pairs, angles, strict=True):
-        R = np.eye(n)
-        R[i, i], R[i, j], R[j, i], R[j, j] = np.cos(a), -np.sin(a), np.sin(a), np.cos(a)
-        O = R @ O
-    return O
 
 
 def circuit(n, seed):

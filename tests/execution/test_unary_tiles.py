@@ -13,6 +13,7 @@ from collections import OrderedDict
 
 import numpy as np
 import pytest
+from _givens import dense
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
 from qdensity.execution import _numba
@@ -47,15 +48,6 @@ def circuits():
     yield 17, [(k, k + 1) for k in range(16)] * 3 + [(16 - k, 15 - k) for k in range(16)]
     yield 50, [(2 * k, 2 * k + 7) for k in range(20)] * 4  # rows 41.. and odd rows < 7: idle
 
-
-def dense(n, pairs, angles):
-    """``O = R_G ... R_1`` from explicit rotation matrices."""
-    O = np.eye(n)
-    for (i, j), a in zip(pairs, angles, strict=True):
-        R = np.eye(n)
-        R[i, i], R[i, j], R[j, i], R[j, j] = np.cos(a), -np.sin(a), np.sin(a), np.cos(a)
-        O = R @ O
-    return O
 
 
 def assert_topological(pairs, order):
