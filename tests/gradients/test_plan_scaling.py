@@ -301,7 +301,10 @@ def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
 
 def test_the_plan_collects_its_views_while_building():
     """The cleared views are collected every 16 sub-unitaries (while young), not all left to
-    the end of the build: of 17, at most the last two are garbage when the plan returns."""
+    the end of the build: of 17, at least 15 are collected during it (none without the
+    collections: all 17 wait for the end). What is garbage when the plan returns is the last
+    stretch's views plus any other circuit that became garbage then (an earlier test's
+    object let go by a cache, in a random test order), so it is bounded only loosely."""
     import gc
 
     n = 18  # 17 round-robin moments
@@ -321,4 +324,4 @@ def test_the_plan_collects_its_views_while_building():
         gc.garbage.clear()
         if was:
             gc.enable()
-    assert model.num_subunitaries == 17 and during >= 15 and left <= 2
+    assert model.num_subunitaries == 17 and during >= 15 and left < during
