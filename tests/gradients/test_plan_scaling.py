@@ -307,26 +307,35 @@ def test_a_sampled_plan_leaves_no_garbage_circuit_holding_instructions():
 def test_the_plan_collects_its_views_while_building():
     """The cleared views are collected every 16 sub-unitaries (while young), not all left to
     the end of the build: of 17, at least 15 are collected during it (none without the
-    collections: all 17 wait for the end). What is garbage when the plan returns is the last
-    stretch's views plus any other circuit that became garbage then (an earlier test's
-    object let go by a cache, in a random test order), so it is bounded only loosely."""
+    collections: all 17 wait for the end). Every circuit alive before the plan is held here, so
+    an earlier test's circuit that a cache lets go (in a random test order) cannot become
+    garbage, and the plan is held, so only its temporaries can; of those, the views are the
+    emptied ones."""
     import gc
 
     n = 18  # 17 round-robin moments
     model = DensityQNN(by_moments(round_robin(n)).sub_unitaries, encoding=Encoding.unary(n),
                        readout="unary_probabilities", seed=0)
     gc.collect()
+    held = [o for o in gc.get_objects() if issubclass(type(o), QuantumCircuit)]
+
+    def views() -> int:
+        return sum(issubclass(type(o), QuantumCircuit) and o.num_qubits == n and not o.data
+                   for o in gc.garbage)
+
     was = gc.isenabled()
     gc.disable()
     gc.set_debug(gc.DEBUG_SAVEALL)
     try:
-        density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting", shots=10)
-        during = sum(issubclass(type(o), QuantumCircuit) for o in gc.garbage)  # found by the build
+        plan = density_gradient_plan(model, RNG.normal(size=(2, n)), method="commuting",
+                                     shots=10)
+        during = views()  # found by the build's own collections
         gc.collect()
-        left = sum(issubclass(type(o), QuantumCircuit) for o in gc.garbage) - during
+        left = views() - during
     finally:
         gc.set_debug(0)
         gc.garbage.clear()
         if was:
             gc.enable()
-    assert model.num_subunitaries == 17 and during >= 15 and left < during
+    del held, plan
+    assert model.num_subunitaries == 17 and during >= 15 and during + left == 17
