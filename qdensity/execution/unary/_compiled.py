@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from qdensity.execution.unary import _kernels
-from qdensity.execution.unary._threads import blocks, run_blocks
+from qdensity.execution.unary._threads import blocks, run_blocks, split
 from qdensity.execution.unary._tiles import tiled
 
 __all__: list[str] = []
@@ -51,6 +51,15 @@ def _width(ranges: list[tuple[int, int]]) -> int:
     return min(WIDTH, max(hi - lo for lo, hi in ranges))
 
 
+def _trig(compiled, values: np.ndarray, threads: int):
+    """The gates' cosines and sines (:func:`._kernels.trig_of`); with shared values and
+    several threads, each thread computes a slice of the gates (the same numbers)."""
+    if threads == 1 or values.ndim == 2:
+        return _kernels.trig_of(compiled, values)
+    return _kernels.trig_of(compiled, values,
+                            lambda fn, G: run_blocks(fn, split(G, threads)))
+
+
 def composed_cheaper(n: int, G: int, B: int) -> bool:
     """Whether building ``O`` (``6 G n`` flops) and multiplying (``2 n^2 B``) beats rotating
     the ``B`` rows (``6 G B``), the composed route's flops weighted ``COMPOSE_WEIGHT``."""
@@ -80,7 +89,7 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
         _kernels.forward_values(X, values, compiled, out)
         return out
     compiled = tiled(compiled, 8 * _width(ranges), B)
-    trig = _kernels.trig_of(compiled, values)
+    trig = _trig(compiled, values, len(ranges))
 
     def block(lo: int, hi: int) -> None:
         for a, b in _runs(lo, hi):
@@ -117,7 +126,7 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
     compiled = tiled(compiled, 16 * _width(ranges), B)
-    trig = _kernels.trig_of(compiled, values)
+    trig = _trig(compiled, values, len(ranges))
     if per_example:
         grad = np.zeros((P, B))
         parts = [grad] * len(ranges)

@@ -35,9 +35,11 @@ MAX_THREADS = 8  # default cap (the environment variable may ask for more)
 # Multiply-adds per thread below which the work stays in one thread. Measured on a shared
 # 2-core box (round-robin circuits, batch 64, forward with 2 threads against 1): in windows
 # where other processes left the second core mostly free, 1.40x at n = 512 (1.7e7 per thread)
-# and 1.45x at n = 1024 (6.7e7), but 0.84x at n = 256 (4.2e6), 0.78x at n = 192 (2.3e6) and
-# 0.67x at n = 128 (1.0e6); under load (the second core busy) only n = 1024 gained (~1.2x).
-MIN_WORK = 1 << 23
+# and 1.45x at n = 1024 (6.7e7), but 0.67x at n = 128 (1.0e6); under load (the second core
+# busy) only n = 1024 gained (~1.2x). Since the gates' sines and cosines are computed in the
+# threads too: 1.14x at n = 256 (4.2e6 per thread; 0.48-0.65 against 0.61-0.66 ms, four
+# quiet runs), 0.92-1.0x at n = 192 (2.3e6).
+MIN_WORK = 4_000_000  # n = 256, batch 64: 2 threads; n = 192: 1
 MIN_COLUMNS = 4  # narrowest column block
 
 _lock = threading.Lock()
