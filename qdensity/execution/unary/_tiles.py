@@ -104,6 +104,19 @@ if _numba.available():
 
     # (Loops rather than numpy calls on slices, np.full or bool arrays: those tripled the
     # compile time.)
+    @jit(nogil=True, inline="always")
+    def _ready(h, other, tile, tile_of, todo, top, queued, near, tail):
+        # a ready gate h (its other row: other): to run now if both rows are in the tile,
+        # else queued once per tile as adjacent; the new stack and queue ends
+        if tile_of[other] == tile:
+            todo[top] = h
+            top += 1
+        elif queued[h] != tile:
+            queued[h] = tile
+            near[tail] = h
+            tail += 1
+        return top, tail
+
     @jit(nogil=True)
     def _order(n, first, second, R):
         G = first.shape[0]
@@ -179,13 +192,7 @@ if _numba.available():
                     other = second[h] if first[h] == r else first[h]
                     if on_row[nxt[other]] != h:
                         continue  # not ready
-                    if tile_of[other] == tile:
-                        todo[top] = h
-                        top += 1
-                    elif queued[h] != tile:
-                        queued[h] = tile
-                        near[tail] = h
-                        tail += 1
+                    top, tail = _ready(h, other, tile, tile_of, todo, top, queued, near, tail)
                 while top > 0:  # run every gate the tile's rows allow
                     top -= 1
                     g = todo[top]
@@ -204,13 +211,8 @@ if _numba.available():
                         other = second[h] if first[h] == r else first[h]
                         if on_row[nxt[other]] != h or (k == 1 and other == first[g]):
                             continue  # not ready, or g's other row found it already
-                        if tile_of[other] == tile:
-                            todo[top] = h
-                            top += 1
-                        elif queued[h] != tile:
-                            queued[h] = tile
-                            near[tail] = h
-                            tail += 1
+                        top, tail = _ready(h, other, tile, tile_of, todo, top, queued, near,
+                                           tail)
                 if size >= R or done == G:
                     break
                 pick = -1
