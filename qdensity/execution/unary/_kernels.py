@@ -38,7 +38,7 @@ __all__ = ["available", "givens", "forward_block", "vjp_block", "forward_values"
 # sin / cos of the gate angles (FreeBSD msun's argument reduction by pi/2 in three parts and
 # its sin / cos kernels on [-pi/4, pi/4], branch-free so the loop vectorises; multiply-adds
 # fused, which shortens the polynomials' dependency chains: 1.5x): within 1 ulp of libm, about
-# 15x faster than numpy's ufuncs. |angle| >= _TRIG_LIMIT goes to libm, in a second pass run
+# 14x faster than numpy's ufuncs. |angle| >= _TRIG_LIMIT goes to libm, in a second pass run
 # only when the first found such an angle.
 _INVPIO2 = 6.36619772367581382433e-01
 _P1, _P1T = 1.57079632673412561417e+00, 6.07710050650619224932e-11
