@@ -54,9 +54,7 @@ def _width(ranges: list[tuple[int, int]]) -> int:
 def _trig(compiled, values: np.ndarray, threads: int):
     """The gates' cosines and sines (:func:`._kernels.trig_of`); with shared values and
     several threads, each thread computes a slice of the gates (the same numbers)."""
-    if threads == 1 or values.ndim == 2:
-        return _kernels.trig_of(compiled, values)
-    return _kernels.trig_of(compiled, values,
+    return _kernels.trig_of(compiled, values, None if threads == 1 else
                             lambda fn, G: run_blocks(fn, split(G, threads)))
 
 

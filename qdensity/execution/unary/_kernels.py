@@ -345,12 +345,10 @@ def trig_of(compiled, values: np.ndarray, run_slices=None) -> tuple[np.ndarray, 
     if values.ndim == 2:
         return _trig(compiled.angles(values))
     (pidx, coef), offset = compiled._gate_params, compiled._gate_offset
-    if run_slices is None:
-        cos, sin = _trig_values(values, pidx, coef, offset)
-        return cos, sin, False
     G = pidx.shape[0]
     cos, sin = np.empty(G), np.empty(G)
-    run_slices(lambda lo, hi: _trig_slice(values, pidx, coef, offset, lo, hi, cos, sin), G)
+    (run_slices or (lambda fn, G: fn(0, G)))(
+        lambda lo, hi: _trig_slice(values, pidx, coef, offset, lo, hi, cos, sin), G)
     return cos, sin, False
 
 
