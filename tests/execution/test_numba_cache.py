@@ -61,3 +61,56 @@ def test_cache_written_to_numba_cache_dir(tmp_path):
     done = _run(tmp_path, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     assert done.returncode == 0, done.stderr
     assert any(p.suffix == ".nbi" for p in (tmp_path / "cache").rglob("*"))
+
+
+_BITS = """
+import hashlib
+import numpy as np
+from qdensity.circuits.ansatze import round_robin
+from qdensity.execution.unary import compile_unary, forward, vjp
+rng = np.random.default_rng(7)
+for n, B in ((3, 3), (8, 5), (6, 37), (6, 64)):
+    c = compile_unary(round_robin(n))
+    theta = rng.uniform(-np.pi, np.pi, c.num_parameters)
+    rows = rng.uniform(-np.pi, np.pi, (B, c.num_parameters))
+    X, W = rng.normal(size=(B, n)), rng.normal(size=(B, n))
+    for out in (forward(c, X, theta), *vjp(c, X, theta, W, reduce="sum"), *vjp(c, X, theta, W),
+                forward(c, X, rows), *vjp(c, X, rows, W)):
+        print(hashlib.sha256(np.ascontiguousarray(out).tobytes()).hexdigest())
+"""
+
+_ENTRIES = ("_forward_values", "_forward_shared", "_forward_cols", "_vjp_values", "_vjp_sum",
+            "_vjp_block")
+
+
+def test_unary_numbers_do_not_depend_on_numbas_cache(tmp_path):
+    """The same bits whether the kernels were compiled in the process, loaded from numba's
+    disk cache, or compiled on top of cached helpers.
+
+    numba links a helper loaded from its cache as object code, which LLVM cannot inline, while
+    a helper compiled in the process is inlined; a sum under the fast-math flag "reassoc" was
+    then vectorised, and so rounded, differently in the two builds (the summed gradient's last
+    bits differed between a process that compiled the kernels and one that loaded them). The
+    kernels now add their sums in one written order.
+    """
+    cache = tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env["NUMBA_CACHE_DIR"] = str(cache)
+
+    def bits():
+        done = subprocess.run([sys.executable, "-c", _BITS], env=env, capture_output=True,
+                              text=True, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.split()
+
+    compiled = bits()  # an empty cache: everything compiled here (and written)
+    assert len(compiled) == 4 * 8
+    loaded = bits()  # everything loaded
+    entries = [p for p in cache.rglob("*.nb[ic]") if p.name.split(".")[1].split("-")[0]
+               in _ENTRIES]
+    assert entries, "the kernels were not cached"
+    for p in entries:
+        p.unlink()
+    on_cached_helpers = bits()  # the entry kernels compiled again, their helpers loaded
+    assert loaded == compiled
+    assert on_cached_helpers == compiled

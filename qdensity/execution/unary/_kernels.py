@@ -195,26 +195,48 @@ if _numba.available():
         cos, sin = _trig_values(values, pidx, coef, offset)
         _forward_shared(X, 0, X.shape[0], first, second, cos, sin, out)
 
-    @jit(nogil=True, fastmath={"reassoc", "nsz", "contract"}, inline="always")
-    def _reverse_sum(U, D, first, second, pidx, coef, cos, sin, grad, m):
+    @jit(nogil=True, inline="always")
+    def _lane_sum(v, m):
+        # v[0:m] summed in one fixed order, however the compiler vectorises or inlines the
+        # code around it: eight running sums (columns b mod 8), added pairwise, then the tail.
+        # No fast-math flags (with "reassoc" LLVM chose the order of a sum by the context it was
+        # compiled in, which differed between a kernel compiled in the process and one loaded
+        # from numba's disk cache, and so did the last bits of the gradient).
+        s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
+        full = m - m % 8
+        for b in range(0, full, 8):
+            s0 += v[b]
+            s1 += v[b + 1]
+            s2 += v[b + 2]
+            s3 += v[b + 3]
+            s4 += v[b + 4]
+            s5 += v[b + 5]
+            s6 += v[b + 6]
+            s7 += v[b + 7]
+        total = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
+        for b in range(full, m):
+            total += v[b]
+        return total
+
+    @jit(nogil=True, fastmath={"contract"}, inline="always")
+    def _reverse_sum(U, D, first, second, pidx, coef, cos, sin, grad, m, dots):
         # the reverse pass of the summed gradient on m columns (see _vjp_block)
         for g in range(first.shape[0] - 1, -1, -1):
             ui, uj = U[first[g]], U[second[g]]
             gi, gj = D[first[g]], D[second[g]]
             c, s = cos[g], sin[g]
-            acc = 0.0
             for b in range(m):
                 x, y, r, t = ui[b], uj[b], gi[b], gj[b]
-                acc += t * x - r * y
+                dots[b] = t * x - r * y
                 ui[b] = c * x + s * y
                 uj[b] = c * y - s * x
                 gi[b] = c * r + s * t
                 gj[b] = c * t - s * r
             p = pidx[g]
             if p >= 0:
-                grad[p, 0] += coef[g] * acc
+                grad[p, 0] += coef[g] * _lane_sum(dots, m)
 
-    @jit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
+    @jit(nogil=True, fastmath={"contract"})
     def _vjp_sum(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin, grad,
                  grad_X):
         # _vjp_block for shared angles and a summed gradient (training's case) on its own:
@@ -226,15 +248,15 @@ if _numba.available():
         _load(D, GY, lo, hi)
         if not from_outputs:
             _shared(U, first, second, cos, sin)
-        _reverse_sum(U, D, first, second, pidx, coef, cos, sin, grad, m)
+        _reverse_sum(U, D, first, second, pidx, coef, cos, sin, grad, m, np.empty(m))
         _store(grad_X, D, lo, hi)
 
     # The reverse pass, gate by gate backwards, on its rows u_i, u_j (activations) and g_i,
     # g_j (gradients), in one sweep over the columns: the gate's dot g_j u_i - g_i u_j,
-    # summed (reassociated: vectorised) or per column into ``row``, then both pairs rotated
-    # back. The loops are written out here (not called): as separate functions they ran 2x
+    # per column into ``dots`` (then summed by _lane_sum) or into ``row``, then both pairs
+    # rotated back. The loops are written out here (not called): as separate functions they ran 2x
     # slower.
-    @jit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
+    @jit(nogil=True, fastmath={"contract"})
     def _vjp_block(X, GY, from_outputs, lo, hi, first, second, pidx, coef, cos, sin,
                    per_column, per_example, grad, grad_X):
         n, m = X.shape[1], hi - lo
@@ -248,6 +270,7 @@ if _numba.available():
             else:
                 _shared(U, first, second, cos[:, 0], sin[:, 0])
         scratch = np.zeros(m)  # the dots of a fixed gate (per example), discarded
+        dots = np.empty(m)  # a gate's dots, one per column, before they are summed
         for g in range(first.shape[0] - 1, -1, -1):
             ui, uj = U[first[g]], U[second[g]]
             gi, gj = D[first[g]], D[second[g]]
@@ -274,12 +297,11 @@ if _numba.available():
                         gi[b] = c * r + s * t
                         gj[b] = c * t - s * r
             else:  # grad (P, 1): this block's own partial sums
-                acc = 0.0
                 if per_column:
                     cb, sb = cos[g, lo:hi], sin[g, lo:hi]
                     for b in range(ui.shape[0]):
                         x, y, r, t = ui[b], uj[b], gi[b], gj[b]
-                        acc += t * x - r * y
+                        dots[b] = t * x - r * y
                         ui[b] = cb[b] * x + sb[b] * y
                         uj[b] = cb[b] * y - sb[b] * x
                         gi[b] = cb[b] * r + sb[b] * t
@@ -288,13 +310,13 @@ if _numba.available():
                     c, s = cos[g, 0], sin[g, 0]
                     for b in range(ui.shape[0]):
                         x, y, r, t = ui[b], uj[b], gi[b], gj[b]
-                        acc += t * x - r * y
+                        dots[b] = t * x - r * y
                         ui[b] = c * x + s * y
                         uj[b] = c * y - s * x
                         gi[b] = c * r + s * t
                         gj[b] = c * t - s * r
                 if p >= 0:
-                    grad[p, 0] += a * acc
+                    grad[p, 0] += a * _lane_sum(dots, m)
         _store(grad_X, D, lo, hi)
 
     @jit(nogil=True)
