@@ -22,7 +22,11 @@ partial sums, so it may differ in the last bits). The work array of a block (``n
 numbers, twice that in the reverse pass; ``b <= 64``) stays in the core's L2 cache up to
 ``n`` of a few thousand, and the callers pass the gates in a cache-tiled order
 (:mod:`._tiles`) that keeps the rows in use in L1. Each rotation is a multiply and a fused
-multiply-add per output, vectorised at LLVM's preferred width for the CPU. Without numba (or
+multiply-add per output, vectorised at LLVM's preferred width for the CPU. A gate's dot product
+over the columns is added in one written order (``_lane_sum``), not left to the compiler
+to reassociate: a reassociated sum was vectorised differently in a kernel compiled in the
+process (its helpers inlined) and in one loaded from numba's disk cache (helpers linked as
+machine code), so the gradient's last bits depended on which one ran. Without numba (or
 with ``QDENSITY_NUMBA=0``) the engine keeps its numpy/scipy layer kernels
 (:mod:`qdensity.execution.unary._plan`), which give the same numbers to rounding.
 """

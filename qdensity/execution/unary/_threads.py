@@ -8,8 +8,9 @@ so a wide enough batch is cut into contiguous column blocks, each run through th
 loop by one thread (the caller's thread among them); the cosines, sines and nonzeros before it
 are computed in slices the same way. Every number goes through the same arithmetic in the
 same order as in one thread, so the results are bit-for-bit those of the single-threaded
-path. Small work stays in the caller's thread: below about ``MIN_WORK`` multiply-adds per
-thread, handing work to another thread costs more than it saves.
+path (but for a summed parameter gradient, which adds the blocks' partial sums). Small work
+stays in the caller's thread: below about ``MIN_WORK`` multiply-adds per thread, handing
+work to another thread costs more than it saves.
 
 Threads: the usable cores (``os.sched_getaffinity``, else ``os.cpu_count()``), at most
 ``MAX_THREADS``; the environment variable ``QDENSITY_NUM_THREADS`` overrides it (``1``: never
