@@ -69,13 +69,13 @@ import numpy as np
 from qdensity.circuits.ansatze import round_robin
 from qdensity.execution.unary import compile_unary, forward, vjp
 rng = np.random.default_rng(7)
-for n, B in ((3, 3), (8, 5), (6, 37), (6, 64)):
+for n, B in ((3, 3), (6, 37), (6, 64)):  # one compiled call; blocks of a generic, a literal width
     c = compile_unary(round_robin(n))
     theta = rng.uniform(-np.pi, np.pi, c.num_parameters)
     rows = rng.uniform(-np.pi, np.pi, (B, c.num_parameters))
     X, W = rng.normal(size=(B, n)), rng.normal(size=(B, n))
-    for out in (forward(c, X, theta), *vjp(c, X, theta, W, reduce="sum"), *vjp(c, X, theta, W),
-                forward(c, X, rows), *vjp(c, X, rows, W)):
+    for out in (forward(c, X, theta), *vjp(c, X, theta, W, reduce="sum"),
+                *vjp(c, X, rows, W, reduce="sum")):
         print(hashlib.sha256(np.ascontiguousarray(out).tobytes()).hexdigest())
 """
 
@@ -101,7 +101,7 @@ def test_unary_numbers_do_not_depend_on_numbas_cache(tmp_path):
         return done.stdout.split()
 
     compiled = bits()  # an empty cache: everything compiled here (and written)
-    assert len(compiled) == 4 * 8
+    assert len(compiled) == 3 * 5
     assert any(p.suffix == ".nbi" for p in cache.rglob("*")), "the kernels were not cached"
     loaded = bits()  # everything loaded from the cache
     assert loaded == compiled
