@@ -32,10 +32,10 @@ print(_numba.cache_enabled())
 """
 
 
-def _run(tmp_path, **env):
+def _run(tmp_path, code=_CODE, **env):
     full = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
     full.update(env)
-    return subprocess.run([sys.executable, "-c", _CODE], env=full, capture_output=True,
+    return subprocess.run([sys.executable, "-c", code], env=full, capture_output=True,
                           text=True, cwd=tmp_path)
 
 
@@ -91,12 +91,9 @@ def test_unary_numbers_do_not_depend_on_numbas_cache(tmp_path):
     kernels now add their sums in one written order.
     """
     cache = tmp_path / "cache"
-    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    env["NUMBA_CACHE_DIR"] = str(cache)
 
     def bits():
-        done = subprocess.run([sys.executable, "-c", _BITS], env=env, capture_output=True,
-                              text=True, cwd=tmp_path)
+        done = _run(tmp_path, _BITS, NUMBA_CACHE_DIR=str(cache))
         assert done.returncode == 0, done.stderr
         return done.stdout.split()
 
