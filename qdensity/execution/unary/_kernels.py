@@ -201,11 +201,9 @@ if _numba.available():
 
     @jit(nogil=True, inline="always")
     def _lane_sum(v, m):
-        # v[0:m] summed in one fixed order, however the compiler vectorises or inlines the
-        # code around it: eight running sums (columns b mod 8), added pairwise, then the tail.
-        # No fast-math flags (with "reassoc" LLVM chose the order of a sum by the context it was
-        # compiled in, which differed between a kernel compiled in the process and one loaded
-        # from numba's disk cache, and so did the last bits of the gradient).
+        # v[0:m] summed in one fixed order, however the code around it is vectorised or
+        # inlined (see the module docstring): eight running sums (columns b mod 8), added
+        # pairwise, then the tail. No fast-math flags.
         s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
         full = m - m % 8
         for b in range(0, full, 8):
