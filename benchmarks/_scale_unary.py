@@ -25,8 +25,8 @@ import time
 import numpy as np
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
+from qdensity.execution._threads import ENV, num_threads
 from qdensity.execution.unary import UnaryCircuit, forward, vjp
-from qdensity.execution.unary._threads import ENV, num_threads
 
 
 def rr_gate_list(n: int) -> np.ndarray:

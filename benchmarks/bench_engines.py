@@ -196,8 +196,7 @@ def sweep_bytes(engine, circuit, observables: int, rows: int) -> tuple[int, int]
     passes = int(np.count_nonzero(tab.head < 0))  # top-level rows: a block is one pass
     state = 16 * 2**prog.num_qubits
     per_row = 2 * state * passes * (1 + (observables + 1)) + 4 * state * observables
-    par = _kernels._parallel(rows, prog.num_qubits, tab.kind.size)
-    return per_row * rows, (_numba.threads() if par else 1)
+    return per_row * rows, len(_kernels.row_blocks(rows, prog.num_qubits, tab.kind.size))
 
 
 def copy_rate(rows: int, n: int, threads: int, repeats: int = 5) -> float:

@@ -307,9 +307,9 @@ def _machine(gpu: bool) -> dict:
         info["jax_devices"] = [str(d) for d in jax.devices()]
     except ImportError:
         info["jax"] = None
-    from qdensity.execution import _numba
+    from qdensity.execution._threads import num_threads
 
-    info["numba_threads"] = _numba.threads() if _numba.available() else None
+    info["qdensity_threads"] = num_threads()
     return info
 
 

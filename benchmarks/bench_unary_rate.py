@@ -77,7 +77,7 @@ def run(sizes, batch: int = 64) -> list[dict]:
     sys.path.insert(0, HERE)
     import _scale_unary as S
 
-    from qdensity.execution.unary._threads import num_threads
+    from qdensity.execution._threads import num_threads
 
     rows = []
     print(f"\n== unary engine vs JAX-jit and numpy.matmul: round-robin, batch {batch}; threads: "

@@ -18,7 +18,7 @@ import os
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["available", "threads", "numba", "cache_enabled", "jit"]
+__all__ = ["available", "numba", "cache_enabled", "jit"]
 
 _OFF = ("0", "false", "no", "off")
 
@@ -33,11 +33,6 @@ except ImportError:  # pragma: no cover - exercised with QDENSITY_NUMBA=0
 def available() -> bool:
     """True when numba is installed and not disabled by ``QDENSITY_NUMBA=0``."""
     return numba is not None
-
-
-def threads() -> int:
-    """numba's thread count (1 without numba): rows a parallel region can use at once."""
-    return numba.get_num_threads() if numba is not None else 1
 
 
 def cache_enabled() -> bool:

@@ -23,6 +23,7 @@ from qdensity.circuits.ansatze import (
 from qdensity.circuits.gates import FBSGate, RBSGate
 from qdensity.circuits.loaders import unary_loader_template
 from qdensity.execution import _numba
+from qdensity.execution._threads import num_threads
 from qdensity.execution.exact import ExactEngine
 from qdensity.execution.plans import CircuitJob, expectation_plan, measured
 from qdensity.execution.sampler.engine import SamplerEngine
@@ -251,7 +252,7 @@ def test_compiled_rows_in_cache_sized_chunks_give_the_one_chunk_result(monkeypat
     monkeypatch.setattr(adjoint_module, "CACHE_BUDGET", 16 * 8 * 4 * 2)  # 2 rows of 4 copies
     chunked = AdjointEngine().value_and_gradient(qc, ["ZZI", "XIY"], vals)
     if _numba.available():
-        size = max(2, _numba.threads())
+        size = max(2, num_threads())
         assert seen == [size] * (9 // size) + ([9 % size] if 9 % size else [])
     else:
         assert seen == []
@@ -337,16 +338,27 @@ def test_aer_engines_bind_controlled_rotations_correctly(aer):
 def test_the_compiled_path_runs_every_gate_and_parallel_rows_agree(backend, monkeypatch):
     """The numba parametrisation really runs the kernels (every gate of the circuit has a
     kernel rule), and rows split over threads (forced: tests are below the work threshold)
-    give the finite-difference gradients too."""
+    give the finite-difference gradients too, and the same bits as one thread."""
     qc = _every_gate_circuit()
     prog = AdjointEngine().compile(qc)
     assert (_kernels.tables(prog) is not None) == (backend == "numba")
-    if backend == "numba":
-        monkeypatch.setattr(_kernels, "PARALLEL_WORK", 0)
-        monkeypatch.setattr(_kernels, "LOAD_AWARE", False)
     obs = [SparsePauliOp("ZXIY"), SparsePauliOp(["IZZI", "XIIX"], [0.4, 0.9])]
     vals = RNG.uniform(-np.pi, np.pi, (5, qc.num_parameters))
+    if backend == "numba":
+        one = AdjointEngine().value_and_gradient(qc, obs, vals)  # below the threshold
+        monkeypatch.setattr(_kernels, "PARALLEL_WORK", 0)
+        monkeypatch.setattr(_kernels, "LOAD_AWARE", False)
+        monkeypatch.setenv("QDENSITY_NUM_THREADS", "3")
+        calls = []
+        for name in ("forward_rows", "backward_rows"):
+            kernel = getattr(_kernels._planar, name)
+            monkeypatch.setattr(_kernels._planar, name, lambda *a, k=kernel, name=name: (
+                calls.append((name, a[0].shape[0])), k(*a)))
     values, jac = AdjointEngine().value_and_gradient(qc, obs, vals)
+    if backend == "numba":  # 5 rows in blocks of 1, 2, 2 for 3 threads (the pool's)
+        for name in ("forward_rows", "backward_rows"):
+            assert sorted(c[1] for c in calls if c[0] == name) == [1, 2, 2]
+        assert np.array_equal(values, one[0]) and np.array_equal(jac, one[1])
     np.testing.assert_allclose(values, _sv_expectations(qc, obs, vals), atol=1e-12)
     eps = 1e-6
     for p in (0, 4, 9, 15):

@@ -16,9 +16,9 @@ import pytest
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
 from qdensity.execution import _numba
+from qdensity.execution import _threads as _unary_threads
 from qdensity.execution.unary import UnaryCircuit, forward, orthogonal_matrix, vjp
 from qdensity.execution.unary import _plan as _unary_plan
-from qdensity.execution.unary import _threads as _unary_threads
 
 TOL = 1e-11
 

@@ -17,8 +17,8 @@ from _givens import dense
 
 from qdensity.circuits.ansatze.hamming import round_robin_pairs
 from qdensity.execution import _numba
+from qdensity.execution import _threads as _unary_threads
 from qdensity.execution.unary import UnaryCircuit, _compiled, _tiles, forward, vjp
-from qdensity.execution.unary import _threads as _unary_threads
 
 pytestmark = pytest.mark.skipif(not _numba.available(), reason="numba switched off")
 

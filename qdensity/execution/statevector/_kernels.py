@@ -2,7 +2,8 @@
 
 A compiled :class:`._program.Program` becomes flat tables (one row per
 operation) and two kernels (:mod:`._kernels_planar`) run the whole circuit per
-parameter row, rows in parallel (``prange``), every gate in place on the row's state, held as
+parameter row, blocks of rows in threads (:mod:`qdensity.execution._threads`), every gate in
+place on the row's state, held as
 separate real and imaginary parts so that the loops vectorise:
 
 * a (controlled) Pauli rotation ``exp(-i a c Pi P)`` or a fixed (controlled) Pauli string: one
@@ -32,6 +33,7 @@ import numpy as np
 
 from qdensity.cluster import idle_core
 from qdensity.execution import _numba
+from qdensity.execution._threads import num_threads, run_blocks, split
 
 __all__ = ["Tables", "tables", "forward", "backward", "fuse_blocks", "MAX_DENSE",
            "FUSE_QUBITS", "FUSE_MIN_QUBITS"]
@@ -332,46 +334,54 @@ if _numba.available():
     from qdensity.execution.statevector import _kernels_fused as _planar
 
 
-#: Rows run in parallel threads only above this much work (amplitudes x operations, about
-#: 10-20 ms on one core): below it, waking the threads costs more than it saves.
+#: Rows run in threads only above this much work (amplitudes x operations, about 10-20 ms on
+#: one core): below it, waking the threads costs more than it saves.
 PARALLEL_WORK = 2**24
 #: ... and only while the machine has an idle core (:func:`qdensity.cluster.idle_core`).
 LOAD_AWARE = True
 
 
-def _parallel(rows: int, n: int, ops: int) -> bool:
-    if rows < 2 or _numba.threads() < 2 or rows * ops * 2**n < PARALLEL_WORK:
-        return False
-    return idle_core() if LOAD_AWARE else True
+def row_blocks(rows: int, n: int, ops: int) -> list[tuple[int, int]]:
+    """Contiguous blocks ``[lo, hi)`` of the parameter rows, one per thread (one block: no
+    threads). Threads: :func:`qdensity.execution._threads.num_threads` (``QDENSITY_NUM_THREADS``
+    or the usable cores), at most one per row, only above ``PARALLEL_WORK`` and, where
+    ``LOAD_AWARE``, while a core is idle."""
+    k = min(num_threads(), rows)
+    if k < 2 or rows * ops * 2**n < PARALLEL_WORK or (LOAD_AWARE and not idle_core()):
+        return [(0, rows)]
+    return split(rows, k)
 
 
 def forward(states, n, cos, sin, tab: Tables) -> None:
     """``states[r] = U(row r)|0>`` in place: ``states`` (R, 2**n) complex, or planar float
     (2, R, 2**n) (real parts, imaginary parts: no conversion), ``cos``/``sin`` (R, G) of
-    ``c * angle`` per rotation; rows in parallel for large work."""
+    ``c * angle`` per rotation; blocks of rows in threads for large work (the same numbers)."""
     planar = states.dtype == np.float64
     R = states.shape[-2]
-    run = _planar.forward_rows if _parallel(R, n, tab.kind.size) else _planar.forward_serial
-    if planar:
-        run(states[0], states[1], n, cos, sin, *tab.args())
-        return
-    re = np.empty(states.shape)
-    im = np.empty(states.shape)
-    run(re, im, n, cos, sin, *tab.args())
-    states.real = re
-    states.imag = im
+    re, im = (states[0], states[1]) if planar else (np.empty(states.shape),
+                                                    np.empty(states.shape))
+    args = tab.args()
+    run_blocks(lambda lo, hi: _planar.forward_rows(re[lo:hi], im[lo:hi], n, cos[lo:hi],
+                                                   sin[lo:hi], *args),
+               row_blocks(R, n, tab.kind.size))
+    if not planar:
+        states.real = re
+        states.imag = im
 
 
 def backward(phi, lam, n, cos, sin, need, stop, dtheta, tab: Tables) -> None:
     """The backward sweep from the last operation down to operation ``stop``: ``phi``
     (R, 2**n) the forward states and ``lam`` (R, M, 2**n) the observables applied to them
     (both overwritten; or planar float (2, R, 2**n) and (2, R, M, 2**n), used in place);
-    fills ``dtheta`` (R, M, G), ``d f_m / d angle_g`` for ``need[g]``."""
+    fills ``dtheta`` (R, M, G), ``d f_m / d angle_g`` for ``need[g]``; blocks of rows in
+    threads for large work (the same numbers)."""
     R = phi.shape[-2]
-    run = _planar.backward_rows if _parallel(R, n, tab.kind.size) else _planar.backward_serial
     if phi.dtype == np.float64:
-        run(phi[0], phi[1], lam[0], lam[1], n, cos, sin, need, stop, dtheta, *tab.args())
-        return
-    run(np.ascontiguousarray(phi.real), np.ascontiguousarray(phi.imag),
-        np.ascontiguousarray(lam.real), np.ascontiguousarray(lam.imag), n, cos, sin, need, stop,
-        dtheta, *tab.args())
+        pr, pi, lr, li = phi[0], phi[1], lam[0], lam[1]
+    else:
+        pr, pi = np.ascontiguousarray(phi.real), np.ascontiguousarray(phi.imag)
+        lr, li = np.ascontiguousarray(lam.real), np.ascontiguousarray(lam.imag)
+    args = tab.args()
+    run_blocks(lambda lo, hi: _planar.backward_rows(
+        pr[lo:hi], pi[lo:hi], lr[lo:hi], li[lo:hi], n, cos[lo:hi], sin[lo:hi], need, stop,
+        dtheta[lo:hi], *args), row_blocks(R, n, tab.kind.size))

@@ -22,7 +22,6 @@ Within a tile, local index ``a`` (bit ``j`` for block bit ``bpos[j]``) and the g
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from qdensity.execution._numba import jit
 from qdensity.execution.statevector._kernels_planar import (
@@ -369,18 +368,11 @@ def _row_forward(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, r
         i += 1
 
 
-@jit(parallel=True, fastmath=True)
-def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos, npos,
-                 offs, mat, inv, ptab, span, head, lx, lz, lc, tile):
-    for r in prange(re.shape[0]):
-        buf = np.empty(offs.shape[1], dtype=np.complex128)
-        _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
-                     rot, pos, npos, offs, mat, inv, ptab, span, head, lx, lz, lc, tile, buf)
-
-
-@jit(fastmath=True)
-def forward_serial(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
-                   npos, offs, mat, inv, ptab, span, head, lx, lz, lc, tile):
+@jit(fastmath=True, nogil=True)
+def forward_rows(re, im, n, cos, sin, kind, xmask, zmask, cmask, phase, scale, rot, pos,
+                 npos, offs, mat, inv, ptab, span, head, lx, lz, lc, tile):
+    """``re[r] + i im[r] = U(row r)|0>`` for every row of ``re``, ``im`` (R, 2**n) with the
+    angles' ``cos``, ``sin`` (R, G); the callers run blocks of rows in threads (nogil)."""
     buf = np.empty(offs.shape[1], dtype=np.complex128)
     for r in range(re.shape[0]):
         _row_forward(re[r], im[r], n, cos[r], sin[r], kind, xmask, zmask, cmask, phase, scale,
@@ -415,40 +407,29 @@ def _row_backward(pr, pi, lr, li, r, n, cos, sin, need, stop, dtheta, kind, xmas
             dense(pr, pi, n, pos[i], npos[i], offs[i], inv[i], buf)
             for mm in range(M):
                 dense(lr[mm], li[mm], n, pos[i], npos[i], offs[i], inv[i], buf)
-        elif kind[i] == 1:
-            step_back(pr, pi, lr, li, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], 0.0,
-                      phase[i].real, phase[i].imag, False, accr, acci)
-        else:
-            g = rot[i]
-            accr[:] = 0.0
-            acci[:] = 0.0
-            m = 1j * sin[r, g] * phase[i]
-            step_back(pr, pi, lr, li, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i],
-                      cos[r, g], m.real, m.imag, need[g], accr, acci)
-            if need[g]:
+        else:  # a Pauli rotation (0) or a fixed Pauli string (1: c = 0, m = its phase)
+            # one call site for both: a literal False here compiled step_back twice
+            c, m, want, g = 0.0, phase[i], False, rot[i]
+            if kind[i] == 0:
+                accr[:] = 0.0
+                acci[:] = 0.0
+                c, m, want = cos[r, g], 1j * sin[r, g] * phase[i], need[g]
+            step_back(pr, pi, lr, li, n, xmask[i], zmask[i], cmask[i], pos[i], npos[i], c,
+                      m.real, m.imag, want, accr, acci)
+            if want:
                 for mm in range(M):
                     acc = accr[mm] + 1j * acci[mm]
                     dtheta[r, mm, g] = 2.0 * scale[i] * (phase[i] * acc).imag
         i -= 1
 
 
-@jit(parallel=True, fastmath=True)
+@jit(fastmath=True, nogil=True)
 def backward_rows(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
                   phase, scale, rot, pos, npos, offs, mat, inv, ptab, span, head, lx, lz, lc,
                   tile):
-    for r in prange(pr.shape[0]):
-        buf = np.empty(offs.shape[1], dtype=np.complex128)
-        accr = np.zeros(lr.shape[1])
-        acci = np.zeros(lr.shape[1])
-        _row_backward(pr[r], pi[r], lr[r], li[r], r, n, cos, sin, need, stop, dtheta, kind,
-                      xmask, zmask, cmask, phase, scale, rot, pos, npos, offs, mat, inv, ptab,
-                      span, head, lx, lz, lc, tile, buf, accr, acci)
-
-
-@jit(fastmath=True)
-def backward_serial(pr, pi, lr, li, n, cos, sin, need, stop, dtheta, kind, xmask, zmask, cmask,
-                    phase, scale, rot, pos, npos, offs, mat, inv, ptab, span, head, lx, lz, lc,
-                    tile):
+    """The backward sweep of every row of ``pr``, ``pi`` (R, 2**n) and ``lr``, ``li``
+    (R, M, 2**n), filling ``dtheta`` (R, M, G) (see :func:`._kernels.backward`); the callers
+    run blocks of rows in threads (nogil)."""
     buf = np.empty(offs.shape[1], dtype=np.complex128)
     accr = np.zeros(lr.shape[1])
     acci = np.zeros(lr.shape[1])

@@ -36,6 +36,7 @@ from qiskit.quantum_info import SparsePauliOp
 
 from qdensity.execution import _numba
 from qdensity.execution._compile import _measurement_map, circuit_fingerprint
+from qdensity.execution._threads import num_threads
 from qdensity.execution._torch import is_tensor
 from qdensity.execution.observables import check_observable
 from qdensity.execution.plans import CircuitJob, JobResult
@@ -421,7 +422,7 @@ class AdjointEngine:
         # compiled kernels: chunks about a last-level cache, so that a chunk's forward states
         # are still cached when its backward sweep reads them (rows in threads need a few)
         cached = {} if tab is None else {"budget": min(self.memory_budget, CACHE_BUDGET),
-                                         "min_rows": _numba.threads()}
+                                         "min_rows": num_threads()}
         for sl in self._chunks(R, n, M + 2, **cached):
             if tab is not None:
                 values_out[sl], jac[sl] = self._sweep_compiled(prog, tab, obs, vals[sl], needs,

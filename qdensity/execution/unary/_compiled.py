@@ -4,18 +4,18 @@
 and :func:`~qdensity.execution.unary.vjp` run when numba is available: the angles' cosines
 and sines computed once, then one compiled call per block of batch rows, each running the
 whole circuit (no Python loop over gates or layers). A batch worth threads
-(:func:`._threads.blocks`: about ``MIN_WORK`` multiply-adds per thread) is cut into contiguous
-row blocks run in the pool (the kernels release the GIL); each thread runs its rows in calls
-of at most ``WIDTH`` columns. Once a large circuit has carried a few hundred columns, the
-calls run its gates in the cache-tiled order of :mod:`._tiles` (the same numbers).
+(:func:`qdensity.execution._threads.blocks`: about ``MIN_WORK`` multiply-adds per thread) is
+cut into contiguous row blocks run in the pool (the kernels release the GIL); each thread runs
+its rows in calls of at most ``WIDTH`` columns. Once a large circuit has carried a few hundred
+columns, the calls run its gates in the cache-tiled order of :mod:`._tiles` (the same numbers).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from qdensity.execution._threads import blocks, run_blocks, split
 from qdensity.execution.unary import _kernels
-from qdensity.execution.unary._threads import blocks, run_blocks, split
 from qdensity.execution.unary._tiles import tiled
 
 __all__: list[str] = []

@@ -24,9 +24,9 @@ from typing import cast
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from qdensity.execution._threads import blocks, num_threads, run_blocks, split
 from qdensity.execution.unary import _kernels as _unary_kernels
 from qdensity.execution.unary._layers import backward, rotate
-from qdensity.execution.unary._threads import blocks, num_threads, run_blocks, split
 
 try:  # the compiled loop behind ``csr_matrix @ ndarray``, called without its Python checks
     from scipy.sparse._sparsetools import csr_matvecs as _csr_matvecs
@@ -226,8 +226,8 @@ def _product(indptr, rows, cols, indices, data, X, out) -> None:
 def plan_rotate(Z: np.ndarray, plan: Plan, angles: np.ndarray) -> np.ndarray:
     """``O(angles) @ Z`` for columns ``Z`` (n, B); returns a new array (``Z`` is kept).
 
-    A wide batch runs in threads (:mod:`._unary_threads`): the cosines, sines and nonzeros
-    in slices, then the layer loop on contiguous column blocks; every number goes through
+    A wide batch runs in threads (:mod:`qdensity.execution._threads`): the cosines, sines and
+    nonzeros in slices, then the layer loop on contiguous column blocks; every number goes through
     the same arithmetic as in one thread, so the results are the same bits.
     """
     ranges = blocks(Z.shape[1], plan.fwd_cols.size)

@@ -1,23 +1,30 @@
-"""Threads for the unary engine (column blocks of the batch).
+"""Threads of the compiled engines: blocks of independent work in a shared pool.
 
-With numba, the forward pass and the forward + reverse pass run one compiled call per block
-of batch rows (:mod:`._compiled`; the kernels release the GIL). Without it, the forward pass
-with angles shared by the batch is one compiled sparse product per two layers (``scipy``'s
-CSR kernel, which also releases the GIL). The batch columns are independent,
-so a wide enough batch is cut into contiguous column blocks, each run through the whole layer
-loop by one thread (the caller's thread among them); the cosines, sines and nonzeros before it
-are computed in slices the same way. Every number goes through the same arithmetic in the
-same order as in one thread, so the results are bit-for-bit those of the single-threaded
-path (but for a summed parameter gradient, which adds the blocks' partial sums). Small work
-stays in the caller's thread: below about ``MIN_WORK`` multiply-adds per thread, handing
-work to another thread costs more than it saves.
+Both engines split work that has no dependencies between its parts into contiguous blocks and
+run each block through the same compiled kernel in one thread (the caller's thread among
+them); the kernels release the GIL.
+
+* The unary engine (:mod:`qdensity.execution.unary`) cuts a wide batch into blocks of columns,
+  each run through the whole circuit; the cosines, sines and nonzeros before it are computed
+  in slices the same way. Without numba (or with ``QDENSITY_NUMBA=0``) its forward pass with
+  angles shared by the batch is one compiled sparse product per two layers (``scipy``'s CSR
+  kernel, which also releases the GIL), threaded the same way.
+* The adjoint engine (:mod:`qdensity.execution.statevector`) cuts its parameter rows into
+  blocks, each running the forward or the backward sweep of its rows.
+
+Every number goes through the same machine code in the same order as in one thread, so the
+results are bit-for-bit those of the single-threaded path (but for the unary engine's summed
+parameter gradient, which adds the blocks' partial sums). Small work stays in the caller's
+thread: below about ``MIN_WORK`` multiply-adds per thread (the unary engine; the adjoint
+engine has its own threshold), handing work to another thread costs more than it saves.
 
 Threads: the usable cores (``os.sched_getaffinity``, else ``os.cpu_count()``), at most
 ``MAX_THREADS``; the environment variable ``QDENSITY_NUM_THREADS`` overrides it (``1``: never
 use threads; read at every call, so it may be set at run time; not an integer >= 1 raises
 ``ValueError``). Nothing here uses numpy's BLAS threads (the CSR kernel is a plain loop), so
 these threads do not multiply with an ``OPENBLAS_NUM_THREADS`` / ``OMP_NUM_THREADS`` setting
-(a batch wider than ``n`` ends in one ``O @ X`` product, which is BLAS's). They are no help
+(a unary batch wider than ``n`` ends in one ``O @ X`` product, which is BLAS's), nor with
+numba's own thread pool, which these engines do not use. They are no help
 on cores that other processes keep busy: when several processes share the cores
 (multiprocessing, a loaded machine), set ``QDENSITY_NUM_THREADS=1``. The worker threads
 live in one lazily created ``ThreadPoolExecutor`` (created again after a ``fork``).
