@@ -118,6 +118,34 @@ def blocks_in_threads(monkeypatch):
     return set_threads, used
 
 
+def test_blocks_run_by_one_thread_never_wait_for_a_missing_one(monkeypatch):
+    """The shared angles' sines and cosines are computed in slices by the block threads; a
+    thread waits only for slices another running thread has started. With every block run in
+    turn by the calling thread (pool threads that never start), the calls finish, with the
+    one-thread bits."""
+    import threading
+
+    uc, _ = circuit(9, seed=5)
+    rng = np.random.default_rng(5)
+    X, GY = rng.normal(size=(12, 9)), rng.normal(size=(12, 9))
+    V = rng.normal(size=uc.num_parameters)
+    monkeypatch.setenv(_unary_threads.ENV, "1")
+    one = forward(uc, X, V), vjp(uc, X, V, GY, reduce="sum")
+    monkeypatch.setattr(_unary_threads, "MIN_WORK", 0)
+    monkeypatch.setattr(_unary_threads, "MIN_COLUMNS", 1)
+    monkeypatch.setattr(_compiled, "run_blocks", lambda fn, ranges: [fn(*r) for r in ranges])
+    monkeypatch.setenv(_unary_threads.ENV, "3")
+    got = []
+    worker = threading.Thread(target=lambda: got.append(
+        (forward(uc, X, V), vjp(uc, X, V, GY, reduce="sum"))), daemon=True)
+    worker.start()
+    worker.join(timeout=120)
+    assert got, "a block waited for sines and cosines that no thread was computing"
+    np.testing.assert_array_equal(got[0][0], one[0])
+    np.testing.assert_array_equal(got[0][1][1], one[1][1])
+    np.testing.assert_allclose(got[0][1][0], one[1][0], rtol=1e-13, atol=1e-14)
+
+
 @pytest.mark.parametrize("k", [2, 3])
 @pytest.mark.parametrize("per_row", [False, True])
 def test_row_blocks_in_threads(blocks_in_threads, k, per_row):

@@ -5,12 +5,16 @@ and :func:`~qdensity.execution.unary.vjp` run when numba is available: the angle
 and sines computed once, then one compiled call per block of batch rows, each running the
 whole circuit (no Python loop over gates or layers). A batch worth threads
 (:func:`qdensity.execution._threads.blocks`: about ``MIN_WORK`` multiply-adds per thread) is
-cut into contiguous row blocks run in the pool (the kernels release the GIL); each thread runs
-its rows in calls of at most ``WIDTH`` columns. Once a large circuit has carried a few hundred
-columns, the calls run its gates in the cache-tiled order of :mod:`._tiles` (the same numbers).
+cut into contiguous row blocks run in the pool (the kernels release the GIL); with angles
+shared by the batch, the block threads first compute the cosines and sines in slices
+(:class:`_SharedTrig`: one hand-off to the threads per call). Each thread runs its rows in
+calls of at most ``WIDTH`` columns. Once a large circuit has carried a few hundred columns, the
+calls run its gates in the cache-tiled order of :mod:`._tiles` (the same numbers).
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 
@@ -51,11 +55,49 @@ def _width(ranges: list[tuple[int, int]]) -> int:
     return min(WIDTH, max(hi - lo for lo, hi in ranges))
 
 
-def _trig(compiled, values: np.ndarray, threads: int):
-    """The gates' cosines and sines (:func:`._kernels.trig_of`); with shared values and
-    several threads, each thread computes a slice of the gates (the same numbers)."""
-    return _kernels.trig_of(compiled, values, None if threads == 1 else
-                            lambda fn, G: run_blocks(fn, split(G, threads)))
+class _SharedTrig:
+    """The cosines and sines of angles shared by the columns, computed in slices by the
+    threads that need them: each thread takes its own slice first, then any slice no thread
+    has started, and then waits for those under way. The threads' shares of the rotations
+    start as soon as every slice is done (one hand-off to the threads per call), and no thread
+    ever waits for a slice that no running thread is computing (a pool thread that starts
+    late, or never, holds nobody up). The numbers are those of one pass."""
+
+    def __init__(self, compiled, values: np.ndarray, parts: int) -> None:
+        G = compiled.num_gates
+        self.cos, self.sin = np.empty(G), np.empty(G)
+        self._compiled, self._values = compiled, values
+        self._slices = split(G, parts)
+        self._claimed = [False] * parts
+        self._done = [threading.Event() for _ in range(parts)]
+        self._lock = threading.Lock()
+
+    def ready(self, first: int) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Every slice done (slice ``first`` tried first); the trig tuple of the kernels."""
+        for k in [first, *range(len(self._slices))]:
+            with self._lock:
+                if self._claimed[k]:
+                    continue
+                self._claimed[k] = True
+            try:
+                _kernels.trig_slice(self._compiled, self._values, *self._slices[k], self.cos,
+                                    self.sin)
+            finally:  # an error is raised in the caller (run_blocks); nobody waits forever
+                self._done[k].set()
+        for done in self._done:
+            done.wait()
+        return self.cos, self.sin, False
+
+
+def _trig_for(compiled, values: np.ndarray, ranges: list[tuple[int, int]]):
+    """``trig(lo, hi)``: the trig tuple for the block ``[lo, hi)`` of ``ranges`` (per-row
+    values: computed once, before the threads)."""
+    if values.ndim == 2 or len(ranges) == 1:
+        trig = _kernels.trig_of(compiled, values)
+        return lambda lo, hi: trig
+    shared = _SharedTrig(compiled, values, len(ranges))
+    slot = {r: k for k, r in enumerate(ranges)}
+    return lambda lo, hi: shared.ready(slot[(lo, hi)])
 
 
 def composed_cheaper(n: int, G: int, B: int) -> bool:
@@ -87,9 +129,10 @@ def forward_rows(X: np.ndarray, compiled, values: np.ndarray) -> np.ndarray:
         _kernels.forward_values(X, values, compiled, out)
         return out
     compiled = tiled(compiled, 8 * _width(ranges), B)
-    trig = _trig(compiled, values, len(ranges))
+    trig_for = _trig_for(compiled, values, ranges)
 
     def block(lo: int, hi: int) -> None:
+        trig = trig_for(lo, hi)
         for a, b in _runs(lo, hi):
             _kernels.forward_block(X, a, b, compiled, trig, out)
 
@@ -124,7 +167,7 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
         _kernels.vjp_values(X, GY, from_outputs, values, compiled, grad1, grad_X)
         return grad1[:, 0], grad_X
     compiled = tiled(compiled, 16 * _width(ranges), B)
-    trig = _trig(compiled, values, len(ranges))
+    trig_for = _trig_for(compiled, values, ranges)
     if per_example:
         grad = np.zeros((P, B))
         parts = [grad] * len(ranges)
@@ -134,6 +177,7 @@ def vjp_rows(X: np.ndarray, GY: np.ndarray, from_outputs: bool, compiled, values
     slot = {r: k for k, r in enumerate(ranges)}
 
     def block(lo: int, hi: int) -> None:
+        trig = trig_for(lo, hi)
         for a, b in _runs(lo, hi):  # the partial sums of a thread's runs add up in its part
             _kernels.vjp_block(X, GY, from_outputs, a, b, compiled, trig, per_example,
                                parts[slot[(lo, hi)]], grad_X)

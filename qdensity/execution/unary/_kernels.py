@@ -353,8 +353,7 @@ def _trig(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     return cos, sin, angles.ndim == 2
 
 
-def trig_of(compiled, values: np.ndarray, run_slices=None) -> tuple[np.ndarray, np.ndarray,
-                                                                      bool]:
+def trig_of(compiled, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     """:func:`_trig` of ``compiled.angles(values)``; for values (P,) shared by the columns,
     the angles and their cosines and sines in one compiled pass (no (G,) temporaries).
 
@@ -362,18 +361,21 @@ def trig_of(compiled, values: np.ndarray, run_slices=None) -> tuple[np.ndarray, 
     ----------
     compiled : UnaryCircuit
     values : numpy.ndarray, shape (P,) or (B, P)
-    run_slices : callable, optional
-        For shared values: ``run_slices(fn, G)`` calls ``fn(lo, hi)`` over slices covering the
-        ``G`` gates (in threads, say); each slice's numbers are those of the one pass.
     """
     if values.ndim == 2:
         return _trig(compiled.angles(values))
-    (pidx, coef), offset = compiled._gate_params, compiled._gate_offset
-    G = pidx.shape[0]
+    G = compiled.num_gates
     cos, sin = np.empty(G), np.empty(G)
-    (run_slices or (lambda fn, G: fn(0, G)))(
-        lambda lo, hi: _trig_slice(values, pidx, coef, offset, lo, hi, cos, sin), G)
+    trig_slice(compiled, values, 0, G, cos, sin)
     return cos, sin, False
+
+
+def trig_slice(compiled, values: np.ndarray, lo: int, hi: int, cos: np.ndarray,
+               sin: np.ndarray) -> None:
+    """Gates ``[lo, hi)`` of :func:`trig_of` for values (P,) shared by the columns, written to
+    ``cos[lo:hi]``, ``sin[lo:hi]`` (each slice's numbers are those of the whole pass)."""
+    (pidx, coef), offset = compiled._gate_params, compiled._gate_offset
+    _trig_slice(values, pidx, coef, offset, lo, hi, cos, sin)
 
 
 def sincos(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
