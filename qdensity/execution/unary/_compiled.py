@@ -79,9 +79,9 @@ class _SharedTrig:
                 if self._claimed[k]:
                     continue
                 self._claimed[k] = True
+            lo, hi = self._slices[k]
             try:
-                _kernels.trig_slice(self._compiled, self._values, *self._slices[k], self.cos,
-                                    self.sin)
+                _kernels.trig_slice(self._compiled, self._values, lo, hi, self.cos, self.sin)
             finally:  # an error is raised in the caller (run_blocks); nobody waits forever
                 self._done[k].set()
         for done in self._done:
