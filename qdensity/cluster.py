@@ -46,7 +46,13 @@ IN_PROCESS = "in-process"
 
 
 def idle_core() -> bool:
-    """Whether this machine has a core no process is using: 1-minute load average + 1 <= cores.
+    """Whether this machine has a core that no other thread is using now.
+
+    On Linux: fewer threads runnable at this moment than cores (``/proc/loadavg``'s count of
+    runnable threads, the caller's own among them) and a 1-minute load average below the
+    cores (the caller's own work is part of it). Elsewhere: 1-minute load average + 1 <=
+    cores. (A load average alone counts the caller's own work: a process busy for a minute
+    would see no idle core on two cores even with the second one free.)
 
     Threads inside one simulation or kernel pay only on idle cores: on a busy machine a
     parallel region waits for its slowest thread, and a thread waiting for a core made calls
@@ -67,7 +73,22 @@ def idle_core() -> bool:
     """
     if not hasattr(os, "getloadavg"):  # pragma: no cover - Windows
         return True
-    return os.getloadavg()[0] + 1 <= (os.cpu_count() or 1)
+    cores = os.cpu_count() or 1
+    load = os.getloadavg()[0]
+    running = _runnable_threads()
+    if running is None:  # pragma: no cover - no /proc (macOS)
+        return load + 1 <= cores
+    return running < cores and load < cores
+
+
+def _runnable_threads() -> int | None:
+    """Threads runnable on the machine now (the 4th field of ``/proc/loadavg``, ``R/T``), or
+    None where that file cannot be read."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as f:
+            return int(f.read().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 @validates(cluster=Instance(str))
