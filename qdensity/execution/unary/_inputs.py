@@ -56,7 +56,8 @@ def rows_values(compiled, X, values_, xname: str = "X", declared: bool = False):
     if (declared and type(X) is np.ndarray and type(values_) is np.ndarray
             and X.dtype == np.float64 and values_.dtype == np.float64 and X.ndim == 2
             and values_.ndim == 1 and X.shape[1] == compiled.num_qubits
-            and values_.shape[0] == compiled.num_parameters and X.flags.c_contiguous):
+            and values_.shape[0] == compiled.num_parameters and X.flags.c_contiguous
+            and values_.flags.c_contiguous):
         return X, values_, False
     x = inputs(compiled, X, xname)
     v = values(compiled, values_)
@@ -69,4 +70,5 @@ def rows_values(compiled, X, values_, xname: str = "X", declared: bool = False):
                 f"values has {v.shape[0]} rows but {xname} has {x.shape[0]} rows; give one "
                 "parameter row per input, or values of shape (P,) shared by the batch"
             )
-    return np.ascontiguousarray(np.atleast_2d(x), dtype=float), v, single
+    # C-contiguous values too: one compiled specialization of the kernels, not one per layout
+    return np.ascontiguousarray(np.atleast_2d(x), dtype=float), np.ascontiguousarray(v), single

@@ -191,13 +191,14 @@ if _numba.available():
         G = pidx.shape[0]
         cos = np.empty(G)
         sin = np.empty(G)
-        _trig_slice(values, pidx, coef, offset, 0, G, cos, sin)
+        # np.int64(0), not 0: a literal argument compiles a second specialization of the callee
+        _trig_slice(values, pidx, coef, offset, np.int64(0), G, cos, sin)
         return cos, sin
 
     @jit(nogil=True)
     def _forward_values(X, values, first, second, pidx, coef, offset, out):
         cos, sin = _trig_values(values, pidx, coef, offset)
-        _forward_shared(X, 0, X.shape[0], first, second, cos, sin, out)
+        _forward_shared(X, np.int64(0), X.shape[0], first, second, cos, sin, out)
 
     @jit(nogil=True, inline="always")
     def _lane_sum(v, m):
@@ -325,8 +326,8 @@ if _numba.available():
     def _vjp_values(X, GY, from_outputs, values, first, second, pidx, coef, offset, grad,
                     grad_X):
         cos, sin = _trig_values(values, pidx, coef, offset)
-        _vjp_sum(X, GY, from_outputs, 0, X.shape[0], first, second, pidx, coef, cos, sin, grad,
-                 grad_X)
+        _vjp_sum(X, GY, from_outputs, np.int64(0), X.shape[0], first, second, pidx, coef, cos,
+                 sin, grad, grad_X)
 
 
 def givens(Z: np.ndarray, compiled, angles: np.ndarray) -> np.ndarray:
