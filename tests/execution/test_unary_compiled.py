@@ -228,3 +228,32 @@ def test_literal_block_widths(monkeypatch, B):
     np.testing.assert_allclose(g_x, GY @ O, atol=TOL)
     np.testing.assert_array_equal(g_x, g_x_each)
     np.testing.assert_allclose(g_sum, g_each.sum(axis=0), atol=TOL)
+
+
+def test_call_sites_pass_no_literal_arguments(monkeypatch):
+    """Every path's kernels compile one specialization per argument layout: a literal integer
+    passed from one kernel to another (``Literal[int](0)``, its own numba type) would compile
+    the callee again, seconds of first-use time each. ``_rotations`` takes its block width as
+    a literal on purpose (inlined where called)."""
+    from numba import types
+    from numba.core.dispatcher import Dispatcher
+
+    from qdensity.execution.unary import _kernels
+
+    uc, _ = circuit(6, seed=3)
+    rng = np.random.default_rng(3)
+    X, GY = rng.normal(size=(5, 6)), rng.normal(size=(5, 6))
+    V = np.repeat(rng.normal(size=uc.num_parameters), 2)[::2]  # strided values
+    for small in (True, False):
+        if not small:
+            monkeypatch.setattr(_compiled, "_SMALL", 0)
+        forward(uc, X, V)
+        vjp(uc, X, V, GY, reduce="sum")
+        vjp(uc, X, V, GY)
+    kernels = {name: obj for name, obj in vars(_kernels).items()
+               if isinstance(obj, Dispatcher) and name != "_rotations"}
+    assert "_trig_slice" in kernels and "_forward_shared" in kernels
+    for name, kernel in kernels.items():
+        for sig in kernel.signatures:
+            assert not any(isinstance(t, types.Literal) for t in sig), (name, sig)
+    assert all(sig[0].layout == "C" for sig in kernels["_trig_slice"].signatures)
