@@ -44,7 +44,7 @@ LOG_V = 6
 # inlined into their callers by numba (``inline="always"``); the per-tile helpers that call
 # them (``_local``, ``_local_back``, ``_load``, ``_store``, ``_tile_setup``) are ordinary
 # calls. Inlining those too cost about 10 CPU seconds more compiling on first use (27-31 s
-# against 37-40 s for the first ``value_and_gradient``) for no measured speed: n = 18, batch
+# against 37-53 s for the first ``value_and_gradient``) for no measured speed: n = 18, batch
 # 4, one thread, 20 interleaved calls each in one process, the two builds' median times
 # within 3% on hardware-efficient, QCNN, re-uploading and non-commuting circuits.
 
