@@ -43,10 +43,11 @@ LOG_V = 6
 # Inlining: the vector loops on amplitude pairs (``_pair_*``, ``_back_*``, ``_copy``) are
 # inlined into their callers by numba (``inline="always"``); the per-tile helpers that call
 # them (``_local``, ``_local_back``, ``_load``, ``_store``, ``_tile_setup``) are ordinary
-# calls. Inlining those too cost about 10 CPU seconds more compiling on first use (27-31 s
-# against 37-53 s for the first ``value_and_gradient``) for no measured speed: n = 18, batch
-# 4, one thread, 20 interleaved calls each in one process, the two builds' median times
-# within 3% on hardware-efficient, QCNN, re-uploading and non-commuting circuits.
+# calls. Inlining those too cost 10-20 CPU seconds more compiling on first use (37-53 s
+# against 27-31 s for the first ``value_and_gradient``) for no measured gain in speed: at
+# n = 18, batch 4, one thread, 20 interleaved calls each in one process, the two builds'
+# median times were within 3% on hardware-efficient, QCNN, re-uploading and non-commuting
+# circuits.
 
 
 @jit(fastmath=True, inline="always")
