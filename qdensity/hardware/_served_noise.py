@@ -44,6 +44,7 @@ The device's model is read (``to_dict``) once per model object: change a simulat
 from __future__ import annotations
 
 import numbers
+import threading
 import weakref
 
 import numpy as np
@@ -67,6 +68,7 @@ _NUMBERS = (numbers.Number, np.number)
 #: or None, None meaning "serve the whole model"}, its rebuilt errors (``served_model``'s
 #: ``made``))
 _SERVED: dict[int, tuple] = {}
+_SERVED_LOCK = threading.Lock()  # see _served
 
 
 def active_indices(circuit: QuantumCircuit) -> frozenset[int]:
@@ -238,7 +240,18 @@ def _served(source: NoiseModel, qubits: frozenset[int], position: dict[int, int]
             ) -> NoiseModel:
     """What Aer runs with for a job on ``qubits`` (renumbered by ``position`` when given):
     ``source``'s served model, built once per qubit set (``source`` itself where none can be
-    built). ``source.to_dict()`` is read once per model object and dropped with it."""
+    built). ``source.to_dict()`` is read once per model object and dropped with it.
+
+    One thread at a time: Aer's primitive jobs call this from their own threads, and two
+    threads reading ``to_dict()`` of one shared model at once deadlocked inside Qiskit
+    (both waiting in ``QuantumCircuit.find_bit``; seen once in a full test run)."""
+    with _SERVED_LOCK:
+        return _served_locked(source, qubits, position)
+
+
+def _served_locked(source: NoiseModel, qubits: frozenset[int],
+                   position: dict[int, int] | None) -> NoiseModel:
+    """:func:`_served`'s body, under its lock."""
     key = id(source)
     entry = _SERVED.get(key)
     if entry is None or entry[0]() is not source:
