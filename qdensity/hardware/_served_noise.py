@@ -246,31 +246,25 @@ def _served(source: NoiseModel, qubits: frozenset[int], position: dict[int, int]
     threads reading ``to_dict()`` of one shared model at once deadlocked inside Qiskit
     (both waiting in ``QuantumCircuit.find_bit``; seen once in a full test run)."""
     with _SERVED_LOCK:
-        return _served_locked(source, qubits, position)
+        key = id(source)
+        entry = _SERVED.get(key)
+        if entry is None or entry[0]() is not source:
+            def drop(_: object, k: int = key) -> None:
+                _SERVED.pop(k, None)
 
-
-def _served_locked(source: NoiseModel, qubits: frozenset[int],
-                   position: dict[int, int] | None) -> NoiseModel:
-    """:func:`_served`'s body, under its lock."""
-    key = id(source)
-    entry = _SERVED.get(key)
-    if entry is None or entry[0]() is not source:
-        def drop(_: object, k: int = key) -> None:
-            _SERVED.pop(k, None)
-
-        entry = (weakref.ref(source, drop), source.to_dict(), {}, {})
-        _SERVED[key] = entry
-    served = entry[2]
-    at = qubits if position is None else tuple(sorted(position.items()))
-    if at not in served:
-        if len(served) >= _MAX_SERVED:
-            served.clear()
-        errors = restricted_errors(entry[1], qubits)
-        if position is not None:
-            errors = renumbered(errors, position)
-        served[at] = served_model(errors, source.basis_gates, entry[3])
-    out = served[at]
-    return source if out is None else out
+            entry = (weakref.ref(source, drop), source.to_dict(), {}, {})
+            _SERVED[key] = entry
+        served = entry[2]
+        at = qubits if position is None else tuple(sorted(position.items()))
+        if at not in served:
+            if len(served) >= _MAX_SERVED:
+                served.clear()
+            errors = restricted_errors(entry[1], qubits)
+            if position is not None:
+                errors = renumbered(errors, position)
+            served[at] = served_model(errors, source.basis_gates, entry[3])
+        out = served[at]
+        return source if out is None else out
 
 
 class ServedNoiseSimulator(AerSimulator):
