@@ -189,6 +189,23 @@ def test_same_seed_same_shots_another_seed_others():
     copy.run([(qc, values, 5)]).result()
 
 
+def test_the_same_circuit_gets_the_same_shots_whatever_its_name():
+    # Qiskit names an unnamed circuit by how many were made before it ("circuit-46"), so a
+    # stream keyed by the name changed with what a process (or a test order) had run first.
+    values = np.full((3, 5), 0.7)
+    one, two = _circuit(), _circuit()
+    two.name = "renamed"
+    shots = [ExactNoisySampler(None, seed=5).run([(c, values, 40)]).result()[0].data.meas.array
+             for c in (one, two)]
+    assert one.name != two.name and np.array_equal(shots[0], shots[1])
+    # another circuit (its Hadamard on qubit 2 instead of 3) draws another stream
+    three = _circuit()
+    assert three.data[8].operation.name == "h"
+    three.data[8] = three.data[8].replace(qubits=(three.qubits[2],))
+    other = ExactNoisySampler(None, seed=5).run([(three, values, 40)]).result()[0].data.meas.array
+    assert not np.array_equal(shots[0], other)
+
+
 def test_unsupported_circuits_are_refused_before_any_work():
     sampler = ExactNoisySampler(None)
     mid = QuantumCircuit(2, 2)

@@ -10,6 +10,8 @@ applies a block to every row is in :mod:`._noisy_kernels`.
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
@@ -141,6 +143,7 @@ class Program:
         self.readout = [tables.readout_matrix(active[q]) for q, _ in self.measure]
         self.num_clbits = circuit.num_clbits
         self.cregs = [(r.name, [circuit.find_bit(b).index for b in r]) for r in circuit.cregs]
+        self.fingerprint = fingerprint(circuit)
 
     @staticmethod
     def _add(blocks, open_, qs, item) -> None:
@@ -393,3 +396,23 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
 def active_count(circuit: QuantumCircuit) -> int:
     """Qubits an instruction other than ``barrier`` acts on."""
     return len({q for inst in circuit.data if inst.name not in _SKIP for q in inst.qubits})
+
+
+def fingerprint(circuit: QuantumCircuit) -> int:
+    """A 32-bit checksum of ``circuit``'s instructions: names, qubit and clbit indices and
+    parameters (numbers by value, expressions as written). It keys a circuit's stream of
+    draws: the same circuit gives the same number in any process, whatever its ``name`` (Qiskit
+    numbers unnamed circuits in creation order, so a name depends on what ran before)."""
+    parts = []
+    for inst in circuit.data:
+        params = []
+        for p in inst.operation.params:
+            if isinstance(p, ParameterExpression):
+                params.append(str(p))
+            elif isinstance(p, np.ndarray):
+                params.append(np.ascontiguousarray(p).tobytes().hex())
+            else:
+                params.append(repr(p))
+        parts.append(f"{inst.name}|{[circuit.find_bit(q).index for q in inst.qubits]}|"
+                     f"{[circuit.find_bit(c).index for c in inst.clbits]}|{params}")
+    return zlib.crc32("\n".join(parts).encode())

@@ -134,9 +134,10 @@ class ExactNoisySampler(BaseSamplerV2):
 
     def sample(self, pubs: list[SamplerPub], seed: int | None) -> list[SamplerPubResult]:
         """One result per coerced PUB, its shots drawn from a stream of ``seed``, the PUB's
-        position, circuit name, shots and parameter values: the same seed and PUBs give the
-        same shots (as a seeded Aer sampler's), other parameter values independent ones (a
-        training step's shots are not the previous step's random numbers again)."""
+        position, circuit (its instructions' checksum, not its name), shots and parameter
+        values: the same seed and PUBs give the same shots in any process (as a seeded Aer
+        sampler's), other parameter values independent ones (a training step's shots are not
+        the previous step's random numbers again)."""
         return [self._one(pub, i, seed) for i, pub in enumerate(pubs)]
 
     def _one(self, pub: SamplerPub, position: int, seed: int | None) -> SamplerPubResult:
@@ -150,7 +151,7 @@ class ExactNoisySampler(BaseSamplerV2):
         bound = np.ascontiguousarray(bound, dtype=float)
         rng = np.random.default_rng(None if seed is None else [
             int(seed) % 2**63, 0xE8AC7, position, pub.shots,
-            zlib.crc32(pub.circuit.name.encode()), zlib.crc32(bound.tobytes())])
+            prog.fingerprint, zlib.crc32(bound.tobytes())])
         probs = exact_probabilities(prog, np.asarray(bound, dtype=float))
         cdf = np.cumsum(probs, axis=1)
         cdf[:, -1] = 1.0
