@@ -10,12 +10,11 @@ applies a block to every row is in :mod:`._noisy_kernels`.
 
 from __future__ import annotations
 
-import zlib
-
 import numpy as np
 from qiskit.circuit import ParameterExpression, QuantumCircuit
 
 from qdensity.analysis.gate_registry import GATES
+from qdensity.execution._compile import circuit_digest
 from qdensity.execution.samplers._noise_tables import NoiseTables
 from qdensity.execution.samplers._noisy_kernels import apply_superop
 
@@ -143,7 +142,9 @@ class Program:
         self.readout = [tables.readout_matrix(active[q]) for q, _ in self.measure]
         self.num_clbits = circuit.num_clbits
         self.cregs = [(r.name, [circuit.find_bit(b).index for b in r]) for r in circuit.cregs]
-        self.fingerprint = fingerprint(circuit)
+        # keys the circuit's stream of draws (noisy_exact): its instructions, not its name,
+        # which Qiskit numbers by the circuits made before it
+        self.fingerprint = int.from_bytes(circuit_digest(circuit), "little")
 
     @staticmethod
     def _add(blocks, open_, qs, item) -> None:
@@ -397,22 +398,3 @@ def active_count(circuit: QuantumCircuit) -> int:
     """Qubits an instruction other than ``barrier`` acts on."""
     return len({q for inst in circuit.data if inst.name not in _SKIP for q in inst.qubits})
 
-
-def fingerprint(circuit: QuantumCircuit) -> int:
-    """A 32-bit checksum of ``circuit``'s instructions: names, qubit and clbit indices and
-    parameters (numbers by value, expressions as written). It keys a circuit's stream of
-    draws: the same circuit gives the same number in any process, whatever its ``name`` (Qiskit
-    numbers unnamed circuits in creation order, so a name depends on what ran before)."""
-    parts = []
-    for inst in circuit.data:
-        params = []
-        for p in inst.operation.params:
-            if isinstance(p, ParameterExpression):
-                params.append(str(p))
-            elif isinstance(p, np.ndarray):
-                params.append(np.ascontiguousarray(p).tobytes().hex())
-            else:
-                params.append(repr(p))
-        parts.append(f"{inst.name}|{[circuit.find_bit(q).index for q in inst.qubits]}|"
-                     f"{[circuit.find_bit(c).index for c in inst.clbits]}|{params}")
-    return zlib.crc32("\n".join(parts).encode())
