@@ -173,7 +173,9 @@ def l2_penalty(params, strength: float) -> tuple[float, np.ndarray]:
         raise TypeError(f"strength must be a real number, got {strength!r}")
     if not np.isfinite(strength) or strength < 0:
         raise ValueError(f"strength must be finite and >= 0, got {strength!r}")
-    return float(strength * np.dot(w, w)), 2.0 * strength * w
+    # strength * (2 w), not (2 strength) w: a zero parameter keeps a zero gradient at any
+    # finite strength (2 strength may overflow to inf, and inf * 0 is NaN)
+    return float(strength * np.dot(w, w)), strength * (2.0 * w)
 
 
 # --------------------------------------------------------------------------------------------

@@ -236,6 +236,17 @@ def test_l2_penalty():
         l2_penalty(w, -1.0)
 
 
+def test_l2_penalty_keeps_zero_parameters_at_a_zero_gradient_at_any_finite_strength():
+    # the gradient 2 s w is exactly 0 where w is 0, whatever the strength: with s at the
+    # largest float, 2 s overflows, and (2 s) * 0 would be NaN
+    big = float(np.finfo(float).max)
+    loss, g = l2_penalty(np.array([0.0, 0.0]), big)
+    assert loss == 0.0
+    assert np.array_equal(g, [0.0, 0.0])
+    _, g = l2_penalty(np.array([0.0, 1e-300]), big)
+    assert g[0] == 0.0 and np.isfinite(g[1]) and g[1] == pytest.approx(big * 2e-300)
+
+
 def test_loss_errors():
     with pytest.raises(ValueError, match=r"same shape.*\(2,\) and \(3,\)"):
         mse([1.0, 2.0], [1.0, 2.0, 3.0])
