@@ -35,16 +35,6 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def _best(fn, calls: int = 30, rounds: int = 5) -> float:
-    best = np.inf
-    for _ in range(rounds):
-        for _ in range(calls):
-            t = time.perf_counter()
-            fn()
-            best = min(best, time.perf_counter() - t)
-    return best
-
-
 def side_by_side(X, tiled, trig, reps: int = 200) -> tuple[float, list[float]]:
     """Milliseconds per kernel call on 32 columns: alone, and each of two threads at once."""
     from qdensity.execution.unary import _kernels
@@ -74,12 +64,14 @@ def matmul_threads(n: int) -> dict[int, float] | None:
         from threadpoolctl import threadpool_limits
     except ImportError:
         return None
+    from _scale_unary import _best  # benchmarks/ is on the path (main)
+
     rng = np.random.default_rng(0)
     M, Z = rng.normal(size=(n, n)), rng.normal(size=(n, 64))
     rates = {}
     for limit in (1, 2):
         with threadpool_limits(limit):
-            rates[limit] = 2 * n * n * 64 / _best(lambda: M @ Z, calls=200, rounds=3) / 1e9
+            rates[limit] = 2 * n * n * 64 / _best(lambda: M @ Z, 600)[1] / 1e9
     return rates
 
 

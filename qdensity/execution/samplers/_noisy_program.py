@@ -397,4 +397,3 @@ def exact_probabilities(program: Program, values: np.ndarray) -> np.ndarray:
 def active_count(circuit: QuantumCircuit) -> int:
     """Qubits an instruction other than ``barrier`` acts on."""
     return len({q for inst in circuit.data if inst.name not in _SKIP for q in inst.qubits})
-
